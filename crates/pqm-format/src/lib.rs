@@ -1,0 +1,1 @@
+//! The `.pqm` file format (see `spec/pqm.md`): writer, reader and streaming decoder.
