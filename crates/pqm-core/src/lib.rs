@@ -12,3 +12,5 @@ pub mod mesh;
 
 pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};
+pub mod progressive;
+pub use progressive::{OpKind, ProgressiveMesh, SplitRecord};
