@@ -12,5 +12,6 @@ pub mod mesh;
 
 pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};
+pub mod ops;
 pub mod progressive;
 pub use progressive::{OpKind, ProgressiveMesh, SplitRecord};

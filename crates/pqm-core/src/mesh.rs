@@ -125,8 +125,11 @@ pub struct Mesh {
 impl Mesh {
     // ----------------------------------------------------------------- build
 
-    /// Builds a half-edge mesh from a polygon soup, checking every invariant
-    /// the mesh keeps. Errors name the element: `face 12 repeats vertex 40`,
+    /// Builds a half-edge mesh from a polygon soup, checking every structural
+    /// invariant (manifold, oriented, no repeated or unused vertex). Two faces
+    /// sharing two edges (a doublet) are accepted here — real assets have
+    /// them and the coarsener removes them first — but
+    /// [`Mesh::validate`] reports them. Errors name the element: `face 12 repeats vertex 40`,
     /// `edge 3-7 has more than two faces`, `vertex 5 is not used by any face`.
     pub fn from_indexed(m: &IndexedMesh) -> Result<Mesh, MeshError> {
         let nv = m.positions.len();
@@ -267,7 +270,6 @@ impl Mesh {
                 ));
             }
         }
-        mesh.check_dual_chords_all()?;
         Ok(mesh)
     }
 
@@ -667,6 +669,13 @@ impl Mesh {
     /// Checks every invariant listed in the module docs and names the first
     /// violation. O(n); tests call it after every mutation.
     pub fn validate(&self) -> Result<(), MeshError> {
+        self.validate_structure()?;
+        self.check_dual_chords_all()
+    }
+
+    /// [`Mesh::validate`] without the dual-chord test: the half-edge structure
+    /// is consistent, manifold and oriented (doublets allowed).
+    pub fn validate_structure(&self) -> Result<(), MeshError> {
         let nh = self.h_to.len();
         let mut count_v = 0;
         let mut count_f = 0;
@@ -788,7 +797,7 @@ impl Mesh {
                 self.n_vertices, self.n_faces, self.n_edges
             ));
         }
-        self.check_dual_chords_all()
+        Ok(())
     }
 
     fn check_dual_chords_all(&self) -> Result<(), MeshError> {
@@ -800,7 +809,7 @@ impl Mesh {
 
     /// No two faces share more than one edge: the faces across `f`'s edges are
     /// pairwise distinct ("every quad has four distinct dual chords").
-    fn check_dual_chords(&self, f: FaceId) -> Result<(), MeshError> {
+    pub fn check_dual_chords(&self, f: FaceId) -> Result<(), MeshError> {
         let mut seen: smallvec_lite::SmallF = Default::default();
         for n in self.face_neighbors(f).flatten() {
             if seen.contains(&n) {
@@ -814,9 +823,11 @@ impl Mesh {
     // -------------------------------------------------------- patch replacement
 
     /// Checks that replacing the faces `remove` by the polygons `add` keeps
-    /// every mesh invariant and the topology (Euler characteristic, hence
-    /// genus with components and boundary loops checked by the caller where it
-    /// matters). Runs in time proportional to the patch and its 1-ring.
+    /// the mesh edge- and vertex-manifold and its Euler characteristic (hence
+    /// genus, with components and boundary loops checked by the caller where
+    /// it matters). Dual chords are not checked here: an operator may create a
+    /// doublet that the next step removes; see [`Mesh::check_dual_chords`].
+    /// Runs in time proportional to the patch and its 1-ring.
     ///
     /// `remove` must name distinct live faces; `add` gives vertex lists
     /// (counter-clockwise). A deleted vertex (or one made by
@@ -950,34 +961,6 @@ impl Mesh {
                 "the replacement changes the Euler characteristic by {}",
                 dv - de + df
             ));
-        }
-        // Dual chords of the new faces: across distinct edges, distinct faces.
-        // Neighbour of new face k across (a,b) is either another new face
-        // (which has (b,a)) or the existing face beyond, if it stays.
-        for (k, face) in add.iter().enumerate() {
-            let face = face.as_ref();
-            let mut nbrs: Vec<(bool, u32)> = Vec::with_capacity(face.len());
-            for i in 0..face.len() {
-                let (a, b) = (face[i], face[(i + 1) % face.len()]);
-                if let Some(j) = add.iter().position(|g| {
-                    let g = g.as_ref();
-                    g.iter()
-                        .position(|&x| x == b)
-                        .is_some_and(|p| g[(p + 1) % g.len()] == a)
-                }) {
-                    nbrs.push((true, j as u32));
-                } else if let Some(h) = self.find_halfedge(b, a) {
-                    if let Some(g) = self.face(h) {
-                        if !remove.contains(&g) {
-                            nbrs.push((false, g.0));
-                        }
-                    }
-                }
-            }
-            nbrs.sort_unstable();
-            if nbrs.windows(2).any(|w| w[0] == w[1]) {
-                return err(format!("new face {k} would share two edges with one face"));
-            }
         }
         Ok(())
     }

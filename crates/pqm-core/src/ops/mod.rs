@@ -1,0 +1,271 @@
+//! The qCoarsen deletion operators as check/act pairs (PMP style).
+//!
+//! Every operator is first built as a [`Patch`] — "remove these faces, insert
+//! those quads, merge these vertices" — without touching the mesh. The check
+//! half (`can_qv_merge`, `can_qe_merge`, `can_remove_doublet`) builds and
+//! validates the patch *before* anything is committed; the act half applies a
+//! checked patch with [`apply_patch`]. This is what lets the coarsener score a
+//! candidate (valences after, moved distance, alignment) on the exact result
+//! it would commit, and what makes every step a recordable, invertible
+//! replacement.
+//!
+//! * [`qv_merge`] — quad-vertex merge: a quad's diagonal vertices merge.
+//! * [`qe_merge`] — quad-edge merge: two adjacent quads collapse onto their
+//!   shared edge, then the 1-ring of each endpoint is re-fanned into quads.
+//! * [`doublet`] — doublet removal: two quads sharing two edges become one.
+
+pub mod doublet;
+pub mod qe_merge;
+pub mod qv_merge;
+
+use crate::mesh::{FaceId, Mesh, MeshError, PatchResult, VertexId};
+use glam::DVec3;
+
+pub use doublet::{can_remove_doublet, find_doublets, remove_doublet};
+pub use qe_merge::{can_qe_merge, qe_merge};
+pub use qv_merge::{can_qv_merge, qv_merge};
+
+/// Why an operator cannot be applied at a place. The coarsener just skips
+/// such candidates; tests assert on the reason.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum Reject {
+    /// The element is not (or no longer) of the shape the operator needs.
+    #[error("not applicable: {0}")]
+    NotApplicable(&'static str),
+    /// The result would break a mesh invariant (manifold, Euler, dual chords).
+    #[error("invalid result: {0}")]
+    Invalid(MeshError),
+    /// The result would fold over or create an inverted quad.
+    #[error("geometry: {0}")]
+    Geometry(&'static str),
+    /// A feature curve (or boundary loop) would be pinched, split or lost.
+    #[error("feature: {0}")]
+    Feature(&'static str),
+}
+
+/// A local replacement, built by an operator's check half.
+///
+/// Applying it removes `remove` and inserts `add`: new quad `i` takes the id
+/// of `remove[i]` (a rewritten face slot); removed faces past `add.len()` are
+/// deleted. `merged` lists `(gone, into)` vertex merges (the gone vertex has
+/// no face afterwards); `moved` gives the new position of surviving vertices.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Patch {
+    /// Faces removed (the first `add.len()` are rewritten in place).
+    pub remove: Vec<FaceId>,
+    /// Quads inserted, counter-clockwise.
+    pub add: Vec<[VertexId; 4]>,
+    /// `(gone, into)`: vertex `gone` merges into vertex `into`.
+    pub merged: Vec<(VertexId, VertexId)>,
+    /// `(vertex, new position)` for surviving vertices that move.
+    pub moved: Vec<(VertexId, DVec3)>,
+}
+
+impl Patch {
+    /// Where `v` ends up after the merges (itself when it does not merge).
+    pub fn image(&self, v: VertexId) -> VertexId {
+        self.merged.iter().find(|m| m.0 == v).map_or(v, |m| m.1)
+    }
+    /// Position of `v` after the patch.
+    pub fn position_after(&self, mesh: &Mesh, v: VertexId) -> DVec3 {
+        self.moved
+            .iter()
+            .find(|m| m.0 == v)
+            .map_or_else(|| mesh.position(v), |m| m.1)
+    }
+}
+
+/// Applies a patch that its operator's check half accepted. Returns what the
+/// mesh did (face ids, deleted vertices).
+pub fn apply_patch(mesh: &mut Mesh, patch: &Patch) -> Result<PatchResult, MeshError> {
+    let res = mesh.replace_patch(&patch.remove, &patch.add)?;
+    for &(v, p) in &patch.moved {
+        mesh.set_position(v, p);
+    }
+    Ok(res)
+}
+
+/// What [`apply_undoable`] changed, enough to put it back exactly.
+#[derive(Clone, Debug, Default)]
+pub struct Applied {
+    /// Ids of the inserted quads.
+    pub faces: Vec<FaceId>,
+    /// Vertex lists of the removed faces, in `Patch::remove` order.
+    pub old_faces: Vec<Vec<VertexId>>,
+    /// Removed faces that were deleted rather than rewritten.
+    pub deleted_faces: Vec<FaceId>,
+    /// Vertices deleted by the patch.
+    pub removed_vertices: Vec<VertexId>,
+    /// Old positions of the moved vertices.
+    pub old_positions: Vec<(VertexId, DVec3)>,
+}
+
+/// Applies `patch` and returns what it takes to undo it (see [`undo`]).
+pub fn apply_undoable(mesh: &mut Mesh, patch: &Patch) -> Result<Applied, MeshError> {
+    let old_faces = patch
+        .remove
+        .iter()
+        .map(|&f| mesh.face_vertices(f).collect())
+        .collect();
+    let old_positions = patch
+        .moved
+        .iter()
+        .map(|&(v, _)| (v, mesh.position(v)))
+        .collect();
+    let res = apply_patch(mesh, patch)?;
+    Ok(Applied {
+        faces: res.faces,
+        old_faces,
+        deleted_faces: res.removed_faces,
+        removed_vertices: res.removed_vertices,
+        old_positions,
+    })
+}
+
+/// Puts back exactly what [`apply_undoable`] changed: same face ids, same
+/// vertex ids, same positions.
+pub fn undo(mesh: &mut Mesh, applied: &Applied) -> Result<(), MeshError> {
+    mesh.replace_patch_reviving(&applied.faces, &applied.old_faces, &applied.deleted_faces)?;
+    for &(v, p) in &applied.old_positions {
+        mesh.set_position(v, p);
+    }
+    Ok(())
+}
+
+/// Scaled Jacobian of a quad given its corner positions: the minimum over
+/// corners of `dot(e1 × e2, n) / (|e1||e2|)`, with `n` the quad's Newell
+/// normal. 1 for a square, ≤ 0 for a folded or degenerate corner.
+pub fn quad_scaled_jacobian(p: [DVec3; 4]) -> f64 {
+    let n = newell_normal(&p);
+    let mut worst: f64 = 1.0;
+    for i in 0..4 {
+        let e1 = p[(i + 1) % 4] - p[i];
+        let e2 = p[(i + 3) % 4] - p[i];
+        let d = e1.length() * e2.length();
+        let s = if d > 0.0 && n != DVec3::ZERO {
+            e1.cross(e2).dot(n) / d
+        } else {
+            0.0
+        };
+        worst = worst.min(s);
+    }
+    worst
+}
+
+/// Unit Newell normal of a polygon (zero when degenerate).
+pub fn newell_normal(p: &[DVec3]) -> DVec3 {
+    let mut n = DVec3::ZERO;
+    for i in 0..p.len() {
+        n += p[i].cross(p[(i + 1) % p.len()]);
+    }
+    n.normalize_or_zero()
+}
+
+/// Minimum Scaled Jacobian a new quad may have: a step never makes a quad
+/// worse than this unless the faces it replaces were already worse.
+pub const MIN_NEW_QUAD_JACOBIAN: f64 = 0.2;
+/// A new face's normal may turn at most this far (cosine) from the normal
+/// of what it replaces; below it counts as a fold-over.
+pub const MIN_NORMAL_COSINE: f64 = 0.2;
+
+/// The shared validation of every operator, run on the candidate patch
+/// before anything is committed: the mesh stays edge- and vertex-manifold
+/// and keeps its Euler characteristic ([`Mesh::can_replace_patch`]). Dual
+/// chords and geometry are checked after the step and its doublet removals
+/// and relaxation, by the coarsener (see [`GeometryGuard`]).
+pub fn check_patch(mesh: &Mesh, patch: &Patch) -> Result<(), Reject> {
+    mesh.can_replace_patch(&patch.remove, &patch.add)
+        .map_err(Reject::Invalid)
+}
+
+/// Shape test around a step: captures the normals and Scaled Jacobians of a
+/// region before the step, then checks the faces there afterwards — no face
+/// folds over (its normal turns by more than `acos(MIN_NORMAL_COSINE)` from
+/// the face that had its id, or from the region's average normal for a new
+/// id) and no quad gets a Scaled Jacobian below
+/// `min(MIN_NEW_QUAD_JACOBIAN, worst before)`.
+#[derive(Clone, Debug, Default)]
+pub struct GeometryGuard {
+    before: Vec<(FaceId, DVec3)>,
+    average: DVec3,
+    min_sj: f64,
+}
+
+impl GeometryGuard {
+    /// Records the faces of `region` (live faces only) before the step.
+    pub fn capture(mesh: &Mesh, region: &[FaceId]) -> Self {
+        let mut g = GeometryGuard {
+            min_sj: MIN_NEW_QUAD_JACOBIAN,
+            ..Default::default()
+        };
+        for &f in region {
+            if !mesh.is_face_alive(f) {
+                continue;
+            }
+            let p: Vec<DVec3> = mesh.face_vertices(f).map(|v| mesh.position(v)).collect();
+            let n = newell_normal(&p);
+            if let Ok(q) = <[DVec3; 4]>::try_from(p.as_slice()) {
+                g.average += n * area4(&q);
+                g.min_sj = g.min_sj.min(quad_scaled_jacobian(q));
+            } else {
+                g.average += n;
+            }
+            g.before.push((f, n));
+        }
+        g.average = g.average.normalize_or_zero();
+        g
+    }
+
+    /// Checks the faces of `region` (live faces only) after the step.
+    pub fn check(&self, mesh: &Mesh, region: &[FaceId]) -> Result<(), Reject> {
+        for &f in region {
+            let Some(q) = mesh.quad_vertices(f) else {
+                continue;
+            };
+            let p = q.map(|v| mesh.position(v));
+            if quad_scaled_jacobian(p) < self.min_sj {
+                return Err(Reject::Geometry(
+                    "a quad would be inverted or too distorted",
+                ));
+            }
+            let reference = self
+                .before
+                .iter()
+                .find(|b| b.0 == f)
+                .map_or(self.average, |b| b.1);
+            if newell_normal(&p).dot(reference) < MIN_NORMAL_COSINE {
+                return Err(Reject::Geometry("a quad would fold over"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Area of a quad (sum of its two triangles on the 0–2 diagonal).
+pub fn area4(p: &[DVec3; 4]) -> f64 {
+    0.5 * ((p[1] - p[0]).cross(p[2] - p[0]).length() + (p[2] - p[0]).cross(p[3] - p[0]).length())
+}
+
+/// `face` with every vertex replaced by its image under `merged`, and
+/// consecutive repeats (cyclically) dropped — what a face becomes when its
+/// vertices merge. A quad that loses one vertex becomes a triangle.
+pub(crate) fn map_face(
+    mesh: &Mesh,
+    f: FaceId,
+    merged: &[(VertexId, VertexId)],
+    out: &mut Vec<VertexId>,
+) -> bool {
+    out.clear();
+    let mut changed = false;
+    for v in mesh.face_vertices(f) {
+        let w = merged.iter().find(|m| m.0 == v).map_or(v, |m| m.1);
+        changed |= w != v;
+        if out.last() != Some(&w) {
+            out.push(w);
+        }
+    }
+    while out.len() > 1 && out.first() == out.last() {
+        out.pop();
+    }
+    changed
+}

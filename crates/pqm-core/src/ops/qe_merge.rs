@@ -1,0 +1,243 @@
+//! qeMerge — quad-edge merge with 1-ring re-meshing.
+//!
+//! Quads `q1 = (a, b, c, d)` and `q2 = (a, d, e, f)` share the edge `a–d`.
+//! 1. **Collapse**: `b` and `f` merge into `a` (the result is called `A`),
+//!    `c` and `e` into `d` (`D`). The faces beyond `bc` and `fe` become
+//!    neighbours across `A–D`; the faces beyond `ab`, `fa` (at `A`) and `dc`,
+//!    `de` (at `D`) each lose a vertex and become triangles.
+//! 2. **Re-fan**: around `A`, the faces from one triangle `T1` to the other
+//!    `T2` on the side that does not cross `A–D` — `T1, G1 … Gk, T2`, `k`
+//!    quads — have an outer path `p0 … p(2k+2)` of `2k + 2` edges, and the
+//!    unique all-quad fan around `A` over it is
+//!    `(A, p0, p1, p2), (A, p2, p3, p4), …`: `k + 1` quads replace `k + 2`
+//!    faces. The same around `D`. This is the paper's "rotate the edge shared
+//!    by a triangle and a quad until two triangles meet, then join them",
+//!    done in one step.
+//!
+//! Net: V−4, F−4, E−8. An endpoint whose collapse makes no triangle (both of
+//! its collapsing edges on the boundary) needs no re-fan; any other count, or
+//! a face that degenerates further (an endpoint of valence 3), is rejected by
+//! validation rather than special-cased, as `shared/design/operators.md`
+//! recommends.
+//!
+//! Invariants kept: those of [`super::check_patch`].
+
+use super::{check_patch, map_face, Patch, Reject};
+use crate::mesh::{FaceId, HalfedgeId, Mesh, VertexId};
+use glam::DVec3;
+
+/// The six vertices and two quads of a qeMerge across half-edge `h`:
+/// `h` runs `d → a` inside `q1 = (a, b, c, d)`; its twin runs `a → d` inside
+/// `q2 = (a, d, e, f)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct QeSite {
+    /// The quad on `h`'s side.
+    pub q1: FaceId,
+    /// The quad on the twin's side.
+    pub q2: FaceId,
+    /// `[a, b, c, d, e, f]`.
+    pub v: [VertexId; 6],
+}
+
+/// Finds the qeMerge site across the edge of `h`.
+pub fn qe_site(mesh: &Mesh, h: HalfedgeId) -> Result<QeSite, Reject> {
+    if !mesh.is_halfedge_alive(h) {
+        return Err(Reject::NotApplicable("edge is deleted"));
+    }
+    let t = mesh.twin(h);
+    let (Some(q1), Some(q2)) = (mesh.face(h), mesh.face(t)) else {
+        return Err(Reject::NotApplicable("boundary edge"));
+    };
+    if mesh.face_degree(q1) != 4 || mesh.face_degree(q2) != 4 {
+        return Err(Reject::NotApplicable("faces are not quads"));
+    }
+    let a = mesh.to_vertex(h);
+    let d = mesh.from_vertex(h);
+    let b = mesh.to_vertex(mesh.next(h));
+    let c = mesh.to_vertex(mesh.next(mesh.next(h)));
+    let e = mesh.to_vertex(mesh.next(t));
+    let f = mesh.to_vertex(mesh.next(mesh.next(t)));
+    let v = [a, b, c, d, e, f];
+    for i in 0..6 {
+        if v[..i].contains(&v[i]) {
+            return Err(Reject::NotApplicable(
+                "the two quads share more than an edge",
+            ));
+        }
+    }
+    Ok(QeSite { q1, q2, v })
+}
+
+/// Builds and checks the qeMerge across the edge of `h` (see [`qe_site`]),
+/// placing `A` at `pos_a` and `D` at `pos_d`.
+pub fn can_qe_merge(
+    mesh: &Mesh,
+    h: HalfedgeId,
+    pos_a: DVec3,
+    pos_d: DVec3,
+) -> Result<Patch, Reject> {
+    let patch = qe_merge_patch(mesh, h, pos_a, pos_d)?;
+    check_patch(mesh, &patch)?;
+    Ok(patch)
+}
+
+/// The unchecked patch of a qeMerge (for scoring; commit only after
+/// [`check_patch`]).
+pub fn qe_merge_patch(
+    mesh: &Mesh,
+    h: HalfedgeId,
+    pos_a: DVec3,
+    pos_d: DVec3,
+) -> Result<Patch, Reject> {
+    let site = qe_site(mesh, h)?;
+    let [a, b, c, d, e, f] = site.v;
+    let merged = vec![(b, a), (f, a), (c, d), (e, d)];
+    // Every face touching the six vertices, except the two collapsing quads.
+    let mut faces: Vec<FaceId> = Vec::with_capacity(24);
+    for v in site.v {
+        for g in mesh.vertex_faces(v) {
+            if g != site.q1 && g != site.q2 && !faces.contains(&g) {
+                faces.push(g);
+            }
+        }
+    }
+    // Their vertex lists after the collapse.
+    let mut mapped: Vec<(FaceId, Vec<VertexId>, bool)> = Vec::with_capacity(faces.len());
+    let mut buf = Vec::with_capacity(8);
+    for &g in &faces {
+        let changed = map_face(mesh, g, &merged, &mut buf);
+        if buf.len() < 3 {
+            return Err(Reject::NotApplicable(
+                "a face degenerates (valence-3 endpoint)",
+            ));
+        }
+        if buf.len() == 3 && !(buf.contains(&a) ^ buf.contains(&d)) {
+            return Err(Reject::NotApplicable(
+                "a triangle forms away from one endpoint",
+            ));
+        }
+        mapped.push((g, buf.clone(), changed));
+    }
+    let mut patch = Patch {
+        merged,
+        moved: vec![(a, pos_a), (d, pos_d)],
+        ..Default::default()
+    };
+    let mut fan_old: [Vec<FaceId>; 2] = Default::default();
+    let mut fan_new: [Vec<[VertexId; 4]>; 2] = Default::default();
+    for (side, (x, y)) in [(a, d), (d, a)].into_iter().enumerate() {
+        refan(&mapped, x, y, &mut fan_old[side], &mut fan_new[side])?;
+    }
+    // Rewritten faces first (each keeps its id), then the fans (k + 1 new
+    // quads take the ids of the first k + 1 old fan faces), then the deleted
+    // faces: the last old face of each fan and the two collapsed quads.
+    for (g, vs, changed) in &mapped {
+        if !changed || fan_old.iter().any(|fan| fan.contains(g)) {
+            continue;
+        }
+        if vs.len() != 4 {
+            return Err(Reject::NotApplicable("a non-quad remains after re-fanning"));
+        }
+        patch.remove.push(*g);
+        patch.add.push([vs[0], vs[1], vs[2], vs[3]]);
+    }
+    let mut deleted = Vec::with_capacity(4);
+    for side in 0..2 {
+        let n_new = fan_new[side].len();
+        for (i, &g) in fan_old[side].iter().enumerate() {
+            if i < n_new {
+                patch.remove.push(g);
+            } else {
+                deleted.push(g);
+            }
+        }
+        patch.add.extend_from_slice(&fan_new[side]);
+    }
+    // Deletions trail, so that `remove[i]` lines up with `add[i]`.
+    patch.remove.extend(deleted);
+    patch.remove.push(site.q1);
+    patch.remove.push(site.q2);
+    Ok(patch)
+}
+
+/// Re-fans the faces around `x` between its two triangles on the side that
+/// does not cross edge `x–y`. Appends the old faces (in walk order) to
+/// `old` and the new quads to `new`. No triangle at `x`: nothing to do.
+fn refan(
+    mapped: &[(FaceId, Vec<VertexId>, bool)],
+    x: VertexId,
+    y: VertexId,
+    old: &mut Vec<FaceId>,
+    new: &mut Vec<[VertexId; 4]>,
+) -> Result<(), Reject> {
+    // Corners at x: (vertex before x, vertex after x, index into mapped).
+    let mut corners: Vec<(VertexId, VertexId, usize)> = Vec::with_capacity(12);
+    let mut tris = Vec::with_capacity(2);
+    for (i, (_, vs, _)) in mapped.iter().enumerate() {
+        if let Some(k) = vs.iter().position(|&v| v == x) {
+            let n = vs.len();
+            corners.push((vs[(k + n - 1) % n], vs[(k + 1) % n], i));
+            if n == 3 {
+                tris.push(corners.len() - 1);
+            }
+        }
+    }
+    match tris.len() {
+        0 => return Ok(()),
+        2 => {}
+        _ => return Err(Reject::NotApplicable("odd triangle count at an endpoint")),
+    }
+    // Walk forward (corner A → B when A.after == B.before) from one triangle
+    // to the other; the walk must not step across edge x–y.
+    let walk = |from: usize, to: usize| -> Option<Vec<usize>> {
+        let mut chain = vec![from];
+        let mut cur = from;
+        while cur != to {
+            if corners[cur].1 == y {
+                return None;
+            }
+            let next = corners.iter().position(|c| c.0 == corners[cur].1)?;
+            if chain.contains(&next) {
+                return None;
+            }
+            chain.push(next);
+            cur = next;
+        }
+        Some(chain)
+    };
+    let chain = walk(tris[0], tris[1])
+        .or_else(|| walk(tris[1], tris[0]))
+        .ok_or(Reject::NotApplicable(
+            "no re-fan side avoids the merged edge",
+        ))?;
+    // Outer path in walk order: each face contributes its link from the
+    // vertex before x to the vertex after x (reverse of its ccw order).
+    let mut path: Vec<VertexId> = Vec::with_capacity(2 * chain.len() + 1);
+    for &ci in &chain {
+        let vs = &mapped[corners[ci].2].1;
+        let n = vs.len();
+        let k = vs.iter().position(|&v| v == x).unwrap_or(0);
+        for j in (1..n).rev() {
+            let v = vs[(k + j) % n];
+            if path.last() != Some(&v) {
+                path.push(v);
+            }
+        }
+        if mapped[corners[ci].2].1.len() > 4 {
+            return Err(Reject::NotApplicable("a fan face is not a quad"));
+        }
+    }
+    if path.len().is_multiple_of(2) || path.len() < 3 {
+        return Err(Reject::NotApplicable("fan path has odd length"));
+    }
+    for i in (0..path.len() - 2).step_by(2) {
+        new.push([x, path[i + 2], path[i + 1], path[i]]);
+    }
+    old.extend(chain.iter().map(|&ci| mapped[corners[ci].2].0));
+    Ok(())
+}
+
+/// Applies a qeMerge patch accepted by [`can_qe_merge`].
+pub fn qe_merge(mesh: &mut Mesh, patch: &Patch) -> Result<(), crate::mesh::MeshError> {
+    super::apply_patch(mesh, patch).map(|_| ())
+}

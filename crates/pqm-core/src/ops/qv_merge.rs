@@ -1,0 +1,84 @@
+//! qvMerge — quad-vertex merge (a "quad collapse" in QMS, "quad close" in
+//! Kinney 1997): quad `(a, b, c, d)` disappears as its diagonal vertices `a`
+//! and `c` merge into one vertex `m`. Edges `ab`/`cb` become `mb`, `ad`/`cd`
+//! become `md`. Counts: V−1, E−2, F−1.
+//!
+//! Invariants kept (checked on the candidate patch, see
+//! [`super::check_patch`]): quad-only, edge- and vertex-manifold, every quad
+//! has four distinct dual chords, Euler characteristic unchanged, no new quad
+//! folds over or inverts.
+//!
+//! Inverse: a *quad vertex split* of `m` with wings `b` and `d`: the faces of
+//! `star(m)` on `c`'s side of the path `b – m – d` go back to `c`, and the
+//! quad `(a, b, c, d)` is re-inserted.
+
+use super::{check_patch, map_face, Patch, Reject};
+use crate::mesh::{FaceId, Mesh};
+use glam::DVec3;
+
+/// Builds and checks the qvMerge of quad `f` along diagonal `diag` (0: the
+/// quad's vertices 0 and 2 in [`Mesh::quad_vertices`] order, 1: vertices 1
+/// and 3). `keep` chooses which of the two ids survives (`false`: the first,
+/// `true`: the second) and `position` is where the merged vertex goes.
+///
+/// Returns the patch to hand to [`qv_merge`], or why it is not allowed.
+pub fn can_qv_merge(
+    mesh: &Mesh,
+    f: FaceId,
+    diag: usize,
+    keep_second: bool,
+    position: DVec3,
+) -> Result<Patch, Reject> {
+    let patch = qv_merge_patch(mesh, f, diag, keep_second, position)?;
+    check_patch(mesh, &patch)?;
+    Ok(patch)
+}
+
+/// The unchecked patch of a qvMerge (for scoring; commit only after
+/// [`check_patch`]).
+pub fn qv_merge_patch(
+    mesh: &Mesh,
+    f: FaceId,
+    diag: usize,
+    keep_second: bool,
+    position: DVec3,
+) -> Result<Patch, Reject> {
+    if !mesh.is_face_alive(f) {
+        return Err(Reject::NotApplicable("face is deleted"));
+    }
+    let q = mesh
+        .quad_vertices(f)
+        .ok_or(Reject::NotApplicable("face is not a quad"))?;
+    let (mut keep, mut gone) = (q[diag % 2], q[diag % 2 + 2]);
+    if keep_second {
+        std::mem::swap(&mut keep, &mut gone);
+    }
+    let merged = vec![(gone, keep)];
+    let mut patch = Patch {
+        merged,
+        moved: vec![(keep, position)],
+        ..Default::default()
+    };
+    let mut buf = Vec::with_capacity(8);
+    for g in mesh.vertex_faces(gone) {
+        if g == f {
+            continue;
+        }
+        map_face(mesh, g, &patch.merged, &mut buf);
+        if buf.len() != 4 || mesh.face_vertices(g).any(|v| v == keep) {
+            // `keep` and `gone` share a second face: merging them pinches it.
+            return Err(Reject::NotApplicable(
+                "diagonal vertices share another face",
+            ));
+        }
+        patch.remove.push(g);
+        patch.add.push([buf[0], buf[1], buf[2], buf[3]]);
+    }
+    patch.remove.push(f);
+    Ok(patch)
+}
+
+/// Applies a qvMerge patch accepted by [`can_qv_merge`].
+pub fn qv_merge(mesh: &mut Mesh, patch: &Patch) -> Result<(), crate::mesh::MeshError> {
+    super::apply_patch(mesh, patch).map(|_| ())
+}
