@@ -7,6 +7,7 @@
 //! * [`mesh`] — [`Mesh`], the half-edge mesh with typed handles, ring iterators,
 //!   local patch replacement and `validate()`.
 
+pub mod coarsen;
 pub mod indexed;
 pub mod mesh;
 

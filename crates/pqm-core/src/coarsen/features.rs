@@ -1,0 +1,239 @@
+//! Feature curves under vertex merges: the paper's three rules.
+//!
+//! Feature edges (user polylines, sharp edges, and every boundary edge — a
+//! boundary loop is a closed feature curve) are grouped into curves. While
+//! the coarsener merges vertices, this state checks, on the candidate before
+//! it is committed:
+//! 1. merging feature vertices are consecutive on one curve (no pinching);
+//! 2. no curve is split: every feature edge still exists after the step;
+//! 3. no curve vanishes: an open curve keeps ≥ 1 edge, a closed one ≥ 3.
+//!
+//! Feature corners (feature degree ≠ 2) never move; at most one may be in a
+//! merge group.
+
+use crate::mesh::{Mesh, VertexId};
+use crate::ops::Reject;
+use std::collections::HashMap;
+
+/// Feature edges keyed by sorted vertex pair, with their curve ids.
+#[derive(Clone, Debug, Default)]
+pub struct FeatureState {
+    edges: HashMap<(u32, u32), u32>,
+    curve_len: Vec<u32>,
+    curve_closed: Vec<bool>,
+    /// Feature neighbours of each vertex (empty for most vertices, so no
+    /// allocation there); the feature degree is its length.
+    adj: Vec<Vec<u32>>,
+}
+
+/// The feature-edge changes a step makes, applied by [`FeatureState::commit`].
+#[derive(Clone, Debug, Default)]
+pub struct FeatureDelta {
+    removed: Vec<(u32, u32)>,
+    added: Vec<((u32, u32), u32)>,
+    shrink: Vec<u32>,
+}
+
+fn key(a: VertexId, b: VertexId) -> (u32, u32) {
+    (a.0.min(b.0), a.0.max(b.0))
+}
+
+impl FeatureState {
+    /// Builds the state from curves given as edge lists (each inner list is
+    /// one curve, `closed` tells whether it is a loop). Edges that are not
+    /// mesh edges are ignored by the caller beforehand.
+    pub fn new(mesh: &Mesh, curves: &[(Vec<(VertexId, VertexId)>, bool)]) -> Self {
+        let mut s = FeatureState {
+            adj: vec![Vec::new(); mesh.vertex_capacity()],
+            ..Default::default()
+        };
+        for (edges, closed) in curves {
+            let id = s.curve_len.len() as u32;
+            let mut n = 0;
+            for &(a, b) in edges {
+                if a != b && s.edges.insert(key(a, b), id).is_none() {
+                    s.adj[a.idx()].push(b.0);
+                    s.adj[b.idx()].push(a.0);
+                    n += 1;
+                }
+            }
+            s.curve_len.push(n);
+            s.curve_closed.push(*closed);
+        }
+        s
+    }
+
+    /// Boundary loops of `mesh` as closed curves, plus `extra` curves.
+    pub fn with_boundary(mesh: &Mesh, extra: Vec<(Vec<(VertexId, VertexId)>, bool)>) -> Self {
+        let mut curves: Vec<(Vec<(VertexId, VertexId)>, bool)> = mesh
+            .boundary_loops()
+            .into_iter()
+            .map(|lp| {
+                (
+                    lp.iter()
+                        .map(|&h| (mesh.from_vertex(h), mesh.to_vertex(h)))
+                        .collect(),
+                    true,
+                )
+            })
+            .collect();
+        curves.extend(extra);
+        FeatureState::new(mesh, &curves)
+    }
+
+    /// True when `v` lies on a feature curve.
+    #[inline]
+    pub fn is_feature(&self, v: VertexId) -> bool {
+        self.adj.get(v.idx()).is_some_and(|n| !n.is_empty())
+    }
+    /// True when `v` is a feature corner (feature degree other than 0 or 2).
+    #[inline]
+    pub fn is_corner(&self, v: VertexId) -> bool {
+        self.adj
+            .get(v.idx())
+            .is_some_and(|n| !n.is_empty() && n.len() != 2)
+    }
+    /// True when `a–b` is a feature edge.
+    pub fn is_feature_edge(&self, a: VertexId, b: VertexId) -> bool {
+        self.edges.contains_key(&key(a, b))
+    }
+    /// Number of feature edges.
+    pub fn edge_count(&self) -> usize {
+        self.edges.len()
+    }
+    /// Number of curves that still have edges.
+    pub fn live_curves(&self) -> usize {
+        self.curve_len.iter().filter(|&&n| n > 0).count()
+    }
+
+    /// Rule 1 on a merge group (`into` plus the vertices merging into it):
+    /// at most two feature vertices, and two only when a feature edge joins
+    /// them; at most one corner. Returns the vertex whose position the group
+    /// must keep, if any (the corner, or the single feature vertex), and
+    /// whether the group merges along a feature edge.
+    pub fn check_group(&self, group: &[VertexId]) -> Result<GroupConstraint, Reject> {
+        let feats: Vec<VertexId> = group
+            .iter()
+            .copied()
+            .filter(|&v| self.is_feature(v))
+            .collect();
+        let corners = feats.iter().filter(|&&v| self.is_corner(v)).count();
+        if corners > 1 {
+            return Err(Reject::Feature("two feature corners would merge"));
+        }
+        match feats.len() {
+            0 => Ok(GroupConstraint::Free),
+            1 => Ok(GroupConstraint::Pinned(feats[0])),
+            2 => {
+                if !self.is_feature_edge(feats[0], feats[1]) {
+                    return Err(Reject::Feature(
+                        "merging feature vertices are not consecutive",
+                    ));
+                }
+                match feats.iter().find(|&&v| self.is_corner(v)) {
+                    Some(&c) => Ok(GroupConstraint::Pinned(c)),
+                    None => Ok(GroupConstraint::OnEdge(feats[0], feats[1])),
+                }
+            }
+            _ => Err(Reject::Feature(
+                "more than two feature vertices would merge",
+            )),
+        }
+    }
+
+    /// Rules 2 and 3 after a step (on the mesh *after* it): maps every
+    /// feature edge at the `merged` vertices through the merge, and checks
+    /// that each mapped edge exists and no curve vanishes or fuses with
+    /// another. `merged` is `(gone, into)` composed over the whole step.
+    pub fn check_after(
+        &self,
+        mesh_after: &Mesh,
+        merged: &[(VertexId, VertexId)],
+    ) -> Result<FeatureDelta, Reject> {
+        let image = |v: u32| merged.iter().find(|m| m.0 .0 == v).map_or(v, |m| m.1 .0);
+        let mut delta = FeatureDelta::default();
+        let mut touched: Vec<((u32, u32), u32)> = Vec::new();
+        for &(gone, _) in merged {
+            if !self.is_feature(gone) {
+                continue;
+            }
+            for &n in &self.adj[gone.idx()] {
+                let k = key(gone, VertexId(n));
+                if !touched.iter().any(|t| t.0 == k) {
+                    touched.push((k, self.edges[&k]));
+                }
+            }
+        }
+        touched.sort_unstable();
+        let mut shrink: Vec<u32> = Vec::new();
+        for &((a, b), curve) in &touched {
+            let (ia, ib) = (image(a), image(b));
+            delta.removed.push((a, b));
+            if ia == ib {
+                shrink.push(curve);
+                continue;
+            }
+            let k = (ia.min(ib), ia.max(ib));
+            if mesh_after
+                .find_halfedge(VertexId(ia), VertexId(ib))
+                .is_none()
+            {
+                return Err(Reject::Feature("a feature curve would be split"));
+            }
+            let existing = self
+                .edges
+                .get(&k)
+                .copied()
+                .filter(|_| !touched.iter().any(|t| t.0 == k))
+                .or_else(|| delta.added.iter().find(|x| x.0 == k).map(|x| x.1));
+            match existing {
+                Some(c) if c == curve => shrink.push(curve),
+                Some(_) => return Err(Reject::Feature("two feature curves would fuse")),
+                None => delta.added.push((k, curve)),
+            }
+        }
+        shrink.sort_unstable();
+        for (i, &c) in shrink.iter().enumerate() {
+            let lost = shrink[i..].iter().take_while(|&&x| x == c).count() as u32;
+            if i > 0 && shrink[i - 1] == c {
+                continue;
+            }
+            let min = if self.curve_closed[c as usize] { 3 } else { 1 };
+            if self.curve_len[c as usize] < min + lost {
+                return Err(Reject::Feature("a feature curve would vanish"));
+            }
+        }
+        delta.shrink = shrink;
+        Ok(delta)
+    }
+
+    /// Applies a delta accepted by [`FeatureState::check_after`].
+    pub fn commit(&mut self, delta: FeatureDelta) {
+        for k in &delta.removed {
+            if self.edges.remove(k).is_some() {
+                self.adj[k.0 as usize].retain(|&x| x != k.1);
+                self.adj[k.1 as usize].retain(|&x| x != k.0);
+            }
+        }
+        for (k, c) in delta.added {
+            if self.edges.insert(k, c).is_none() {
+                self.adj[k.0 as usize].push(k.1);
+                self.adj[k.1 as usize].push(k.0);
+            }
+        }
+        for c in delta.shrink {
+            self.curve_len[c as usize] -= 1;
+        }
+    }
+}
+
+/// What rule 1 demands of a merge group's position.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GroupConstraint {
+    /// No feature vertex: the position is free (QEM).
+    Free,
+    /// Keep this vertex's position (a corner or the only feature vertex).
+    Pinned(VertexId),
+    /// Two feature vertices joined by a feature edge: stay on that edge.
+    OnEdge(VertexId, VertexId),
+}

@@ -1,0 +1,940 @@
+//! qCoarsen: localized quad coarsening driven by one priority queue.
+//!
+//! Every candidate — both qvMerge diagonals of each quad and the qeMerge
+//! over each interior quad edge — sits in one queue keyed by the paper's
+//! error
+//!
+//! ```text
+//! E = (V_b/V_a + α)² (D + α)² (A_b/A_a + α)²   [+ β·dev_a when dev_a > dev_b]
+//! ```
+//!
+//! with `α = 0.01`, `β = 100` (section 4 of the paper; every choice the paper
+//! leaves open is written down in `ARCHITECTURE.md`):
+//! * `V` — fraction of ideal-valence vertices among the vertices the step
+//!   touches, before and after (after counts the doublet removals the step
+//!   triggers);
+//! * `D` — importance-weighted moved distance as a fraction of the bounding
+//!   box diagonal (qeMerge: the two merging edges' midpoints to the shared
+//!   edge's midpoint, averaged; qvMerge: the two merging vertices);
+//! * `A` — alignment of the removed quads' dual chords to the direction field
+//!   (before) and of the edges they collapse to (after), 1 at 0°/90°, 0 at 45°;
+//! * `dev` — worst deviation of a touched vertex's valence from its ideal.
+//!
+//! A popped candidate is rebuilt and committed only if, after the step, its
+//! doublet removals and the relaxation of the re-fanned vertices, the mesh is
+//! still manifold, quad-only, has four distinct dual chords per quad, no
+//! folded or inverted quad, and keeps every feature curve; otherwise the
+//! step is undone exactly. Stale entries are skipped with per-face stamps;
+//! after a commit only the candidates of the faces around the touched
+//! vertices are re-scored.
+
+pub mod features;
+pub mod record;
+
+use crate::mesh::{FaceId, HalfedgeId, Mesh, VertexId};
+use crate::ops::{self, Applied, GeometryGuard, Patch, Reject};
+use crate::progressive::{OpKind, ProgressiveMesh};
+use features::{FeatureDelta, FeatureState, GroupConstraint};
+use glam::DVec3;
+use record::StepLog;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// The paper's α: keeps every factor of `E` positive.
+pub const ALPHA: f64 = 0.01;
+/// The paper's β: penalty weight when the worst valence gets worse.
+pub const BETA: f64 = 100.0;
+
+/// Where smoothing happens.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Smoothing {
+    /// Only the relaxation each operator needs (the re-fanned vertices).
+    None,
+    /// After each step, on the vertices of the step's 1-ring.
+    Local,
+    /// Once at the end, on the coarsest mesh (the paper's default).
+    #[default]
+    Global,
+}
+
+/// When to stop; the first bound reached wins. With none set the coarsener
+/// goes as far as the quality rules allow.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CoarsenOptions {
+    /// Stop at or below this many faces.
+    pub target_faces: Option<usize>,
+    /// Stop at or below this fraction of the input's faces.
+    pub target_ratio: Option<f64>,
+    /// Never take a step whose error bound (fraction of the bbox diagonal)
+    /// would exceed this.
+    pub max_error: Option<f64>,
+    /// Smoothing mode.
+    pub smoothing: Smoothing,
+    /// Iterations of the final global smoothing.
+    pub global_smoothing_iterations: u32,
+}
+
+/// Why coarsening stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The face target was reached.
+    TargetReached,
+    /// No legal step was left (within the error bound, if one was given).
+    NothingLegal,
+}
+
+/// Counts of what the coarsener did.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct CoarsenReport {
+    /// Committed qvMerges.
+    pub qv_merges: usize,
+    /// Committed qeMerges.
+    pub qe_merges: usize,
+    /// Doublet removals (after operators, and on the input).
+    pub doublets: usize,
+    /// Candidates rejected at commit time (invalid after the step).
+    pub rejected: usize,
+    /// Why it stopped.
+    pub stop: Option<StopReason>,
+    /// Error bound of the coarsest level (fraction of the bbox diagonal).
+    pub error: f64,
+}
+
+/// Per-vertex inputs of the error `E`.
+#[derive(Clone, Debug, Default)]
+pub struct Attributes {
+    /// Importance per vertex id, in [1, 3] (the paper's range).
+    pub importance: Vec<f64>,
+    /// Direction field per vertex id (zero: no direction there).
+    pub field: Vec<DVec3>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Cand {
+    Qv(FaceId, u8),
+    Qe(HalfedgeId),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    cost: f64,
+    cand: Cand,
+    stamps: (u32, u32),
+}
+impl PartialEq for Entry {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o) == Ordering::Equal
+    }
+}
+impl Eq for Entry {}
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Entry {
+    /// Reversed, so the `BinaryHeap` pops the lowest cost; ties by candidate
+    /// id, so the order never depends on anything but the input.
+    fn cmp(&self, o: &Self) -> Ordering {
+        o.cost
+            .total_cmp(&self.cost)
+            .then_with(|| cand_key(o.cand).cmp(&cand_key(self.cand)))
+    }
+}
+fn cand_key(c: Cand) -> (u32, u32) {
+    match c {
+        Cand::Qv(f, d) => (f.0, d as u32),
+        Cand::Qe(h) => (h.0, 2),
+    }
+}
+
+/// The coarsener: owns the mesh while it coarsens, logs every step.
+pub struct Coarsener {
+    mesh: Mesh,
+    attrs: Attributes,
+    features: FeatureState,
+    opts: CoarsenOptions,
+    diag: f64,
+    /// Accumulated displacement bound per vertex (model units).
+    drift: Vec<f64>,
+    error: f64,
+    stamp: Vec<u32>,
+    queue: BinaryHeap<Entry>,
+    logs: Vec<StepLog>,
+    errors: Vec<f64>,
+    report: CoarsenReport,
+    input_faces: usize,
+}
+
+impl Coarsener {
+    /// Sets up the coarsener on a quad mesh. `feature_curves` are extra
+    /// feature curves (edge lists, closed flag); boundary loops are added
+    /// as closed curves automatically.
+    pub fn new(
+        mesh: Mesh,
+        mut attrs: Attributes,
+        feature_curves: Vec<(Vec<(VertexId, VertexId)>, bool)>,
+        opts: CoarsenOptions,
+    ) -> Self {
+        let n = mesh.vertex_capacity();
+        attrs.importance.resize(n, 1.0);
+        attrs.field.resize(n, DVec3::ZERO);
+        let (lo, hi) = mesh.bounding_box();
+        let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
+        let features = FeatureState::with_boundary(&mesh, feature_curves);
+        let input_faces = mesh.face_count();
+        Coarsener {
+            stamp: vec![0; mesh.face_capacity()],
+            drift: vec![0.0; n],
+            mesh,
+            attrs,
+            features,
+            opts,
+            diag,
+            error: 0.0,
+            queue: BinaryHeap::new(),
+            logs: Vec::new(),
+            errors: vec![0.0],
+            report: CoarsenReport::default(),
+            input_faces,
+        }
+    }
+
+    /// The mesh in its current state.
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+    /// Steps logged so far (coarsening order).
+    pub fn logs(&self) -> &[StepLog] {
+        &self.logs
+    }
+    /// The feature state (for tests and reports).
+    pub fn features(&self) -> &FeatureState {
+        &self.features
+    }
+
+    fn target_faces(&self) -> usize {
+        let by_ratio = self
+            .opts
+            .target_ratio
+            .map(|r| (r * self.input_faces as f64).ceil() as usize);
+        match (self.opts.target_faces, by_ratio) {
+            (Some(a), Some(b)) => a.max(b),
+            (Some(a), None) => a,
+            (None, Some(b)) => b,
+            (None, None) => 0,
+        }
+    }
+
+    /// Coarsens until a stop condition holds. `progress(faces)` is called
+    /// now and then with the current face count.
+    pub fn run(&mut self, progress: &mut dyn FnMut(usize)) -> CoarsenReport {
+        // Doublets in the input go first: every later step assumes none.
+        let all: Vec<VertexId> = self.mesh.vertices().collect();
+        self.remove_doublets_committed(&all);
+        let faces: Vec<FaceId> = self.mesh.faces().collect();
+        for f in faces {
+            self.push_face(f);
+        }
+        let target = self.target_faces();
+        let mut since = 0;
+        while self.mesh.face_count() > target {
+            let Some(e) = self.queue.pop() else {
+                self.report.stop = Some(StopReason::NothingLegal);
+                break;
+            };
+            if !self.fresh(&e) {
+                continue;
+            }
+            if self.try_commit(e.cand) {
+                since += 1;
+                if since >= 256 {
+                    since = 0;
+                    progress(self.mesh.face_count());
+                }
+            }
+        }
+        if self.report.stop.is_none() {
+            self.report.stop = Some(StopReason::TargetReached);
+        }
+        if self.opts.smoothing == Smoothing::Global {
+            let iters = self.opts.global_smoothing_iterations.max(1);
+            self.smooth_all(iters);
+        }
+        progress(self.mesh.face_count());
+        self.report.error = self.error;
+        self.report.clone()
+    }
+
+    /// The coarsest mesh plus refinement records in canonical numbering.
+    pub fn to_progressive(&self) -> ProgressiveMesh {
+        record::to_progressive(&self.mesh, &self.logs, &self.errors)
+    }
+
+    // ------------------------------------------------------------- queue
+
+    fn fresh(&self, e: &Entry) -> bool {
+        match e.cand {
+            Cand::Qv(f, _) => self.mesh.is_face_alive(f) && self.stamp[f.idx()] == e.stamps.0,
+            Cand::Qe(h) => {
+                if !self.mesh.is_halfedge_alive(h) {
+                    return false;
+                }
+                match (self.mesh.face(h), self.mesh.face(self.mesh.twin(h))) {
+                    (Some(f), Some(g)) => {
+                        self.stamp[f.idx()] == e.stamps.0 && self.stamp[g.idx()] == e.stamps.1
+                    }
+                    _ => false,
+                }
+            }
+        }
+    }
+
+    fn push_face(&mut self, f: FaceId) {
+        if !self.mesh.is_face_alive(f) {
+            return;
+        }
+        for d in 0..2u8 {
+            self.push(Cand::Qv(f, d));
+        }
+        let hs: Vec<HalfedgeId> = self.mesh.face_halfedges(f).collect();
+        for h in hs {
+            // one qeMerge entry per interior edge: from the face with the
+            // smaller id
+            if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
+                if f < g {
+                    self.push(Cand::Qe(h));
+                }
+            }
+        }
+    }
+
+    fn push(&mut self, cand: Cand) {
+        let Ok(patch) = self.build(cand) else { return };
+        if ops::check_patch(&self.mesh, &patch).is_err() {
+            return;
+        }
+        let cost = self.cost(cand, &patch);
+        let stamps = match cand {
+            Cand::Qv(f, _) => (self.stamp[f.idx()], 0),
+            Cand::Qe(h) => {
+                let f = self.mesh.face(h).map_or(0, |f| self.stamp[f.idx()]);
+                let g = self
+                    .mesh
+                    .face(self.mesh.twin(h))
+                    .map_or(0, |g| self.stamp[g.idx()]);
+                (f, g)
+            }
+        };
+        self.queue.push(Entry { cost, cand, stamps });
+    }
+
+    // --------------------------------------------------------- candidates
+
+    /// Builds the candidate's patch, with feature rule 1 and placement.
+    fn build(&self, cand: Cand) -> Result<Patch, Reject> {
+        match cand {
+            Cand::Qv(f, d) => {
+                let q = self
+                    .mesh
+                    .quad_vertices(f)
+                    .ok_or(Reject::NotApplicable("face is not a quad"))?;
+                let (a, c) = (q[d as usize], q[d as usize + 2]);
+                let con = self.features.check_group(&[a, c])?;
+                // keep the pinned vertex's id, else the smaller id
+                let keep_second = match con {
+                    GroupConstraint::Pinned(v) => v == c,
+                    _ => c < a,
+                };
+                let pos = self.place(&[a, c], con);
+                ops::qv_merge::qv_merge_patch(&self.mesh, f, d as usize, keep_second, pos)
+            }
+            Cand::Qe(h) => {
+                let site = ops::qe_merge::qe_site(&self.mesh, h)?;
+                let [a, b, c, d, e, f] = site.v;
+                let ca = self.features.check_group(&[a, b, f])?;
+                let cd = self.features.check_group(&[d, c, e])?;
+                let pa = self.place(&[a, b, f], ca);
+                let pd = self.place(&[d, c, e], cd);
+                ops::qe_merge::qe_merge_patch(&self.mesh, h, pa, pd)
+            }
+        }
+    }
+
+    /// Position of a merge group under its feature constraint.
+    fn place(&self, group: &[VertexId], con: GroupConstraint) -> DVec3 {
+        match con {
+            GroupConstraint::Pinned(v) => self.mesh.position(v),
+            GroupConstraint::OnEdge(u, v) => (self.mesh.position(u) + self.mesh.position(v)) * 0.5,
+            GroupConstraint::Free => {
+                let s: DVec3 = group.iter().map(|&v| self.mesh.position(v)).sum();
+                s / group.len() as f64
+            }
+        }
+    }
+
+    /// The paper's error `E` for a built patch.
+    fn cost(&self, cand: Cand, patch: &Patch) -> f64 {
+        let m = &self.mesh;
+        // --- V: ideal-vertex fraction before/after over the touched vertices
+        let mut touched: Vec<VertexId> = Vec::with_capacity(24);
+        for &f in &patch.remove {
+            for v in m.face_vertices(f) {
+                if !touched.contains(&v) {
+                    touched.push(v);
+                }
+            }
+        }
+        let mut ideal_b = 0usize;
+        let mut dev_b = 0usize;
+        for &v in &touched {
+            let (val, ideal) = (m.valence(v), m.ideal_valence(v));
+            ideal_b += (val == ideal) as usize;
+            dev_b = dev_b.max(val.abs_diff(ideal));
+        }
+        // valences after: distinct neighbours over kept and added faces
+        let mut after: Vec<(VertexId, Vec<VertexId>, usize)> = Vec::with_capacity(touched.len());
+        for &v in &touched {
+            if patch.merged.iter().any(|g| g.0 == v) {
+                continue;
+            }
+            let mut nb: Vec<VertexId> = Vec::with_capacity(8);
+            let add_nb = |p: VertexId, n: VertexId, nb: &mut Vec<VertexId>| {
+                for x in [p, n] {
+                    if !nb.contains(&x) {
+                        nb.push(x);
+                    }
+                }
+            };
+            for h in m.outgoing(v) {
+                if let Some(f) = m.face(h) {
+                    if !patch.remove.contains(&f) {
+                        add_nb(m.from_vertex(m.prev(h)), m.to_vertex(h), &mut nb);
+                    }
+                }
+            }
+            for q in &patch.add {
+                if let Some(k) = q.iter().position(|&x| x == v) {
+                    add_nb(q[(k + 3) % 4], q[(k + 1) % 4], &mut nb);
+                }
+            }
+            let boundary = m.is_boundary_vertex(v)
+                || patch
+                    .merged
+                    .iter()
+                    .any(|g| g.1 == v && m.is_boundary_vertex(g.0));
+            let ideal = if boundary {
+                if m.is_boundary_vertex(v) {
+                    m.ideal_valence(v)
+                } else {
+                    3
+                }
+            } else {
+                4
+            };
+            after.push((v, nb, ideal));
+        }
+        // doublets the step triggers: interior valence-2 survivors vanish and
+        // their two neighbours lose an edge each
+        let mut gone: Vec<VertexId> = Vec::new();
+        for (v, nb, ideal) in &after {
+            if *ideal == 4 && nb.len() == 2 {
+                gone.push(*v);
+            }
+        }
+        let (mut ideal_a, mut dev_a, mut count_a) = (0usize, 0usize, 0usize);
+        for (v, nb, ideal) in &after {
+            if gone.contains(v) {
+                continue;
+            }
+            let lost = nb.iter().filter(|x| gone.contains(x)).count();
+            let val = nb.len() - lost;
+            count_a += 1;
+            ideal_a += (val == *ideal) as usize;
+            dev_a = dev_a.max(val.abs_diff(*ideal));
+        }
+        let v_b = ideal_b as f64 / touched.len().max(1) as f64;
+        let v_a = (ideal_a as f64 / count_a.max(1) as f64).max(1e-3);
+        // --- D: importance-weighted moved distance
+        let imp = |vs: &[VertexId]| {
+            vs.iter()
+                .map(|&v| self.attrs.importance[v.idx()])
+                .sum::<f64>()
+                / vs.len() as f64
+        };
+        let p = |v: VertexId| m.position(v);
+        let (dist, quads, collapsed): (f64, Vec<FaceId>, Vec<(VertexId, VertexId)>) = match cand {
+            Cand::Qv(f, d) => {
+                let q = m.quad_vertices(f).unwrap_or([VertexId(0); 4]);
+                let (a, c) = (q[d as usize], q[d as usize + 2]);
+                let keep = patch.merged.first().map_or(a, |g| g.1);
+                let dist = (p(a) - p(c)).length() * imp(&q);
+                let other = [q[(d as usize + 1) % 4], q[(d as usize + 3) % 4]];
+                (dist, vec![f], vec![(keep, other[0]), (keep, other[1])])
+            }
+            Cand::Qe(h) => match ops::qe_merge::qe_site(m, h) {
+                Ok(site) => {
+                    let [a, b, c, d, e, f] = site.v;
+                    let mid = (p(a) + p(d)) * 0.5;
+                    let d1 = ((p(b) + p(c)) * 0.5 - mid).length();
+                    let d2 = ((p(f) + p(e)) * 0.5 - mid).length();
+                    let dist = 0.5 * (d1 + d2) * imp(&site.v);
+                    (dist, vec![site.q1, site.q2], vec![(a, d)])
+                }
+                Err(_) => (0.0, vec![], vec![]),
+            },
+        };
+        let dterm = dist / self.diag;
+        // --- A: alignment before (dual chords) / after (collapsed edges)
+        let mut a_b = 0.0;
+        let mut a_a = 0.0;
+        let mut n_a = 0;
+        for &f in &quads {
+            let c = m.face_centroid(f);
+            let n = m.face_normal(f);
+            let q = m.quad_vertices(f).unwrap_or([VertexId(0); 4]);
+            let fld: DVec3 = q.iter().map(|&v| self.attrs.field[v.idx()]).sum();
+            let _ = c;
+            let chord1 = (p(q[2]) + p(q[3])) - (p(q[0]) + p(q[1]));
+            let chord2 = (p(q[3]) + p(q[0])) - (p(q[1]) + p(q[2]));
+            if let (Some(s1), Some(s2)) = (align(chord1, fld, n), align(chord2, fld, n)) {
+                a_b += 0.5 * (s1 + s2);
+                let mut s_after = 0.0;
+                for &(u, w) in &collapsed {
+                    let dir = patch.position_after(m, w) - patch.position_after(m, u);
+                    s_after += align(dir, fld, n).unwrap_or(1.0);
+                }
+                a_a += s_after / collapsed.len().max(1) as f64;
+                n_a += 1;
+            }
+        }
+        let aratio = if n_a == 0 { 1.0 } else { a_b / a_a.max(1e-3) };
+        let mut e =
+            (v_b / v_a + ALPHA).powi(2) * (dterm + ALPHA).powi(2) * (aratio + ALPHA).powi(2);
+        if dev_a > dev_b {
+            e += BETA * dev_a as f64;
+        }
+        e
+    }
+
+    // ------------------------------------------------------------- commit
+
+    /// Rebuilds, applies, relaxes, removes doublets, checks and either
+    /// commits (logging every step) or undoes everything.
+    fn try_commit(&mut self, cand: Cand) -> bool {
+        let Ok(patch) = self.build(cand) else {
+            return false;
+        };
+        if ops::check_patch(&self.mesh, &patch).is_err() {
+            return false;
+        }
+        let op = match cand {
+            Cand::Qv(..) => OpKind::QvMerge,
+            Cand::Qe(_) => OpKind::QeMerge,
+        };
+        // region whose shape is checked: removed faces and faces around
+        // every vertex that moves
+        let mut region: Vec<FaceId> = patch.remove.clone();
+        for &(v, _) in &patch.moved {
+            for f in self.mesh.vertex_faces(v) {
+                if !region.contains(&f) {
+                    region.push(f);
+                }
+            }
+        }
+        let guard = GeometryGuard::capture(&self.mesh, &region);
+        let positions_before: Vec<(VertexId, DVec3)> = patch
+            .moved
+            .iter()
+            .map(|&(v, _)| (v, self.mesh.position(v)))
+            .collect();
+        let removed_positions: Vec<(VertexId, DVec3)> = patch
+            .merged
+            .iter()
+            .map(|&(g, _)| (g, self.mesh.position(g)))
+            .collect();
+        let Ok(applied) = ops::apply_undoable(&mut self.mesh, &patch) else {
+            return false;
+        };
+        let mut undo_stack: Vec<Applied> = vec![applied];
+        // relax the re-fanned vertices (and with local smoothing the 1-ring)
+        let relax_set = self.relax_set(&patch);
+        let relaxed = self.relax(&relax_set, 1);
+        // doublets triggered by the step
+        let mut doublet_logs: Vec<(Patch, DVec3)> = Vec::new();
+        let mut merged_all = patch.merged.clone();
+        let mut queue: Vec<VertexId> = patch.add.iter().flatten().copied().collect();
+        let mut guard_ok = true;
+        while let Some(v) = ops::find_doublets(&self.mesh, &queue).first().copied() {
+            queue.retain(|&x| x != v);
+            match ops::can_remove_doublet(&self.mesh, v) {
+                Ok(d) => {
+                    let pos = self.mesh.position(v);
+                    let Ok(a) = ops::apply_undoable(&mut self.mesh, &d) else {
+                        guard_ok = false;
+                        break;
+                    };
+                    queue.extend(d.add.iter().flatten().copied());
+                    undo_stack.push(a);
+                    merged_all.push(d.merged[0]);
+                    doublet_logs.push((d, pos));
+                }
+                Err(_) => {
+                    guard_ok = false;
+                    break;
+                }
+            }
+        }
+        // compose merges: a vertex merged into one that later merged again
+        let composed: Vec<(VertexId, VertexId)> = merged_all
+            .iter()
+            .map(|&(g, mut into)| {
+                while let Some(n) = merged_all.iter().find(|m| m.0 == into) {
+                    into = n.1;
+                }
+                (g, into)
+            })
+            .collect();
+        // checks after the whole step
+        let moves: Vec<(VertexId, DVec3)> = positions_before
+            .iter()
+            .chain(relaxed.iter())
+            .copied()
+            .collect();
+        let drift = self.drift_updates(&moves, &composed);
+        let after_faces = self.faces_around_touched(&patch, &composed);
+        let mut delta = FeatureDelta::default();
+        let ok = guard_ok
+            && after_faces
+                .iter()
+                .all(|&f| self.mesh.check_dual_chords(f).is_ok())
+            && guard.check(&self.mesh, &after_faces).is_ok()
+            && match self.features.check_after(&self.mesh, &composed) {
+                Ok(d) => {
+                    delta = d;
+                    true
+                }
+                Err(_) => false,
+            }
+            && self.error_with(&drift) <= self.opts.max_error.unwrap_or(f64::INFINITY);
+        if !ok {
+            while let Some(a) = undo_stack.pop() {
+                ops::undo(&mut self.mesh, &a).expect("undo of a just-applied patch");
+            }
+            // relaxation moved vertices that the patch undo does not know about
+            self.restore_relaxed(&relaxed);
+            self.report.rejected += 1;
+            return false;
+        }
+        // ---- commit: logs, attributes, error, queue
+        self.features.commit(delta);
+        let applied = &undo_stack[0];
+        let mut moved: Vec<(VertexId, DVec3, DVec3)> = positions_before
+            .iter()
+            .map(|&(v, before)| (v, before, self.mesh.position(v)))
+            .collect();
+        for &(v, before) in &relaxed {
+            match moved.iter_mut().find(|m| m.0 == v) {
+                Some(m) => m.2 = self.mesh.position(v),
+                None => moved.push((v, before, self.mesh.position(v))),
+            }
+        }
+        self.logs.push(StepLog {
+            op,
+            faces_before: patch
+                .remove
+                .iter()
+                .copied()
+                .zip(applied.old_faces.iter().cloned())
+                .collect(),
+            faces_after: applied
+                .faces
+                .iter()
+                .zip(&patch.add)
+                .map(|(&f, q)| (f, q.to_vec()))
+                .collect(),
+            removed_vertices: removed_positions,
+            moved,
+        });
+        self.commit_drift(&drift, &composed);
+        self.errors.push(self.error);
+        for ((d, pos), a) in doublet_logs.iter().zip(&undo_stack[1..]) {
+            self.logs.push(StepLog {
+                op: OpKind::Doublet,
+                faces_before: d
+                    .remove
+                    .iter()
+                    .copied()
+                    .zip(a.old_faces.iter().cloned())
+                    .collect(),
+                faces_after: a
+                    .faces
+                    .iter()
+                    .zip(&d.add)
+                    .map(|(&f, q)| (f, q.to_vec()))
+                    .collect(),
+                removed_vertices: vec![(d.merged[0].0, *pos)],
+                moved: Vec::new(),
+            });
+            self.errors.push(self.error);
+            self.report.doublets += 1;
+        }
+        match op {
+            OpKind::QvMerge => self.report.qv_merges += 1,
+            _ => self.report.qe_merges += 1,
+        }
+        // re-score the neighbourhood
+        for &f in &after_faces {
+            if f.idx() >= self.stamp.len() {
+                self.stamp.resize(f.idx() + 1, 0);
+            }
+            self.stamp[f.idx()] = self.stamp[f.idx()].wrapping_add(1);
+        }
+        for &f in &after_faces {
+            self.push_face(f);
+        }
+        true
+    }
+
+    /// Vertices the step relaxes: the middle vertices of the re-fans (odd
+    /// path vertices, which a re-fan leaves on a straight line) and, with
+    /// local smoothing, every vertex of the inserted quads. Feature vertices
+    /// never move.
+    fn relax_set(&self, patch: &Patch) -> Vec<VertexId> {
+        let merged_into: Vec<VertexId> = patch.moved.iter().map(|m| m.0).collect();
+        let mut set: Vec<VertexId> = Vec::new();
+        for q in &patch.add {
+            for (i, &v) in q.iter().enumerate() {
+                let fan_middle = i == 2 && merged_into.contains(&q[0]);
+                let local = self.opts.smoothing == Smoothing::Local && !merged_into.contains(&v);
+                if (fan_middle || local) && !self.features.is_feature(v) && !set.contains(&v) {
+                    set.push(v);
+                }
+            }
+        }
+        set.retain(|&v| self.mesh.is_vertex_alive(v) && !self.mesh.is_boundary_vertex(v));
+        set
+    }
+
+    /// The paper's centroidal smoothing on `vs` (importance-weighted face
+    /// centroids, projected to the vertex's tangent plane); Jacobi style.
+    /// Returns the old positions.
+    fn relax(&mut self, vs: &[VertexId], iterations: u32) -> Vec<(VertexId, DVec3)> {
+        let old: Vec<(VertexId, DVec3)> = vs.iter().map(|&v| (v, self.mesh.position(v))).collect();
+        for _ in 0..iterations {
+            let new: Vec<DVec3> = vs.iter().map(|&v| self.smoothed(v)).collect();
+            for (&v, p) in vs.iter().zip(new) {
+                self.mesh.set_position(v, p);
+            }
+        }
+        old
+    }
+
+    fn smoothed(&self, v: VertexId) -> DVec3 {
+        let m = &self.mesh;
+        let (mut sum, mut w, mut n) = (DVec3::ZERO, 0.0, DVec3::ZERO);
+        for f in m.vertex_faces(v) {
+            let a: f64 = m
+                .face_vertices(f)
+                .map(|u| self.attrs.importance[u.idx()])
+                .sum::<f64>()
+                / m.face_degree(f) as f64;
+            sum += m.face_centroid(f) * a;
+            w += a;
+            n += m.face_normal(f);
+        }
+        if w == 0.0 {
+            return m.position(v);
+        }
+        let p = m.position(v);
+        let target = sum / w;
+        let n = n.normalize_or_zero();
+        target - n * (target - p).dot(n)
+    }
+
+    fn restore_relaxed(&mut self, relaxed: &[(VertexId, DVec3)]) {
+        for &(v, p) in relaxed {
+            if self.mesh.is_vertex_alive(v) {
+                self.mesh.set_position(v, p);
+            }
+        }
+    }
+
+    /// Faces around every surviving vertex the step touched.
+    fn faces_around_touched(
+        &self,
+        patch: &Patch,
+        composed: &[(VertexId, VertexId)],
+    ) -> Vec<FaceId> {
+        let mut vs: Vec<VertexId> = patch.add.iter().flatten().copied().collect();
+        vs.extend(patch.moved.iter().map(|m| m.0));
+        vs.extend(composed.iter().map(|m| m.1));
+        vs.sort_unstable();
+        vs.dedup();
+        let mut fs: Vec<FaceId> = Vec::with_capacity(vs.len() * 4);
+        for v in vs {
+            if !self.mesh.is_vertex_alive(v) {
+                continue;
+            }
+            for f in self.mesh.vertex_faces(v) {
+                if !fs.contains(&f) {
+                    fs.push(f);
+                }
+            }
+        }
+        fs
+    }
+
+    /// Drift updates of a step on the mesh after it: every vertex carries a
+    /// bound on how far it is from the input vertices it stands for; a move
+    /// adds the distance moved, a merge takes the worst of its group plus the
+    /// distance to where the group went. `moves` gives positions before.
+    fn drift_updates(
+        &self,
+        moves: &[(VertexId, DVec3)],
+        merged: &[(VertexId, VertexId)],
+    ) -> Vec<(VertexId, f64)> {
+        let mut out: Vec<(VertexId, f64)> = Vec::with_capacity(moves.len() + merged.len());
+        fn set(out: &mut Vec<(VertexId, f64)>, v: VertexId, d: f64) {
+            match out.iter_mut().find(|x| x.0 == v) {
+                Some(x) => x.1 = d,
+                None => out.push((v, d)),
+            }
+        }
+        let get = |out: &Vec<(VertexId, f64)>, v: VertexId| {
+            out.iter()
+                .find(|x| x.0 == v)
+                .map_or(self.drift[v.idx()], |x| x.1)
+        };
+        for &(v, before) in moves {
+            if out.iter().any(|x| x.0 == v) {
+                continue;
+            }
+            let d = self.drift[v.idx()] + (self.mesh.position(v) - before).length();
+            set(&mut out, v, d);
+        }
+        for &(g, into) in merged {
+            let dg =
+                get(&out, g) + (self.mesh.position(into) - self.mesh.positions()[g.idx()]).length();
+            let di = get(&out, into).max(dg);
+            set(&mut out, into, di);
+        }
+        out
+    }
+
+    fn error_with(&self, updates: &[(VertexId, f64)]) -> f64 {
+        updates
+            .iter()
+            .fold(self.error, |e, u| e.max(u.1 / self.diag))
+    }
+
+    fn commit_drift(&mut self, updates: &[(VertexId, f64)], merged: &[(VertexId, VertexId)]) {
+        self.error = self.error_with(updates);
+        for &(v, d) in updates {
+            self.drift[v.idx()] = d;
+        }
+        for &(g, into) in merged {
+            let ig = self.attrs.importance[g.idx()];
+            let ii = &mut self.attrs.importance[into.idx()];
+            *ii = ii.max(ig);
+        }
+    }
+
+    /// Doublet removals logged as their own steps (used on the input).
+    fn remove_doublets_committed(&mut self, candidates: &[VertexId]) {
+        let mut queue = ops::find_doublets(&self.mesh, candidates);
+        while let Some(v) = queue.pop() {
+            let Ok(d) = ops::can_remove_doublet(&self.mesh, v) else {
+                continue;
+            };
+            if self.features.is_feature(v) {
+                continue;
+            }
+            let pos = self.mesh.position(v);
+            let Ok(a) = ops::apply_undoable(&mut self.mesh, &d) else {
+                continue;
+            };
+            self.logs.push(StepLog {
+                op: OpKind::Doublet,
+                faces_before: d
+                    .remove
+                    .iter()
+                    .copied()
+                    .zip(a.old_faces.iter().cloned())
+                    .collect(),
+                faces_after: a
+                    .faces
+                    .iter()
+                    .zip(&d.add)
+                    .map(|(&f, q)| (f, q.to_vec()))
+                    .collect(),
+                removed_vertices: vec![(v, pos)],
+                moved: Vec::new(),
+            });
+            self.errors.push(self.error);
+            self.report.doublets += 1;
+            let more: Vec<VertexId> = d.add.iter().flatten().copied().collect();
+            for x in ops::find_doublets(&self.mesh, &more) {
+                if !queue.contains(&x) {
+                    queue.push(x);
+                }
+            }
+        }
+    }
+
+    /// Global smoothing of the coarsest mesh, logged as one `Smooth` step.
+    fn smooth_all(&mut self, iterations: u32) {
+        let vs: Vec<VertexId> = self
+            .mesh
+            .vertices()
+            .filter(|&v| !self.features.is_feature(v) && !self.mesh.is_boundary_vertex(v))
+            .collect();
+        if vs.is_empty() {
+            return;
+        }
+        let old = self.relax(&vs, iterations);
+        // keep only moves that leave every quad valid
+        let faces: Vec<FaceId> = self.mesh.faces().collect();
+        let bad = faces.iter().any(|&f| {
+            self.mesh
+                .quad_vertices(f)
+                .is_some_and(|q| ops::quad_scaled_jacobian(q.map(|v| self.mesh.position(v))) <= 0.0)
+        });
+        if bad {
+            self.restore_relaxed(&old);
+            return;
+        }
+        let moved: Vec<(VertexId, DVec3, DVec3)> = old
+            .iter()
+            .filter(|(v, p)| self.mesh.position(*v) != *p)
+            .map(|&(v, p)| (v, p, self.mesh.position(v)))
+            .collect();
+        if moved.is_empty() {
+            return;
+        }
+        let drift = self.drift_updates(&old, &[]);
+        self.commit_drift(&drift, &[]);
+        self.logs.push(StepLog {
+            op: OpKind::Smooth,
+            faces_before: Vec::new(),
+            faces_after: Vec::new(),
+            removed_vertices: Vec::new(),
+            moved,
+        });
+        self.errors.push(self.error);
+    }
+}
+
+/// The paper's alignment score of direction `dir` to field `fld` in the
+/// plane with normal `n`: 1 at 0° or 90°, 0 at 45° (`|cos 2θ|`); `None`
+/// where either has no direction in that plane.
+fn align(dir: DVec3, fld: DVec3, n: DVec3) -> Option<f64> {
+    let d = (dir - n * dir.dot(n)).normalize_or_zero();
+    let f = (fld - n * fld.dot(n)).normalize_or_zero();
+    if d == DVec3::ZERO || f == DVec3::ZERO {
+        return None;
+    }
+    let c = d.dot(f);
+    Some((2.0 * c * c - 1.0).abs())
+}
