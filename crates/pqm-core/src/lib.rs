@@ -13,4 +13,6 @@ pub mod mesh;
 pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};
 pub mod progressive;
+pub mod shapes;
+pub mod subdivide;
 pub use progressive::{OpKind, ProgressiveMesh, SplitRecord};
