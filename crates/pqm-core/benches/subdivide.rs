@@ -12,7 +12,10 @@ fn bench_split(c: &mut Criterion) {
     let mut g = c.benchmark_group("catmull_clark_split");
     g.sample_size(20);
     g.throughput(Throughput::Elements(sphere.face_count() as u64));
-    for (name, mode) in [("linear", SplitMode::Linear), ("catmull_clark", SplitMode::CatmullClark)] {
+    for (name, mode) in [
+        ("linear", SplitMode::Linear),
+        ("catmull_clark", SplitMode::CatmullClark),
+    ] {
         g.bench_function(format!("quad_sphere_183/{name}"), |b| {
             b.iter(|| catmull_clark_split(black_box(&sphere), mode).expect("valid mesh"))
         });

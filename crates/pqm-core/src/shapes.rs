@@ -30,7 +30,14 @@ fn cube_lattice(n: u32) -> (Vec<[u32; 3]>, Vec<[u32; 4]>) {
     let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
     let mut lattice = Vec::with_capacity(6 * (n as usize).pow(2) + 2);
     let mut quads = Vec::with_capacity(6 * (n as usize).pow(2));
-    for (axis, positive) in [(0, true), (1, true), (2, true), (0, false), (1, false), (2, false)] {
+    for (axis, positive) in [
+        (0, true),
+        (1, true),
+        (2, true),
+        (0, false),
+        (1, false),
+        (2, false),
+    ] {
         // Tangent axes with e_u × e_v = outward normal, so (u, v)-CCW quads
         // are CCW seen from outside.
         let (mut u, mut v) = ((axis + 1) % 3, (axis + 2) % 3);
@@ -114,14 +121,20 @@ fn torus_with(
             let phi = TAU * j as f64 / nb as f64;
             let r = tube(theta, phi);
             let ring = major_radius + r * phi.cos();
-            positions.push(DVec3::new(ring * theta.cos(), ring * theta.sin(), r * phi.sin()));
+            positions.push(DVec3::new(
+                ring * theta.cos(),
+                ring * theta.sin(),
+                r * phi.sin(),
+            ));
         }
     }
     // ∂p/∂θ × ∂p/∂φ points away from the tube's centre line, so (θ, φ)-CCW
     // quads are CCW seen from outside.
     let id = |i: u32, j: u32| (i % na) * nb + (j % nb);
     let quads = (0..na)
-        .flat_map(|i| (0..nb).map(move |j| [id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]))
+        .flat_map(|i| {
+            (0..nb).map(move |j| [id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)])
+        })
         .collect::<Vec<_>>();
     IndexedMesh::from_faces(positions, quads)
 }
@@ -144,7 +157,9 @@ pub fn grid(nx: u32, ny: u32, size_x: f64, size_y: f64) -> IndexedMesh {
     }
     let id = |i: u32, j: u32| j * (nx + 1) + i;
     let quads = (0..ny)
-        .flat_map(|j| (0..nx).map(move |i| [id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]))
+        .flat_map(|j| {
+            (0..nx).map(move |i| [id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)])
+        })
         .collect::<Vec<_>>();
     IndexedMesh::from_faces(positions, quads)
 }
@@ -207,8 +222,11 @@ pub fn noisy(mesh: &IndexedMesh, amplitude: f64, seed: u64) -> IndexedMesh {
     let mut m = mesh.clone();
     for (v, p) in m.positions.iter_mut().enumerate() {
         let s = 3 * v as u64;
-        *p += DVec3::new(unit_noise(seed, s), unit_noise(seed, s + 1), unit_noise(seed, s + 2))
-            * amplitude;
+        *p += DVec3::new(
+            unit_noise(seed, s),
+            unit_noise(seed, s + 1),
+            unit_noise(seed, s + 2),
+        ) * amplitude;
     }
     m
 }
@@ -234,7 +252,10 @@ pub fn bumpy_torus(
         })
         .collect();
     torus_with(n_major, n_minor, major_radius, |theta, phi| {
-        let b: f64 = waves.iter().map(|&(a, c, ph)| (a * theta + c * phi + ph).sin()).sum();
+        let b: f64 = waves
+            .iter()
+            .map(|&(a, c, ph)| (a * theta + c * phi + ph).sin())
+            .sum();
         minor_radius * (1.0 + amplitude * b / 3.0)
     })
 }

@@ -203,7 +203,10 @@ fn validate(mesh: &IndexedMesh) -> Result<usize, SubdivideError> {
             )));
         }
         if e - s < 3 {
-            return Err(SubdivideError::DegenerateFace { face: f, len: e - s });
+            return Err(SubdivideError::DegenerateFace {
+                face: f,
+                len: e - s,
+            });
         }
         let face = &mesh.indices[s..e];
         for (i, &v) in face.iter().enumerate() {
@@ -233,7 +236,10 @@ fn topology(mesh: &IndexedMesh, corners: usize) -> Result<Topology, SubdivideErr
     let mut next = vec![0u32; corners];
     let mut corner_face = vec![0u32; corners];
     for f in 0..fcount {
-        let (s, e) = (mesh.face_starts[f] as usize, mesh.face_starts[f + 1] as usize);
+        let (s, e) = (
+            mesh.face_starts[f] as usize,
+            mesh.face_starts[f + 1] as usize,
+        );
         for c in s..e {
             next[c] = if c + 1 == e { s as u32 } else { c as u32 + 1 };
             corner_face[c] = f as u32;
@@ -307,7 +313,12 @@ fn topology(mesh: &IndexedMesh, corners: usize) -> Result<Topology, SubdivideErr
             edge_faces[e as usize][1] = corner_face[c];
         }
     }
-    Ok(Topology { corner_edge, corner_face, edge_verts, edge_faces })
+    Ok(Topology {
+        corner_edge,
+        corner_face,
+        edge_verts,
+        edge_faces,
+    })
 }
 
 /// Splits every face of `mesh` into quads once (see the module documentation
@@ -367,7 +378,9 @@ pub fn catmull_clark_split(
         SplitMode::Linear => {
             out_pos.extend_from_slice(pos);
             out_pos.extend(
-                topo.edge_verts.iter().map(|&[a, b]| (pos[a as usize] + pos[b as usize]) * 0.5),
+                topo.edge_verts
+                    .iter()
+                    .map(|&[a, b]| (pos[a as usize] + pos[b as usize]) * 0.5),
             );
         }
         SplitMode::CatmullClark => {
@@ -397,6 +410,8 @@ pub fn catmull_clark_split(
     for f in 0..fcount {
         let (s, e) = (fs[f] as usize, fs[f + 1] as usize);
         let mut prev = e - 1;
+        // `c` indexes three parallel per-corner arrays and is itself an id.
+        #[allow(clippy::needless_range_loop)]
         for c in s..e {
             out_idx.extend_from_slice(&[
                 idx[c],
@@ -538,7 +553,7 @@ fn smoothed_vertices(mesh: &IndexedMesh, topo: &Topology, face_points: &[DVec3])
         .map(|v| {
             let p = pos[v];
             match (bnd_cnt[v], face_cnt[v]) {
-                (_, 0) => p,                                // isolated vertex
+                (_, 0) => p,                                         // isolated vertex
                 (2, fc) if fc >= 2 => p * 0.75 + bnd_sum[v] * 0.125, // boundary curve
                 (0, _) => {
                     let n = edge_cnt[v] as f64;
