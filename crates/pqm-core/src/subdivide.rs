@@ -158,12 +158,24 @@ const NONE: u32 = u32::MAX;
 struct Topology {
     /// Edge id of each flat corner (the edge from that corner to the next).
     corner_edge: Vec<u32>,
-    /// Face of each flat corner.
-    corner_face: Vec<u32>,
     /// Endpoints of each edge, in the direction of its first use.
     edge_verts: Vec<[u32; 2]>,
     /// The one or two faces of each edge (`NONE` for a missing second face).
     edge_faces: Vec<[u32; 2]>,
+}
+
+/// Calls `visit(corner, from, to, face)` for every face side `from → to`, in
+/// flat corner order.
+#[inline]
+fn for_each_side(mesh: &IndexedMesh, mut visit: impl FnMut(usize, u32, u32, u32)) {
+    let idx = &mesh.indices;
+    for (f, w) in mesh.face_starts.windows(2).enumerate() {
+        let (s, e) = (w[0] as usize, w[1] as usize);
+        for c in s..e - 1 {
+            visit(c, idx[c], idx[c + 1], f as u32);
+        }
+        visit(e - 1, idx[e - 1], idx[s], f as u32);
+    }
 }
 
 /// Checks the face table and indices; returns the number of corners.
@@ -229,48 +241,32 @@ fn validate(mesh: &IndexedMesh) -> Result<usize, SubdivideError> {
 /// Builds corner → edge numbering without hashing (see the module docs).
 fn topology(mesh: &IndexedMesh, corners: usize) -> Result<Topology, SubdivideError> {
     let vc = mesh.positions.len();
-    let fcount = mesh.face_count();
-    let idx = &mesh.indices;
-
-    // Successor corner and face of every flat corner.
-    let mut next = vec![0u32; corners];
-    let mut corner_face = vec![0u32; corners];
-    for f in 0..fcount {
-        let (s, e) = (
-            mesh.face_starts[f] as usize,
-            mesh.face_starts[f + 1] as usize,
-        );
-        for c in s..e {
-            next[c] = if c + 1 == e { s as u32 } else { c as u32 + 1 };
-            corner_face[c] = f as u32;
-        }
-    }
 
     // CSR bucket of every corner's edge under its smaller endpoint; an entry
     // packs (larger endpoint, corner) so one sort groups equal edges and puts
-    // the earliest corner of each edge first.
-    let mut start = vec![0u32; vc + 1];
-    for c in 0..corners {
-        let (a, b) = (idx[c], idx[next[c] as usize]);
-        start[a.min(b) as usize + 1] += 1;
-    }
+    // the earliest corner of each edge first. Memory is the main cost at this
+    // size, so scratch arrays are few and reused.
+    let mut end = vec![0u32; vc + 1];
+    for_each_side(mesh, |_, a, b, _| end[a.min(b) as usize + 1] += 1);
     for v in 0..vc {
-        start[v + 1] += start[v];
+        end[v + 1] += end[v];
     }
-    let mut fill = start.clone();
     let mut entries = vec![0u64; corners];
-    for c in 0..corners {
-        let (a, b) = (idx[c], idx[next[c] as usize]);
+    // Filling advances end[v] from the start of bucket v to its end, so
+    // afterwards bucket v is end[v - 1]..end[v] (with end[-1] = 0).
+    for_each_side(mesh, |c, a, b, _| {
         let lo = a.min(b) as usize;
-        entries[fill[lo] as usize] = ((a.max(b) as u64) << 32) | c as u64;
-        fill[lo] += 1;
-    }
-    drop(fill);
+        entries[end[lo] as usize] = ((a.max(b) as u64) << 32) | c as u64;
+        end[lo] += 1;
+    });
 
-    // leader[c] = first corner (in flat order) of c's edge.
-    let mut leader = vec![0u32; corners];
+    // First holds, for every corner, the first corner (in flat order) that
+    // uses the same edge; the numbering pass below overwrites it with ids.
+    let mut corner_edge = vec![0u32; corners];
+    let mut begin = 0usize;
     for v in 0..vc {
-        let bucket = &mut entries[start[v] as usize..start[v + 1] as usize];
+        let bucket = &mut entries[begin..end[v] as usize];
+        begin = end[v] as usize;
         bucket.sort_unstable();
         let mut i = 0;
         while i < bucket.len() {
@@ -288,34 +284,32 @@ fn topology(mesh: &IndexedMesh, corners: usize) -> Result<Topology, SubdivideErr
             }
             let first = bucket[i] as u32;
             for &entry in &bucket[i..j] {
-                leader[entry as u32 as usize] = first;
+                corner_edge[entry as u32 as usize] = first;
             }
             i = j;
         }
     }
     drop(entries);
-    drop(start);
+    drop(end);
 
-    // Number edges in order of their leader corner.
-    let mut corner_edge = vec![0u32; corners];
+    // Number edges in order of their first corner.
     let mut edge_verts = Vec::with_capacity(corners / 2 + 1);
     let mut edge_faces: Vec<[u32; 2]> = Vec::with_capacity(corners / 2 + 1);
-    for c in 0..corners {
-        let l = leader[c] as usize;
-        if l == c {
+    for_each_side(mesh, |c, a, b, f| {
+        let first = corner_edge[c] as usize;
+        if first == c {
             corner_edge[c] = edge_verts.len() as u32;
-            edge_verts.push([idx[c], idx[next[c] as usize]]);
-            edge_faces.push([corner_face[c], NONE]);
+            edge_verts.push([a, b]);
+            edge_faces.push([f, NONE]);
         } else {
-            // l < c, so its edge is numbered already.
-            let e = corner_edge[l];
+            // first < c, so corner_edge[first] already holds the edge id.
+            let e = corner_edge[first];
             corner_edge[c] = e;
-            edge_faces[e as usize][1] = corner_face[c];
+            edge_faces[e as usize][1] = f;
         }
-    }
+    });
     Ok(Topology {
         corner_edge,
-        corner_face,
         edge_verts,
         edge_faces,
     })
@@ -384,21 +378,17 @@ pub fn catmull_clark_split(
             );
         }
         SplitMode::CatmullClark => {
-            let edge_points: Vec<DVec3> = topo
-                .edge_verts
-                .iter()
-                .zip(&topo.edge_faces)
-                .map(|(&[a, b], &[f1, f2])| {
+            out_pos.extend(smoothed_vertices(mesh, &topo, &face_points));
+            out_pos.extend(topo.edge_verts.iter().zip(&topo.edge_faces).map(
+                |(&[a, b], &[f1, f2])| {
                     let mid = pos[a as usize] + pos[b as usize];
                     if f2 == NONE {
                         mid * 0.5
                     } else {
                         (mid + face_points[f1 as usize] + face_points[f2 as usize]) * 0.25
                     }
-                })
-                .collect();
-            out_pos.extend(smoothed_vertices(mesh, &topo, &face_points));
-            out_pos.extend(edge_points);
+                },
+            ));
         }
     }
     out_pos.extend_from_slice(&face_points);
@@ -527,10 +517,10 @@ fn smoothed_vertices(mesh: &IndexedMesh, topo: &Topology, face_points: &[DVec3])
     let pos = &mesh.positions;
     let mut face_sum = vec![DVec3::ZERO; vc];
     let mut face_cnt = vec![0u32; vc];
-    for (c, &v) in mesh.indices.iter().enumerate() {
-        face_sum[v as usize] += face_points[topo.corner_face[c] as usize];
+    for_each_side(mesh, |_, v, _, f| {
+        face_sum[v as usize] += face_points[f as usize];
         face_cnt[v as usize] += 1;
-    }
+    });
     let mut mid_sum = vec![DVec3::ZERO; vc];
     let mut edge_cnt = vec![0u32; vc];
     let mut bnd_sum = vec![DVec3::ZERO; vc];
