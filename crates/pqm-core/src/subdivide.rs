@@ -359,39 +359,37 @@ pub fn catmull_clark_split(
     let idx = &mesh.indices;
     let pos = &mesh.positions;
 
+    // One output buffer, filled in place (verts | edge points | face points):
+    // at this size, fresh memory and copies cost more than the arithmetic.
+    let mut out_pos = vec![DVec3::ZERO; out_vc as usize];
+    let (vert_out, rest) = out_pos.split_at_mut(vc);
+    let (edge_out, face_points) = rest.split_at_mut(ec);
     // Face points: centroids in both modes.
-    let face_points: Vec<DVec3> = (0..fcount)
-        .map(|f| {
-            let face = &idx[fs[f] as usize..fs[f + 1] as usize];
-            face.iter().map(|&v| pos[v as usize]).sum::<DVec3>() / face.len() as f64
-        })
-        .collect();
-
-    let mut out_pos = Vec::with_capacity(out_vc as usize);
+    for (f, fp) in face_points.iter_mut().enumerate() {
+        let face = &idx[fs[f] as usize..fs[f + 1] as usize];
+        *fp = face.iter().map(|&v| pos[v as usize]).sum::<DVec3>() / face.len() as f64;
+    }
+    let face_points = &*face_points;
     match mode {
         SplitMode::Linear => {
-            out_pos.extend_from_slice(pos);
-            out_pos.extend(
-                topo.edge_verts
-                    .iter()
-                    .map(|&[a, b]| (pos[a as usize] + pos[b as usize]) * 0.5),
-            );
+            vert_out.copy_from_slice(pos);
+            for (ep, &[a, b]) in edge_out.iter_mut().zip(&topo.edge_verts) {
+                *ep = (pos[a as usize] + pos[b as usize]) * 0.5;
+            }
         }
         SplitMode::CatmullClark => {
-            out_pos.extend(smoothed_vertices(mesh, &topo, &face_points));
-            out_pos.extend(topo.edge_verts.iter().zip(&topo.edge_faces).map(
-                |(&[a, b], &[f1, f2])| {
-                    let mid = pos[a as usize] + pos[b as usize];
-                    if f2 == NONE {
-                        mid * 0.5
-                    } else {
-                        (mid + face_points[f1 as usize] + face_points[f2 as usize]) * 0.25
-                    }
-                },
-            ));
+            smoothed_vertices(mesh, &topo, face_points, vert_out);
+            let edges = topo.edge_verts.iter().zip(&topo.edge_faces);
+            for (ep, (&[a, b], &[f1, f2])) in edge_out.iter_mut().zip(edges) {
+                let mid = pos[a as usize] + pos[b as usize];
+                *ep = if f2 == NONE {
+                    mid * 0.5
+                } else {
+                    (mid + face_points[f1 as usize] + face_points[f2 as usize]) * 0.25
+                };
+            }
         }
     }
-    out_pos.extend_from_slice(&face_points);
 
     // Quads: corner c of face f gives (v_c, e_c, f, e_prev(c)).
     let mut out_idx = Vec::with_capacity(corners * 4);
@@ -511,50 +509,56 @@ fn check_texcoords(mesh: &IndexedMesh, corners: usize) -> Result<(), SubdivideEr
 }
 
 /// New positions of the original vertices under the Catmull-Clark rules,
-/// accumulated in one pass over corners and one over edges.
-fn smoothed_vertices(mesh: &IndexedMesh, topo: &Topology, face_points: &[DVec3]) -> Vec<DVec3> {
+/// accumulated in one pass over corners and one over edges, written to `out`
+/// (one entry per input vertex; also used as the face-point accumulator).
+fn smoothed_vertices(
+    mesh: &IndexedMesh,
+    topo: &Topology,
+    face_points: &[DVec3],
+    out: &mut [DVec3],
+) {
     let vc = mesh.positions.len();
     let pos = &mesh.positions;
-    let mut face_sum = vec![DVec3::ZERO; vc];
-    let mut face_cnt = vec![0u32; vc];
+    // Per vertex: incident face sides, incident edges, boundary edges.
+    let mut counts = vec![[0u32; 3]; vc];
+    let face_sum = out;
+    face_sum.fill(DVec3::ZERO);
     for_each_side(mesh, |_, v, _, f| {
         face_sum[v as usize] += face_points[f as usize];
-        face_cnt[v as usize] += 1;
+        counts[v as usize][0] += 1;
     });
-    let mut mid_sum = vec![DVec3::ZERO; vc];
-    let mut edge_cnt = vec![0u32; vc];
+    // Sum of neighbour positions over all edges, and over boundary edges.
+    let mut nbr_sum = vec![DVec3::ZERO; vc];
     let mut bnd_sum = vec![DVec3::ZERO; vc];
-    let mut bnd_cnt = vec![0u32; vc];
     for (&[a, b], &[_, f2]) in topo.edge_verts.iter().zip(&topo.edge_faces) {
         let (a, b) = (a as usize, b as usize);
-        let mid = (pos[a] + pos[b]) * 0.5;
-        mid_sum[a] += mid;
-        mid_sum[b] += mid;
-        edge_cnt[a] += 1;
-        edge_cnt[b] += 1;
+        nbr_sum[a] += pos[b];
+        nbr_sum[b] += pos[a];
+        counts[a][1] += 1;
+        counts[b][1] += 1;
         if f2 == NONE {
             bnd_sum[a] += pos[b];
             bnd_sum[b] += pos[a];
-            bnd_cnt[a] += 1;
-            bnd_cnt[b] += 1;
+            counts[a][2] += 1;
+            counts[b][2] += 1;
         }
     }
-    (0..vc)
-        .map(|v| {
-            let p = pos[v];
-            match (bnd_cnt[v], face_cnt[v]) {
-                (_, 0) => p,                                         // isolated vertex
-                (2, fc) if fc >= 2 => p * 0.75 + bnd_sum[v] * 0.125, // boundary curve
-                (0, _) => {
-                    let n = edge_cnt[v] as f64;
-                    let f = face_sum[v] / face_cnt[v] as f64;
-                    let r = mid_sum[v] / n;
-                    (f + 2.0 * r + (n - 3.0) * p) / n
-                }
-                _ => p, // corner: one face, or a non-manifold boundary vertex
+    for v in 0..vc {
+        let p = pos[v];
+        let [fc, ec, bc] = counts[v];
+        face_sum[v] = match (bc, fc) {
+            (_, 0) => p,                                         // isolated vertex
+            (2, fc) if fc >= 2 => p * 0.75 + bnd_sum[v] * 0.125, // boundary curve
+            (0, _) => {
+                let n = ec as f64;
+                let f = face_sum[v] / fc as f64;
+                // Average of the edge midpoints (p + q) / 2 over neighbours q.
+                let r = (p + nbr_sum[v] / n) * 0.5;
+                (f + 2.0 * r + (n - 3.0) * p) / n
             }
-        })
-        .collect()
+            _ => p, // corner: one face, or a non-manifold boundary vertex
+        };
+    }
 }
 
 /// Applies [`catmull_clark_split`] `levels` times (`levels == 0` returns a

@@ -22,8 +22,19 @@ fn scramble(base: &IndexedMesh, ops: &[(u32, u8, bool)]) -> IndexedMesh {
         let f = faces[fi].clone();
         let i = side as usize % f.len();
         if cut {
-            if f.len() == 4 {
-                let r = (f[i], f[(i + 1) % 4], f[(i + 2) % 4], f[(i + 3) % 4]);
+            if f.len() != 4 {
+                continue;
+            }
+            let r = (f[i], f[(i + 1) % 4], f[(i + 2) % 4], f[(i + 3) % 4]);
+            // On tiny tori the diagonal may already be an edge elsewhere;
+            // cutting there would make the mesh non-manifold.
+            let exists = faces.iter().any(|g| {
+                (0..g.len()).any(|k| {
+                    let (x, y) = (g[k], g[(k + 1) % g.len()]);
+                    (x, y) == (r.0, r.2) || (x, y) == (r.2, r.0)
+                })
+            });
+            if !exists {
                 faces[fi] = vec![r.0, r.1, r.2];
                 faces.push(vec![r.0, r.2, r.3]);
             }
