@@ -209,9 +209,9 @@ fn validate(mesh: &IndexedMesh) -> Result<usize, SubdivideError> {
     let vc = mesh.positions.len();
     for f in 0..fs.len() - 1 {
         let (s, e) = (fs[f] as usize, fs[f + 1] as usize);
-        if e < s {
+        if e < s || e > corners {
             return Err(SubdivideError::MalformedFaces(format!(
-                "face_starts decreases at face {f} ({s} then {e})"
+                "face {f} spans corners {s}..{e}, outside 0..{corners} or reversed"
             )));
         }
         if e - s < 3 {

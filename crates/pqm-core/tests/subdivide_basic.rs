@@ -465,6 +465,11 @@ fn bad_input_gives_named_errors() {
         catmull_clark_split(&bad_table, SplitMode::Linear),
         Err(SubdivideError::MalformedFaces(_))
     ));
+    bad_table.face_starts = vec![0, 5, 4];
+    assert!(matches!(
+        catmull_clark_split(&bad_table, SplitMode::Linear),
+        Err(SubdivideError::MalformedFaces(_))
+    ));
     bad_table.face_starts = vec![0, 3, 2, 4];
     assert!(matches!(
         catmull_clark_split(&bad_table, SplitMode::Linear),
