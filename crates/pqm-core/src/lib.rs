@@ -15,4 +15,6 @@ pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};
 pub mod ops;
 pub mod progressive;
+pub mod shapes;
+pub mod subdivide;
 pub use progressive::{OpKind, ProgressiveMesh, SplitRecord};
