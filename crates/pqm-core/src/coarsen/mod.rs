@@ -165,6 +165,11 @@ pub struct Coarsener {
     errors: Vec<f64>,
     report: CoarsenReport,
     input_faces: usize,
+    epoch: u32,
+    fmark: Vec<u32>,
+    vmark: Vec<u32>,
+    scratch_touched: Vec<VertexId>,
+    scratch_pairs: Vec<(u32, u32)>,
 }
 
 impl Coarsener {
@@ -184,6 +189,7 @@ impl Coarsener {
         let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
         let features = FeatureState::with_boundary(&mesh, feature_curves);
         let input_faces = mesh.face_count();
+        let mesh_faces = mesh.face_capacity();
         Coarsener {
             stamp: vec![0; mesh.face_capacity()],
             drift: vec![0.0; n],
@@ -198,6 +204,11 @@ impl Coarsener {
             errors: vec![0.0],
             report: CoarsenReport::default(),
             input_faces,
+            epoch: 0,
+            fmark: vec![0; mesh_faces],
+            vmark: vec![0; n],
+            scratch_touched: Vec::new(),
+            scratch_pairs: Vec::new(),
         }
     }
 
@@ -311,10 +322,10 @@ impl Coarsener {
     }
 
     fn push(&mut self, cand: Cand) {
+        // Scoring builds the patch but leaves the (costlier) topology check
+        // to commit time: a candidate that fails it is dropped when popped
+        // and comes back only when its neighbourhood changes.
         let Ok(patch) = self.build(cand) else { return };
-        if ops::check_patch(&self.mesh, &patch).is_err() {
-            return;
-        }
         let cost = self.cost(cand, &patch);
         let stamps = match cand {
             Cand::Qv(f, _) => (self.stamp[f.idx()], 0),
@@ -375,87 +386,112 @@ impl Coarsener {
     }
 
     /// The paper's error `E` for a built patch.
-    fn cost(&self, cand: Cand, patch: &Patch) -> f64 {
+    fn cost(&mut self, cand: Cand, patch: &Patch) -> f64 {
+        // --- V: ideal-vertex fraction before/after over the touched vertices.
+        // Valences after come from the distinct neighbour pairs over kept
+        // and inserted faces; epoch marks make the set tests O(1).
+        self.epoch = self.epoch.wrapping_add(1);
+        if self.epoch == 0 {
+            self.fmark.iter_mut().for_each(|x| *x = 0);
+            self.vmark.iter_mut().for_each(|x| *x = 0);
+            self.epoch = 1;
+        }
+        let epoch = self.epoch;
         let m = &self.mesh;
-        // --- V: ideal-vertex fraction before/after over the touched vertices
-        let mut touched: Vec<VertexId> = Vec::with_capacity(24);
+        let mut touched = std::mem::take(&mut self.scratch_touched);
+        let mut pairs = std::mem::take(&mut self.scratch_pairs);
+        touched.clear();
+        pairs.clear();
+        for &f in &patch.remove {
+            self.fmark[f.idx()] = epoch;
+        }
         for &f in &patch.remove {
             for v in m.face_vertices(f) {
-                if !touched.contains(&v) {
+                if self.vmark[v.idx()] != epoch {
+                    self.vmark[v.idx()] = epoch;
                     touched.push(v);
                 }
             }
         }
+        let kept = |f: Option<FaceId>| f.is_some_and(|f| self.fmark[f.idx()] != epoch);
         let mut ideal_b = 0usize;
         let mut dev_b = 0usize;
         for &v in &touched {
             let (val, ideal) = (m.valence(v), m.ideal_valence(v));
             ideal_b += (val == ideal) as usize;
             dev_b = dev_b.max(val.abs_diff(ideal));
-        }
-        // valences after: distinct neighbours over kept and added faces
-        let mut after: Vec<(VertexId, Vec<VertexId>, usize)> = Vec::with_capacity(touched.len());
-        for &v in &touched {
             if patch.merged.iter().any(|g| g.0 == v) {
                 continue;
             }
-            let mut nb: Vec<VertexId> = Vec::with_capacity(8);
-            let add_nb = |p: VertexId, n: VertexId, nb: &mut Vec<VertexId>| {
-                for x in [p, n] {
-                    if !nb.contains(&x) {
-                        nb.push(x);
-                    }
-                }
-            };
             for h in m.outgoing(v) {
-                if let Some(f) = m.face(h) {
-                    if !patch.remove.contains(&f) {
-                        add_nb(m.from_vertex(m.prev(h)), m.to_vertex(h), &mut nb);
-                    }
+                if kept(m.face(h)) || kept(m.face(m.twin(h))) {
+                    pairs.push((v.0, m.to_vertex(h).0));
                 }
             }
-            for q in &patch.add {
-                if let Some(k) = q.iter().position(|&x| x == v) {
-                    add_nb(q[(k + 3) % 4], q[(k + 1) % 4], &mut nb);
-                }
+        }
+        for q in &patch.add {
+            for i in 0..4 {
+                let (a, b) = (q[i].0, q[(i + 1) % 4].0);
+                pairs.push((a, b));
+                pairs.push((b, a));
             }
-            let boundary = m.is_boundary_vertex(v)
-                || patch
-                    .merged
-                    .iter()
-                    .any(|g| g.1 == v && m.is_boundary_vertex(g.0));
-            let ideal = if boundary {
-                if m.is_boundary_vertex(v) {
-                    m.ideal_valence(v)
-                } else {
-                    3
-                }
-            } else {
-                4
-            };
-            after.push((v, nb, ideal));
+        }
+        pairs.sort_unstable();
+        pairs.dedup();
+        // (vertex, valence after, ideal after, start in pairs)
+        let mut after: Vec<(VertexId, usize, usize, usize)> = Vec::with_capacity(touched.len());
+        let mut i = 0;
+        while i < pairs.len() {
+            let v = VertexId(pairs[i].0);
+            let mut j = i;
+            while j < pairs.len() && pairs[j].0 == v.0 {
+                j += 1;
+            }
+            if self.vmark[v.idx()] == epoch && !patch.merged.iter().any(|g| g.0 == v) {
+                let boundary = m.is_boundary_vertex(v)
+                    || patch
+                        .merged
+                        .iter()
+                        .any(|g| g.1 == v && m.is_boundary_vertex(g.0));
+                let ideal = match (boundary, m.is_boundary_vertex(v)) {
+                    (false, _) => 4,
+                    (true, true) => m.ideal_valence(v),
+                    (true, false) => 3,
+                };
+                after.push((v, j - i, ideal, i));
+            }
+            i = j;
         }
         // doublets the step triggers: interior valence-2 survivors vanish and
         // their two neighbours lose an edge each
-        let mut gone: Vec<VertexId> = Vec::new();
-        for (v, nb, ideal) in &after {
-            if *ideal == 4 && nb.len() == 2 {
-                gone.push(*v);
-            }
-        }
+        let gone: Vec<u32> = after
+            .iter()
+            .filter(|a| a.2 == 4 && a.1 == 2)
+            .map(|a| a.0 .0)
+            .collect();
         let (mut ideal_a, mut dev_a, mut count_a) = (0usize, 0usize, 0usize);
-        for (v, nb, ideal) in &after {
-            if gone.contains(v) {
+        for &(_, val, ideal, start) in &after {
+            if ideal == 4 && val == 2 {
                 continue;
             }
-            let lost = nb.iter().filter(|x| gone.contains(x)).count();
-            let val = nb.len() - lost;
+            let lost = if gone.is_empty() {
+                0
+            } else {
+                pairs[start..start + val]
+                    .iter()
+                    .filter(|p| gone.contains(&p.1))
+                    .count()
+            };
+            let val = val - lost;
             count_a += 1;
-            ideal_a += (val == *ideal) as usize;
-            dev_a = dev_a.max(val.abs_diff(*ideal));
+            ideal_a += (val == ideal) as usize;
+            dev_a = dev_a.max(val.abs_diff(ideal));
         }
         let v_b = ideal_b as f64 / touched.len().max(1) as f64;
         let v_a = (ideal_a as f64 / count_a.max(1) as f64).max(1e-3);
+        self.scratch_touched = touched;
+        self.scratch_pairs = pairs;
+        let m = &self.mesh;
         // --- D: importance-weighted moved distance
         let imp = |vs: &[VertexId]| {
             vs.iter()
