@@ -14,3 +14,7 @@ pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};
 pub mod progressive;
 pub use progressive::{OpKind, ProgressiveMesh, SplitRecord};
+pub mod attributes;
+pub mod features;
+pub mod qem;
+pub mod smoothing;
