@@ -37,7 +37,7 @@ fn norm_edge(a: VertexId, b: VertexId) -> Edge {
 /// [`FeatureCurves::new`] to add them). Sorted, normalised `a < b`.
 pub fn sharp_edges(mesh: &Mesh, angle_deg: f64) -> Vec<Edge> {
     let mut out = Vec::new();
-    if !(angle_deg < 180.0) {
+    if angle_deg.is_nan() || angle_deg >= 180.0 {
         return out;
     }
     // compare cosines: angle > t ⇔ cos(angle) < cos(t) (both in [0°, 180°])
@@ -274,8 +274,7 @@ impl FeatureCurves {
             if degree[v] == 2 || degree[v] == 0 {
                 continue;
             }
-            for k in start[v]..start[v + 1] {
-                let (_, e) = adj[k];
+            for &(_, e) in &adj[start[v]..start[v + 1]] {
                 if edge_curve[e] != u32::MAX {
                     continue;
                 }

@@ -106,7 +106,8 @@ impl Quadric {
         let c02 = m01 * m12 - m02 * m11;
         let det = m00 * c00 + m01 * c01 + m02 * c02;
         let tr3 = (m00 + m11 + m22) / 3.0;
-        if !(tr3 > 0.0) || !(det >= OPTIMAL_POINT_MIN_CONDITION * tr3 * tr3 * tr3) {
+        let conditioned = tr3 > 0.0 && det >= OPTIMAL_POINT_MIN_CONDITION * tr3 * tr3 * tr3;
+        if !conditioned {
             return None;
         }
         let c11 = m00 * m22 - m02 * m02;

@@ -80,7 +80,7 @@ pub fn smoothed_position(
         nsum += n.normalize_or_zero();
     }
     let n = nsum.normalize_or_zero();
-    if !(wsum > 0.0) || n == DVec3::ZERO {
+    if wsum.is_nan() || wsum <= 0.0 || n == DVec3::ZERO {
         return None;
     }
     let p = pos(v);

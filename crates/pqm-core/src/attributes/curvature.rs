@@ -363,8 +363,8 @@ pub fn symmetric_eigen3(m: [[f64; 3]; 3]) -> ([f64; 3], [DVec3; 3]) {
                 row[p] = c * akp - s * akq;
                 row[q] = s * akp + c * akq;
             }
-            for k in 0..3 {
-                let (apk, aqk) = (a[p][k], a[q][k]);
+            let (rp, rq) = (a[p], a[q]);
+            for (k, (&apk, &aqk)) in rp.iter().zip(rq.iter()).enumerate() {
                 a[p][k] = c * apk - s * aqk;
                 a[q][k] = s * apk + c * aqk;
             }

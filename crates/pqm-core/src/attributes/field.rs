@@ -89,9 +89,10 @@ impl Field {
     /// True when no vertex has a direction (every vector shorter than
     /// [`FIELD_MIN_LENGTH`]).
     pub fn is_empty(&self) -> bool {
-        self.dirs
+        !self
+            .dirs
             .iter()
-            .all(|d| !(d.length_squared() >= FIELD_MIN_LENGTH * FIELD_MIN_LENGTH))
+            .any(|d| d.length_squared() >= FIELD_MIN_LENGTH * FIELD_MIN_LENGTH)
     }
 
     /// The vector at `v` (zero for ids beyond the field).
@@ -140,7 +141,8 @@ pub fn rosy4_average(normal: DVec3, vectors: impl IntoIterator<Item = DVec3>) ->
         count += 1;
         let (a, b) = (u.dot(t1), u.dot(t2));
         let m2 = a * a + b * b;
-        if !(m2 > 0.0) || !m2.is_finite() {
+        let usable = m2 > 0.0 && m2.is_finite();
+        if !usable {
             continue;
         }
         // z⁴ / |z|³ has length |z| and angle 4φ
@@ -154,7 +156,7 @@ pub fn rosy4_average(normal: DVec3, vectors: impl IntoIterator<Item = DVec3>) ->
         return DVec3::ZERO;
     }
     let m = wx.hypot(wy) / count as f64;
-    if !(m > 0.0) {
+    if m.is_nan() || m <= 0.0 {
         return DVec3::ZERO;
     }
     let (s, c) = (0.25 * wy.atan2(wx)).sin_cos();
@@ -175,18 +177,19 @@ pub fn rosy4_average(normal: DVec3, vectors: impl IntoIterator<Item = DVec3>) ->
 #[inline]
 pub fn alignment(dir: DVec3, field: DVec3, normal: DVec3) -> Option<f64> {
     let nn = normal.length_squared();
-    if !(nn > 0.0) || !nn.is_finite() {
+    let usable = nn > 0.0 && nn.is_finite();
+    if !usable {
         return None;
     }
     let d = dir - normal * (normal.dot(dir) / nn);
     let f = field - normal * (normal.dot(field) / nn);
     let (dd, ff) = (d.length_squared(), f.length_squared());
     let frac2 = MIN_PROJECTED_FRACTION * MIN_PROJECTED_FRACTION;
-    if !(ff >= FIELD_MIN_LENGTH * FIELD_MIN_LENGTH)
-        || !(ff > frac2 * field.length_squared())
-        || !(dd > frac2 * dir.length_squared())
-        || !(dd > 0.0)
-    {
+    let usable = ff >= FIELD_MIN_LENGTH * FIELD_MIN_LENGTH
+        && ff > frac2 * field.length_squared()
+        && dd > frac2 * dir.length_squared()
+        && dd > 0.0;
+    if !usable {
         return None;
     }
     let dot = d.dot(f);

@@ -60,7 +60,8 @@ pub fn curvature_importance(mesh: &Mesh, curvature: &Curvature) -> Vec<f64> {
     let at = |q: f64| live[((live.len() - 1) as f64 * q).round() as usize];
     let (p_lo, p_hi) = (at(CURVATURE_PERCENTILES.0), at(CURVATURE_PERCENTILES.1));
     // Relative tolerance: percentiles equal up to rounding mean "uniform".
-    if !(p_hi - p_lo > 1e-9 * p_hi.abs().max(1e-12)) {
+    let spread = p_hi - p_lo > 1e-9 * p_hi.abs().max(1e-12);
+    if !spread {
         return out;
     }
     for v in mesh.vertices() {
