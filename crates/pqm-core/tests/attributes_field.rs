@@ -242,3 +242,35 @@ fn sidecar_errors_and_the_ambiguous_count() {
         .to_string();
     assert!(e.contains("none.txt"), "{e}");
 }
+
+#[test]
+fn quad_alignment_equals_chord_alignment_to_the_face_field() {
+    let m = mesh(&torus(16, 8, 3.0, 1.0));
+    let mut rng = Rng(11);
+    let field = Field {
+        dirs: (0..m.vertex_capacity())
+            .map(|_| DVec3::new(rng.signed(), rng.signed(), rng.signed()))
+            .collect(),
+    };
+    let mut checked = 0;
+    for f in m.faces() {
+        let q = m.quad_vertices(f).unwrap().map(|v| m.position(v));
+        let n = (q[2] - q[0]).cross(q[3] - q[1]);
+        let u = field.at_face(&m, f);
+        let c1 = (q[2] + q[3]) - (q[0] + q[1]);
+        let c2 = (q[3] + q[0]) - (q[1] + q[2]);
+        let want = match (alignment(c1, u, n), alignment(c2, u, n)) {
+            (Some(a), Some(b)) => Some(0.5 * (a + b)),
+            _ => None,
+        };
+        let got = quad_alignment(&m, f, &field);
+        match (got, want) {
+            (Some(g), Some(w)) => {
+                assert!((g - w).abs() < 1e-9, "{f:?}: {g} vs {w}");
+                checked += 1;
+            }
+            (g, w) => assert_eq!(g.is_some(), w.is_some()),
+        }
+    }
+    assert!(checked > 100);
+}

@@ -142,3 +142,40 @@ fn vertex_property_loader_checks_name_length_and_values() {
     let e = err_text(importance_from_scalars(&im, "bad"));
     assert!(e.contains("vertex 1"), "{e}");
 }
+
+#[test]
+fn fandisk_creases_are_more_important_than_its_flat_parts() {
+    let path = shared_mesh("quad/fandisk_quads.off");
+    if !path.exists() {
+        eprintln!("skipping: {} not found", path.display());
+        return;
+    }
+    let m = mesh(&read_off(&path));
+    let c = Curvature::estimate(&m);
+    let imp = curvature_importance(&m, &c);
+    assert!(imp.iter().all(|x| (1.0..=3.0).contains(x)));
+    let sharp = pqm_core::features::sharp_edges(&m, 60.0);
+    let mut on = vec![false; m.vertex_capacity()];
+    for &(a, b) in &sharp {
+        on[a.idx()] = true;
+        on[b.idx()] = true;
+    }
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let crease = median(
+        m.vertices()
+            .filter(|v| on[v.idx()])
+            .map(|v| imp[v.idx()])
+            .collect(),
+    );
+    let rest = median(
+        m.vertices()
+            .filter(|v| !on[v.idx()])
+            .map(|v| imp[v.idx()])
+            .collect(),
+    );
+    eprintln!("fandisk_quads median importance: creases {crease:.3}, elsewhere {rest:.3}");
+    assert!(crease > rest + 0.5, "creases {crease} vs elsewhere {rest}");
+}

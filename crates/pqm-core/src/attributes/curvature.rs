@@ -37,7 +37,8 @@
 //! edges of a good quad mesh follow both.
 //!
 //! Cost: O(F) for the per-face tensors plus, per vertex, the size of its
-//! `rings`-ring (about 25 faces for `rings = 2` on a regular quad mesh).
+//! `rings`-ring (4 faces for `rings = 1`, 16 for `rings = 2` on a regular quad
+//! mesh).
 
 use crate::mesh::{Mesh, VertexId};
 use glam::DVec3;
@@ -46,8 +47,12 @@ use glam::DVec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurvatureOptions {
     /// Neighbourhood size in face rings (1 or more; 0 is treated as 1).
-    /// 1 follows the surface closely; 2 (the default) averages out the
-    /// faceting of coarse or irregular meshes.
+    /// 1 (the default) follows the surface closely and keeps creases
+    /// localised (on the 766-vertex fandisk quad mesh, 2 rings spread the
+    /// creases' curvature over most of the part); 2 averages out noise and
+    /// the faceting of irregular meshes, at a bias that is second order in
+    /// the ring size (measured: 8% on the small curvature of a 96 × 32
+    /// torus, 2% at 192 × 64).
     pub rings: u32,
     /// Curvature below which a region counts as flat, in units of
     /// `1 / bounding-box diagonal` (default 0.05: a radius of 20 diagonals).
@@ -58,7 +63,7 @@ pub struct CurvatureOptions {
 impl Default for CurvatureOptions {
     fn default() -> Self {
         CurvatureOptions {
-            rings: 2,
+            rings: 1,
             flat_curvature: 0.05,
         }
     }

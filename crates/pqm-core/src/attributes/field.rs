@@ -131,36 +131,108 @@ fn face_area_vector(mesh: &Mesh, f: FaceId) -> DVec3 {
 /// equivalent representatives, with length = the averaged confidence.
 /// Returns zero when `normal` is zero or nothing survives. Allocation-free.
 pub fn rosy4_average(normal: DVec3, vectors: impl IntoIterator<Item = DVec3>) -> DVec3 {
-    let n = normal.normalize_or_zero();
-    if n == DVec3::ZERO {
+    let Some(r) = Rosy4Sum::new(normal, vectors) else {
         return DVec3::ZERO;
-    }
-    let (t1, t2) = n.any_orthonormal_pair();
-    let (mut wx, mut wy, mut count) = (0.0, 0.0, 0usize);
-    for u in vectors {
-        count += 1;
-        let (a, b) = (u.dot(t1), u.dot(t2));
-        let m2 = a * a + b * b;
-        let usable = m2 > 0.0 && m2.is_finite();
-        if !usable {
-            continue;
-        }
-        // z⁴ / |z|³ has length |z| and angle 4φ
-        let (x2, y2) = (a * a - b * b, 2.0 * a * b);
-        let (x4, y4) = (x2 * x2 - y2 * y2, 2.0 * x2 * y2);
-        let s = 1.0 / (m2 * m2.sqrt());
-        wx += x4 * s;
-        wy += y4 * s;
-    }
-    if count == 0 {
-        return DVec3::ZERO;
-    }
-    let m = wx.hypot(wy) / count as f64;
+    };
+    let m = r.magnitude();
     if m.is_nan() || m <= 0.0 {
         return DVec3::ZERO;
     }
-    let (s, c) = (0.25 * wy.atan2(wx)).sin_cos();
-    (t1 * c + t2 * s) * m
+    let (s, c) = (0.25 * r.wy.atan2(r.wx)).sin_cos();
+    (r.t1 * c + r.t2 * s) * m
+}
+
+/// The sum of `m·e^{4iφ}` over vectors projected into a tangent basis
+/// `(t1, t2)` of a plane (see [`rosy4_average`]).
+struct Rosy4Sum {
+    t1: DVec3,
+    t2: DVec3,
+    wx: f64,
+    wy: f64,
+    count: usize,
+}
+
+impl Rosy4Sum {
+    /// `None` when `normal` is zero or there are no vectors.
+    #[inline]
+    fn new(normal: DVec3, vectors: impl IntoIterator<Item = DVec3>) -> Option<Rosy4Sum> {
+        let n = normal.normalize_or_zero();
+        if n == DVec3::ZERO {
+            return None;
+        }
+        let (t1, t2) = n.any_orthonormal_pair();
+        let mut r = Rosy4Sum {
+            t1,
+            t2,
+            wx: 0.0,
+            wy: 0.0,
+            count: 0,
+        };
+        for u in vectors {
+            r.count += 1;
+            let (a, b) = (u.dot(t1), u.dot(t2));
+            let m2 = a * a + b * b;
+            let usable = m2 > 0.0 && m2.is_finite();
+            if !usable {
+                continue;
+            }
+            // z⁴ / |z|³ has length |z| and angle 4φ
+            let (x4, y4) = pow4(a, b);
+            let s = 1.0 / (m2 * m2.sqrt());
+            r.wx += x4 * s;
+            r.wy += y4 * s;
+        }
+        (r.count > 0).then_some(r)
+    }
+
+    /// The averaged confidence `|Σ| / count`.
+    #[inline]
+    fn magnitude(&self) -> f64 {
+        self.wx.hypot(self.wy) / self.count as f64
+    }
+
+    /// `e^{2iψ}` with `ψ` the averaged field's angle: the principal square
+    /// root of the unit sum `Σ / |Σ|` (a stable complex square root, so
+    /// that scores near 0 stay accurate). `None` when the sum is zero.
+    #[inline]
+    fn half_angle(&self) -> Option<(f64, f64)> {
+        let w = self.wx.hypot(self.wy);
+        let usable = w > 0.0 && w.is_finite();
+        if !usable {
+            return None;
+        }
+        let (x, y) = (self.wx / w, self.wy / w);
+        Some(if x >= 0.0 {
+            let re = (0.5 * (1.0 + x)).sqrt();
+            (re, y / (2.0 * re))
+        } else {
+            let im = (0.5 * (1.0 - x)).sqrt().copysign(y);
+            (y / (2.0 * im), im)
+        })
+    }
+}
+
+/// [`alignment`] of `dir` against a field of angle `ψ` given as
+/// `h = e^{2iψ}` in the basis `(t1, t2)`, without trigonometry or square
+/// roots: `cos 2(δ − ψ) = Re(e^{2iδ} · conj(h))`.
+#[inline]
+fn alignment_half_angle(dir: DVec3, t1: DVec3, t2: DVec3, h: (f64, f64)) -> Option<f64> {
+    let (a, b) = (dir.dot(t1), dir.dot(t2));
+    let dd = a * a + b * b;
+    let frac2 = MIN_PROJECTED_FRACTION * MIN_PROJECTED_FRACTION;
+    let usable = dd > 0.0 && dd > frac2 * dir.length_squared();
+    if !usable {
+        return None;
+    }
+    let c2 = ((a * a - b * b) * h.0 + 2.0 * a * b * h.1) / dd;
+    c2.is_finite().then(|| c2.abs().min(1.0))
+}
+
+/// `(a + ib)⁴` as `(re, im)`.
+#[inline]
+fn pow4(a: f64, b: f64) -> (f64, f64) {
+    let (x2, y2) = (a * a - b * b, 2.0 * a * b);
+    (x2 * x2 - y2 * y2, 2.0 * x2 * y2)
 }
 
 /// The paper's alignment score of direction `dir` against the field vector
@@ -209,11 +281,20 @@ pub fn quad_alignment(mesh: &Mesh, f: FaceId, field: &Field) -> Option<f64> {
     let q = mesh.quad_vertices(f)?;
     let p = q.map(|v| mesh.position(v));
     let n = (p[2] - p[0]).cross(p[3] - p[1]);
-    let u = rosy4_average(n, q.map(|v| field.at(v)));
+    // Same result as `alignment(chord, field.at_face(mesh, f), n)`, but
+    // scored directly against the 4-RoSy sum (no trigonometry).
+    let r = Rosy4Sum::new(n, q.map(|v| field.at(v)))?;
+    if r.magnitude().is_nan() || r.magnitude() < FIELD_MIN_LENGTH {
+        return None;
+    }
     // chord directions (factor ½ of the midpoints dropped: scale-invariant)
     let c1 = (p[2] + p[3]) - (p[0] + p[1]);
     let c2 = (p[3] + p[0]) - (p[1] + p[2]);
-    match (alignment(c1, u, n), alignment(c2, u, n)) {
+    let h = r.half_angle()?;
+    match (
+        alignment_half_angle(c1, r.t1, r.t2, h),
+        alignment_half_angle(c2, r.t1, r.t2, h),
+    ) {
         (Some(a), Some(b)) => Some(0.5 * (a + b)),
         (Some(a), None) | (None, Some(a)) => Some(a),
         (None, None) => None,
