@@ -18,3 +18,7 @@ pub mod progressive;
 pub mod shapes;
 pub mod subdivide;
 pub use progressive::{OpKind, ProgressiveMesh, SplitRecord};
+pub mod attributes;
+pub mod features;
+pub mod qem;
+pub mod smoothing;
