@@ -3,7 +3,7 @@
 //!
 //! `cargo run --release -p pqm-core --example coarsen_torus -- [n_major n_minor target]`
 use glam::DVec3;
-use pqm_core::coarsen::{Attributes, CoarsenOptions, Coarsener};
+use pqm_core::coarsen::{CoarsenOptions, Coarsener};
 use pqm_core::{IndexedMesh, Mesh};
 use std::time::Instant;
 
@@ -40,7 +40,7 @@ fn main() {
         target_faces: Some(target),
         ..Default::default()
     };
-    let mut c = Coarsener::new(mesh, Attributes::default(), vec![], opts);
+    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
     let report = c.run(&mut |_| {});
     let dt = t.elapsed();
     println!(

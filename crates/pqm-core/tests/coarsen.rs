@@ -3,12 +3,12 @@
 
 mod common;
 use common::{grid, quad_sphere, torus};
-use pqm_core::coarsen::{Attributes, CoarsenOptions, Coarsener, Smoothing, StopReason};
+use pqm_core::coarsen::{CoarsenOptions, Coarsener, Smoothing, StopReason};
 use pqm_core::{IndexedMesh, Mesh, ProgressiveMesh};
 
 fn run(src: &IndexedMesh, opts: CoarsenOptions) -> (Coarsener, pqm_core::coarsen::CoarsenReport) {
     let mesh = Mesh::from_indexed(src).unwrap();
-    let mut c = Coarsener::new(mesh, Attributes::default(), vec![], opts);
+    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
     let r = c.run(&mut |_| {});
     (c, r)
 }

@@ -11,6 +11,7 @@
 //! Feature corners (feature degree ≠ 2) never move; at most one may be in a
 //! merge group.
 
+use crate::features::FeatureCurves;
 use crate::mesh::{Mesh, VertexId};
 use crate::ops::Reject;
 use std::collections::HashMap;
@@ -39,46 +40,35 @@ fn key(a: VertexId, b: VertexId) -> (u32, u32) {
 }
 
 impl FeatureState {
-    /// Builds the state from curves given as edge lists (each inner list is
-    /// one curve, `closed` tells whether it is a loop). Edges that are not
-    /// mesh edges are ignored by the caller beforehand.
-    pub fn new(mesh: &Mesh, curves: &[(Vec<(VertexId, VertexId)>, bool)]) -> Self {
+    /// Builds the state from the feature curves (see
+    /// [`crate::features::FeatureCurves`]; build them with
+    /// `include_boundary = true` so boundary loops are curves too). A curve
+    /// that returns to its starting corner counts as closed for rule 3.
+    pub fn new(mesh: &Mesh, curves: &FeatureCurves) -> Self {
         let mut s = FeatureState {
             adj: vec![Vec::new(); mesh.vertex_capacity()],
             ..Default::default()
         };
-        for (edges, closed) in curves {
-            let id = s.curve_len.len() as u32;
+        for (id, c) in curves.curves.iter().enumerate() {
+            let vs = &c.vertices;
             let mut n = 0;
-            for &(a, b) in edges {
-                if a != b && s.edges.insert(key(a, b), id).is_none() {
+            let closing = if c.closed {
+                vs.len()
+            } else {
+                vs.len().saturating_sub(1)
+            };
+            for i in 0..closing {
+                let (a, b) = (vs[i], vs[(i + 1) % vs.len()]);
+                if a != b && s.edges.insert(key(a, b), id as u32).is_none() {
                     s.adj[a.idx()].push(b.0);
                     s.adj[b.idx()].push(a.0);
                     n += 1;
                 }
             }
             s.curve_len.push(n);
-            s.curve_closed.push(*closed);
+            s.curve_closed.push(c.closed || vs.first() == vs.last());
         }
         s
-    }
-
-    /// Boundary loops of `mesh` as closed curves, plus `extra` curves.
-    pub fn with_boundary(mesh: &Mesh, extra: Vec<(Vec<(VertexId, VertexId)>, bool)>) -> Self {
-        let mut curves: Vec<(Vec<(VertexId, VertexId)>, bool)> = mesh
-            .boundary_loops()
-            .into_iter()
-            .map(|lp| {
-                (
-                    lp.iter()
-                        .map(|&h| (mesh.from_vertex(h), mesh.to_vertex(h)))
-                        .collect(),
-                    true,
-                )
-            })
-            .collect();
-        curves.extend(extra);
-        FeatureState::new(mesh, &curves)
     }
 
     /// True when `v` lies on a feature curve.

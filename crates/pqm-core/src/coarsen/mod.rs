@@ -31,9 +31,14 @@
 pub mod features;
 pub mod record;
 
+use crate::attributes::curvature::Curvature;
+use crate::attributes::field::{alignment, rosy4_average, Field};
+use crate::attributes::importance::curvature_importance;
+use crate::features::FeatureCurves;
 use crate::mesh::{FaceId, HalfedgeId, Mesh, VertexId};
 use crate::ops::{self, Applied, GeometryGuard, Patch, Reject};
 use crate::progressive::{OpKind, ProgressiveMesh};
+use crate::qem::{self, Quadric};
 use features::{FeatureDelta, FeatureState, GroupConstraint};
 use glam::DVec3;
 use record::StepLog;
@@ -104,10 +109,22 @@ pub struct CoarsenReport {
 /// Per-vertex inputs of the error `E`.
 #[derive(Clone, Debug, Default)]
 pub struct Attributes {
-    /// Importance per vertex id, in [1, 3] (the paper's range).
+    /// Importance per vertex id, in [1, 3] (the paper's range); empty = all 1.
     pub importance: Vec<f64>,
-    /// Direction field per vertex id (zero: no direction there).
+    /// Direction field per vertex id (zero: no direction there); empty = none.
     pub field: Vec<DVec3>,
+}
+
+impl Attributes {
+    /// Importance and field from the principal curvatures, estimated with
+    /// every quad virtually split into four triangles (Alliez et al. 2003).
+    pub fn from_curvature(mesh: &Mesh) -> Attributes {
+        let curvature = Curvature::estimate(mesh);
+        Attributes {
+            importance: curvature_importance(mesh, &curvature),
+            field: Field::from_curvature(&curvature).dirs,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -154,6 +171,7 @@ pub struct Coarsener {
     mesh: Mesh,
     attrs: Attributes,
     features: FeatureState,
+    quadrics: Vec<Quadric>,
     opts: CoarsenOptions,
     diag: f64,
     /// Accumulated displacement bound per vertex (model units).
@@ -173,13 +191,13 @@ pub struct Coarsener {
 }
 
 impl Coarsener {
-    /// Sets up the coarsener on a quad mesh. `feature_curves` are extra
-    /// feature curves (edge lists, closed flag); boundary loops are added
-    /// as closed curves automatically.
+    /// Sets up the coarsener on a quad mesh. `features` are the feature
+    /// curves, boundary loops included (`FeatureCurves::new(mesh, edges,
+    /// true)`); see [`Coarsener::with_defaults`] for the usual setup.
     pub fn new(
         mesh: Mesh,
         mut attrs: Attributes,
-        feature_curves: Vec<(Vec<(VertexId, VertexId)>, bool)>,
+        features: &FeatureCurves,
         opts: CoarsenOptions,
     ) -> Self {
         let n = mesh.vertex_capacity();
@@ -187,11 +205,13 @@ impl Coarsener {
         attrs.field.resize(n, DVec3::ZERO);
         let (lo, hi) = mesh.bounding_box();
         let diag = (hi - lo).length().max(f64::MIN_POSITIVE);
-        let features = FeatureState::with_boundary(&mesh, feature_curves);
+        let features = FeatureState::new(&mesh, features);
         let input_faces = mesh.face_count();
+        let quadrics = qem::vertex_quadrics(&mesh);
         let mesh_faces = mesh.face_capacity();
         Coarsener {
             stamp: vec![0; mesh.face_capacity()],
+            quadrics,
             drift: vec![0.0; n],
             mesh,
             attrs,
@@ -210,6 +230,23 @@ impl Coarsener {
             scratch_touched: Vec::new(),
             scratch_pairs: Vec::new(),
         }
+    }
+
+    /// The usual setup: importance and direction field from the principal
+    /// curvatures (the paper's default when the user gives none), feature
+    /// curves from the dihedral angle (`sharp_angle_deg`, 180 = off), the
+    /// boundary loops, and `extra_features` edges.
+    pub fn with_defaults(
+        mesh: Mesh,
+        sharp_angle_deg: f64,
+        extra_features: &[crate::features::Edge],
+        opts: CoarsenOptions,
+    ) -> Result<Self, crate::attributes::AttributeError> {
+        let attrs = Attributes::from_curvature(&mesh);
+        let mut edges = crate::features::sharp_edges(&mesh, sharp_angle_deg);
+        edges.extend_from_slice(extra_features);
+        let curves = FeatureCurves::new(&mesh, &edges, true)?;
+        Ok(Coarsener::new(mesh, attrs, &curves, opts))
     }
 
     /// The mesh in its current state.
@@ -373,14 +410,34 @@ impl Coarsener {
         }
     }
 
-    /// Position of a merge group under its feature constraint.
+    /// Position of a merge group under its feature constraint: QEM over
+    /// the group's summed quadrics (optimum inside a trust region, else the
+    /// best of the group's positions and their mean); on a feature edge the
+    /// best of its endpoints and midpoint; a pinned vertex stays.
     fn place(&self, group: &[VertexId], con: GroupConstraint) -> DVec3 {
+        let mut q = Quadric::default();
+        for &v in group {
+            q += self.quadrics[v.idx()];
+        }
         match con {
             GroupConstraint::Pinned(v) => self.mesh.position(v),
-            GroupConstraint::OnEdge(u, v) => (self.mesh.position(u) + self.mesh.position(v)) * 0.5,
+            GroupConstraint::OnEdge(u, v) => {
+                let (a, b) = (self.mesh.position(u), self.mesh.position(v));
+                [a, b, (a + b) * 0.5]
+                    .into_iter()
+                    .min_by(|x, y| q.evaluate(*x).total_cmp(&q.evaluate(*y)))
+                    .unwrap_or(a)
+            }
             GroupConstraint::Free => {
-                let s: DVec3 = group.iter().map(|&v| self.mesh.position(v)).sum();
-                s / group.len() as f64
+                let mut cands = [DVec3::ZERO; 4];
+                let n = group.len().min(3);
+                let mut mean = DVec3::ZERO;
+                for (i, &v) in group.iter().take(3).enumerate() {
+                    cands[i] = self.mesh.position(v);
+                    mean += cands[i];
+                }
+                cands[n] = mean / n as f64;
+                qem::best_position(&q, &cands[..=n])
             }
         }
     }
@@ -530,16 +587,16 @@ impl Coarsener {
             let c = m.face_centroid(f);
             let n = m.face_normal(f);
             let q = m.quad_vertices(f).unwrap_or([VertexId(0); 4]);
-            let fld: DVec3 = q.iter().map(|&v| self.attrs.field[v.idx()]).sum();
+            let fld = rosy4_average(n, q.iter().map(|&v| self.attrs.field[v.idx()]));
             let _ = c;
             let chord1 = (p(q[2]) + p(q[3])) - (p(q[0]) + p(q[1]));
             let chord2 = (p(q[3]) + p(q[0])) - (p(q[1]) + p(q[2]));
-            if let (Some(s1), Some(s2)) = (align(chord1, fld, n), align(chord2, fld, n)) {
+            if let (Some(s1), Some(s2)) = (alignment(chord1, fld, n), alignment(chord2, fld, n)) {
                 a_b += 0.5 * (s1 + s2);
                 let mut s_after = 0.0;
                 for &(u, w) in &collapsed {
                     let dir = patch.position_after(m, w) - patch.position_after(m, u);
-                    s_after += align(dir, fld, n).unwrap_or(1.0);
+                    s_after += alignment(dir, fld, n).unwrap_or(1.0);
                 }
                 a_a += s_after / collapsed.len().max(1) as f64;
                 n_a += 1;
@@ -769,24 +826,8 @@ impl Coarsener {
 
     fn smoothed(&self, v: VertexId) -> DVec3 {
         let m = &self.mesh;
-        let (mut sum, mut w, mut n) = (DVec3::ZERO, 0.0, DVec3::ZERO);
-        for f in m.vertex_faces(v) {
-            let a: f64 = m
-                .face_vertices(f)
-                .map(|u| self.attrs.importance[u.idx()])
-                .sum::<f64>()
-                / m.face_degree(f) as f64;
-            sum += m.face_centroid(f) * a;
-            w += a;
-            n += m.face_normal(f);
-        }
-        if w == 0.0 {
-            return m.position(v);
-        }
-        let p = m.position(v);
-        let target = sum / w;
-        let n = n.normalize_or_zero();
-        target - n * (target - p).dot(n)
+        crate::smoothing::smoothed_position(m, &self.attrs.importance, v, |u| m.position(u))
+            .unwrap_or_else(|| m.position(v))
     }
 
     fn restore_relaxed(&mut self, relaxed: &[(VertexId, DVec3)]) {
@@ -871,6 +912,8 @@ impl Coarsener {
             self.drift[v.idx()] = d;
         }
         for &(g, into) in merged {
+            let qg = self.quadrics[g.idx()];
+            self.quadrics[into.idx()] += qg;
             let ig = self.attrs.importance[g.idx()];
             let ii = &mut self.attrs.importance[into.idx()];
             *ii = ii.max(ig);
@@ -960,17 +1003,4 @@ impl Coarsener {
         });
         self.errors.push(self.error);
     }
-}
-
-/// The paper's alignment score of direction `dir` to field `fld` in the
-/// plane with normal `n`: 1 at 0° or 90°, 0 at 45° (`|cos 2θ|`); `None`
-/// where either has no direction in that plane.
-fn align(dir: DVec3, fld: DVec3, n: DVec3) -> Option<f64> {
-    let d = (dir - n * dir.dot(n)).normalize_or_zero();
-    let f = (fld - n * fld.dot(n)).normalize_or_zero();
-    if d == DVec3::ZERO || f == DVec3::ZERO {
-        return None;
-    }
-    let c = d.dot(f);
-    Some((2.0 * c * c - 1.0).abs())
 }
