@@ -8,6 +8,7 @@
 //!   local patch replacement and `validate()`.
 
 pub mod indexed;
+pub mod io;
 pub mod mesh;
 
 pub use indexed::IndexedMesh;
