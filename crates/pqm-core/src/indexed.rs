@@ -39,21 +39,12 @@ pub struct IndexedMesh {
 impl IndexedMesh {
     /// An empty mesh (no vertices, no faces).
     pub fn new() -> Self {
-        IndexedMesh {
-            face_starts: vec![0],
-            ..Default::default()
-        }
+        IndexedMesh { face_starts: vec![0], ..Default::default() }
     }
 
     /// Builds a mesh from positions and faces given as slices of vertex indices.
-    pub fn from_faces<F: AsRef<[u32]>>(
-        positions: Vec<DVec3>,
-        faces: impl IntoIterator<Item = F>,
-    ) -> Self {
-        let mut m = IndexedMesh {
-            positions,
-            ..IndexedMesh::new()
-        };
+    pub fn from_faces<F: AsRef<[u32]>>(positions: Vec<DVec3>, faces: impl IntoIterator<Item = F>) -> Self {
+        let mut m = IndexedMesh { positions, ..IndexedMesh::new() };
         for f in faces {
             m.push_face(f.as_ref());
         }
@@ -110,17 +101,11 @@ impl IndexedMesh {
     /// Axis-aligned bounding box `(min, max)` of the positions; `None` when empty.
     pub fn bounding_box(&self) -> Option<(DVec3, DVec3)> {
         let first = *self.positions.first()?;
-        Some(
-            self.positions
-                .iter()
-                .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))),
-        )
+        Some(self.positions.iter().fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
     }
 
     /// Length of the bounding-box diagonal (0 for an empty mesh).
     pub fn bbox_diagonal(&self) -> f64 {
-        self.bounding_box()
-            .map(|(lo, hi)| (hi - lo).length())
-            .unwrap_or(0.0)
+        self.bounding_box().map(|(lo, hi)| (hi - lo).length()).unwrap_or(0.0)
     }
 }
