@@ -10,7 +10,9 @@ use pqm_core::IndexedMesh;
 
 fn square_grid() -> Vec<DVec3> {
     // 3 x 3 points in the plane z = 0, index = x + 3 y.
-    (0..9).map(|i| DVec3::new((i % 3) as f64, (i / 3) as f64, 0.0)).collect()
+    (0..9)
+        .map(|i| DVec3::new((i % 3) as f64, (i / 3) as f64, 0.0))
+        .collect()
 }
 
 fn expect(m: &IndexedMesh, defect: Defect, element: Element) {
@@ -40,19 +42,28 @@ fn non_finite_coordinate() {
     p[4].y = f64::NAN;
     let m = IndexedMesh::from_faces(p, [[0u32, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6]]);
     expect(&m, Defect::NonFiniteCoordinate, Element::Vertex(4));
-    assert_eq!(check(&m).unwrap_err().to_string(), "vertex 4 has a non-finite coordinate");
+    assert_eq!(
+        check(&m).unwrap_err().to_string(),
+        "vertex 4 has a non-finite coordinate"
+    );
     // With the NaN vertex in only one face, the other faces survive.
     let mut p = square_grid();
     p[8].z = f64::INFINITY;
     let m = IndexedMesh::from_faces(p, [[0u32, 1, 4, 3], [4, 5, 8, 7]]);
     expect(&m, Defect::NonFiniteCoordinate, Element::Vertex(8));
     let (m, r) = repaired(m);
-    assert_eq!((r.dropped_invalid_faces, m.face_count(), m.vertex_count()), (1, 1, 4));
+    assert_eq!(
+        (r.dropped_invalid_faces, m.face_count(), m.vertex_count()),
+        (1, 1, 4)
+    );
 }
 
 #[test]
 fn too_few_vertices_and_out_of_range() {
-    let m = IndexedMesh::from_faces(square_grid(), [&[0u32, 1, 4, 3][..], &[1, 2], &[3, 4, 7, 6]]);
+    let m = IndexedMesh::from_faces(
+        square_grid(),
+        [&[0u32, 1, 4, 3][..], &[1, 2], &[3, 4, 7, 6]],
+    );
     expect(&m, Defect::TooFewVertices, Element::Face(1));
     let (m, r) = repaired(m);
     assert_eq!(r.dropped_invalid_faces, 1);
@@ -71,7 +82,10 @@ fn too_few_vertices_and_out_of_range() {
 fn repeated_vertex() {
     let m = IndexedMesh::from_faces(square_grid(), [[0u32, 1, 4, 3], [1, 2, 5, 2]]);
     expect(&m, Defect::RepeatedVertex, Element::Face(1));
-    assert_eq!(check(&m).unwrap_err().to_string(), "face 1 repeats vertex 2");
+    assert_eq!(
+        check(&m).unwrap_err().to_string(),
+        "face 1 repeats vertex 2"
+    );
     let (_, r) = repaired(m);
     assert_eq!(r.dropped_repeated_vertex_faces, 1);
 }
@@ -108,11 +122,19 @@ fn unreferenced_vertex() {
 #[test]
 fn non_manifold_edge() {
     // Three triangles on edge 0-1: two in the plane, one standing up.
-    let mut p = vec![DVec3::ZERO, DVec3::X, DVec3::new(0.5, 1.0, 0.0), DVec3::new(0.5, -1.0, 0.0)];
+    let mut p = vec![
+        DVec3::ZERO,
+        DVec3::X,
+        DVec3::new(0.5, 1.0, 0.0),
+        DVec3::new(0.5, -1.0, 0.0),
+    ];
     p.push(DVec3::new(0.5, 0.0, 1.0));
     let m = IndexedMesh::from_faces(p, [[0u32, 1, 2], [1, 0, 3], [0, 1, 4]]);
     expect(&m, Defect::NonManifoldEdge, Element::Edge(0, 1));
-    assert_eq!(check(&m).unwrap_err().to_string(), "edge 0-1 is shared by 3 faces (0, 1, 2)");
+    assert_eq!(
+        check(&m).unwrap_err().to_string(),
+        "edge 0-1 is shared by 3 faces (0, 1, 2)"
+    );
     let (m, r) = repaired(m);
     assert_eq!(r.dropped_nonmanifold_faces, 1);
     assert_eq!(m.face_count(), 2);
@@ -139,12 +161,20 @@ fn non_manifold_vertex() {
         .to_vec();
     let m = IndexedMesh::from_faces(p, [[0u32, 1, 2, 3], [2, 4, 5, 6]]);
     expect(&m, Defect::NonManifoldVertex, Element::Vertex(2));
-    assert_eq!(check(&m).unwrap_err().to_string(), "vertex 2 has 2 separate fans of faces");
+    assert_eq!(
+        check(&m).unwrap_err().to_string(),
+        "vertex 2 has 2 separate fans of faces"
+    );
     let (m, r) = repaired(m);
     assert_eq!(r.split_vertices, 1);
     assert_eq!(m.vertex_count(), 8);
     assert_eq!(m.positions[7], m.positions[2]);
-    let shared: Vec<u32> = m.face(0).iter().filter(|v| m.face(1).contains(v)).copied().collect();
+    let shared: Vec<u32> = m
+        .face(0)
+        .iter()
+        .filter(|v| m.face(1).contains(v))
+        .copied()
+        .collect();
     assert!(shared.is_empty(), "the fans no longer share a vertex");
 }
 
@@ -152,12 +182,16 @@ fn non_manifold_vertex() {
 fn repair_keeps_attributes_consistent() {
     // Texcoords/normals per corner follow flipped faces; scalars follow split
     // and dropped vertices.
-    let mut m = IndexedMesh::from_faces(square_grid(), [&[0u32, 1, 4, 3][..], &[4, 7, 8, 5], &[1, 2, 2]]);
+    let mut m = IndexedMesh::from_faces(
+        square_grid(),
+        [&[0u32, 1, 4, 3][..], &[4, 7, 8, 5], &[1, 2, 2]],
+    );
     m.texcoords = (0..9).map(|i| [i as f64, 0.0]).collect();
     m.corner_texcoords = m.indices.clone();
     m.normals = vec![DVec3::Z];
     m.corner_normals = vec![0; m.indices.len()];
-    m.vertex_scalars.insert("q".into(), (0..9).map(|i| i as f64).collect());
+    m.vertex_scalars
+        .insert("q".into(), (0..9).map(|i| i as f64).collect());
     m.groups = vec![("a".into(), 0), ("b".into(), 2)];
     let (m, r) = repaired(m);
     assert_eq!(r.dropped_repeated_vertex_faces, 1);
@@ -184,7 +218,10 @@ fn repair_reorients_a_real_mesh_with_the_fewest_flips() {
         let (s, e) = (m.face_starts[f] as usize + 1, m.face_starts[f + 1] as usize);
         m.indices[s..e].reverse();
     }
-    assert_eq!(check(&m).unwrap_err().defect, Defect::InconsistentOrientation);
+    assert_eq!(
+        check(&m).unwrap_err().defect,
+        Defect::InconsistentOrientation
+    );
     let (m, r) = repaired(m);
     assert_eq!(r.flipped_faces, 4);
     assert_eq!(m, orig);
@@ -208,7 +245,10 @@ fn repair_welds_a_split_vertex_back() {
 fn report_display_and_serialize() {
     let mut m = IndexedMesh::from_faces(square_grid(), [[0u32, 1, 4, 3], [1, 4, 5, 2]]);
     let r = repair(&mut m);
-    assert_eq!(r.to_string(), "flipped 1 face, dropped 3 unreferenced vertices");
+    assert_eq!(
+        r.to_string(),
+        "flipped 1 face, dropped 3 unreferenced vertices"
+    );
     let json = serde_json::to_value(&r).unwrap();
     assert_eq!(json["flipped_faces"], 1);
     assert_eq!(json["dropped_unreferenced_vertices"], 3);

@@ -10,6 +10,8 @@ use pqm_core::IndexedMesh;
 use proptest::prelude::*;
 use std::sync::OnceLock;
 
+type Writer = fn(&mut Vec<u8>, &IndexedMesh) -> Result<(), io::MeshIoError>;
+
 /// Valid small files of every format: (name, bytes).
 fn samples() -> &'static Vec<(&'static str, Vec<u8>)> {
     static S: OnceLock<Vec<(&'static str, Vec<u8>)>> = OnceLock::new();
@@ -20,8 +22,9 @@ fn samples() -> &'static Vec<(&'static str, Vec<u8>)> {
             std::fs::read(shared("quad/spot_control_mesh.obj")).unwrap(),
         )];
         let mut tiny = m.clone();
-        tiny.vertex_scalars.insert("quality".into(), vec![0.5; tiny.vertex_count()]);
-        let writers: [(&str, fn(&mut Vec<u8>, &IndexedMesh) -> Result<(), io::MeshIoError>); 5] = [
+        tiny.vertex_scalars
+            .insert("quality".into(), vec![0.5; tiny.vertex_count()]);
+        let writers: [(&str, Writer); 5] = [
             ("off", |w, m| io::write_off(w, m)),
             ("ply", |w, m| io::write_ply(w, m)),
             ("ply", |w, m| io::write_ply_ascii(w, m)),
@@ -69,7 +72,10 @@ fn read_all_formats(data: &[u8]) {
     for name in ["obj", "off", "ply", "gltf"] {
         if let Ok(m) = read(name, data) {
             assert_eq!(m.face_starts.last().copied(), Some(m.indices.len() as u32));
-            assert!(m.indices.iter().all(|&i| (i as usize) < m.positions.len()), "{name}");
+            assert!(
+                m.indices.iter().all(|&i| (i as usize) < m.positions.len()),
+                "{name}"
+            );
         }
     }
 }
@@ -90,7 +96,11 @@ fn truncated_binary_files_are_errors() {
             continue; // a truncated text file may still be a valid shorter mesh
         }
         for cut in [0, 1, 10, data.len() / 3, data.len() / 2, data.len() - 1] {
-            assert!(read(name, &data[..cut]).is_err(), "{name} cut at {cut} of {}", data.len());
+            assert!(
+                read(name, &data[..cut]).is_err(),
+                "{name} cut at {cut} of {}",
+                data.len()
+            );
         }
     }
 }

@@ -19,7 +19,10 @@ fn written_gltf_and_glb_pass_the_khronos_validator() {
             .arg(&tool)
             .status()
             .expect("running npm (needed to install tools/gltf-validate)");
-        assert!(status.success(), "npm ci --prefix tools/gltf-validate failed");
+        assert!(
+            status.success(),
+            "npm ci --prefix tools/gltf-validate failed"
+        );
     }
     let dir = tempfile::tempdir().unwrap();
     let mut files = Vec::new();
@@ -51,8 +54,18 @@ fn written_gltf_and_glb_pass_the_khronos_validator() {
         let r = &report[f.to_str().unwrap()];
         assert_eq!(r["errors"], 0, "{}: {r}", f.display());
         for m in r["messages"].as_array().unwrap() {
-            println!("{}: {} {} {}", f.display(), m["severity"], m["code"], m["message"]);
+            println!(
+                "{}: {} {} {}",
+                f.display(),
+                m["severity"],
+                m["code"],
+                m["message"]
+            );
         }
     }
-    assert!(output.status.success(), "validator exit status {:?}", output.status);
+    assert!(
+        output.status.success(),
+        "validator exit status {:?}",
+        output.status
+    );
 }

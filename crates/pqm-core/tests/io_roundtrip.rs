@@ -19,12 +19,19 @@ fn exact_formats() -> Vec<(&'static str, Writer, Reader)> {
         ("obj", |w, m| io::write_obj(w, m), io::read_obj_bytes),
         ("off", |w, m| io::write_off(w, m), io::read_off_bytes),
         ("ply", |w, m| io::write_ply(w, m), io::read_ply_bytes),
-        ("ply-ascii", |w, m| io::write_ply_ascii(w, m), io::read_ply_bytes),
+        (
+            "ply-ascii",
+            |w, m| io::write_ply_ascii(w, m),
+            io::read_ply_bytes,
+        ),
     ]
 }
 
 fn gltf_formats() -> Vec<(&'static str, Writer)> {
-    vec![("gltf", |w, m| io::write_gltf(w, m)), ("glb", |w, m| io::write_glb(w, m))]
+    vec![
+        ("gltf", |w, m| io::write_gltf(w, m)),
+        ("glb", |w, m| io::write_glb(w, m)),
+    ]
 }
 
 fn roundtrip_exact(m: &IndexedMesh, name: &str, w: Writer, r: Reader) -> IndexedMesh {
@@ -33,7 +40,11 @@ fn roundtrip_exact(m: &IndexedMesh, name: &str, w: Writer, r: Reader) -> Indexed
     let back = r(&buf).unwrap_or_else(|e| panic!("{name}: read: {e}"));
     assert_eq!(back.positions.len(), m.positions.len(), "{name}");
     for (a, b) in back.positions.iter().zip(&m.positions) {
-        assert_eq!(a.to_array().map(f64::to_bits), b.to_array().map(f64::to_bits), "{name}");
+        assert_eq!(
+            a.to_array().map(f64::to_bits),
+            b.to_array().map(f64::to_bits),
+            "{name}"
+        );
     }
     assert_eq!(faces(&back), faces(m), "{name}");
     back
@@ -51,7 +62,10 @@ fn roundtrip_gltf(m: &IndexedMesh, name: &str, w: Writer) -> IndexedMesh {
     assert_eq!(back.face_count(), m.face_count(), "{name}");
     for (f, (a, b)) in back.faces().zip(m.faces()).enumerate() {
         assert_eq!(a.len(), b.len(), "{name}: face {f} size");
-        let r = a.iter().position(|&v| v == b[0]).unwrap_or_else(|| panic!("{name}: face {f}"));
+        let r = a
+            .iter()
+            .position(|&v| v == b[0])
+            .unwrap_or_else(|| panic!("{name}: face {f}"));
         let rotated: Vec<u32> = (0..a.len()).map(|k| a[(r + k) % a.len()]).collect();
         assert_eq!(rotated, b, "{name}: face {f}");
     }
@@ -80,7 +94,11 @@ fn shared_meshes_round_trip_through_every_format() {
         }
         for (name, w) in gltf_formats() {
             let back = roundtrip_gltf(&m, &format!("{file} {name}"), w);
-            assert_eq!(back.face_size_counts(), m.face_size_counts(), "{file}: quads stay quads");
+            assert_eq!(
+                back.face_size_counts(),
+                m.face_size_counts(),
+                "{file}: quads stay quads"
+            );
         }
     }
 }
@@ -88,8 +106,13 @@ fn shared_meshes_round_trip_through_every_format() {
 #[test]
 fn quads_stay_quads_through_gltf_even_when_anchors_collide() {
     // Consecutive faces starting at the same vertex force the writer to rotate.
-    let p = (0..9).map(|i| DVec3::new((i % 3) as f64, (i / 3) as f64, 0.0)).collect();
-    let m = IndexedMesh::from_faces(p, [[4u32, 5, 8, 7], [4, 7, 6, 3], [4, 3, 0, 1], [4, 1, 2, 5]]);
+    let p = (0..9)
+        .map(|i| DVec3::new((i % 3) as f64, (i / 3) as f64, 0.0))
+        .collect();
+    let m = IndexedMesh::from_faces(
+        p,
+        [[4u32, 5, 8, 7], [4, 7, 6, 3], [4, 3, 0, 1], [4, 1, 2, 5]],
+    );
     check(&m).unwrap();
     for (name, w) in gltf_formats() {
         let back = roundtrip_gltf(&m, name, w);
@@ -105,7 +128,10 @@ fn gltf_without_the_ngon_extension_reads_triangles() {
     let mut buf = Vec::new();
     io::write_gltf(&mut buf, &m).unwrap();
     let mut doc: serde_json::Value = serde_json::from_slice(&buf).unwrap();
-    assert_eq!(doc["extensionsUsed"], serde_json::json!([io::FB_NGON_ENCODING]));
+    assert_eq!(
+        doc["extensionsUsed"],
+        serde_json::json!([io::FB_NGON_ENCODING])
+    );
     assert!(doc.get("extensionsRequired").is_none());
     doc.as_object_mut().unwrap().remove("extensionsUsed");
     let tri = io::read_gltf_bytes(&serde_json::to_vec(&doc).unwrap(), None).unwrap();
@@ -123,7 +149,9 @@ fn gltf_with_sibling_bin_file_reads_through_read_mesh() {
     let uri = doc["buffers"][0]["uri"].as_str().unwrap().to_string();
     let b64 = uri.split_once(";base64,").unwrap().1;
     use base64::Engine;
-    let bin = base64::engine::general_purpose::STANDARD.decode(b64).unwrap();
+    let bin = base64::engine::general_purpose::STANDARD
+        .decode(b64)
+        .unwrap();
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("cube data.bin"), bin).unwrap();
     doc["buffers"][0]["uri"] = "cube%20data.bin".into();
@@ -137,9 +165,14 @@ fn gltf_with_sibling_bin_file_reads_through_read_mesh() {
 #[test]
 fn ply_keeps_vertex_scalars() {
     let mut m = cube();
-    m.vertex_scalars.insert("quality".into(), (0..8).map(|i| i as f64 * 0.1).collect());
-    m.vertex_scalars.insert("importance".into(), (0..8).map(|i| -(i as f64)).collect());
-    for (name, w, r) in exact_formats().into_iter().filter(|f| f.0.starts_with("ply")) {
+    m.vertex_scalars
+        .insert("quality".into(), (0..8).map(|i| i as f64 * 0.1).collect());
+    m.vertex_scalars
+        .insert("importance".into(), (0..8).map(|i| -(i as f64)).collect());
+    for (name, w, r) in exact_formats()
+        .into_iter()
+        .filter(|f| f.0.starts_with("ply"))
+    {
         let back = roundtrip_exact(&m, name, w, r);
         assert_eq!(back.vertex_scalars, m.vertex_scalars, "{name}");
     }
@@ -166,7 +199,10 @@ fn files_round_trip_through_read_mesh_and_write_mesh_atomically() {
     broken.indices[3] = 10_000;
     let err = write_mesh(&target, &broken).unwrap_err();
     assert!(matches!(err.kind, MeshIoErrorKind::Invalid { .. }), "{err}");
-    assert!(err.to_string().starts_with(&target.display().to_string()), "{err}");
+    assert!(
+        err.to_string().starts_with(&target.display().to_string()),
+        "{err}"
+    );
     assert_eq!(std::fs::read(&target).unwrap(), before);
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 5);
 
@@ -179,7 +215,9 @@ fn files_round_trip_through_read_mesh_and_write_mesh_atomically() {
 #[test]
 fn error_display_names_file_element_and_problem() {
     let m = IndexedMesh::from_faces(
-        (0..4).map(|i| DVec3::new(i as f64, (i * i) as f64, 0.0)).collect(),
+        (0..4)
+            .map(|i| DVec3::new(i as f64, (i * i) as f64, 0.0))
+            .collect(),
         [[0u32, 1, 2], [1, 3, 3]],
     );
     let e = MeshIoError::from(check(&m).unwrap_err()).with_path(Path::new("spot.obj"));
@@ -188,7 +226,10 @@ fn error_display_names_file_element_and_problem() {
     let e = io::read_obj_bytes(b"v 0 0 0\nv 1 0 0\nf 1 2 x\n").unwrap_err();
     assert_eq!(e.to_string(), "line 3: bad vertex index 'x'");
     let e = io::read_obj_bytes(b"v 0 0 0\nf 1 2 3\n").unwrap_err();
-    assert_eq!(e.to_string(), "face 0 references vertex 2 but the file has 1");
+    assert_eq!(
+        e.to_string(),
+        "face 0 references vertex 2 but the file has 1"
+    );
 }
 
 #[test]
@@ -218,7 +259,12 @@ property float x\nproperty float y\nproperty float z\nproperty double quality\n\
 element face 2\nproperty uchar flags\nproperty list ushort uint vertex_index\n\
 element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n"
         .to_vec();
-    let pts = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.5, 2.0, 0.25]];
+    let pts = [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.5, 2.0, 0.25],
+    ];
     for (k, p) in pts.iter().enumerate() {
         for c in p {
             d.extend_from_slice(&c.to_be_bytes());
@@ -282,11 +328,17 @@ fn off_ascii_variants_and_binary() {
     for n in [i32::MAX, i32::MAX, 0] {
         huge.extend_from_slice(&n.to_le_bytes());
     }
-    assert!(io::read_off_bytes(&huge).unwrap_err().to_string().contains("do not fit"));
+    assert!(io::read_off_bytes(&huge)
+        .unwrap_err()
+        .to_string()
+        .contains("do not fit"));
     let e = io::read_off_bytes(b"OFF\n4000000000 1 0\n0 0 0\n").unwrap_err();
     assert!(e.to_string().contains("remaining bytes"), "{e}");
     let e = io::read_off_bytes(b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n").unwrap_err();
-    assert_eq!(e.to_string(), "face 0 references vertex 7 but the file has 3 vertices");
+    assert_eq!(
+        e.to_string(),
+        "face 0 references vertex 7 but the file has 3 vertices"
+    );
 }
 
 fn arb_mesh() -> impl Strategy<Value = IndexedMesh> {

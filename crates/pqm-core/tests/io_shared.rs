@@ -31,7 +31,11 @@ fn every_shared_mesh_loads_with_manifest_counts_and_passes_check() {
         assert_eq!(m.vertex_count(), v, "{file}: V");
         assert_eq!(m.face_count(), f, "{file}: F");
         assert_eq!(m.face_size_counts(), (q, t, o), "{file}: quads/tris/other");
-        assert!(m.bounding_box().is_some_and(|(lo, hi)| (hi - lo).min_element() > 0.0), "{file}");
+        assert!(
+            m.bounding_box()
+                .is_some_and(|(lo, hi)| (hi - lo).min_element() > 0.0),
+            "{file}"
+        );
         if let Err(e) = check(&m) {
             panic!("{file}: check failed: {e}");
         }
@@ -50,7 +54,10 @@ fn repair_changes_nothing_on_clean_shared_meshes() {
             // would join two separate fans.
             assert_eq!(report.welded_vertices, 2, "{report}");
             assert_eq!(m.face_count(), f);
-            assert_eq!(m.vertex_count(), v - report.welded_vertices + report.split_vertices);
+            assert_eq!(
+                m.vertex_count(),
+                v - report.welded_vertices + report.split_vertices
+            );
         } else {
             assert!(!report.changed(), "{file}: {report}");
             assert_eq!(m, before, "{file}");
@@ -84,8 +91,15 @@ fn obj_attributes_and_groups_of_shared_meshes() {
     assert_eq!(expected.len(), 172);
     assert_eq!(mh.groups, expected);
     let body = mh.groups.iter().position(|g| g.0 == "body").unwrap();
-    let end = mh.groups.get(body + 1).map_or(mh.face_count() as u32, |g| g.1);
-    assert_eq!(end - mh.groups[body].1, 13378, "MANIFEST: body has 13,378 quads");
+    let end = mh
+        .groups
+        .get(body + 1)
+        .map_or(mh.face_count() as u32, |g| g.1);
+    assert_eq!(
+        end - mh.groups[body].1,
+        13378,
+        "MANIFEST: body has 13,378 quads"
+    );
 }
 
 #[test]

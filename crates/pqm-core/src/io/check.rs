@@ -225,9 +225,9 @@ impl EdgeTable {
         for f in 0..mesh.face_count() {
             let s = mesh.face_starts[f] as usize;
             let e = mesh.face_starts[f + 1] as usize;
-            for c in s..e {
+            for (c, nx) in next.iter_mut().enumerate().take(e).skip(s) {
                 let n = if c + 1 == e { s } else { c + 1 };
-                next[c] = n as u32;
+                *nx = n as u32;
                 let (a, b) = (mesh.indices[c], mesh.indices[n]);
                 entries.push((edge_key(a, b), c as u32));
             }

@@ -126,7 +126,7 @@ pub fn read_gltf_bytes(data: &[u8], base_dir: Option<&Path>) -> Result<IndexedMe
                 Some(acc) => read_indices(&acc, &buffers, &what)?,
                 None => (0..count as u32).collect(),
             };
-            if tris.len() % 3 != 0 {
+            if !tris.chunks_exact(3).remainder().is_empty() {
                 return Err(gltf_err(format!(
                     "{what} has {} indices, not a multiple of 3",
                     tris.len()

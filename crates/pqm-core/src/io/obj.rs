@@ -209,8 +209,50 @@ fn parse_floats<const N: usize>(
     Ok(out)
 }
 
+/// Parses a decimal number. Plain decimals with at most 2^53 as mantissa and
+/// at most 22 fraction digits (nearly every coordinate in real files) take
+/// Clinger's fast path — both the mantissa and the power of ten are exact in
+/// f64, so the single division is correctly rounded and the result equals
+/// std's. Everything else (exponents, long mantissas, `inf`, `nan`) goes to
+/// std's parser.
 pub(crate) fn parse_f64(tok: &[u8]) -> Option<f64> {
-    std::str::from_utf8(tok).ok()?.parse().ok()
+    fast_f64(tok).or_else(|| std::str::from_utf8(tok).ok()?.parse().ok())
+}
+
+fn fast_f64(t: &[u8]) -> Option<f64> {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    let (neg, digits) = match t.first()? {
+        b'-' => (true, &t[1..]),
+        b'+' => (false, &t[1..]),
+        _ => (false, t),
+    };
+    let mut mant: u64 = 0;
+    let mut frac: usize = 0;
+    let mut dot = false;
+    let mut any = false;
+    for &c in digits {
+        if c.is_ascii_digit() {
+            // 10 * mant + 9 cannot overflow while mant < 2^60.
+            if mant >= 1 << 60 {
+                return None;
+            }
+            mant = mant * 10 + u64::from(c - b'0');
+            frac += usize::from(dot);
+            any = true;
+        } else if c == b'.' && !dot {
+            dot = true;
+        } else {
+            return None;
+        }
+    }
+    if !any || mant > 1 << 53 || frac >= POW10.len() {
+        return None;
+    }
+    let v = mant as f64 / POW10[frac];
+    Some(if neg { -v } else { v })
 }
 
 fn bad_number(line: u64, what: &str, tok: &[u8]) -> MeshIoError {
@@ -339,4 +381,44 @@ fn fmt_vec(buf: &mut Vec<u8>, v: &[f64]) {
         fmt_f64(buf, x);
     }
     buf.push(b'\n');
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_f64;
+
+    #[test]
+    fn fast_float_path_agrees_with_std() {
+        let cases = [
+            "0",
+            "-0.0",
+            "1",
+            "0.1",
+            "74.6019",
+            "-82.5656",
+            "123456789012345.6",
+            "0.000001",
+            "9007199254740993",
+            "0.30000000000000004",
+            "1e-7",
+            "-2.5E3",
+            "inf",
+            "NaN",
+            ".5",
+            "5.",
+            "1.0000000000000000000001",
+            "4503599627370497.5",
+        ];
+        for c in cases {
+            let want: f64 = c.parse().unwrap();
+            let got = parse_f64(c.as_bytes()).unwrap();
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "{c}"
+            );
+        }
+        for bad in ["", "-", ".", "1.2.3", "1x", "--1"] {
+            assert!(parse_f64(bad.as_bytes()).is_none(), "{bad}");
+        }
+    }
 }
