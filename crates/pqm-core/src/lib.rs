@@ -9,6 +9,7 @@
 
 pub mod coarsen;
 pub mod indexed;
+pub mod io;
 pub mod mesh;
 
 pub use indexed::IndexedMesh;
