@@ -59,7 +59,8 @@ impl Rng {
 pub enum BaseShape {
     /// Open `nx × ny` quad grid in the z≈0 plane (has a boundary loop).
     Grid { nx: u32, ny: u32 },
-    /// Closed cube surface with `n × n` quads per side (genus 0).
+    /// Closed cube surface with `n × n` quads per side (genus 0); use `n ≥ 2`,
+    /// the corners of `n = 1` have valence 3 and nothing can be split.
     Box { n: u32 },
 }
 
@@ -89,7 +90,7 @@ impl GenOptions {
         let base = if rng.below(2) == 0 {
             BaseShape::Grid { nx: 2 + rng.below(3) as u32, ny: 2 + rng.below(3) as u32 }
         } else {
-            BaseShape::Box { n: 1 + rng.below(2) as u32 }
+            BaseShape::Box { n: 2 + rng.below(2) as u32 }
         };
         GenOptions { seed, base, splits, smooth_prob: 0.05, fuse_prob: 0.05, vertex_order: true }
     }
@@ -415,6 +416,7 @@ pub fn generate_with(opts: &GenOptions) -> ProgressiveMesh {
     while done < opts.splits && failures < 10_000 {
         st.begin();
         if rng.unit() < opts.smooth_prob {
+            failures += 1; // bounds the loop when nothing can be split
             st.smooth(&mut rng);
             let r = st.finish(OpKind::Smooth);
             if !r.moved.is_empty() {
