@@ -227,6 +227,42 @@ fn build_split(
     Ok((rewritten, appended))
 }
 
+/// Prediction of the split vertex `a` (spec §7.4): `m`'s old code plus a
+/// quarter of the difference between the mean far corners (the corner
+/// opposite `m`) of the faces that keep `m` and of the faces that go to `c`.
+/// On a regular grid split across its middle this is the midpoint-merge
+/// answer, half an edge towards the `a` side.
+fn predict_a(st: &MeshState, m: u32, star: &Star, i: usize, j: usize) -> [u32; 3] {
+    let pm = st.q[m as usize];
+    let in_a = |t: usize| if i < j { i <= t && t < j } else { t >= i || t < j };
+    let mut sum = [[0i64; 3]; 2];
+    let mut n = [0i64; 2];
+    for (t, &f) in star.faces.iter().enumerate() {
+        let quad = st.quads[f as usize];
+        let k = quad.iter().position(|&x| x == m).unwrap_or(0);
+        let far = st.q[quad[(k + 2) % 4] as usize];
+        let side = if in_a(t) { 0 } else { 1 };
+        for a in 0..3 {
+            sum[side][a] += far[a] as i64;
+        }
+        n[side] += 1;
+    }
+    let mean = |s: usize, a: usize| if n[s] > 0 { sum[s][a].div_euclid(n[s]) } else { pm[a] as i64 };
+    let qmax = st.qmax as i64;
+    [0, 1, 2].map(|a| (pm[a] as i64 + (mean(0, a) - mean(1, a)).div_euclid(4)).clamp(0, qmax) as u32)
+}
+
+/// Reflection prediction of `c` (spec §7.4): `2 m_old − a`, as a midpoint
+/// merge leaves it.
+fn reflect(st: &MeshState, m_old: [u32; 3], a: [u32; 3]) -> [u32; 3] {
+    let qmax = st.qmax as i64;
+    [0, 1, 2].map(|t| (2 * m_old[t] as i64 - a[t] as i64).clamp(0, qmax) as u32)
+}
+
+fn residual_cost(pred: [u32; 3], p: [u32; 3]) -> u64 {
+    (0..3).map(|t| (p[t] as i64 - pred[t] as i64).unsigned_abs()).sum()
+}
+
 /// Prediction of the code of new vertex `x` (spec §7.5). `r.new_pos` holds
 /// the new vertices before `x`; `first` is the first record face (appended,
 /// then rewritten) containing `x`.
@@ -330,13 +366,11 @@ pub fn decode_record(
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
-    if sym & 0x80 != 0 {
-        return Err(format!("symbol {sym:#04x} has reserved bit 7 set"));
-    }
     let op = OpKind::from_code(sym & 3).ok_or("bad op")?;
     let form = (sym >> 2) & 3;
     let rot = ((sym >> 4) & 3) as usize;
     let moved_flag = sym & 0x40 != 0;
+    let reflect_c = sym & 0x80 != 0;
     let mut r = QRecord {
         op,
         new_pos: Vec::new(),
@@ -346,7 +380,7 @@ pub fn decode_record(
     };
     match form {
         0 => {
-            if sym & 0x70 != 0 {
+            if sym & 0xf0 != 0 {
                 return Err(format!("general-form symbol {sym:#04x} has split-form bits set"));
             }
             let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
@@ -444,11 +478,16 @@ pub fn decode_record(
             let (rewritten, appended) = build_split(st, m, &star, i, j, rot)?;
             r.rewritten = rewritten;
             r.appended = vec![appended];
+            let m_old = st.q[m as usize];
             if moved_flag {
-                let p = add_residual(st.q[m as usize], &mut rd[POS], st.qmax)?;
+                let p = add_residual(predict_a(st, m, &star, i, j), &mut rd[POS], st.qmax)?;
                 r.moved.push((m, p));
             }
-            let pred = predict(st, &r, v0, v0, Some(appended));
+            let pred = if reflect_c {
+                reflect(st, m_old, r.moved.first().map_or(m_old, |mv| mv.1))
+            } else {
+                predict(st, &r, v0, v0, Some(appended))
+            };
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
         }
@@ -459,7 +498,15 @@ pub fn decode_record(
 
 /// The split-form parameters `(m, i, e, rot, moved)` that reproduce `r`
 /// exactly, if any.
-fn split_params(st: &MeshState, r: &QRecord) -> Option<(u32, usize, usize, usize, bool)> {
+struct SplitParams {
+    m: u32,
+    star: Star,
+    i: usize,
+    j: usize,
+    rot: usize,
+}
+
+fn split_params(st: &MeshState, r: &QRecord) -> Option<SplitParams> {
     if r.new_pos.len() != 1 || r.appended.len() != 1 {
         return None;
     }
@@ -481,7 +528,7 @@ fn split_params(st: &MeshState, r: &QRecord) -> Option<(u32, usize, usize, usize
         return None;
     }
     let (rewritten, appended) = build_split(st, m, &star, i, j, rot).ok()?;
-    (rewritten == r.rewritten && appended == quad).then_some((m, i, (j + l - i - 1) % l, rot, !r.moved.is_empty()))
+    (rewritten == r.rewritten && appended == quad).then_some(SplitParams { m, star, i, j, rot })
 }
 
 /// Encodes `r` (normalized: moved ids and rewritten slots strictly
@@ -497,19 +544,31 @@ pub fn encode_record(
     let v0 = st.q.len() as u32;
     let op = r.op as u8;
     if allow_split {
-        if let Some((m, i, e, rot, moved)) = split_params(st, r) {
-            s[OPS].push(op | (1 << 2) | ((rot as u8) << 4) | if moved { 0x40 } else { 0 });
+        if let Some(SplitParams { m, star, i, j, rot }) = split_params(st, r) {
+            let l = star.link.len();
+            let m_old = st.q[m as usize];
+            let a = r.moved.first().map_or(m_old, |mv| mv.1);
+            let mut partial = r.clone();
+            partial.new_pos.clear();
+            let by_quad = predict(st, &partial, v0, v0, Some(r.appended[0]));
+            let by_reflection = reflect(st, m_old, a);
+            let c = r.new_pos[0];
+            let use_reflection = residual_cost(by_reflection, c) < residual_cost(by_quad, c);
+            let moved = !r.moved.is_empty();
+            s[OPS].push(
+                op | (1 << 2)
+                    | ((rot as u8) << 4)
+                    | if moved { 0x40 } else { 0 }
+                    | if use_reflection { 0x80 } else { 0 },
+            );
             put_s(&mut s[REFS], m as i64 - cur.vref as i64);
             cur.vref = m;
             put_u(&mut s[CONN], i as u64);
-            put_u(&mut s[CONN], e as u64);
+            put_u(&mut s[CONN], ((j + l - i - 1) % l) as u64);
             if moved {
-                put_residual(&mut s[POS], st.q[m as usize], r.moved[0].1);
+                put_residual(&mut s[POS], predict_a(st, m, &star, i, j), a);
             }
-            let mut partial = r.clone();
-            partial.new_pos.clear();
-            let pred = predict(st, &partial, v0, v0, Some(r.appended[0]));
-            put_residual(&mut s[POS], pred, r.new_pos[0]);
+            put_residual(&mut s[POS], if use_reflection { by_reflection } else { by_quad }, c);
             return true;
         }
     }

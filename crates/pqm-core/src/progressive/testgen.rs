@@ -429,6 +429,7 @@ pub fn generate_with(opts: &GenOptions) -> ProgressiveMesh {
             failures += 1;
             continue;
         }
+        failures = 0; // bound consecutive failures only
         done += 1;
         let mut op = OpKind::QvMerge;
         if fuse {
