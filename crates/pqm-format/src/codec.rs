@@ -319,7 +319,7 @@ fn first_faces(r: &QRecord, v0: u32, n_new: usize) -> Vec<Option<[u32; 4]>> {
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
     let mut out = [0u32; 3];
     for t in 0..3 {
-        let v = pred[t] as i64 + rd.s()?;
+        let v = (pred[t] as i64).saturating_add(rd.s()?);
         if v < 0 || v > qmax as i64 {
             return Err(format!("position code {v} outside the grid 0..={qmax}"));
         }
@@ -347,7 +347,7 @@ fn check_distinct(q: &[u32; 4], what: &str) -> Result<(), String> {
 
 /// Vertex `cursor + delta`, which must be `< limit`.
 fn vref(cursor: u32, delta: i64, limit: u32, what: &str) -> Result<u32, String> {
-    let v = cursor as i64 + delta;
+    let v = (cursor as i64).saturating_add(delta);
     if v < 0 || v >= limit as i64 {
         return Err(format!("{what} references vertex {v} but only {limit} vertices exist"));
     }
@@ -401,7 +401,7 @@ pub fn decode_record(
             let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
             for t in 0..n_rw {
                 let s = if t == 0 {
-                    cur.slot as i64 + rd[SLOTS].s()?
+                    (cur.slot as i64).saturating_add(rd[SLOTS].s()?)
                 } else {
                     let gap = rd[SLOTS].u_max(f0 as u64, "slot gap")? as i64;
                     slots.last().map_or(0, |&p: &u32| p as i64) + 1 + gap
@@ -700,7 +700,7 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
     for f in 0..nf {
         let mut q = [0u32; 4];
         for qc in q.iter_mut() {
-            let v = prev + r.s()?;
+            let v = prev.saturating_add(r.s()?);
             if v < 0 || v >= nv as i64 {
                 return Err(format!("face {f} references vertex {v} but only {nv} vertices exist"));
             }

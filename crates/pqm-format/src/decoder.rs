@@ -662,7 +662,7 @@ impl Decoder {
         let mut seen = vec![false; n as usize];
         let mut prev = 0i64;
         for k in 0..n {
-            let v = r.s().map(|d| prev + d).map_err(|m| DecodeError::invalid(Section::Optional(i), m))?;
+            let v = r.s().map(|d| prev.saturating_add(d)).map_err(|m| DecodeError::invalid(Section::Optional(i), m))?;
             match usize::try_from(v).ok().and_then(|u| seen.get_mut(u)) {
                 Some(s) if !*s => *s = true,
                 _ => {

@@ -432,3 +432,117 @@ fn empty_and_record_free_meshes() {
     let dec = decode_all(&bytes, Limits::default()).unwrap();
     assert!(dec.quads().is_empty() && dec.positions().is_empty());
 }
+
+/// Rebuilds `bytes` with chunk `i`'s uncompressed payload changed by `f`
+/// (recompressed, table and CRCs fixed), so the damage reaches the record
+/// decoder instead of being caught by a CRC.
+fn repack_chunk(bytes: &[u8], i: usize, f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+    let h = Header::parse(&bytes[..120]);
+    let n = h.chunk_count as usize;
+    let table_end = 120 + n * 36 + 4;
+    let mut chunks: Vec<ChunkInfo> =
+        (0..n).map(|c| ChunkInfo::parse(&bytes[120 + c * 36..])).collect();
+    let body = |c: &ChunkInfo| bytes[c.offset as usize..(c.offset + c.compressed_len as u64) as usize].to_vec();
+    let mut bodies: Vec<Vec<u8>> = chunks.iter().map(body).collect();
+    let tail_start = (chunks[n - 1].offset + chunks[n - 1].compressed_len as u64) as usize;
+    let mut payload = zstd::bulk::decompress(&bodies[i], chunks[i].uncompressed_len as usize).unwrap();
+    f(&mut payload);
+    bodies[i] = zstd::bulk::compress(&payload, 3).unwrap();
+    chunks[i].uncompressed_len = payload.len() as u32;
+    chunks[i].compressed_len = bodies[i].len() as u32;
+    chunks[i].crc32 = crc32fast::hash(&bodies[i]);
+    let mut off = chunks[0].offset;
+    let mut out = bytes[..120].to_vec();
+    let mut table = Vec::new();
+    for c in chunks.iter_mut() {
+        c.offset = off;
+        off += c.compressed_len as u64;
+        table.extend_from_slice(&c.to_bytes());
+    }
+    out.extend_from_slice(&table);
+    out.extend_from_slice(&crc32fast::hash(&table).to_le_bytes());
+    out.extend_from_slice(&bytes[table_end..chunks[0].offset as usize]);
+    for b in &bodies {
+        out.extend_from_slice(b);
+    }
+    out.extend_from_slice(&bytes[tail_start..]);
+    out
+}
+
+#[test]
+fn bad_record_errors_name_the_record() {
+    let pm = testgen::generate(12, 60);
+    let opts = EncodeOptions { chunk_records: Some(20), ..EncodeOptions::default() };
+    let bytes = encode(&pm, &opts);
+    // Unchanged repack decodes (checks the helper itself).
+    let same = repack_chunk(&bytes, 1, |_| {});
+    decode_all(&same, Limits::default()).unwrap();
+    // Make the first record of chunk 1 reference a far-away vertex: its refs
+    // stream starts with the anchor delta; replace it by a huge svarint.
+    let bad = repack_chunk(&bytes, 1, |p| {
+        let mut r = pqm_format::varint::Reader::new(p, "t");
+        let mut lens = Vec::new();
+        let mut starts = Vec::new();
+        for _ in 0..5 {
+            let n = r.u().unwrap() as usize;
+            starts.push(p.len() - r.remaining());
+            lens.push(n);
+            r.bytes(n).unwrap();
+        }
+        let refs_start = starts[2];
+        // Rebuild the payload with a new first refs value (vertex 10^6).
+        let mut rd = pqm_format::varint::Reader::new(&p[refs_start..refs_start + lens[2]], "refs");
+        rd.s().unwrap();
+        let rest = rd.bytes(rd.remaining()).unwrap().to_vec();
+        let mut refs = Vec::new();
+        pqm_format::varint::put_s(&mut refs, 1_000_000);
+        refs.extend_from_slice(&rest);
+        let mut out = Vec::new();
+        for k in 0..5 {
+            let s: &[u8] = if k == 2 { &refs } else { &p[starts[k]..starts[k] + lens[k]] };
+            pqm_format::varint::put_u(&mut out, s.len() as u64);
+            out.extend_from_slice(s);
+        }
+        *p = out;
+    });
+    let mut dec = Decoder::new(Limits::default());
+    match dec.push(&bad) {
+        Err(DecodeError::Format(FormatError::BadRecord { chunk: 1, record: 20, message })) => {
+            assert!(message.contains("1000000"), "{message}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(dec.deepest_level(), Some(20));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    /// Random bytes as the five record streams of a valid mesh state: the
+    /// record decoder returns errors, never panics, and whatever it accepts
+    /// applies cleanly.
+    #[test]
+    fn random_record_streams_never_panic(
+        seed in 0u64..50,
+        streams in prop::collection::vec(prop::collection::vec(any::<u8>(), 0..48), 5),
+    ) {
+        use pqm_format::codec::{decode_record, Cursors, MeshState};
+        use pqm_format::varint::Reader;
+        let pm = testgen::generate(seed, 30);
+        let (pos, quads) = pm.level_quads(pm.records.len());
+        let q = expected_quantizer(&pm, 14);
+        let mut st = MeshState::new(q.qmax(), pos.iter().map(|p| q.quantize(*p)).collect(), quads);
+        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&streams[k], "s"));
+        let mut cur = Cursors::default();
+        let (mv, mf) = (st.q.len() as u32 + 20, st.quads.len() as u32 + 20);
+        for _ in 0..10 {
+            match decode_record(&st, &mut rd, &mut cur, mv, mf) {
+                Ok(r) => {
+                    st.apply(&r);
+                    prop_assert!(st.quads.iter().flatten().all(|&v| (v as usize) < st.q.len()));
+                }
+                Err(_) => break,
+            }
+        }
+    }
+}
