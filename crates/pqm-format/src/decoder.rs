@@ -121,9 +121,14 @@ pub struct Change {
 }
 
 impl Change {
-    /// True when nothing changed.
+    /// True when no buffer range changed.
     pub fn is_empty(&self) -> bool {
-        self.from_level == self.to_level
+        self.vertices_appended.is_empty()
+            && self.vertices_removed.is_empty()
+            && self.vertices_moved.is_empty()
+            && self.faces_rewritten.is_empty()
+            && self.faces_appended.is_empty()
+            && self.faces_truncated.is_empty()
     }
 
     /// `vertices_moved` merged into maximal runs of consecutive ids.
@@ -800,6 +805,19 @@ impl Decoder {
             faces_appended: f_from.min(f_to)..f_to,
             faces_truncated: f_to..f_from.max(f_to),
         })
+    }
+
+    /// A change that uploads the whole current level into empty buffers
+    /// (every vertex and face appended): what a renderer applies once, when
+    /// [`Event::BaseMeshReady`] arrives or after it recreates its buffers.
+    pub fn full_upload(&self) -> Change {
+        Change {
+            from_level: self.level,
+            to_level: self.level,
+            vertices_appended: 0..self.q.len() as u32,
+            faces_appended: 0..self.quads.len() as u32,
+            ..Change::default()
+        }
     }
 
     // ---- access -----------------------------------------------------------
