@@ -57,3 +57,5 @@ pub use encoder::{write, write_to_vec, BitsPerVertex, EncodeOptions, EncodeRepor
 pub use error::{DecodeError, EncodeError, FormatError, Section};
 pub use layout::{ChunkInfo, Header};
 pub use quant::Quantizer;
+#[doc(hidden)]
+pub mod vectors;
