@@ -1,4 +1,4 @@
-//! Coding of the base mesh and of refinement records (spec §5–§7).
+//! Coding of the base mesh and of refinement records (spec §6–§7).
 //!
 //! Both the encoder and the decoder run the same [`MeshState`] — quantized
 //! positions, quads and vertex→face adjacency at the current level — because
@@ -60,7 +60,7 @@ pub struct MeshState {
     pub vf: Vec<Vec<u32>>,
 }
 
-/// Star of a vertex in canonical order (spec §7.3).
+/// Star of a vertex in canonical order (spec §7.5).
 #[derive(Clone, Debug)]
 pub struct Star {
     /// Faces `f_0 … f_{K-1}` counter-clockwise.
@@ -127,39 +127,42 @@ impl MeshState {
         (old_pos, old_quads)
     }
 
-    /// Canonical star of `m` (spec §7.3), or why it is not a single fan.
+    /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
     pub fn star(&self, m: u32) -> Result<Star, String> {
         let fs = &self.vf[m as usize];
         if fs.is_empty() || fs.len() > MAX_SPLIT_STAR {
             return Err(format!("vertex {m} has {} faces (split form needs 1..=255)", fs.len()));
         }
-        let corner = |f: u32| {
-            let q = &self.quads[f as usize];
-            let k = q.iter().position(|&x| x == m).unwrap_or(0);
-            (q[(k + 1) % 4], q[(k + 3) % 4]) // (next, prev) of m in f
+        // (slot, next of m, prev of m) per face, read once: the walk below
+        // is quadratic in the valence, so keep its inner loop on a small array.
+        let ring: Vec<(u32, u32, u32)> = fs
+            .iter()
+            .map(|&f| {
+                let q = &self.quads[f as usize];
+                let k = q.iter().position(|&x| x == m).unwrap_or(0);
+                (f, q[(k + 1) % 4], q[(k + 3) % 4])
+            })
+            .collect();
+        let not_fan = || format!("star of vertex {m} is not a single fan");
+        // Index (into `ring`) of the smallest slot g != ring[f] with
+        // next(g) == key (want_next) or prev(g) == key.
+        let find = |f: usize, key: u32, want_next: bool| -> Option<usize> {
+            let mut best: Option<usize> = None;
+            for (g, e) in ring.iter().enumerate() {
+                let hit = if want_next { e.1 == key } else { e.2 == key };
+                if g != f && hit && best.is_none_or(|b| e.0 < ring[b].0) {
+                    best = Some(g);
+                }
+            }
+            best
         };
-        // Smallest slot among faces g != f with `pick(g) == key`.
-        let find = |f: u32, key: u32, want_next: bool| -> Option<u32> {
-            fs.iter()
-                .copied()
-                .filter(|&g| g != f)
-                .filter(|&g| {
-                    let (n, p) = corner(g);
-                    if want_next {
-                        n == key
-                    } else {
-                        p == key
-                    }
-                })
-                .min()
-        };
-        let succ = |f: u32| find(f, corner(f).1, true);
-        let pred = |f: u32| find(f, corner(f).0, false);
-        let first = fs.iter().copied().min().unwrap_or(0);
+        let succ = |f: usize| find(f, ring[f].2, true);
+        let pred = |f: usize| find(f, ring[f].1, false);
+        let first = (0..ring.len()).min_by_key(|&g| ring[g].0).unwrap_or(0);
         let mut start = None;
         let mut boundary = false;
         let mut f = first;
-        for _ in 0..fs.len() {
+        for _ in 0..ring.len() {
             match pred(f) {
                 None => {
                     start = Some(f);
@@ -173,32 +176,32 @@ impl MeshState {
                 Some(g) => f = g,
             }
         }
-        let start = start.ok_or_else(|| format!("star of vertex {m} is not a single fan"))?;
-        let mut faces = vec![start];
+        let start = start.ok_or_else(not_fan)?;
+        let mut order = vec![start];
         let mut f = start;
         loop {
             match succ(f) {
                 None if boundary => break,
                 Some(g) if g == start && !boundary => break,
-                Some(g) if !faces.contains(&g) && faces.len() < fs.len() => {
-                    faces.push(g);
+                Some(g) if !order.contains(&g) && order.len() < ring.len() => {
+                    order.push(g);
                     f = g;
                 }
-                _ => return Err(format!("star of vertex {m} is not a single fan")),
+                _ => return Err(not_fan()),
             }
         }
-        if faces.len() != fs.len() {
-            return Err(format!("star of vertex {m} is not a single fan"));
+        if order.len() != ring.len() {
+            return Err(not_fan());
         }
-        let mut link: Vec<u32> = faces.iter().map(|&f| corner(f).0).collect();
+        let mut link: Vec<u32> = order.iter().map(|&g| ring[g].1).collect();
         if boundary {
-            link.push(corner(f).1);
+            link.push(ring[f].2);
         }
-        Ok(Star { faces, link })
+        Ok(Star { faces: order.iter().map(|&g| ring[g].0).collect(), link })
     }
 }
 
-/// The explicit connectivity of a split (spec §7.3): rewritten slots of the
+/// The explicit connectivity of a split (spec §7.5): rewritten slots of the
 /// `c` side (sorted) and the appended quad.
 fn build_split(
     st: &MeshState,
@@ -227,7 +230,7 @@ fn build_split(
     Ok((rewritten, appended))
 }
 
-/// Prediction of the split vertex `a` (spec §7.4): `m`'s old code plus a
+/// Prediction of the split vertex `a` (spec §7.5): `m`'s old code plus a
 /// quarter of the difference between the mean far corners (the corner
 /// opposite `m`) of the faces that keep `m` and of the faces that go to `c`.
 /// On a regular grid split across its middle this is the midpoint-merge
@@ -252,7 +255,7 @@ fn predict_a(st: &MeshState, m: u32, star: &Star, i: usize, j: usize) -> [u32; 3
     [0, 1, 2].map(|a| (pm[a] as i64 + (mean(0, a) - mean(1, a)).div_euclid(4)).clamp(0, qmax) as u32)
 }
 
-/// Reflection prediction of `c` (spec §7.4): `2 m_old − a`, as a midpoint
+/// Reflection prediction of `c` (spec §7.5): `2 m_old − a`, as a midpoint
 /// merge leaves it.
 fn reflect(st: &MeshState, m_old: [u32; 3], a: [u32; 3]) -> [u32; 3] {
     let qmax = st.qmax as i64;
@@ -263,7 +266,7 @@ fn residual_cost(pred: [u32; 3], p: [u32; 3]) -> u64 {
     (0..3).map(|t| (p[t] as i64 - pred[t] as i64).unsigned_abs()).sum()
 }
 
-/// Prediction of the code of new vertex `x` (spec §7.5). `r.new_pos` holds
+/// Prediction of the code of new vertex `x` (spec §7.6). `r.new_pos` holds
 /// the new vertices before `x`; `first` is the first record face (appended,
 /// then rewritten) containing `x`.
 fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>) -> [u32; 3] {
@@ -666,7 +669,7 @@ pub fn split_streams(buf: &[u8]) -> Result<[Reader<'_>; 5], String> {
     Ok([0, 1, 2, 3, 4].map(|k| Reader::new(parts[k], STREAM_NAMES[k])))
 }
 
-/// Base mesh payload (spec §5): corners as zigzag deltas of the previous
+/// Base mesh payload (spec §6): corners as zigzag deltas of the previous
 /// corner, then codes as zigzag deltas of the previous vertex.
 pub fn encode_base(q: &[[u32; 3]], quads: &[[u32; 4]]) -> Vec<u8> {
     let mut out = Vec::new();

@@ -1,4 +1,4 @@
-//! Fixed byte layout of the header and the chunk table (spec §2–§3).
+//! Fixed byte layout of the header and the chunk table (spec §3–§4).
 
 use byteorder::{ByteOrder, LittleEndian as LE};
 
@@ -26,7 +26,7 @@ pub const MAX_HEADER_LEN: u32 = 1 << 16;
 /// Largest zstd window (log2) a writer may use and a reader accepts.
 pub const MAX_WINDOW_LOG: u32 = 25;
 
-/// The file header (spec §2).
+/// The file header (spec §3).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Header {
     /// Major version (incompatible changes).
@@ -69,7 +69,7 @@ pub struct Header {
     pub base_error: f32,
 }
 
-/// One chunk table entry (spec §3).
+/// One chunk table entry (spec §4).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChunkInfo {
     /// Absolute file offset of the chunk's compressed bytes.

@@ -1,4 +1,4 @@
-//! The single quantization grid of a `.pqm` file (spec §"Quantization").
+//! The single quantization grid of a `.pqm` file (spec §5).
 //!
 //! One grid over the bounding box of *every* position the file ever shows
 //! (base, appended and moved), shared by all levels, so a vertex never changes

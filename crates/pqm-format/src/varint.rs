@@ -1,5 +1,5 @@
 //! LEB128 varints and zigzag signed integers, the integer coding of every
-//! `.pqm` stream (spec §"Integer coding").
+//! `.pqm` stream (spec §1).
 //!
 //! * unsigned: little-endian base-128, 7 bits per byte, high bit = "more";
 //!   at most 10 bytes (a `u64`); a value that does not fit 64 bits is an error;
