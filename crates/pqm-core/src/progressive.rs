@@ -86,12 +86,22 @@ impl ProgressiveMesh {
 
     /// Vertex count of the finest level (base plus every appended vertex).
     pub fn final_vertex_count(&self) -> usize {
-        self.base.vertex_count() + self.records.iter().map(|r| r.new_vertices.len()).sum::<usize>()
+        self.base.vertex_count()
+            + self
+                .records
+                .iter()
+                .map(|r| r.new_vertices.len())
+                .sum::<usize>()
     }
 
     /// Face count of the finest level (base plus every appended quad).
     pub fn final_face_count(&self) -> usize {
-        self.base.face_count() + self.records.iter().map(|r| r.appended_faces.len()).sum::<usize>()
+        self.base.face_count()
+            + self
+                .records
+                .iter()
+                .map(|r| r.appended_faces.len())
+                .sum::<usize>()
     }
 
     /// Positions and quads of level `k` (records `0..k` applied to the base),
@@ -101,7 +111,11 @@ impl ProgressiveMesh {
     /// When `k > records.len()` or when the mesh does not pass
     /// [`ProgressiveMesh::validate`] (an index out of range).
     pub fn level_quads(&self, k: usize) -> (Vec<DVec3>, Vec<[u32; 4]>) {
-        assert!(k <= self.records.len(), "level {k} > record count {}", self.records.len());
+        assert!(
+            k <= self.records.len(),
+            "level {k} > record count {}",
+            self.records.len()
+        );
         let mut positions = self.base.positions.clone();
         let mut quads: Vec<[u32; 4]> = self
             .base
@@ -161,7 +175,9 @@ impl ProgressiveMesh {
             }
             for (c, &v) in q.iter().enumerate() {
                 if v as usize >= nv {
-                    return Err(format!("{what} uses vertex {v} but only {nv} vertices exist"));
+                    return Err(format!(
+                        "{what} uses vertex {v} but only {nv} vertices exist"
+                    ));
                 }
                 if q[..c].contains(&v) {
                     return Err(format!("{what} repeats vertex {v}"));
@@ -184,13 +200,17 @@ impl ProgressiveMesh {
             let mut seen = std::collections::HashSet::new();
             for &(v, p) in &rec.moved {
                 if v as usize >= nv {
-                    return Err(format!("record {r} moves vertex {v} but only {nv} vertices exist"));
+                    return Err(format!(
+                        "record {r} moves vertex {v} but only {nv} vertices exist"
+                    ));
                 }
                 if !seen.insert(v) {
                     return Err(format!("record {r} moves vertex {v} twice"));
                 }
                 if !p.is_finite() {
-                    return Err(format!("record {r} moves vertex {v} to a non-finite position"));
+                    return Err(format!(
+                        "record {r} moves vertex {v} to a non-finite position"
+                    ));
                 }
             }
             if rec.new_vertices.iter().any(|p| !p.is_finite()) {
@@ -200,10 +220,14 @@ impl ProgressiveMesh {
             let mut prev: Option<u32> = None;
             for &(s, q) in &rec.rewritten {
                 if s as usize >= nf {
-                    return Err(format!("record {r} rewrites slot {s} but only {nf} faces exist"));
+                    return Err(format!(
+                        "record {r} rewrites slot {s} but only {nf} faces exist"
+                    ));
                 }
                 if prev.is_some_and(|p| p >= s) {
-                    return Err(format!("record {r} rewritten slots are not strictly ascending at {s}"));
+                    return Err(format!(
+                        "record {r} rewritten slots are not strictly ascending at {s}"
+                    ));
                 }
                 prev = Some(s);
                 check_quad(&format!("record {r} rewritten slot {s}"), &q, nv_after)?;
@@ -225,7 +249,11 @@ impl ProgressiveMesh {
             for (i, &o) in self.vertex_order.iter().enumerate() {
                 match seen.get_mut(o as usize) {
                     Some(s) if !*s => *s = true,
-                    _ => return Err(format!("vertex_order[{i}] = {o} is out of range or repeated")),
+                    _ => {
+                        return Err(format!(
+                            "vertex_order[{i}] = {o} is out of range or repeated"
+                        ))
+                    }
                 }
             }
         }
@@ -239,7 +267,9 @@ impl ProgressiveMesh {
             }
             for (k, &e) in self.level_error.iter().enumerate() {
                 if !e.is_finite() || e < 0.0 {
-                    return Err(format!("level_error[{k}] = {e} is not finite and non-negative"));
+                    return Err(format!(
+                        "level_error[{k}] = {e} is not finite and non-negative"
+                    ));
                 }
                 if k > 0 && e > self.level_error[k - 1] {
                     return Err(format!("level_error increases at level {k}"));
@@ -279,7 +309,10 @@ mod tests {
                 nf += r.appended_faces.len();
             }
         }
-        assert_eq!(pm.level(0), IndexedMesh::from_faces(pm.base.positions.clone(), pm.base.faces()));
+        assert_eq!(
+            pm.level(0),
+            IndexedMesh::from_faces(pm.base.positions.clone(), pm.base.faces())
+        );
     }
 
     #[test]

@@ -10,7 +10,9 @@
 //! At the end the simulated GPU buffers are checked against the decoder.
 
 use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
-use pqm_format::{quad_triangles, write_to_vec, Change, Decoder, EncodeOptions, Event, Limits, Target};
+use pqm_format::{
+    quad_triangles, write_to_vec, Change, Decoder, EncodeOptions, Event, Limits, Target,
+};
 
 /// Stand-in for GPU buffers: a vertex buffer, an index buffer (6 indices per
 /// quad slot) and counters of what was uploaded.
@@ -38,7 +40,10 @@ impl GpuMesh {
             self.uploaded_vertex_bytes += 12 * (b - a);
         }
         // Appended vertices: one write at the end.
-        let (a, b) = (c.vertices_appended.start as usize, c.vertices_appended.end as usize);
+        let (a, b) = (
+            c.vertices_appended.start as usize,
+            c.vertices_appended.end as usize,
+        );
         self.vertices.extend_from_slice(&pos[a..b]);
         self.uploaded_vertex_bytes += 12 * (b - a);
         // Rewritten quads: slot f is indices 6f .. 6f + 6.
@@ -50,7 +55,8 @@ impl GpuMesh {
             }
         }
         for f in c.faces_appended.clone() {
-            self.indices.extend_from_slice(&quad_triangles(quads[f as usize]));
+            self.indices
+                .extend_from_slice(&quad_triangles(quads[f as usize]));
             self.uploaded_index_bytes += 24;
         }
     }
@@ -62,7 +68,10 @@ fn main() {
         base: BaseShape::Box { n: 3 },
         ..GenOptions::new(42, 20_000)
     });
-    let opts = EncodeOptions { chunk_bytes: 4096, ..EncodeOptions::default() };
+    let opts = EncodeOptions {
+        chunk_bytes: 4096,
+        ..EncodeOptions::default()
+    };
     let (file, report) = write_to_vec(&pm, &opts).expect("encode");
     println!(
         "file: {} bytes, {} chunks, {} → {} quads",
@@ -85,12 +94,19 @@ fn main() {
             match e {
                 Event::HeaderReady => {
                     let h = dec.header().expect("header");
-                    println!("frame {frame}: header: {} levels, final {} quads", h.record_count + 1, h.final_face_count);
+                    println!(
+                        "frame {frame}: header: {} levels, final {} quads",
+                        h.record_count + 1,
+                        h.final_face_count
+                    );
                 }
                 Event::BaseMeshReady => {
                     // First upload: the whole base mesh.
                     gpu.apply(&dec, &dec.full_upload());
-                    println!("frame {frame}: base mesh ready, {} quads uploaded", dec.quads().len());
+                    println!(
+                        "frame {frame}: base mesh ready, {} quads uploaded",
+                        dec.quads().len()
+                    );
                 }
                 Event::Finished => println!("frame {frame}: whole file received"),
                 _ => {}
@@ -101,7 +117,11 @@ fn main() {
         }
         // 2. Level of detail: a face budget from the camera distance (the
         //    camera flies in, then back out after frame 250).
-        let distance = if frame < 250 { 10.0 - frame as f64 * 0.038 } else { 0.5 + (frame - 250) as f64 * 0.05 };
+        let distance = if frame < 250 {
+            10.0 - frame as f64 * 0.038
+        } else {
+            0.5 + (frame - 250) as f64 * 0.05
+        };
         let budget = (40_000.0 / (distance * distance)) as usize;
         // 3. Move the decoder (refines or coarsens; clamps to what arrived).
         let change = dec.set_level(Target::Faces(budget)).expect("level");
@@ -122,5 +142,9 @@ fn main() {
     }
     assert_eq!(gpu.vertices, dec.positions(), "vertex buffer in sync");
     assert_eq!(gpu.indices, dec.triangle_indices(), "index buffer in sync");
-    println!("GPU buffers match the decoder: {} vertices, {} triangles", gpu.vertices.len(), gpu.indices.len() / 3);
+    println!(
+        "GPU buffers match the decoder: {} vertices, {} triangles",
+        gpu.vertices.len(),
+        gpu.indices.len() / 3
+    );
 }

@@ -15,7 +15,11 @@ fn main() {
         std::fs::write(dir.join(format!("{}.json", v.name)), json).expect("write json");
         for &k in &v.levels {
             dec.set_level(Target::Level(k)).expect("level");
-            std::fs::write(dir.join(format!("{}.level{k}.obj", v.name)), vectors::obj(&dec)).expect("write obj");
+            std::fs::write(
+                dir.join(format!("{}.level{k}.obj", v.name)),
+                vectors::obj(&dec),
+            )
+            .expect("write obj");
         }
         println!("{}: {} bytes, levels {:?}", v.name, v.bytes.len(), v.levels);
     }

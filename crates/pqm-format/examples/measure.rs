@@ -26,7 +26,11 @@ fn main() {
     );
     for (name, split_form) in [("split form", true), ("general form", false)] {
         for bits in [12u8, 14, 16] {
-            let opts = EncodeOptions { bits, split_form, ..EncodeOptions::default() };
+            let opts = EncodeOptions {
+                bits,
+                split_form,
+                ..EncodeOptions::default()
+            };
             let (bytes, r) = write_to_vec(&pm, &opts).expect("encode");
             let b = r.bits_per_vertex;
             println!(

@@ -131,7 +131,10 @@ impl MeshState {
     pub fn star(&self, m: u32) -> Result<Star, String> {
         let fs = &self.vf[m as usize];
         if fs.is_empty() || fs.len() > MAX_SPLIT_STAR {
-            return Err(format!("vertex {m} has {} faces (split form needs 1..=255)", fs.len()));
+            return Err(format!(
+                "vertex {m} has {} faces (split form needs 1..=255)",
+                fs.len()
+            ));
         }
         // (slot, next of m, prev of m) per face, read once: the walk below
         // is quadratic in the valence, so keep its inner loop on a small array.
@@ -197,9 +200,15 @@ impl MeshState {
         if boundary {
             link.push(ring[f].2);
         }
-        Ok(Star { faces: order.iter().map(|&g| ring[g].0).collect(), link })
+        Ok(Star {
+            faces: order.iter().map(|&g| ring[g].0).collect(),
+            link,
+        })
     }
 }
+
+/// Rewritten slots with their new quads.
+type Rewrites = Vec<(u32, [u32; 4])>;
 
 /// The explicit connectivity of a split (spec §7.5): rewritten slots of the
 /// `c` side (sorted) and the appended quad.
@@ -210,7 +219,7 @@ fn build_split(
     i: usize,
     j: usize,
     rot: usize,
-) -> Result<(Vec<(u32, [u32; 4])>, [u32; 4]), String> {
+) -> Result<(Rewrites, [u32; 4]), String> {
     let c = st.q.len() as u32;
     let (b, d) = (star.link[i], star.link[j]);
     if b == d {
@@ -218,7 +227,13 @@ fn build_split(
     }
     let base = [m, d, c, b];
     let appended = [0, 1, 2, 3].map(|t| base[(t + rot) % 4]);
-    let in_a = |t: usize| if i < j { i <= t && t < j } else { t >= i || t < j };
+    let in_a = |t: usize| {
+        if i < j {
+            i <= t && t < j
+        } else {
+            t >= i || t < j
+        }
+    };
     let mut rewritten: Vec<(u32, [u32; 4])> = (0..star.faces.len())
         .filter(|&t| !in_a(t))
         .map(|t| {
@@ -237,7 +252,13 @@ fn build_split(
 /// answer, half an edge towards the `a` side.
 fn predict_a(st: &MeshState, m: u32, star: &Star, i: usize, j: usize) -> [u32; 3] {
     let pm = st.q[m as usize];
-    let in_a = |t: usize| if i < j { i <= t && t < j } else { t >= i || t < j };
+    let in_a = |t: usize| {
+        if i < j {
+            i <= t && t < j
+        } else {
+            t >= i || t < j
+        }
+    };
     let mut sum = [[0i64; 3]; 2];
     let mut n = [0i64; 2];
     for (t, &f) in star.faces.iter().enumerate() {
@@ -250,9 +271,16 @@ fn predict_a(st: &MeshState, m: u32, star: &Star, i: usize, j: usize) -> [u32; 3
         }
         n[side] += 1;
     }
-    let mean = |s: usize, a: usize| if n[s] > 0 { sum[s][a].div_euclid(n[s]) } else { pm[a] as i64 };
+    let mean = |s: usize, a: usize| {
+        if n[s] > 0 {
+            sum[s][a].div_euclid(n[s])
+        } else {
+            pm[a] as i64
+        }
+    };
     let qmax = st.qmax as i64;
-    [0, 1, 2].map(|a| (pm[a] as i64 + (mean(0, a) - mean(1, a)).div_euclid(4)).clamp(0, qmax) as u32)
+    [0, 1, 2]
+        .map(|a| (pm[a] as i64 + (mean(0, a) - mean(1, a)).div_euclid(4)).clamp(0, qmax) as u32)
 }
 
 /// Reflection prediction of `c` (spec §7.5): `2 m_old − a`, as a midpoint
@@ -263,7 +291,9 @@ fn reflect(st: &MeshState, m_old: [u32; 3], a: [u32; 3]) -> [u32; 3] {
 }
 
 fn residual_cost(pred: [u32; 3], p: [u32; 3]) -> u64 {
-    (0..3).map(|t| (p[t] as i64 - pred[t] as i64).unsigned_abs()).sum()
+    (0..3)
+        .map(|t| (p[t] as i64 - pred[t] as i64).unsigned_abs())
+        .sum()
 }
 
 /// Prediction of the code of new vertex `x` (spec §7.6). `r.new_pos` holds
@@ -289,7 +319,8 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>
         let n3 = known(face[(k + 3) % 4]);
         if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
             let qmax = st.qmax as i64;
-            return [0, 1, 2].map(|t| (a[t] as i64 + c[t] as i64 - b[t] as i64).clamp(0, qmax) as u32);
+            return [0, 1, 2]
+                .map(|t| (a[t] as i64 + c[t] as i64 - b[t] as i64).clamp(0, qmax) as u32);
         }
         let ks: Vec<[u32; 3]> = [n1, o, n3].into_iter().flatten().collect();
         if !ks.is_empty() {
@@ -352,7 +383,9 @@ fn check_distinct(q: &[u32; 4], what: &str) -> Result<(), String> {
 fn vref(cursor: u32, delta: i64, limit: u32, what: &str) -> Result<u32, String> {
     let v = (cursor as i64).saturating_add(delta);
     if v < 0 || v >= limit as i64 {
-        return Err(format!("{what} references vertex {v} but only {limit} vertices exist"));
+        return Err(format!(
+            "{what} references vertex {v} but only {limit} vertices exist"
+        ));
     }
     Ok(v as u32)
 }
@@ -384,7 +417,9 @@ pub fn decode_record(
     match form {
         0 => {
             if sym & 0xf0 != 0 {
-                return Err(format!("general-form symbol {sym:#04x} has split-form bits set"));
+                return Err(format!(
+                    "general-form symbol {sym:#04x} has split-form bits set"
+                ));
             }
             let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
             let n_moved = rd[CONN].u_max(v0 as u64, "moved vertex count")? as usize;
@@ -395,7 +430,9 @@ pub fn decode_record(
                 let d = rd[REFS].s()?;
                 let v = vref(cur.vref, d, v0, "moved vertex")?;
                 if r.moved.last().is_some_and(|&(p, _)| p >= v) {
-                    return Err(format!("moved vertex {v} is not in strictly ascending order"));
+                    return Err(format!(
+                        "moved vertex {v} is not in strictly ascending order"
+                    ));
                 }
                 cur.vref = v;
                 let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
@@ -436,7 +473,10 @@ pub fn decode_record(
                     return Ok(st.quads[s as usize][(idx % 4) as usize]);
                 }
                 let idx = idx - 4 * n_rw as u64;
-                extra.get(idx as usize).copied().ok_or_else(|| format!("corner code {x} out of range"))
+                extra
+                    .get(idx as usize)
+                    .copied()
+                    .ok_or_else(|| format!("corner code {x} out of range"))
             };
             for &s in &slots {
                 let mask = rd[CONN].u_max(15, "corner mask")?;
@@ -571,7 +611,15 @@ pub fn encode_record(
             if moved {
                 put_residual(&mut s[POS], predict_a(st, m, &star, i, j), a);
             }
-            put_residual(&mut s[POS], if use_reflection { by_reflection } else { by_quad }, c);
+            put_residual(
+                &mut s[POS],
+                if use_reflection {
+                    by_reflection
+                } else {
+                    by_quad
+                },
+                c,
+            );
             return true;
         }
     }
@@ -620,11 +668,13 @@ pub fn encode_record(
     };
     for &(slot, q) in &r.rewritten {
         let old = st.quads[slot as usize];
-        let mask = (0..4).filter(|&c| q[c] != old[c]).fold(0u64, |m, c| m | 1 << c);
+        let mask = (0..4)
+            .filter(|&c| q[c] != old[c])
+            .fold(0u64, |m, c| m | 1 << c);
         put_u(&mut s[CONN], mask);
-        for c in 0..4 {
+        for (c, &v) in q.iter().enumerate() {
             if mask & (1 << c) != 0 {
-                corner(q[c], s, cur);
+                corner(v, s, cur);
             }
         }
     }
@@ -661,7 +711,9 @@ pub fn split_streams(buf: &[u8]) -> Result<[Reader<'_>; 5], String> {
     for (k, part) in parts.iter_mut().enumerate() {
         let n = r.u()?;
         let n = usize::try_from(n).map_err(|_| "stream length too large".to_string())?;
-        *part = r.bytes(n).map_err(|_| format!("stream {} is longer than the payload", STREAM_NAMES[k]))?;
+        *part = r
+            .bytes(n)
+            .map_err(|_| format!("stream {} is longer than the payload", STREAM_NAMES[k]))?;
     }
     if r.remaining() != 0 {
         return Err(format!("{} bytes after the last stream", r.remaining()));
@@ -695,7 +747,10 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
     // Every corner and every coordinate takes at least one byte: check the
     // claimed counts against the payload before allocating.
     if (nf as u64) * 4 + (nv as u64) * 3 > buf.len() as u64 {
-        return Err(format!("{nv} vertices and {nf} faces cannot fit in {} bytes", buf.len()));
+        return Err(format!(
+            "{nv} vertices and {nf} faces cannot fit in {} bytes",
+            buf.len()
+        ));
     }
     let mut r = Reader::new(buf, "base");
     let mut quads = Vec::with_capacity(nf as usize);
@@ -705,7 +760,9 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
         for qc in q.iter_mut() {
             let v = prev.saturating_add(r.s()?);
             if v < 0 || v >= nv as i64 {
-                return Err(format!("face {f} references vertex {v} but only {nv} vertices exist"));
+                return Err(format!(
+                    "face {f} references vertex {v} but only {nv} vertices exist"
+                ));
             }
             *qc = v as u32;
             prev = v;

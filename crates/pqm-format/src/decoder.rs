@@ -43,14 +43,22 @@ pub struct Limits {
 impl Default for Limits {
     /// 2^26 vertices, 2^26 faces, 4 GiB.
     fn default() -> Self {
-        Limits { max_vertices: 1 << 26, max_faces: 1 << 26, max_memory_bytes: 4 << 30 }
+        Limits {
+            max_vertices: 1 << 26,
+            max_faces: 1 << 26,
+            max_memory_bytes: 4 << 30,
+        }
     }
 }
 
 impl Limits {
     /// No limits beyond what the format can express.
     pub fn none() -> Self {
-        Limits { max_vertices: u32::MAX, max_faces: u32::MAX, max_memory_bytes: u64::MAX }
+        Limits {
+            max_vertices: u32::MAX,
+            max_faces: u32::MAX,
+            max_memory_bytes: u64::MAX,
+        }
     }
 
     /// Conservative memory estimate of a decoder for a file with `v` final
@@ -275,7 +283,9 @@ impl Decoder {
             return Err(DecodeError::Format(e.clone()));
         }
         if let Some(e) = &self.failed_other {
-            return Err(DecodeError::Parameter(format!("the decoder failed earlier: {e}")));
+            return Err(DecodeError::Parameter(format!(
+                "the decoder failed earlier: {e}"
+            )));
         }
         self.buf.extend_from_slice(data);
         let mut events = Vec::new();
@@ -331,7 +341,10 @@ impl Decoder {
             Stage::Header(len) => Some(len as usize),
             Stage::Table => h.map(|h| h.chunk_count as usize * h.chunk_entry_len as usize + 4),
             Stage::Base => h.map(|h| h.base_compressed_len as usize),
-            Stage::Chunk(i) => self.chunks.get(i as usize).map(|c| c.compressed_len as usize),
+            Stage::Chunk(i) => self
+                .chunks
+                .get(i as usize)
+                .map(|c| c.compressed_len as usize),
             Stage::SectionHead(_) => Some(SECTION_HEADER_LEN),
             Stage::SectionBody(_, _, clen, _, _) => Some(clen as usize),
             Stage::Done => None,
@@ -375,15 +388,24 @@ impl Decoder {
                 Stage::SectionHead(i) => {
                     let b = self.take(need);
                     let tag = [b[0], b[1], b[2], b[3]];
-                    self.stage =
-                        Stage::SectionBody(i, tag, LE::read_u32(&b[4..]), LE::read_u32(&b[8..]), LE::read_u32(&b[12..]));
+                    self.stage = Stage::SectionBody(
+                        i,
+                        tag,
+                        LE::read_u32(&b[4..]),
+                        LE::read_u32(&b[8..]),
+                        LE::read_u32(&b[12..]),
+                    );
                 }
                 Stage::SectionBody(i, tag, _, ulen, crc) => {
                     let b = self.take(need);
                     self.on_section(i, tag, ulen, crc, &b)?;
                     events.push(Event::SectionReady(tag));
                     let n = self.header.as_ref().map_or(0, |h| h.section_count);
-                    self.stage = if i + 1 < n { Stage::SectionHead(i + 1) } else { Stage::Done };
+                    self.stage = if i + 1 < n {
+                        Stage::SectionHead(i + 1)
+                    } else {
+                        Stage::Done
+                    };
                     if self.stage == Stage::Done {
                         events.push(Event::Finished);
                     }
@@ -395,7 +417,10 @@ impl Decoder {
 
     /// Moves to chunk `next`, or to the sections / the end.
     fn after_chunks(&mut self, next: u32, events: &mut Vec<Event>) {
-        let (chunks, sections) = self.header.as_ref().map_or((0, 0), |h| (h.chunk_count, h.section_count));
+        let (chunks, sections) = self
+            .header
+            .as_ref()
+            .map_or((0, 0), |h| (h.chunk_count, h.section_count));
         self.stage = if next < chunks {
             Stage::Chunk(next)
         } else if sections > 0 {
@@ -414,11 +439,19 @@ impl Decoder {
         let major = LE::read_u16(&b[8..]);
         let minor = LE::read_u16(&b[10..]);
         if major != VERSION_MAJOR {
-            return Err(FormatError::UnsupportedVersion { major, minor, supported: VERSION_MAJOR }.into());
+            return Err(FormatError::UnsupportedVersion {
+                major,
+                minor,
+                supported: VERSION_MAJOR,
+            }
+            .into());
         }
         let len = LE::read_u32(&b[12..]);
         if !(HEADER_LEN..=MAX_HEADER_LEN).contains(&len) {
-            return Err(DecodeError::invalid(Section::Header, format!("header_len {len} outside {HEADER_LEN}..={MAX_HEADER_LEN}")));
+            return Err(DecodeError::invalid(
+                Section::Header,
+                format!("header_len {len} outside {HEADER_LEN}..={MAX_HEADER_LEN}"),
+            ));
         }
         self.stage = Stage::Header(len);
         Ok(())
@@ -429,7 +462,12 @@ impl Decoder {
         let stored = LE::read_u32(&b[len - 4..]);
         let computed = crc32(&b[..len - 4]);
         if stored != computed {
-            return Err(FormatError::CrcMismatch { section: Section::Header, stored, computed }.into());
+            return Err(FormatError::CrcMismatch {
+                section: Section::Header,
+                stored,
+                computed,
+            }
+            .into());
         }
         let h = Header::parse(&b);
         let bad = |m: String| Err(DecodeError::invalid(Section::Header, m));
@@ -437,7 +475,10 @@ impl Decoder {
             return bad(format!("quantization bits {} outside 8..=24", h.quant_bits));
         }
         if h.chunk_entry_len < CHUNK_ENTRY_LEN || h.chunk_entry_len > 4096 {
-            return bad(format!("chunk entry length {} outside {CHUNK_ENTRY_LEN}..=4096", h.chunk_entry_len));
+            return bad(format!(
+                "chunk entry length {} outside {CHUNK_ENTRY_LEN}..=4096",
+                h.chunk_entry_len
+            ));
         }
         for k in 0..3 {
             let (lo, hi) = (h.bbox_min[k], h.bbox_max[k]);
@@ -449,10 +490,16 @@ impl Decoder {
             return bad("base counts exceed final counts".into());
         }
         if h.chunk_count > h.record_count || (h.record_count > 0 && h.chunk_count == 0) {
-            return bad(format!("{} chunks cannot hold {} records", h.chunk_count, h.record_count));
+            return bad(format!(
+                "{} chunks cannot hold {} records",
+                h.chunk_count, h.record_count
+            ));
         }
         if h.base_error.is_nan() || h.base_error < 0.0 {
-            return bad(format!("base error {} is not a non-negative number", h.base_error));
+            return bad(format!(
+                "base error {} is not a non-negative number",
+                h.base_error
+            ));
         }
         if h.final_vertex_count > self.limits.max_vertices {
             return Err(DecodeError::LimitsExceeded(format!(
@@ -485,12 +532,20 @@ impl Decoder {
     }
 
     fn on_table(&mut self, b: &[u8]) -> Result<(), DecodeError> {
-        let h = self.header.clone().ok_or_else(|| DecodeError::Internal("table before header".into()))?;
+        let h = self
+            .header
+            .clone()
+            .ok_or_else(|| DecodeError::Internal("table before header".into()))?;
         let n = b.len() - 4;
         let stored = LE::read_u32(&b[n..]);
         let computed = crc32(&b[..n]);
         if stored != computed {
-            return Err(FormatError::CrcMismatch { section: Section::ChunkTable, stored, computed }.into());
+            return Err(FormatError::CrcMismatch {
+                section: Section::ChunkTable,
+                stored,
+                computed,
+            }
+            .into());
         }
         let bad = |m: String| Err(DecodeError::invalid(Section::ChunkTable, m));
         let mut offset = h.header_len as u64 + n as u64 + 4 + h.base_compressed_len as u64;
@@ -501,7 +556,10 @@ impl Decoder {
         for i in 0..h.chunk_count as usize {
             let e = ChunkInfo::parse(&b[i * h.chunk_entry_len as usize..]);
             if e.offset != offset {
-                return bad(format!("chunk {i} offset {} != expected {offset}", e.offset));
+                return bad(format!(
+                    "chunk {i} offset {} != expected {offset}",
+                    e.offset
+                ));
             }
             if e.record_count == 0 {
                 return bad(format!("chunk {i} has no records"));
@@ -519,7 +577,10 @@ impl Decoder {
             chunks.push(e);
         }
         if records != h.record_count as u64 {
-            return bad(format!("chunks hold {records} records, header says {}", h.record_count));
+            return bad(format!(
+                "chunks hold {records} records, header says {}",
+                h.record_count
+            ));
         }
         if v != h.final_vertex_count || f != h.final_face_count {
             return bad(format!(
@@ -544,14 +605,23 @@ impl Decoder {
         Ok(())
     }
 
-    fn decompress(&mut self, section: Section, data: &[u8], ulen: u32) -> Result<Vec<u8>, DecodeError> {
+    fn decompress(
+        &mut self,
+        section: Section,
+        data: &[u8],
+        ulen: u32,
+    ) -> Result<Vec<u8>, DecodeError> {
         if self.zstd.is_none() {
-            let mut d = zstd::bulk::Decompressor::new().map_err(|e| DecodeError::Internal(e.to_string()))?;
+            let mut d = zstd::bulk::Decompressor::new()
+                .map_err(|e| DecodeError::Internal(e.to_string()))?;
             d.set_parameter(zstd::zstd_safe::DParameter::WindowLogMax(MAX_WINDOW_LOG))
                 .map_err(|e| DecodeError::Internal(e.to_string()))?;
             self.zstd = Some(d);
         }
-        let d = self.zstd.as_mut().ok_or_else(|| DecodeError::Internal("no zstd context".into()))?;
+        let d = self
+            .zstd
+            .as_mut()
+            .ok_or_else(|| DecodeError::Internal("no zstd context".into()))?;
         let out = d
             .decompress(data, ulen as usize)
             .map_err(|e| DecodeError::invalid(section, format!("zstd: {e}")))?;
@@ -567,13 +637,21 @@ impl Decoder {
     fn check_crc(section: Section, data: &[u8], stored: u32) -> Result<(), DecodeError> {
         let computed = crc32(data);
         if computed != stored {
-            return Err(FormatError::CrcMismatch { section, stored, computed }.into());
+            return Err(FormatError::CrcMismatch {
+                section,
+                stored,
+                computed,
+            }
+            .into());
         }
         Ok(())
     }
 
     fn on_base(&mut self, b: &[u8]) -> Result<(), DecodeError> {
-        let h = self.header.clone().ok_or_else(|| DecodeError::Internal("base before header".into()))?;
+        let h = self
+            .header
+            .clone()
+            .ok_or_else(|| DecodeError::Internal("base before header".into()))?;
         Self::check_crc(Section::BaseMesh, b, h.base_crc32)?;
         let payload = self.decompress(Section::BaseMesh, b, h.base_uncompressed_len)?;
         let qmax = self.quant.map_or(0, |q| q.qmax());
@@ -599,25 +677,52 @@ impl Decoder {
     }
 
     fn on_chunk(&mut self, i: u32, b: &[u8]) -> Result<(), DecodeError> {
-        let info = self.chunks.get(i as usize).cloned().ok_or_else(|| DecodeError::Internal("chunk index".into()))?;
-        let h = self.header.clone().ok_or_else(|| DecodeError::Internal("chunk before header".into()))?;
+        let info = self
+            .chunks
+            .get(i as usize)
+            .cloned()
+            .ok_or_else(|| DecodeError::Internal("chunk index".into()))?;
+        let h = self
+            .header
+            .clone()
+            .ok_or_else(|| DecodeError::Internal("chunk before header".into()))?;
         Self::check_crc(Section::Chunk(i), b, info.crc32)?;
         let payload = self.decompress(Section::Chunk(i), b, info.uncompressed_len)?;
-        let mut rd = codec::split_streams(&payload).map_err(|m| DecodeError::invalid(Section::Chunk(i), m))?;
-        let mut st = self.frontier.take().ok_or_else(|| DecodeError::Internal("no frontier".into()))?;
+        let mut rd = codec::split_streams(&payload)
+            .map_err(|m| DecodeError::invalid(Section::Chunk(i), m))?;
+        let mut st = self
+            .frontier
+            .take()
+            .ok_or_else(|| DecodeError::Internal("no frontier".into()))?;
         let mut cur = Cursors::default();
         let first_record = self.recs.op.len() as u32;
         let result = (|| {
             for t in 0..info.record_count {
-                let rec = codec::decode_record(&st, &mut rd, &mut cur, h.final_vertex_count, h.final_face_count)
-                    .map_err(|message| FormatError::BadRecord { chunk: i, record: first_record + t, message })?;
+                let rec = codec::decode_record(
+                    &st,
+                    &mut rd,
+                    &mut cur,
+                    h.final_vertex_count,
+                    h.final_face_count,
+                )
+                .map_err(|message| FormatError::BadRecord {
+                    chunk: i,
+                    record: first_record + t,
+                    message,
+                })?;
                 let (old_pos, old_quads) = st.apply(&rec);
                 let r = &mut self.recs;
                 r.op.push(rec.op);
                 r.new_pos.extend_from_slice(&rec.new_pos);
                 r.appended.extend_from_slice(&rec.appended);
-                r.moved.extend(rec.moved.iter().zip(old_pos).map(|(&(v, p), o)| (v, p, o)));
-                r.rw.extend(rec.rewritten.iter().zip(old_quads).map(|(&(s, q), o)| (s, q, o)));
+                r.moved
+                    .extend(rec.moved.iter().zip(old_pos).map(|(&(v, p), o)| (v, p, o)));
+                r.rw.extend(
+                    rec.rewritten
+                        .iter()
+                        .zip(old_quads)
+                        .map(|(&(s, q), o)| (s, q, o)),
+                );
                 r.v_at.push(st.q.len() as u32);
                 r.f_at.push(st.quads.len() as u32);
                 r.moved_at.push(r.moved.len());
@@ -652,14 +757,24 @@ impl Decoder {
         Ok(())
     }
 
-    fn on_section(&mut self, i: u32, tag: [u8; 4], ulen: u32, crc: u32, b: &[u8]) -> Result<(), DecodeError> {
+    fn on_section(
+        &mut self,
+        i: u32,
+        tag: [u8; 4],
+        ulen: u32,
+        crc: u32,
+        b: &[u8],
+    ) -> Result<(), DecodeError> {
         Self::check_crc(Section::Optional(i), b, crc)?;
         if tag != TAG_VORD {
             return Ok(()); // unknown optional section: skipped (spec §8)
         }
         let n = self.header.as_ref().map_or(0, |h| h.final_vertex_count);
         if (ulen as u64) < n as u64 {
-            return Err(DecodeError::invalid(Section::Optional(i), "VORD payload too short"));
+            return Err(DecodeError::invalid(
+                Section::Optional(i),
+                "VORD payload too short",
+            ));
         }
         let payload = self.decompress(Section::Optional(i), b, ulen)?;
         let mut r = Reader::new(&payload, "VORD");
@@ -667,7 +782,10 @@ impl Decoder {
         let mut seen = vec![false; n as usize];
         let mut prev = 0i64;
         for k in 0..n {
-            let v = r.s().map(|d| prev.saturating_add(d)).map_err(|m| DecodeError::invalid(Section::Optional(i), m))?;
+            let v = r
+                .s()
+                .map(|d| prev.saturating_add(d))
+                .map_err(|m| DecodeError::invalid(Section::Optional(i), m))?;
             match usize::try_from(v).ok().and_then(|u| seen.get_mut(u)) {
                 Some(s) if !*s => *s = true,
                 _ => {
@@ -681,7 +799,10 @@ impl Decoder {
             prev = v;
         }
         if r.remaining() != 0 {
-            return Err(DecodeError::invalid(Section::Optional(i), "unused bytes in VORD"));
+            return Err(DecodeError::invalid(
+                Section::Optional(i),
+                "unused bytes in VORD",
+            ));
         }
         self.vertex_order = Some(order);
         Ok(())
@@ -696,7 +817,7 @@ impl Decoder {
 
     /// Deepest level reachable now (`None` before the base mesh).
     pub fn deepest_level(&self) -> Option<usize> {
-        (!self.recs.v_at.is_empty()).then(|| self.recs.op.len())
+        (!self.recs.v_at.is_empty()).then_some(self.recs.op.len())
     }
 
     /// Resolves `t` to a level among the decoded ones.
@@ -769,7 +890,9 @@ impl Decoder {
                     self.quads[s as usize] = q;
                     rewritten.push(s);
                 }
-                self.quads.extend_from_slice(&r.appended[(r.f_at[k] - bf) as usize..(r.f_at[k + 1] - bf) as usize]);
+                self.quads.extend_from_slice(
+                    &r.appended[(r.f_at[k] - bf) as usize..(r.f_at[k + 1] - bf) as usize],
+                );
             }
         } else if to < from {
             for k in (to..from).rev() {
@@ -897,23 +1020,36 @@ impl Decoder {
         };
         let bytes_needed = match self.stage {
             Stage::Prefix => None,
-            _ => self.need().map(|n| n.saturating_sub(self.avail().len()) as u64),
+            _ => self
+                .need()
+                .map(|n| n.saturating_sub(self.avail().len()) as u64),
         };
         Status {
             bytes_consumed: self.consumed,
             bytes_buffered: self.avail().len() as u64,
-            header_ready: !self.chunks.is_empty() || !matches!(self.stage, Stage::Prefix | Stage::Header(_) | Stage::Table),
+            header_ready: !self.chunks.is_empty()
+                || !matches!(self.stage, Stage::Prefix | Stage::Header(_) | Stage::Table),
             base_ready: !self.recs.v_at.is_empty(),
             chunks_ready: self.chunks_ready,
             chunk_count: h.map(|h| h.chunk_count),
             deepest_level: self.deepest_level(),
             final_level: h.map(|h| h.record_count as usize),
             waiting_for,
-            bytes_needed: if waiting_for.is_some() { bytes_needed } else { None },
-            bytes_to_last_chunk: self.chunks.last().map(|c| c.offset + c.compressed_len as u64).or_else(|| {
-                h.filter(|_| !matches!(self.stage, Stage::Prefix | Stage::Header(_) | Stage::Table))
+            bytes_needed: if waiting_for.is_some() {
+                bytes_needed
+            } else {
+                None
+            },
+            bytes_to_last_chunk: self
+                .chunks
+                .last()
+                .map(|c| c.offset + c.compressed_len as u64)
+                .or_else(|| {
+                    h.filter(|_| {
+                        !matches!(self.stage, Stage::Prefix | Stage::Header(_) | Stage::Table)
+                    })
                     .map(|h| h.header_len as u64 + 4 + h.base_compressed_len as u64)
-            }),
+                }),
             finished: self.stage == Stage::Done && self.failed.is_none(),
             failed: self.failed.is_some() || self.failed_other.is_some(),
         }
@@ -952,9 +1088,17 @@ impl Decoder {
                     .iter()
                     .map(|&c| dq(c))
                     .collect(),
-                moved: r.moved[r.moved_at[k]..r.moved_at[k + 1]].iter().map(|&(v, p, _)| (v, dq(p))).collect(),
-                rewritten: r.rw[r.rw_at[k]..r.rw_at[k + 1]].iter().map(|&(s, q, _)| (s, q)).collect(),
-                appended_faces: r.appended[(r.f_at[k] as usize - bf)..(r.f_at[k + 1] as usize - bf)].to_vec(),
+                moved: r.moved[r.moved_at[k]..r.moved_at[k + 1]]
+                    .iter()
+                    .map(|&(v, p, _)| (v, dq(p)))
+                    .collect(),
+                rewritten: r.rw[r.rw_at[k]..r.rw_at[k + 1]]
+                    .iter()
+                    .map(|&(s, q, _)| (s, q))
+                    .collect(),
+                appended_faces: r.appended
+                    [(r.f_at[k] as usize - bf)..(r.f_at[k + 1] as usize - bf)]
+                    .to_vec(),
             })
             .collect();
         let base_error = self.header.as_ref().map_or(0.0, |h| h.base_error as f64);
@@ -964,12 +1108,18 @@ impl Decoder {
                 *e = self.chunks[c].error as f64;
             }
         }
-        let vertex_order = if self.deepest_level() == self.header.as_ref().map(|h| h.record_count as usize) {
-            self.vertex_order.clone().unwrap_or_default()
-        } else {
-            Vec::new()
-        };
-        Some(ProgressiveMesh { base, records, vertex_order, level_error })
+        let vertex_order =
+            if self.deepest_level() == self.header.as_ref().map(|h| h.record_count as usize) {
+                self.vertex_order.clone().unwrap_or_default()
+            } else {
+                Vec::new()
+            };
+        Some(ProgressiveMesh {
+            base,
+            records,
+            vertex_order,
+            level_error,
+        })
     }
 }
 

@@ -120,7 +120,10 @@ pub fn write(
     mut w: impl Write,
 ) -> Result<EncodeReport, EncodeError> {
     if !(8..=24).contains(&opts.bits) {
-        return Err(EncodeError::InvalidOptions(format!("bits = {} (allowed 8..=24)", opts.bits)));
+        return Err(EncodeError::InvalidOptions(format!(
+            "bits = {} (allowed 8..=24)",
+            opts.bits
+        )));
     }
     if !(10..=MAX_WINDOW_LOG).contains(&opts.window_log) {
         return Err(EncodeError::InvalidOptions(format!(
@@ -129,12 +132,16 @@ pub fn write(
         )));
     }
     if opts.chunk_records == Some(0) || opts.chunk_bytes == 0 {
-        return Err(EncodeError::InvalidOptions("chunk size must be positive".into()));
+        return Err(EncodeError::InvalidOptions(
+            "chunk size must be positive".into(),
+        ));
     }
     mesh.validate().map_err(EncodeError::InvalidMesh)?;
     let too_big = |n: usize, what: &str| {
         if n > u32::MAX as usize - 1 {
-            Err(EncodeError::InvalidMesh(format!("{what} = {n} does not fit the format")))
+            Err(EncodeError::InvalidMesh(format!(
+                "{what} = {n} does not fit the format"
+            )))
         } else {
             Ok(n as u32)
         }
@@ -145,7 +152,9 @@ pub fn write(
 
     // One grid over every position any level shows.
     let all = mesh.base.positions.iter().chain(
-        mesh.records.iter().flat_map(|r| r.new_vertices.iter().chain(r.moved.iter().map(|m| &m.1))),
+        mesh.records
+            .iter()
+            .flat_map(|r| r.new_vertices.iter().chain(r.moved.iter().map(|m| &m.1))),
     );
     let (mut lo, mut hi) = ([0.0f64; 3], [0.0f64; 3]);
     for (i, p) in all.enumerate() {
@@ -160,14 +169,19 @@ pub fn write(
         }
     }
     if (0..3).any(|k| !(hi[k] - lo[k]).is_finite()) {
-        return Err(EncodeError::InvalidMesh("bounding box extent is not finite".into()));
+        return Err(EncodeError::InvalidMesh(
+            "bounding box extent is not finite".into(),
+        ));
     }
     let quant = Quantizer::new(lo, hi, opts.bits);
     let qp = |p: &glam::DVec3| quant.quantize(*p);
 
     let base_q: Vec<[u32; 3]> = mesh.base.positions.iter().map(qp).collect();
-    let base_quads: Vec<[u32; 4]> =
-        mesh.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
+    let base_quads: Vec<[u32; 4]> = mesh
+        .base
+        .faces()
+        .map(|f| [f[0], f[1], f[2], f[3]])
+        .collect();
     let base_payload = codec::encode_base(&base_q, &base_quads);
     let base_bytes = compress(&base_payload, opts)?;
     let mut state = MeshState::new(quant.qmax(), base_q, base_quads);
@@ -194,8 +208,10 @@ pub fn write(
      -> Result<(), EncodeError> {
         let payload = codec::join_streams(streams);
         let bytes = compress(&payload, opts)?;
-        let alone: Vec<f64> =
-            streams.iter().map(|s| compress(s, opts).map(|c| c.len() as f64)).collect::<Result<_, _>>()?;
+        let alone: Vec<f64> = streams
+            .iter()
+            .map(|s| compress(s, opts).map(|c| c.len() as f64))
+            .collect::<Result<_, _>>()?;
         let sum: f64 = alone.iter().sum();
         for t in 0..5 {
             report.stream_raw_bytes[t] += streams[t].len() as u64;
@@ -239,11 +255,25 @@ pub fn write(
         in_chunk += 1;
         let size: usize = streams.iter().map(|s| s.len()).sum();
         if opts.chunk_records.is_some_and(|n| in_chunk as usize >= n) || size >= opts.chunk_bytes {
-            close(&mut streams, &mut in_chunk, &mut cursors, &state, k + 1, &mut report)?;
+            close(
+                &mut streams,
+                &mut in_chunk,
+                &mut cursors,
+                &state,
+                k + 1,
+                &mut report,
+            )?;
         }
     }
     if in_chunk > 0 {
-        close(&mut streams, &mut in_chunk, &mut cursors, &state, mesh.records.len(), &mut report)?;
+        close(
+            &mut streams,
+            &mut in_chunk,
+            &mut cursors,
+            &state,
+            mesh.records.len(),
+            &mut report,
+        )?;
     }
 
     // Optional sections.

@@ -108,7 +108,10 @@ pub enum DecodeError {
 
 impl DecodeError {
     pub(crate) fn invalid(section: Section, message: impl Into<String>) -> Self {
-        DecodeError::Format(FormatError::Invalid { section, message: message.into() })
+        DecodeError::Format(FormatError::Invalid {
+            section,
+            message: message.into(),
+        })
     }
 }
 

@@ -28,7 +28,12 @@ impl Quantizer {
     pub fn new(min: [f64; 3], max: [f64; 3], bits: u8) -> Self {
         let qmax = Self::qmax_of(bits) as f64;
         let step = [0, 1, 2].map(|k| (max[k] - min[k]) / qmax);
-        Quantizer { min, max, bits, step }
+        Quantizer {
+            min,
+            max,
+            bits,
+            step,
+        }
     }
 
     /// Largest code, `2^bits − 1`.
@@ -51,7 +56,9 @@ impl Quantizer {
         let qmax = self.qmax();
         [0, 1, 2].map(|k| {
             if self.step[k] > 0.0 {
-                ((p[k] - self.min[k]) / self.step[k]).round().clamp(0.0, qmax as f64) as u32
+                ((p[k] - self.min[k]) / self.step[k])
+                    .round()
+                    .clamp(0.0, qmax as f64) as u32
             } else {
                 0
             }
@@ -82,7 +89,11 @@ mod tests {
             let c = q.quantize(p);
             let d = q.dequantize_vec(c);
             assert!((d - p).abs().max_element() <= 0.5 * q.step()[0].max(q.step()[2]) + 1e-12);
-            assert_eq!(q.quantize(d), c, "re-quantizing a grid point keeps its code");
+            assert_eq!(
+                q.quantize(d),
+                c,
+                "re-quantizing a grid point keeps its code"
+            );
         }
         assert!((q.dequantize([q.qmax(); 3])[0] - 3.0).abs() < 1e-12);
     }

@@ -50,7 +50,10 @@ impl<'a> Reader<'a> {
     }
     /// One raw byte.
     pub fn byte(&mut self) -> Result<u8, String> {
-        let b = *self.buf.get(self.pos).ok_or_else(|| format!("stream {} ends early", self.name))?;
+        let b = *self
+            .buf
+            .get(self.pos)
+            .ok_or_else(|| format!("stream {} ends early", self.name))?;
         self.pos += 1;
         Ok(b)
     }
@@ -114,9 +117,12 @@ mod tests {
     #[test]
     fn overlong_and_truncated_varints_are_errors() {
         assert!(Reader::new(&[0x80; 11], "t").u().is_err());
-        assert!(Reader::new(&[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x02], "t")
-            .u()
-            .is_err());
+        assert!(Reader::new(
+            &[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x02],
+            "t"
+        )
+        .u()
+        .is_err());
         assert!(Reader::new(&[0x80], "t").u().is_err());
         assert_eq!(zigzag(-1), 1);
         assert_eq!(zigzag(1), 2);

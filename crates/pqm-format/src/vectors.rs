@@ -22,28 +22,63 @@ pub fn all() -> Vec<Vector> {
         let pm = generate_with(&gen);
         let n = pm.records.len();
         let bytes = write_to_vec(&pm, &opts).expect("vector encodes").0;
-        Vector { name, bytes, levels: vec![0, n / 3, 2 * n / 3, n] }
+        Vector {
+            name,
+            bytes,
+            levels: vec![0, n / 3, 2 * n / 3, n],
+        }
     };
     vec![
         make(
             "grid_small",
-            GenOptions { base: BaseShape::Grid { nx: 3, ny: 3 }, vertex_order: false, ..GenOptions::new(1, 12) },
-            EncodeOptions { chunk_records: Some(4), ..EncodeOptions::default() },
+            GenOptions {
+                base: BaseShape::Grid { nx: 3, ny: 3 },
+                vertex_order: false,
+                ..GenOptions::new(1, 12)
+            },
+            EncodeOptions {
+                chunk_records: Some(4),
+                ..EncodeOptions::default()
+            },
         ),
         make(
             "box_vord",
-            GenOptions { base: BaseShape::Box { n: 2 }, ..GenOptions::new(2, 40) },
-            EncodeOptions { chunk_records: Some(10), ..EncodeOptions::default() },
+            GenOptions {
+                base: BaseShape::Box { n: 2 },
+                ..GenOptions::new(2, 40)
+            },
+            EncodeOptions {
+                chunk_records: Some(10),
+                ..EncodeOptions::default()
+            },
         ),
         make(
             "general_bits8",
-            GenOptions { base: BaseShape::Grid { nx: 4, ny: 2 }, ..GenOptions::new(3, 20) },
-            EncodeOptions { bits: 8, split_form: false, chunk_bytes: 64, ..EncodeOptions::default() },
+            GenOptions {
+                base: BaseShape::Grid { nx: 4, ny: 2 },
+                ..GenOptions::new(3, 20)
+            },
+            EncodeOptions {
+                bits: 8,
+                split_form: false,
+                chunk_bytes: 64,
+                ..EncodeOptions::default()
+            },
         ),
         make(
             "mixed_bits24",
-            GenOptions { base: BaseShape::Box { n: 3 }, fuse_prob: 0.3, smooth_prob: 0.1, ..GenOptions::new(4, 60) },
-            EncodeOptions { bits: 24, chunk_records: Some(16), zstd_level: 3, ..EncodeOptions::default() },
+            GenOptions {
+                base: BaseShape::Box { n: 3 },
+                fuse_prob: 0.3,
+                smooth_prob: 0.1,
+                ..GenOptions::new(4, 60)
+            },
+            EncodeOptions {
+                bits: 24,
+                chunk_records: Some(16),
+                zstd_level: 3,
+                ..EncodeOptions::default()
+            },
         ),
     ]
 }
@@ -60,7 +95,12 @@ pub fn fnv1a64(bytes: impl IntoIterator<Item = u8>) -> u64 {
 
 /// `(positions digest, quads digest)` of the decoder's current level.
 pub fn level_digests(dec: &Decoder) -> (u64, u64) {
-    let p = fnv1a64(dec.positions_f64().iter().flat_map(|v| v.to_array()).flat_map(f64::to_le_bytes));
+    let p = fnv1a64(
+        dec.positions_f64()
+            .iter()
+            .flat_map(|v| v.to_array())
+            .flat_map(f64::to_le_bytes),
+    );
     let q = fnv1a64(dec.quads().iter().flatten().flat_map(|v| v.to_le_bytes()));
     (p, q)
 }

@@ -30,13 +30,22 @@ fn assert_level(dec: &Decoder, pm: &ProgressiveMesh, q: &Quantizer, k: usize) {
     assert_eq!(dec.level(), k);
     let (pos, quads) = pm.level_quads(k);
     assert_eq!(dec.quads(), &quads[..], "quads at level {k}");
-    let want: Vec<DVec3> = pos.iter().map(|p| q.dequantize_vec(q.quantize(*p))).collect();
+    let want: Vec<DVec3> = pos
+        .iter()
+        .map(|p| q.dequantize_vec(q.quantize(*p)))
+        .collect();
     let got = dec.positions_f64();
     assert_eq!(got.len(), want.len(), "vertex count at level {k}");
     for (i, (a, b)) in got.iter().zip(&want).enumerate() {
-        assert!(a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits), "vertex {i} at level {k}: {a} vs {b}");
+        assert!(
+            a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits),
+            "vertex {i} at level {k}: {a} vs {b}"
+        );
     }
-    let f32s: Vec<[f32; 3]> = want.iter().map(|p| p.to_array().map(|x| x as f32)).collect();
+    let f32s: Vec<[f32; 3]> = want
+        .iter()
+        .map(|p| p.to_array().map(|x| x as f32))
+        .collect();
     assert_eq!(dec.positions(), &f32s[..]);
 }
 
@@ -46,7 +55,12 @@ fn push_in_pieces(bytes: &[u8], sizes: &[usize]) -> (Decoder, Vec<Event>) {
     let mut at = 0;
     let mut i = 0;
     while at < bytes.len() {
-        let n = sizes.get(i % sizes.len().max(1)).copied().unwrap_or(1).max(1).min(bytes.len() - at);
+        let n = sizes
+            .get(i % sizes.len().max(1))
+            .copied()
+            .unwrap_or(1)
+            .max(1)
+            .min(bytes.len() - at);
         events.extend(dec.push(&bytes[at..at + n]).expect("push"));
         at += n;
         i += 1;
@@ -76,7 +90,8 @@ impl Shadow {
         self.tris.truncate(6 * c.faces_truncated.start as usize);
         for r in c.rewritten_ranges() {
             for f in r {
-                self.tris[6 * f as usize..6 * f as usize + 6].copy_from_slice(&quad_triangles(dec.quads()[f as usize]));
+                self.tris[6 * f as usize..6 * f as usize + 6]
+                    .copy_from_slice(&quad_triangles(dec.quads()[f as usize]));
             }
         }
         for f in c.faces_appended.clone() {
@@ -87,16 +102,23 @@ impl Shadow {
 }
 
 fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
-    (8u8..=24, prop::option::of(1usize..40), 64usize..4096, any::<bool>(), 1i32..20).prop_map(
-        |(bits, chunk_records, chunk_bytes, split_form, zstd_level)| EncodeOptions {
-            bits,
-            chunk_records,
-            chunk_bytes,
-            zstd_level,
-            split_form,
-            ..EncodeOptions::default()
-        },
+    (
+        8u8..=24,
+        prop::option::of(1usize..40),
+        64usize..4096,
+        any::<bool>(),
+        1i32..20,
     )
+        .prop_map(
+            |(bits, chunk_records, chunk_bytes, split_form, zstd_level)| EncodeOptions {
+                bits,
+                chunk_records,
+                chunk_bytes,
+                zstd_level,
+                split_form,
+                ..EncodeOptions::default()
+            },
+        )
 }
 
 proptest! {
@@ -179,7 +201,13 @@ proptest! {
 fn one_byte_at_a_time_equals_all_at_once() {
     for seed in 0..6 {
         let pm = testgen::generate(seed, 80);
-        let bytes = encode(&pm, &EncodeOptions { chunk_records: Some(10), ..EncodeOptions::default() });
+        let bytes = encode(
+            &pm,
+            &EncodeOptions {
+                chunk_records: Some(10),
+                ..EncodeOptions::default()
+            },
+        );
         let (mut whole, ev_whole) = push_in_pieces(&bytes, &[bytes.len()]);
         let (mut single, ev_single) = push_in_pieces(&bytes, &[1]);
         assert_eq!(ev_whole, ev_single);
@@ -199,7 +227,10 @@ fn every_prefix_yields_the_deepest_complete_level() {
         base: BaseShape::Grid { nx: 3, ny: 3 },
         ..GenOptions::new(11, 25)
     });
-    let opts = EncodeOptions { chunk_records: Some(6), ..EncodeOptions::default() };
+    let opts = EncodeOptions {
+        chunk_records: Some(6),
+        ..EncodeOptions::default()
+    };
     let bytes = encode(&pm, &opts);
     let full = decode_all(&bytes, Limits::default()).unwrap();
     let q = full.quantizer().unwrap();
@@ -213,16 +244,24 @@ fn every_prefix_yields_the_deepest_complete_level() {
         })
         .collect();
     let h = full.header().unwrap();
-    let base_end = h.header_len as u64 + full.chunks().len() as u64 * 36 + 4 + h.base_compressed_len as u64;
+    let base_end =
+        h.header_len as u64 + full.chunks().len() as u64 * 36 + 4 + h.base_compressed_len as u64;
     for n in 0..=bytes.len() {
         let mut dec = Decoder::new(Limits::default());
-        dec.push(&bytes[..n]).unwrap_or_else(|e| panic!("prefix {n}: {e}"));
+        dec.push(&bytes[..n])
+            .unwrap_or_else(|e| panic!("prefix {n}: {e}"));
         let s = dec.status();
         assert_eq!(s.bytes_consumed + s.bytes_buffered, n as u64);
         let expect = if (n as u64) < base_end {
             None
         } else {
-            Some(ends.iter().filter(|(end, _)| *end <= n as u64).map(|e| e.1).max().unwrap_or(0))
+            Some(
+                ends.iter()
+                    .filter(|(end, _)| *end <= n as u64)
+                    .map(|e| e.1)
+                    .max()
+                    .unwrap_or(0),
+            )
         };
         assert_eq!(s.deepest_level, expect, "prefix {n}");
         assert_eq!(s.finished, n == bytes.len());
@@ -230,7 +269,10 @@ fn every_prefix_yields_the_deepest_complete_level() {
             dec.refine_to(Target::Level(usize::MAX)).unwrap();
             assert_level(&dec, &pm, &q, k);
             if n < bytes.len() {
-                assert!(s.waiting_for.is_some() && s.bytes_needed.is_some_and(|b| b > 0), "prefix {n}: {s:?}");
+                assert!(
+                    s.waiting_for.is_some() && s.bytes_needed.is_some_and(|b| b > 0),
+                    "prefix {n}: {s:?}"
+                );
             }
         } else {
             assert!(dec.refine_to(Target::Level(1)).is_err());
@@ -245,7 +287,13 @@ fn every_prefix_yields_the_deepest_complete_level() {
 #[test]
 fn crc_mismatch_names_the_chunk() {
     let pm = testgen::generate(3, 100);
-    let bytes = encode(&pm, &EncodeOptions { chunk_records: Some(20), ..EncodeOptions::default() });
+    let bytes = encode(
+        &pm,
+        &EncodeOptions {
+            chunk_records: Some(20),
+            ..EncodeOptions::default()
+        },
+    );
     let full = decode_all(&bytes, Limits::default()).unwrap();
     for (i, c) in full.chunks().iter().enumerate() {
         let mut bad = bytes.clone();
@@ -258,18 +306,32 @@ fn crc_mismatch_names_the_chunk() {
             other => panic!("chunk {i}: {other:?}"),
         }
         // Everything before the damaged chunk is still usable.
-        assert_eq!(dec.deepest_level(), Some(full.chunks()[..i].iter().map(|c| c.record_count as usize).sum()));
+        assert_eq!(
+            dec.deepest_level(),
+            Some(
+                full.chunks()[..i]
+                    .iter()
+                    .map(|c| c.record_count as usize)
+                    .sum()
+            )
+        );
         assert!(dec.push(&[]).is_err(), "a failed decoder stays failed");
     }
     let mut bad = bytes.clone();
     bad[30] ^= 1;
     assert!(matches!(
         Decoder::new(Limits::default()).push(&bad),
-        Err(DecodeError::Format(FormatError::CrcMismatch { section: Section::Header, .. }))
+        Err(DecodeError::Format(FormatError::CrcMismatch {
+            section: Section::Header,
+            ..
+        }))
     ));
     bad = bytes.clone();
     bad[0] = b'X';
-    assert!(matches!(Decoder::new(Limits::default()).push(&bad), Err(DecodeError::Format(FormatError::BadMagic))));
+    assert!(matches!(
+        Decoder::new(Limits::default()).push(&bad),
+        Err(DecodeError::Format(FormatError::BadMagic))
+    ));
 }
 
 /// Rewrites the header of `bytes` through `f`, fixing its CRC.
@@ -342,29 +404,55 @@ fn limits_are_checked_from_the_header_before_allocating() {
     let bytes = encode(&pm, &EncodeOptions::default());
     let n = pm.final_vertex_count() as u32;
     for limits in [
-        Limits { max_vertices: n - 1, ..Limits::default() },
-        Limits { max_faces: pm.final_face_count() as u32 - 1, ..Limits::default() },
-        Limits { max_memory_bytes: 1000, ..Limits::default() },
+        Limits {
+            max_vertices: n - 1,
+            ..Limits::default()
+        },
+        Limits {
+            max_faces: pm.final_face_count() as u32 - 1,
+            ..Limits::default()
+        },
+        Limits {
+            max_memory_bytes: 1000,
+            ..Limits::default()
+        },
     ] {
         let mut dec = Decoder::new(limits);
-        assert!(matches!(dec.push(&bytes[..120]), Err(DecodeError::LimitsExceeded(_))), "{limits:?}");
+        assert!(
+            matches!(dec.push(&bytes[..120]), Err(DecodeError::LimitsExceeded(_))),
+            "{limits:?}"
+        );
     }
     // A header claiming 4 billion vertices is refused by the default limits.
     let mut b = bytes.clone();
-    patch_header(&mut b, |h| h[32..36].copy_from_slice(&u32::MAX.to_le_bytes()));
-    assert!(matches!(Decoder::new(Limits::default()).push(&b), Err(DecodeError::LimitsExceeded(_))));
+    patch_header(&mut b, |h| {
+        h[32..36].copy_from_slice(&u32::MAX.to_le_bytes())
+    });
+    assert!(matches!(
+        Decoder::new(Limits::default()).push(&b),
+        Err(DecodeError::LimitsExceeded(_))
+    ));
 }
 
 #[test]
 fn targets_by_faces_and_error() {
     let pm = testgen::generate(21, 200);
-    let bytes = encode(&pm, &EncodeOptions { chunk_records: Some(25), ..EncodeOptions::default() });
+    let bytes = encode(
+        &pm,
+        &EncodeOptions {
+            chunk_records: Some(25),
+            ..EncodeOptions::default()
+        },
+    );
     let mut dec = decode_all(&bytes, Limits::default()).unwrap();
     let budget = pm.base.face_count() + 57;
     dec.set_level(Target::Faces(budget)).unwrap();
     assert!(dec.quads().len() <= budget);
     let (_, next_f) = dec.level_counts(dec.level() + 1).unwrap();
-    assert!(next_f as usize > budget, "the finest level within the budget");
+    assert!(
+        next_f as usize > budget,
+        "the finest level within the budget"
+    );
     // Error targets land on chunk boundaries with error <= e.
     for c in dec.chunks().to_vec() {
         dec.set_level(Target::Error(c.error as f64)).unwrap();
@@ -373,7 +461,11 @@ fn targets_by_faces_and_error() {
             *l += c.record_count as usize;
             Some((*l, c.error))
         });
-        let e = reached.filter(|(l, _)| *l == k).map(|x| x.1).next().unwrap_or(dec.header().unwrap().base_error);
+        let e = reached
+            .filter(|(l, _)| *l == k)
+            .map(|x| x.1)
+            .next()
+            .unwrap_or(dec.header().unwrap().base_error);
         assert!(e <= c.error);
     }
     dec.set_level(Target::Error(0.0)).unwrap();
@@ -399,7 +491,8 @@ fn to_progressive_mesh_round_trips_connectivity() {
     assert_eq!(back.vertex_order, pm.vertex_order);
     // Re-encoding the decoded mesh keeps every code (dequantized positions
     // lie on the grid; the stored bbox max may differ by an ulp).
-    let mut again = decode_all(&encode(&back, &EncodeOptions::default()), Limits::default()).unwrap();
+    let mut again =
+        decode_all(&encode(&back, &EncodeOptions::default()), Limits::default()).unwrap();
     let mut first = dec;
     first.set_level(Target::Level(usize::MAX)).unwrap();
     again.set_level(Target::Level(usize::MAX)).unwrap();
@@ -411,11 +504,30 @@ fn to_progressive_mesh_round_trips_connectivity() {
 fn split_form_covers_generated_splits_and_is_smaller() {
     let pm = testgen::generate(9, 2000);
     let (a, ra) = write_to_vec(&pm, &EncodeOptions::default()).unwrap();
-    let (b, rb) = write_to_vec(&pm, &EncodeOptions { split_form: false, ..EncodeOptions::default() }).unwrap();
-    let splits = pm.records.iter().filter(|r| r.op == pqm_core::OpKind::QvMerge).count();
-    assert_eq!(ra.split_records, splits, "every single split uses the split form");
+    let (b, rb) = write_to_vec(
+        &pm,
+        &EncodeOptions {
+            split_form: false,
+            ..EncodeOptions::default()
+        },
+    )
+    .unwrap();
+    let splits = pm
+        .records
+        .iter()
+        .filter(|r| r.op == pqm_core::OpKind::QvMerge)
+        .count();
+    assert_eq!(
+        ra.split_records, splits,
+        "every single split uses the split form"
+    );
     assert_eq!(rb.split_records, 0);
-    assert!(a.len() < b.len(), "split form {} vs general {}", a.len(), b.len());
+    assert!(
+        a.len() < b.len(),
+        "split form {} vs general {}",
+        a.len(),
+        b.len()
+    );
     assert!(ra.bits_per_vertex.connectivity < rb.bits_per_vertex.connectivity);
 }
 
@@ -427,7 +539,10 @@ fn empty_and_record_free_meshes() {
     let dec = decode_all(&bytes, Limits::default()).unwrap();
     assert_eq!(dec.deepest_level(), Some(0));
     assert_eq!(dec.quads().len(), pm.base.face_count());
-    let empty = ProgressiveMesh { base: pqm_core::IndexedMesh::new(), ..Default::default() };
+    let empty = ProgressiveMesh {
+        base: pqm_core::IndexedMesh::new(),
+        ..Default::default()
+    };
     let bytes = encode(&empty, &EncodeOptions::default());
     let dec = decode_all(&bytes, Limits::default()).unwrap();
     assert!(dec.quads().is_empty() && dec.positions().is_empty());
@@ -440,12 +555,16 @@ fn repack_chunk(bytes: &[u8], i: usize, f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8>
     let h = Header::parse(&bytes[..120]);
     let n = h.chunk_count as usize;
     let table_end = 120 + n * 36 + 4;
-    let mut chunks: Vec<ChunkInfo> =
-        (0..n).map(|c| ChunkInfo::parse(&bytes[120 + c * 36..])).collect();
-    let body = |c: &ChunkInfo| bytes[c.offset as usize..(c.offset + c.compressed_len as u64) as usize].to_vec();
+    let mut chunks: Vec<ChunkInfo> = (0..n)
+        .map(|c| ChunkInfo::parse(&bytes[120 + c * 36..]))
+        .collect();
+    let body = |c: &ChunkInfo| {
+        bytes[c.offset as usize..(c.offset + c.compressed_len as u64) as usize].to_vec()
+    };
     let mut bodies: Vec<Vec<u8>> = chunks.iter().map(body).collect();
     let tail_start = (chunks[n - 1].offset + chunks[n - 1].compressed_len as u64) as usize;
-    let mut payload = zstd::bulk::decompress(&bodies[i], chunks[i].uncompressed_len as usize).unwrap();
+    let mut payload =
+        zstd::bulk::decompress(&bodies[i], chunks[i].uncompressed_len as usize).unwrap();
     f(&mut payload);
     bodies[i] = zstd::bulk::compress(&payload, 3).unwrap();
     chunks[i].uncompressed_len = payload.len() as u32;
@@ -472,7 +591,10 @@ fn repack_chunk(bytes: &[u8], i: usize, f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8>
 #[test]
 fn bad_record_errors_name_the_record() {
     let pm = testgen::generate(12, 60);
-    let opts = EncodeOptions { chunk_records: Some(20), ..EncodeOptions::default() };
+    let opts = EncodeOptions {
+        chunk_records: Some(20),
+        ..EncodeOptions::default()
+    };
     let bytes = encode(&pm, &opts);
     // Unchanged repack decodes (checks the helper itself).
     let same = repack_chunk(&bytes, 1, |_| {});
@@ -499,7 +621,11 @@ fn bad_record_errors_name_the_record() {
         refs.extend_from_slice(&rest);
         let mut out = Vec::new();
         for k in 0..5 {
-            let s: &[u8] = if k == 2 { &refs } else { &p[starts[k]..starts[k] + lens[k]] };
+            let s: &[u8] = if k == 2 {
+                &refs
+            } else {
+                &p[starts[k]..starts[k] + lens[k]]
+            };
             pqm_format::varint::put_u(&mut out, s.len() as u64);
             out.extend_from_slice(s);
         }
@@ -507,7 +633,11 @@ fn bad_record_errors_name_the_record() {
     });
     let mut dec = Decoder::new(Limits::default());
     match dec.push(&bad) {
-        Err(DecodeError::Format(FormatError::BadRecord { chunk: 1, record: 20, message })) => {
+        Err(DecodeError::Format(FormatError::BadRecord {
+            chunk: 1,
+            record: 20,
+            message,
+        })) => {
             assert!(message.contains("1000000"), "{message}")
         }
         other => panic!("{other:?}"),

@@ -22,8 +22,10 @@ fn checked_in_vectors_match_the_generator_and_their_digests() {
         );
         // Decode the checked-in bytes and compare with the checked-in digest.
         let mut dec = decode_all(&on_disk, Limits::default()).unwrap();
-        let json: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(dir().join(format!("{}.json", v.name))).unwrap()).unwrap();
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir().join(format!("{}.json", v.name))).unwrap(),
+        )
+        .unwrap();
         assert_eq!(json["bytes"].as_u64(), Some(on_disk.len() as u64));
         let levels = json["levels"].as_array().unwrap();
         assert_eq!(levels.len(), v.levels.len());
@@ -31,11 +33,25 @@ fn checked_in_vectors_match_the_generator_and_their_digests() {
             let k = l["level"].as_u64().unwrap() as usize;
             dec.set_level(Target::Level(k)).unwrap();
             let (p, q) = vectors::level_digests(&dec);
-            assert_eq!(l["vertex_count"].as_u64(), Some(dec.positions().len() as u64));
+            assert_eq!(
+                l["vertex_count"].as_u64(),
+                Some(dec.positions().len() as u64)
+            );
             assert_eq!(l["face_count"].as_u64(), Some(dec.quads().len() as u64));
-            assert_eq!(l["positions_fnv1a64"].as_str().unwrap(), format!("{p:016x}"), "{} level {k}", v.name);
-            assert_eq!(l["quads_fnv1a64"].as_str().unwrap(), format!("{q:016x}"), "{} level {k}", v.name);
-            let obj = std::fs::read_to_string(dir().join(format!("{}.level{k}.obj", v.name))).unwrap();
+            assert_eq!(
+                l["positions_fnv1a64"].as_str().unwrap(),
+                format!("{p:016x}"),
+                "{} level {k}",
+                v.name
+            );
+            assert_eq!(
+                l["quads_fnv1a64"].as_str().unwrap(),
+                format!("{q:016x}"),
+                "{} level {k}",
+                v.name
+            );
+            let obj =
+                std::fs::read_to_string(dir().join(format!("{}.level{k}.obj", v.name))).unwrap();
             assert!(obj == vectors::obj(&dec), "{} level {k} OBJ", v.name);
         }
     }

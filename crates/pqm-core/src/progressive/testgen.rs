@@ -88,11 +88,23 @@ impl GenOptions {
     pub fn new(seed: u64, splits: usize) -> Self {
         let mut rng = Rng(seed ^ 0xA5A5_5A5A_0F0F_F0F0);
         let base = if rng.below(2) == 0 {
-            BaseShape::Grid { nx: 2 + rng.below(3) as u32, ny: 2 + rng.below(3) as u32 }
+            BaseShape::Grid {
+                nx: 2 + rng.below(3) as u32,
+                ny: 2 + rng.below(3) as u32,
+            }
         } else {
-            BaseShape::Box { n: 2 + rng.below(2) as u32 }
+            BaseShape::Box {
+                n: 2 + rng.below(2) as u32,
+            }
         };
-        GenOptions { seed, base, splits, smooth_prob: 0.05, fuse_prob: 0.05, vertex_order: true }
+        GenOptions {
+            seed,
+            base,
+            splits,
+            smooth_prob: 0.05,
+            fuse_prob: 0.05,
+            vertex_order: true,
+        }
     }
 }
 
@@ -135,9 +147,11 @@ pub fn base_mesh(shape: BaseShape, rng: &mut Rng) -> (Vec<DVec3>, Vec<[u32; 4]>)
             let mut ids: HashMap<[i32; 3], u32> = HashMap::new();
             let mut vid = |p: [i32; 3], pos: &mut Vec<DVec3>, rng: &mut Rng| -> u32 {
                 *ids.entry(p).or_insert_with(|| {
-                    pos.push(DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) * (2.0 / n as f64)
-                        - DVec3::ONE
-                        + DVec3::new(rng.signed(), rng.signed(), rng.signed()) * 0.02);
+                    pos.push(
+                        DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) * (2.0 / n as f64)
+                            - DVec3::ONE
+                            + DVec3::new(rng.signed(), rng.signed(), rng.signed()) * 0.02,
+                    );
                     (pos.len() - 1) as u32
                 })
             };
@@ -311,7 +325,9 @@ impl State {
     /// One random quad vertex split; false when the picked vertex is unsuitable.
     fn try_split(&mut self, rng: &mut Rng) -> bool {
         let m = rng.below(self.pos.len()) as u32;
-        let Some((faces, link, boundary)) = self.star(m) else { return false };
+        let Some((faces, link, boundary)) = self.star(m) else {
+            return false;
+        };
         let k = faces.len();
         let (i, j) = if boundary {
             if k < 2 {
@@ -444,7 +460,9 @@ pub fn generate_with(opts: &GenOptions) -> ProgressiveMesh {
         records.push(st.finish(op));
     }
     let n = records.len();
-    let level_error = (0..=n).map(|k| 0.05 * (n - k) as f64 / n.max(1) as f64).collect();
+    let level_error = (0..=n)
+        .map(|k| 0.05 * (n - k) as f64 / n.max(1) as f64)
+        .collect();
     let mut vertex_order = Vec::new();
     if opts.vertex_order {
         vertex_order = (0..st.pos.len() as u32).collect();
@@ -452,7 +470,12 @@ pub fn generate_with(opts: &GenOptions) -> ProgressiveMesh {
             vertex_order.swap(i, rng.below(i + 1));
         }
     }
-    ProgressiveMesh { base, records, vertex_order, level_error }
+    ProgressiveMesh {
+        base,
+        records,
+        vertex_order,
+        level_error,
+    }
 }
 
 #[cfg(test)]
@@ -488,7 +511,10 @@ mod tests {
                         *half.entry((q[c], q[(c + 1) % 4])).or_default() += 1;
                     }
                 }
-                assert!(half.values().all(|&n| n == 1), "seed {seed} level {k}: repeated half-edge");
+                assert!(
+                    half.values().all(|&n| n == 1),
+                    "seed {seed} level {k}: repeated half-edge"
+                );
             }
         }
     }
