@@ -277,7 +277,9 @@ impl Decoder {
 
     /// Feeds the next bytes of the file; returns the events they completed,
     /// in file order. After an error the decoder is failed and every further
-    /// call returns an error.
+    /// call returns an error; the events of the failing call are not
+    /// returned, but every level decoded before the error stays usable
+    /// ([`Decoder::status`], [`Decoder::deepest_level`]).
     pub fn push(&mut self, data: &[u8]) -> Result<Vec<Event>, DecodeError> {
         if let Some(e) = &self.failed {
             return Err(DecodeError::Format(e.clone()));
