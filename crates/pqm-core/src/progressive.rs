@@ -64,3 +64,280 @@ pub struct ProgressiveMesh {
     /// bounding-box diagonal. Level `records.len()` has error 0.
     pub level_error: Vec<f64>,
 }
+
+impl OpKind {
+    /// The operator with code `code` (the `repr` value), if any.
+    pub fn from_code(code: u8) -> Option<OpKind> {
+        match code {
+            0 => Some(OpKind::QvMerge),
+            1 => Some(OpKind::QeMerge),
+            2 => Some(OpKind::Doublet),
+            3 => Some(OpKind::Smooth),
+            _ => None,
+        }
+    }
+}
+
+impl ProgressiveMesh {
+    /// Number of levels, `records.len() + 1` (level 0 is the base mesh).
+    pub fn level_count(&self) -> usize {
+        self.records.len() + 1
+    }
+
+    /// Vertex count of the finest level (base plus every appended vertex).
+    pub fn final_vertex_count(&self) -> usize {
+        self.base.vertex_count()
+            + self
+                .records
+                .iter()
+                .map(|r| r.new_vertices.len())
+                .sum::<usize>()
+    }
+
+    /// Face count of the finest level (base plus every appended quad).
+    pub fn final_face_count(&self) -> usize {
+        self.base.face_count()
+            + self
+                .records
+                .iter()
+                .map(|r| r.appended_faces.len())
+                .sum::<usize>()
+    }
+
+    /// Positions and quads of level `k` (records `0..k` applied to the base),
+    /// in canonical numbering.
+    ///
+    /// # Panics
+    /// When `k > records.len()` or when the mesh does not pass
+    /// [`ProgressiveMesh::validate`] (an index out of range).
+    pub fn level_quads(&self, k: usize) -> (Vec<DVec3>, Vec<[u32; 4]>) {
+        assert!(
+            k <= self.records.len(),
+            "level {k} > record count {}",
+            self.records.len()
+        );
+        let mut positions = self.base.positions.clone();
+        let mut quads: Vec<[u32; 4]> = self
+            .base
+            .faces()
+            .map(|f| {
+                assert!(f.len() == 4, "base mesh is not quad-only");
+                [f[0], f[1], f[2], f[3]]
+            })
+            .collect();
+        for r in &self.records[..k] {
+            positions.extend_from_slice(&r.new_vertices);
+            for &(v, p) in &r.moved {
+                positions[v as usize] = p;
+            }
+            for &(s, q) in &r.rewritten {
+                quads[s as usize] = q;
+            }
+            quads.extend_from_slice(&r.appended_faces);
+        }
+        (positions, quads)
+    }
+
+    /// Level `k` as an [`IndexedMesh`] (positions and quads only); see
+    /// [`ProgressiveMesh::level_quads`] for the panics.
+    pub fn level(&self, k: usize) -> IndexedMesh {
+        let (positions, quads) = self.level_quads(k);
+        IndexedMesh::from_faces(positions, quads)
+    }
+
+    /// Checks that the records can be applied in order: the base is quad-only
+    /// with indices in range; every record moves only existing vertices (each
+    /// at most once), rewrites existing slots in strictly ascending order,
+    /// uses only vertices that exist once its own vertices are appended,
+    /// writes quads with four distinct vertices and finite positions, and a
+    /// `Smooth` record only moves vertices. `vertex_order` is empty or a
+    /// permutation of the final vertex ids; `level_error` is empty or has
+    /// `records.len() + 1` finite, non-negative, non-increasing entries.
+    /// The error message names the element (`record 12 rewrites slot 90 but
+    /// only 88 faces exist`).
+    pub fn validate(&self) -> Result<(), String> {
+        let base = &self.base;
+        if base.face_starts.first().copied().unwrap_or(0) != 0
+            || base.face_starts.last().map(|&e| e as usize).unwrap_or(0) != base.indices.len()
+            || base.face_starts.windows(2).any(|w| w[0] > w[1])
+        {
+            return Err("base mesh: face_starts is not a valid prefix-sum of indices".into());
+        }
+        let mut nv = base.vertex_count();
+        for (i, p) in base.positions.iter().enumerate() {
+            if !p.is_finite() {
+                return Err(format!("base vertex {i} has a non-finite position"));
+            }
+        }
+        let check_quad = |what: &str, q: &[u32], nv: usize| -> Result<(), String> {
+            if q.len() != 4 {
+                return Err(format!("{what} has {} vertices, expected 4", q.len()));
+            }
+            for (c, &v) in q.iter().enumerate() {
+                if v as usize >= nv {
+                    return Err(format!(
+                        "{what} uses vertex {v} but only {nv} vertices exist"
+                    ));
+                }
+                if q[..c].contains(&v) {
+                    return Err(format!("{what} repeats vertex {v}"));
+                }
+            }
+            Ok(())
+        };
+        for (f, q) in base.faces().enumerate() {
+            check_quad(&format!("base face {f}"), q, nv)?;
+        }
+        let mut nf = base.face_count();
+        for (r, rec) in self.records.iter().enumerate() {
+            if rec.op == OpKind::Smooth
+                && (!rec.new_vertices.is_empty()
+                    || !rec.rewritten.is_empty()
+                    || !rec.appended_faces.is_empty())
+            {
+                return Err(format!("record {r} (Smooth) changes connectivity"));
+            }
+            let mut seen = std::collections::HashSet::new();
+            for &(v, p) in &rec.moved {
+                if v as usize >= nv {
+                    return Err(format!(
+                        "record {r} moves vertex {v} but only {nv} vertices exist"
+                    ));
+                }
+                if !seen.insert(v) {
+                    return Err(format!("record {r} moves vertex {v} twice"));
+                }
+                if !p.is_finite() {
+                    return Err(format!(
+                        "record {r} moves vertex {v} to a non-finite position"
+                    ));
+                }
+            }
+            if rec.new_vertices.iter().any(|p| !p.is_finite()) {
+                return Err(format!("record {r} appends a non-finite position"));
+            }
+            let nv_after = nv + rec.new_vertices.len();
+            let mut prev: Option<u32> = None;
+            for &(s, q) in &rec.rewritten {
+                if s as usize >= nf {
+                    return Err(format!(
+                        "record {r} rewrites slot {s} but only {nf} faces exist"
+                    ));
+                }
+                if prev.is_some_and(|p| p >= s) {
+                    return Err(format!(
+                        "record {r} rewritten slots are not strictly ascending at {s}"
+                    ));
+                }
+                prev = Some(s);
+                check_quad(&format!("record {r} rewritten slot {s}"), &q, nv_after)?;
+            }
+            for (i, q) in rec.appended_faces.iter().enumerate() {
+                check_quad(&format!("record {r} appended face {i}"), q, nv_after)?;
+            }
+            nv = nv_after;
+            nf += rec.appended_faces.len();
+        }
+        if !self.vertex_order.is_empty() {
+            if self.vertex_order.len() != nv {
+                return Err(format!(
+                    "vertex_order has {} entries, the finest level has {nv} vertices",
+                    self.vertex_order.len()
+                ));
+            }
+            let mut seen = vec![false; nv];
+            for (i, &o) in self.vertex_order.iter().enumerate() {
+                match seen.get_mut(o as usize) {
+                    Some(s) if !*s => *s = true,
+                    _ => {
+                        return Err(format!(
+                            "vertex_order[{i}] = {o} is out of range or repeated"
+                        ))
+                    }
+                }
+            }
+        }
+        if !self.level_error.is_empty() {
+            if self.level_error.len() != self.records.len() + 1 {
+                return Err(format!(
+                    "level_error has {} entries, expected {}",
+                    self.level_error.len(),
+                    self.records.len() + 1
+                ));
+            }
+            for (k, &e) in self.level_error.iter().enumerate() {
+                if !e.is_finite() || e < 0.0 {
+                    return Err(format!(
+                        "level_error[{k}] = {e} is not finite and non-negative"
+                    ));
+                }
+                if k > 0 && e > self.level_error[k - 1] {
+                    return Err(format!("level_error increases at level {k}"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[doc(hidden)]
+pub mod testgen;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small generated mesh whose first two records are splits.
+    fn tiny() -> ProgressiveMesh {
+        let mut pm = testgen::generate(7, 10);
+        pm.records.retain(|r| r.op != OpKind::Smooth);
+        pm.level_error.truncate(pm.records.len() + 1);
+        pm.validate().unwrap();
+        pm
+    }
+
+    #[test]
+    fn level_counts_follow_the_records() {
+        let pm = tiny();
+        let (mut nv, mut nf) = (pm.base.vertex_count(), pm.base.face_count());
+        for k in 0..=pm.records.len() {
+            let m = pm.level(k);
+            assert_eq!((m.vertex_count(), m.face_count()), (nv, nf), "level {k}");
+            assert!(m.is_quad_only());
+            if let Some(r) = pm.records.get(k) {
+                nv += r.new_vertices.len();
+                nf += r.appended_faces.len();
+            }
+        }
+        assert_eq!(
+            pm.level(0),
+            IndexedMesh::from_faces(pm.base.positions.clone(), pm.base.faces())
+        );
+    }
+
+    #[test]
+    fn validate_names_the_bad_element() {
+        let mut pm = tiny();
+        let nf = pm.base.face_count() as u32;
+        pm.records[0].rewritten = vec![(nf + 5, [0, 1, 2, 3])];
+        let e = pm.validate().unwrap_err();
+        assert!(e.contains("record 0 rewrites slot"), "{e}");
+
+        let mut pm = tiny();
+        let nv = pm.base.vertex_count() as u32;
+        pm.records[0].moved.push((nv + 100, DVec3::ZERO));
+        assert!(pm.validate().unwrap_err().contains("record 0 moves vertex"));
+
+        let mut pm = tiny();
+        pm.records[1].appended_faces.push([0, 0, 1, 2]);
+        assert!(pm.validate().unwrap_err().contains("repeats vertex 0"));
+
+        let mut pm = tiny();
+        pm.level_error[1] = 10.0;
+        assert!(pm.validate().unwrap_err().contains("level_error increases"));
+
+        let mut pm = tiny();
+        pm.vertex_order[0] = pm.vertex_order[1];
+        assert!(pm.validate().unwrap_err().contains("vertex_order"));
+    }
+}

@@ -1,1 +1,61 @@
-//! The `.pqm` file format (see `spec/pqm.md`): writer, reader and streaming decoder.
+//! # pqm-format
+//!
+//! The `.pqm` progressive quad mesh file format — byte layout in
+//! `spec/pqm.md`, the single source of truth — with a writer ([`write`]) and a
+//! push-style streaming decoder ([`Decoder`]) that refines and coarsens
+//! between levels exactly.
+//!
+//! ```
+//! use pqm_format::{write_to_vec, Decoder, EncodeOptions, Event, Limits, Target};
+//! let pm = pqm_core::progressive::testgen::generate(1, 200);
+//! let (bytes, report) = write_to_vec(&pm, &EncodeOptions::default()).unwrap();
+//! assert!(report.bits_per_vertex.total > 0.0);
+//!
+//! let mut dec = Decoder::new(Limits::default());
+//! for piece in bytes.chunks(100) {
+//!     for event in dec.push(piece).unwrap() {
+//!         if let Event::ChunkReady(_) = event {
+//!             // Refine as far as the bytes received so far allow.
+//!             let change = dec.refine_to(Target::Level(usize::MAX)).unwrap();
+//!             // Upload `change.vertices_appended`, `change.vertices_moved`,
+//!             // `change.faces_rewritten`, `change.faces_appended` …
+//!             let _ = change;
+//!         }
+//!     }
+//! }
+//! assert_eq!(dec.level(), pm.records.len());
+//! assert_eq!(dec.quads().len(), pm.final_face_count());
+//! ```
+//!
+//! ## Using it in a game loop
+//! See `examples/game_loop.rs` (`cargo run -p pqm-format --example
+//! game_loop`): bytes arrive in pieces between frames; each frame the game
+//! pushes what arrived, picks a target (a face budget or a screen-space
+//! error), calls [`Decoder::set_level`] and applies the returned [`Change`]
+//! to its GPU buffers:
+//!
+//! * vertex buffer: write `positions()[r]` for `vertices_appended` and for
+//!   each run in [`Change::moved_ranges`]; shrink the draw range to
+//!   `vertices_removed.start` when coarsening;
+//! * index buffer: quad slot `f` is triangles `2f = (v0, v1, v2)` and
+//!   `2f + 1 = (v0, v2, v3)` (see [`quad_triangles`]), i.e. indices
+//!   `6f .. 6f + 6`; rewrite those for [`Change::rewritten_ranges`] and
+//!   `faces_appended`, and draw `6 * quads().len()` indices.
+//!
+//! Slots never move while they exist, so every update is a sub-range write.
+
+pub mod codec;
+pub mod decoder;
+pub mod encoder;
+pub mod error;
+pub mod layout;
+pub mod quant;
+pub mod varint;
+
+pub use decoder::{decode_all, quad_triangles, Change, Decoder, Event, Limits, Status, Target};
+pub use encoder::{write, write_to_vec, BitsPerVertex, EncodeOptions, EncodeReport};
+pub use error::{DecodeError, EncodeError, FormatError, Section};
+pub use layout::{ChunkInfo, Header};
+pub use quant::Quantizer;
+#[doc(hidden)]
+pub mod vectors;

@@ -1,0 +1,58 @@
+//! Decode throughput on a generated progressive mesh of ~100k final quads:
+//! push the whole file (CRC + zstd + record decoding), then refine to the
+//! finest level; and moving between levels with the undo log.
+//! Throughput is reported in faces reconstructed per second.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use pqm_core::progressive::testgen::{generate_with, BaseShape, GenOptions};
+use pqm_format::{decode_all, write_to_vec, Decoder, EncodeOptions, Limits, Target};
+use std::hint::black_box;
+
+fn bench(c: &mut Criterion) {
+    let pm = generate_with(&GenOptions {
+        base: BaseShape::Box { n: 4 },
+        smooth_prob: 0.0,
+        ..GenOptions::new(7, 100_000)
+    });
+    let (bytes, report) = write_to_vec(&pm, &EncodeOptions::default()).expect("encode");
+    let faces = pm.final_face_count() as u64;
+    eprintln!(
+        "bench mesh: {} final quads, {} records, {} bytes ({:.1} bits/refined vertex)",
+        faces,
+        pm.records.len(),
+        bytes.len(),
+        report.bits_per_vertex.total
+    );
+    let mut g = c.benchmark_group("decode");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(faces));
+    g.bench_function("push_all_and_refine_100k", |b| {
+        b.iter(|| {
+            let mut d = Decoder::new(Limits::default());
+            d.push(black_box(&bytes)).expect("decode");
+            d.set_level(Target::Level(usize::MAX)).expect("refine");
+            black_box(d.quads().len())
+        })
+    });
+    g.bench_function("push_in_1500_byte_packets", |b| {
+        b.iter(|| {
+            let mut d = Decoder::new(Limits::default());
+            for p in bytes.chunks(1500) {
+                d.push(black_box(p)).expect("decode");
+            }
+            black_box(d.deepest_level())
+        })
+    });
+    let mut dec = decode_all(&bytes, Limits::default()).expect("decode");
+    g.bench_function("coarsen_and_refine_full_range", |b| {
+        b.iter(|| {
+            dec.set_level(Target::Level(0)).expect("coarsen");
+            dec.set_level(Target::Level(usize::MAX)).expect("refine");
+            black_box(dec.quads().len())
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,114 @@
+//! Fuzz the push decoder.
+//!
+//! * Mode 0 (raw bytes): the input is a `.pqm` file; pushing it whole and
+//!   pushing it split at a point chosen by the input must give the same
+//!   outcome, the same events and the same deepest level and mesh.
+//! * Mode 1 (record streams): the input is the five record streams of a
+//!   chunk, decoded against a valid generated mesh (bypasses CRCs so the
+//!   record decoder itself is exercised).
+//!
+//! `cargo +nightly fuzz run decode` (or `cargo fuzz run decode -s none` on
+//! stable) from `crates/pqm-format`; seed corpus: `spec/vectors/*.pqm`.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use pqm_format::{Decoder, Limits, Target};
+
+fn outcome(
+    parts: &[&[u8]],
+) -> (
+    bool,
+    Vec<pqm_format::Event>,
+    Option<usize>,
+    Vec<[u32; 4]>,
+    Vec<[u32; 3]>,
+) {
+    let limits = Limits {
+        max_vertices: 1 << 20,
+        max_faces: 1 << 20,
+        max_memory_bytes: 256 << 20,
+    };
+    let mut d = Decoder::new(limits);
+    let mut events = Vec::new();
+    let mut ok = true;
+    for p in parts {
+        match d.push(p) {
+            Ok(e) => events.extend(e),
+            Err(_) => {
+                ok = false;
+                break;
+            }
+        }
+    }
+    let _ = d.status();
+    if d.deepest_level().is_some() {
+        let c = d
+            .set_level(Target::Level(usize::MAX))
+            .expect("reachable level");
+        assert_eq!(Some(c.to_level), d.deepest_level());
+        let back = d.set_level(Target::Level(0)).expect("level 0");
+        assert_eq!(back.to_level, 0);
+        d.set_level(Target::Level(usize::MAX))
+            .expect("refine again");
+    }
+    (
+        ok,
+        events,
+        d.deepest_level(),
+        d.quads().to_vec(),
+        d.position_codes().to_vec(),
+    )
+}
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&mode, rest)) = data.split_first() else {
+        return;
+    };
+    if mode & 1 == 0 {
+        let at = if rest.len() >= 2 {
+            (rest[0] as usize | (rest[1] as usize) << 8) % (rest.len() + 1)
+        } else {
+            0
+        };
+        let whole = outcome(&[rest]);
+        let split = outcome(&[&rest[..at], &rest[at..]]);
+        // Once an error happened, events after it are lost either way; the
+        // levels decoded before the error must agree.
+        assert_eq!(whole.0, split.0);
+        if whole.0 {
+            assert_eq!(whole.1, split.1);
+        }
+        assert_eq!(whole.2, split.2);
+        assert_eq!(whole.3, split.3);
+        assert_eq!(whole.4, split.4);
+    } else {
+        use pqm_format::codec::{decode_record, Cursors, MeshState};
+        use pqm_format::varint::Reader;
+        let seed = (mode >> 1) as u64;
+        let pm = pqm_core::progressive::testgen::generate(seed, 30);
+        let (pos, quads) = pm.level_quads(pm.records.len());
+        let q = pqm_format::Quantizer::new([-2.0; 3], [6.0; 3], 12);
+        let mut st = MeshState::new(
+            q.qmax(),
+            pos.iter().map(|p| q.quantize(*p)).collect(),
+            quads,
+        );
+        let n = rest.len() / 5;
+        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&rest[k * n..(k + 1) * n], "s"));
+        let mut cur = Cursors::default();
+        let (mv, mf) = (st.q.len() as u32 + 50, st.quads.len() as u32 + 50);
+        for _ in 0..20 {
+            match decode_record(&st, &mut rd, &mut cur, mv, mf) {
+                Ok(r) => {
+                    st.apply(&r);
+                    assert!(st
+                        .quads
+                        .iter()
+                        .flatten()
+                        .all(|&v| (v as usize) < st.q.len()));
+                }
+                Err(_) => break,
+            }
+        }
+    }
+});

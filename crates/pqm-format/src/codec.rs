@@ -1,0 +1,783 @@
+//! Coding of the base mesh and of refinement records (spec §6–§7).
+//!
+//! Both the encoder and the decoder run the same [`MeshState`] — quantized
+//! positions, quads and vertex→face adjacency at the current level — because
+//! the coding is *predictive*: the compact split form names a vertex and two
+//! wings in its link ring (which needs adjacency) and every position is a
+//! residual against a prediction from positions the decoder already has.
+//!
+//! A record is coded into five separate byte streams (symbols, connectivity
+//! integers, vertex references, face slots, position residuals) because
+//! each stream has its own statistics and zstd models them better apart.
+
+use crate::varint::{put_s, put_u, Reader};
+use pqm_core::OpKind;
+use std::collections::HashMap;
+
+/// Stream indices inside a record chunk payload, in payload order.
+pub const OPS: usize = 0;
+/// Connectivity integers: counts, masks, corner codes, wing indices.
+pub const CONN: usize = 1;
+/// Vertex references (zigzag deltas against the running vertex cursor).
+pub const REFS: usize = 2;
+/// Face slots of rewritten faces.
+pub const SLOTS: usize = 3;
+/// Position residuals.
+pub const POS: usize = 4;
+/// Stream names, for errors and reports.
+pub const STREAM_NAMES: [&str; 5] = ["ops", "conn", "refs", "slots", "pos"];
+
+/// The split form is defined only for stars of at most this many faces
+/// (bounds the decoder's ring walk, which is quadratic in the valence).
+pub const MAX_SPLIT_STAR: usize = 255;
+
+/// One record in explicit form with quantized positions (what both sides
+/// agree on; the decoder stores these for moving between levels).
+#[derive(Clone, Debug, PartialEq)]
+pub struct QRecord {
+    /// Operator kind.
+    pub op: OpKind,
+    /// Codes of the appended vertices.
+    pub new_pos: Vec<[u32; 3]>,
+    /// Moved vertices, ids strictly ascending, with their new codes.
+    pub moved: Vec<(u32, [u32; 3])>,
+    /// Rewritten slots, strictly ascending, with their new contents.
+    pub rewritten: Vec<(u32, [u32; 4])>,
+    /// Appended quads.
+    pub appended: Vec<[u32; 4]>,
+}
+
+/// The decoder-side mesh at one level (see the module docs).
+#[derive(Clone, Debug)]
+pub struct MeshState {
+    /// Largest quantization code.
+    pub qmax: u32,
+    /// Vertex codes.
+    pub q: Vec<[u32; 3]>,
+    /// Quads by slot.
+    pub quads: Vec<[u32; 4]>,
+    /// Face slots around each vertex (unordered).
+    pub vf: Vec<Vec<u32>>,
+}
+
+/// Star of a vertex in canonical order (spec §7.5).
+#[derive(Clone, Debug)]
+pub struct Star {
+    /// Faces `f_0 … f_{K-1}` counter-clockwise.
+    pub faces: Vec<u32>,
+    /// Link ring `l_0 … l_{L-1}` (`L = K`, or `K + 1` on the boundary).
+    pub link: Vec<u32>,
+}
+
+/// Running cursors of one chunk (reset to 0 at every chunk start).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Cursors {
+    /// Last vertex reference coded in the `refs` stream.
+    pub vref: u32,
+    /// Last rewritten slot coded.
+    pub slot: u32,
+}
+
+impl MeshState {
+    /// State for the given codes and quads (indices must be in range).
+    pub fn new(qmax: u32, q: Vec<[u32; 3]>, quads: Vec<[u32; 4]>) -> Self {
+        let mut vf = vec![Vec::new(); q.len()];
+        for (f, quad) in quads.iter().enumerate() {
+            for &v in quad {
+                vf[v as usize].push(f as u32);
+            }
+        }
+        MeshState { qmax, q, quads, vf }
+    }
+
+    /// Applies `r` (already checked against this state) and returns the old
+    /// codes of its moved vertices and the old contents of its rewritten
+    /// slots, in record order (the undo log).
+    pub fn apply(&mut self, r: &QRecord) -> (Vec<[u32; 3]>, Vec<[u32; 4]>) {
+        for &p in &r.new_pos {
+            self.q.push(p);
+            self.vf.push(Vec::new());
+        }
+        let old_pos = r
+            .moved
+            .iter()
+            .map(|&(v, p)| std::mem::replace(&mut self.q[v as usize], p))
+            .collect();
+        let mut old_quads = Vec::with_capacity(r.rewritten.len());
+        for &(s, quad) in &r.rewritten {
+            let old = std::mem::replace(&mut self.quads[s as usize], quad);
+            for v in old {
+                let list = &mut self.vf[v as usize];
+                if let Some(i) = list.iter().position(|&f| f == s) {
+                    list.swap_remove(i);
+                }
+            }
+            for v in quad {
+                self.vf[v as usize].push(s);
+            }
+            old_quads.push(old);
+        }
+        for &quad in &r.appended {
+            let s = self.quads.len() as u32;
+            self.quads.push(quad);
+            for v in quad {
+                self.vf[v as usize].push(s);
+            }
+        }
+        (old_pos, old_quads)
+    }
+
+    /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
+    pub fn star(&self, m: u32) -> Result<Star, String> {
+        let fs = &self.vf[m as usize];
+        if fs.is_empty() || fs.len() > MAX_SPLIT_STAR {
+            return Err(format!(
+                "vertex {m} has {} faces (split form needs 1..=255)",
+                fs.len()
+            ));
+        }
+        // (slot, next of m, prev of m) per face, read once: the walk below
+        // is quadratic in the valence, so keep its inner loop on a small array.
+        let ring: Vec<(u32, u32, u32)> = fs
+            .iter()
+            .map(|&f| {
+                let q = &self.quads[f as usize];
+                let k = q.iter().position(|&x| x == m).unwrap_or(0);
+                (f, q[(k + 1) % 4], q[(k + 3) % 4])
+            })
+            .collect();
+        let not_fan = || format!("star of vertex {m} is not a single fan");
+        // Index (into `ring`) of the smallest slot g != ring[f] with
+        // next(g) == key (want_next) or prev(g) == key.
+        let find = |f: usize, key: u32, want_next: bool| -> Option<usize> {
+            let mut best: Option<usize> = None;
+            for (g, e) in ring.iter().enumerate() {
+                let hit = if want_next { e.1 == key } else { e.2 == key };
+                if g != f && hit && best.is_none_or(|b| e.0 < ring[b].0) {
+                    best = Some(g);
+                }
+            }
+            best
+        };
+        let succ = |f: usize| find(f, ring[f].2, true);
+        let pred = |f: usize| find(f, ring[f].1, false);
+        let first = (0..ring.len()).min_by_key(|&g| ring[g].0).unwrap_or(0);
+        let mut start = None;
+        let mut boundary = false;
+        let mut f = first;
+        for _ in 0..ring.len() {
+            match pred(f) {
+                None => {
+                    start = Some(f);
+                    boundary = true;
+                    break;
+                }
+                Some(g) if g == first => {
+                    start = Some(first);
+                    break;
+                }
+                Some(g) => f = g,
+            }
+        }
+        let start = start.ok_or_else(not_fan)?;
+        let mut order = vec![start];
+        let mut f = start;
+        loop {
+            match succ(f) {
+                None if boundary => break,
+                Some(g) if g == start && !boundary => break,
+                Some(g) if !order.contains(&g) && order.len() < ring.len() => {
+                    order.push(g);
+                    f = g;
+                }
+                _ => return Err(not_fan()),
+            }
+        }
+        if order.len() != ring.len() {
+            return Err(not_fan());
+        }
+        let mut link: Vec<u32> = order.iter().map(|&g| ring[g].1).collect();
+        if boundary {
+            link.push(ring[f].2);
+        }
+        Ok(Star {
+            faces: order.iter().map(|&g| ring[g].0).collect(),
+            link,
+        })
+    }
+}
+
+/// Rewritten slots with their new quads.
+type Rewrites = Vec<(u32, [u32; 4])>;
+
+/// The explicit connectivity of a split (spec §7.5): rewritten slots of the
+/// `c` side (sorted) and the appended quad.
+fn build_split(
+    st: &MeshState,
+    m: u32,
+    star: &Star,
+    i: usize,
+    j: usize,
+    rot: usize,
+) -> Result<(Rewrites, [u32; 4]), String> {
+    let c = st.q.len() as u32;
+    let (b, d) = (star.link[i], star.link[j]);
+    if b == d {
+        return Err(format!("split of vertex {m}: both wings are vertex {b}"));
+    }
+    let base = [m, d, c, b];
+    let appended = [0, 1, 2, 3].map(|t| base[(t + rot) % 4]);
+    let in_a = |t: usize| {
+        if i < j {
+            i <= t && t < j
+        } else {
+            t >= i || t < j
+        }
+    };
+    let mut rewritten: Vec<(u32, [u32; 4])> = (0..star.faces.len())
+        .filter(|&t| !in_a(t))
+        .map(|t| {
+            let s = star.faces[t];
+            (s, st.quads[s as usize].map(|x| if x == m { c } else { x }))
+        })
+        .collect();
+    rewritten.sort_unstable_by_key(|r| r.0);
+    Ok((rewritten, appended))
+}
+
+/// Prediction of the split vertex `a` (spec §7.5): `m`'s old code plus a
+/// quarter of the difference between the mean far corners (the corner
+/// opposite `m`) of the faces that keep `m` and of the faces that go to `c`.
+/// On a regular grid split across its middle this is the midpoint-merge
+/// answer, half an edge towards the `a` side.
+fn predict_a(st: &MeshState, m: u32, star: &Star, i: usize, j: usize) -> [u32; 3] {
+    let pm = st.q[m as usize];
+    let in_a = |t: usize| {
+        if i < j {
+            i <= t && t < j
+        } else {
+            t >= i || t < j
+        }
+    };
+    let mut sum = [[0i64; 3]; 2];
+    let mut n = [0i64; 2];
+    for (t, &f) in star.faces.iter().enumerate() {
+        let quad = st.quads[f as usize];
+        let k = quad.iter().position(|&x| x == m).unwrap_or(0);
+        let far = st.q[quad[(k + 2) % 4] as usize];
+        let side = if in_a(t) { 0 } else { 1 };
+        for a in 0..3 {
+            sum[side][a] += far[a] as i64;
+        }
+        n[side] += 1;
+    }
+    let mean = |s: usize, a: usize| {
+        if n[s] > 0 {
+            sum[s][a].div_euclid(n[s])
+        } else {
+            pm[a] as i64
+        }
+    };
+    let qmax = st.qmax as i64;
+    [0, 1, 2]
+        .map(|a| (pm[a] as i64 + (mean(0, a) - mean(1, a)).div_euclid(4)).clamp(0, qmax) as u32)
+}
+
+/// Reflection prediction of `c` (spec §7.5): `2 m_old − a`, as a midpoint
+/// merge leaves it.
+fn reflect(st: &MeshState, m_old: [u32; 3], a: [u32; 3]) -> [u32; 3] {
+    let qmax = st.qmax as i64;
+    [0, 1, 2].map(|t| (2 * m_old[t] as i64 - a[t] as i64).clamp(0, qmax) as u32)
+}
+
+fn residual_cost(pred: [u32; 3], p: [u32; 3]) -> u64 {
+    (0..3)
+        .map(|t| (p[t] as i64 - pred[t] as i64).unsigned_abs())
+        .sum()
+}
+
+/// Prediction of the code of new vertex `x` (spec §7.6). `r.new_pos` holds
+/// the new vertices before `x`; `first` is the first record face (appended,
+/// then rewritten) containing `x`.
+fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>) -> [u32; 3] {
+    let known = |u: u32| -> Option<[u32; 3]> {
+        if u < v0 {
+            match r.moved.binary_search_by_key(&u, |m| m.0) {
+                Ok(i) => Some(r.moved[i].1),
+                Err(_) => Some(st.q[u as usize]),
+            }
+        } else if u < x {
+            r.new_pos.get((u - v0) as usize).copied()
+        } else {
+            None
+        }
+    };
+    if let Some(face) = first {
+        let k = face.iter().position(|&u| u == x).unwrap_or(0);
+        let n1 = known(face[(k + 1) % 4]);
+        let o = known(face[(k + 2) % 4]);
+        let n3 = known(face[(k + 3) % 4]);
+        if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
+            let qmax = st.qmax as i64;
+            return [0, 1, 2]
+                .map(|t| (a[t] as i64 + c[t] as i64 - b[t] as i64).clamp(0, qmax) as u32);
+        }
+        let ks: Vec<[u32; 3]> = [n1, o, n3].into_iter().flatten().collect();
+        if !ks.is_empty() {
+            let n = ks.len() as u64;
+            return [0, 1, 2].map(|t| (ks.iter().map(|p| p[t] as u64).sum::<u64>() / n) as u32);
+        }
+    }
+    if x > v0 {
+        if let Some(&p) = r.new_pos.last() {
+            return p;
+        }
+    }
+    [st.qmax.div_ceil(2); 3]
+}
+
+/// First face (appended, then rewritten) containing each new vertex.
+fn first_faces(r: &QRecord, v0: u32, n_new: usize) -> Vec<Option<[u32; 4]>> {
+    let mut first = vec![None; n_new];
+    let faces = r.appended.iter().chain(r.rewritten.iter().map(|(_, q)| q));
+    for q in faces {
+        for &u in q {
+            if u >= v0 && ((u - v0) as usize) < n_new && first[(u - v0) as usize].is_none() {
+                first[(u - v0) as usize] = Some(*q);
+            }
+        }
+    }
+    first
+}
+
+fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
+    let mut out = [0u32; 3];
+    for t in 0..3 {
+        let v = (pred[t] as i64).saturating_add(rd.s()?);
+        if v < 0 || v > qmax as i64 {
+            return Err(format!("position code {v} outside the grid 0..={qmax}"));
+        }
+        out[t] = v as u32;
+    }
+    Ok(out)
+}
+
+fn put_residual(out: &mut Vec<u8>, pred: [u32; 3], p: [u32; 3]) {
+    for t in 0..3 {
+        put_s(out, p[t] as i64 - pred[t] as i64);
+    }
+}
+
+fn check_distinct(q: &[u32; 4], what: &str) -> Result<(), String> {
+    for a in 0..4 {
+        for b in a + 1..4 {
+            if q[a] == q[b] {
+                return Err(format!("{what} repeats vertex {}", q[a]));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Vertex `cursor + delta`, which must be `< limit`.
+fn vref(cursor: u32, delta: i64, limit: u32, what: &str) -> Result<u32, String> {
+    let v = (cursor as i64).saturating_add(delta);
+    if v < 0 || v >= limit as i64 {
+        return Err(format!(
+            "{what} references vertex {v} but only {limit} vertices exist"
+        ));
+    }
+    Ok(v as u32)
+}
+
+/// Decodes one record against `st` (level before the record). `max_v` /
+/// `max_f` are the file's final counts: no record may exceed them.
+pub fn decode_record(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+) -> Result<QRecord, String> {
+    let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
+    let sym = rd[OPS].byte()?;
+    let op = OpKind::from_code(sym & 3).ok_or("bad op")?;
+    let form = (sym >> 2) & 3;
+    let rot = ((sym >> 4) & 3) as usize;
+    let moved_flag = sym & 0x40 != 0;
+    let reflect_c = sym & 0x80 != 0;
+    let mut r = QRecord {
+        op,
+        new_pos: Vec::new(),
+        moved: Vec::new(),
+        rewritten: Vec::new(),
+        appended: Vec::new(),
+    };
+    match form {
+        0 => {
+            if sym & 0xf0 != 0 {
+                return Err(format!(
+                    "general-form symbol {sym:#04x} has split-form bits set"
+                ));
+            }
+            let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
+            let n_moved = rd[CONN].u_max(v0 as u64, "moved vertex count")? as usize;
+            let n_rw = rd[CONN].u_max(f0 as u64, "rewritten face count")? as usize;
+            let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
+            let v1 = v0 + n_new as u32;
+            for _ in 0..n_moved {
+                let d = rd[REFS].s()?;
+                let v = vref(cur.vref, d, v0, "moved vertex")?;
+                if r.moved.last().is_some_and(|&(p, _)| p >= v) {
+                    return Err(format!(
+                        "moved vertex {v} is not in strictly ascending order"
+                    ));
+                }
+                cur.vref = v;
+                let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+                r.moved.push((v, p));
+            }
+            let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
+            for t in 0..n_rw {
+                let s = if t == 0 {
+                    (cur.slot as i64).saturating_add(rd[SLOTS].s()?)
+                } else {
+                    let gap = rd[SLOTS].u_max(f0 as u64, "slot gap")? as i64;
+                    slots.last().map_or(0, |&p: &u32| p as i64) + 1 + gap
+                };
+                if s < 0 || s >= f0 as i64 {
+                    return Err(format!("rewrites slot {s} but only {f0} faces exist"));
+                }
+                slots.push(s as u32);
+            }
+            if let Some(&s) = slots.last() {
+                cur.slot = s;
+            }
+            let mut extra: Vec<u32> = Vec::new();
+            let mut corner = |rd: &mut [Reader; 5], cur: &mut Cursors| -> Result<u32, String> {
+                let x = rd[CONN].u()?;
+                if x == 0 {
+                    let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
+                    cur.vref = v;
+                    extra.push(v);
+                    return Ok(v);
+                }
+                let idx = x - 1;
+                if idx < n_new as u64 {
+                    return Ok(v0 + idx as u32);
+                }
+                let idx = idx - n_new as u64;
+                if idx < 4 * n_rw as u64 {
+                    let s = slots[(idx / 4) as usize];
+                    return Ok(st.quads[s as usize][(idx % 4) as usize]);
+                }
+                let idx = idx - 4 * n_rw as u64;
+                extra
+                    .get(idx as usize)
+                    .copied()
+                    .ok_or_else(|| format!("corner code {x} out of range"))
+            };
+            for &s in &slots {
+                let mask = rd[CONN].u_max(15, "corner mask")?;
+                let mut q = st.quads[s as usize];
+                for (c, qc) in q.iter_mut().enumerate() {
+                    if mask & (1 << c) != 0 {
+                        *qc = corner(rd, cur)?;
+                    }
+                }
+                check_distinct(&q, &format!("rewritten slot {s}"))?;
+                r.rewritten.push((s, q));
+            }
+            for a in 0..n_app {
+                let mut q = [0u32; 4];
+                for qc in q.iter_mut() {
+                    *qc = corner(rd, cur)?;
+                }
+                check_distinct(&q, &format!("appended face {a}"))?;
+                r.appended.push(q);
+            }
+            let first = first_faces(&r, v0, n_new);
+            for (t, f) in first.into_iter().enumerate() {
+                let pred = predict(st, &r, v0, v0 + t as u32, f);
+                let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+                r.new_pos.push(p);
+            }
+        }
+        1 => {
+            if v0 >= max_v || f0 >= max_f {
+                return Err("split exceeds the final vertex or face count".into());
+            }
+            let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
+            cur.vref = m;
+            let star = st.star(m)?;
+            let l = star.link.len();
+            if l < 2 {
+                return Err(format!("vertex {m} has fewer than two link vertices"));
+            }
+            let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
+            let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
+            let j = (i + 1 + e) % l;
+            let (rewritten, appended) = build_split(st, m, &star, i, j, rot)?;
+            r.rewritten = rewritten;
+            r.appended = vec![appended];
+            let m_old = st.q[m as usize];
+            if moved_flag {
+                let p = add_residual(predict_a(st, m, &star, i, j), &mut rd[POS], st.qmax)?;
+                r.moved.push((m, p));
+            }
+            let pred = if reflect_c {
+                reflect(st, m_old, r.moved.first().map_or(m_old, |mv| mv.1))
+            } else {
+                predict(st, &r, v0, v0, Some(appended))
+            };
+            let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+            r.new_pos.push(p);
+        }
+        _ => return Err(format!("unknown record form {form} in symbol {sym:#04x}")),
+    }
+    Ok(r)
+}
+
+/// The split-form parameters `(m, i, e, rot, moved)` that reproduce `r`
+/// exactly, if any.
+struct SplitParams {
+    m: u32,
+    star: Star,
+    i: usize,
+    j: usize,
+    rot: usize,
+}
+
+fn split_params(st: &MeshState, r: &QRecord) -> Option<SplitParams> {
+    if r.new_pos.len() != 1 || r.appended.len() != 1 {
+        return None;
+    }
+    let v0 = st.q.len() as u32;
+    let quad = r.appended[0];
+    let kc = quad.iter().position(|&x| x == v0)?;
+    let km = (kc + 2) % 4;
+    let m = quad[km];
+    if m >= v0 || r.moved.iter().any(|&(v, _)| v != m) {
+        return None;
+    }
+    let rot = (4 - km) % 4;
+    let (b, d) = (quad[(km + 3) % 4], quad[(km + 1) % 4]);
+    let star = st.star(m).ok()?;
+    let l = star.link.len();
+    let i = star.link.iter().position(|&x| x == b)?;
+    let j = star.link.iter().position(|&x| x == d)?;
+    if i == j || l < 2 {
+        return None;
+    }
+    let (rewritten, appended) = build_split(st, m, &star, i, j, rot).ok()?;
+    (rewritten == r.rewritten && appended == quad).then_some(SplitParams { m, star, i, j, rot })
+}
+
+/// Encodes `r` (normalized: moved ids and rewritten slots strictly
+/// ascending, indices valid against `st`) into `s`. Uses the split form when
+/// `allow_split` and it reproduces `r` exactly. Returns true for the split form.
+pub fn encode_record(
+    st: &MeshState,
+    r: &QRecord,
+    cur: &mut Cursors,
+    s: &mut [Vec<u8>; 5],
+    allow_split: bool,
+) -> bool {
+    let v0 = st.q.len() as u32;
+    let op = r.op as u8;
+    if allow_split {
+        if let Some(SplitParams { m, star, i, j, rot }) = split_params(st, r) {
+            let l = star.link.len();
+            let m_old = st.q[m as usize];
+            let a = r.moved.first().map_or(m_old, |mv| mv.1);
+            let mut partial = r.clone();
+            partial.new_pos.clear();
+            let by_quad = predict(st, &partial, v0, v0, Some(r.appended[0]));
+            let by_reflection = reflect(st, m_old, a);
+            let c = r.new_pos[0];
+            let use_reflection = residual_cost(by_reflection, c) < residual_cost(by_quad, c);
+            let moved = !r.moved.is_empty();
+            s[OPS].push(
+                op | (1 << 2)
+                    | ((rot as u8) << 4)
+                    | if moved { 0x40 } else { 0 }
+                    | if use_reflection { 0x80 } else { 0 },
+            );
+            put_s(&mut s[REFS], m as i64 - cur.vref as i64);
+            cur.vref = m;
+            put_u(&mut s[CONN], i as u64);
+            put_u(&mut s[CONN], ((j + l - i - 1) % l) as u64);
+            if moved {
+                put_residual(&mut s[POS], predict_a(st, m, &star, i, j), a);
+            }
+            put_residual(
+                &mut s[POS],
+                if use_reflection {
+                    by_reflection
+                } else {
+                    by_quad
+                },
+                c,
+            );
+            return true;
+        }
+    }
+    s[OPS].push(op);
+    let n_new = r.new_pos.len();
+    let n_rw = r.rewritten.len();
+    for n in [n_new, r.moved.len(), n_rw, r.appended.len()] {
+        put_u(&mut s[CONN], n as u64);
+    }
+    for &(v, p) in &r.moved {
+        put_s(&mut s[REFS], v as i64 - cur.vref as i64);
+        cur.vref = v;
+        put_residual(&mut s[POS], st.q[v as usize], p);
+    }
+    for (t, &(slot, _)) in r.rewritten.iter().enumerate() {
+        if t == 0 {
+            put_s(&mut s[SLOTS], slot as i64 - cur.slot as i64);
+        } else {
+            put_u(&mut s[SLOTS], (slot - r.rewritten[t - 1].0 - 1) as u64);
+        }
+    }
+    if let Some(&(slot, _)) = r.rewritten.last() {
+        cur.slot = slot;
+    }
+    // Corner vocabulary: new vertices, old corners of rewritten slots, then
+    // explicitly coded vertices (first occurrence wins).
+    let mut vocab: HashMap<u32, u64> = HashMap::new();
+    for (t, &(slot, _)) in r.rewritten.iter().enumerate() {
+        for (c, &v) in st.quads[slot as usize].iter().enumerate() {
+            vocab.entry(v).or_insert((n_new + 4 * t + c) as u64);
+        }
+    }
+    let mut n_extra = 0u64;
+    let mut corner = |v: u32, s: &mut [Vec<u8>; 5], cur: &mut Cursors| {
+        if v >= v0 && ((v - v0) as usize) < n_new {
+            put_u(&mut s[CONN], 1 + (v - v0) as u64);
+        } else if let Some(&idx) = vocab.get(&v) {
+            put_u(&mut s[CONN], 1 + idx);
+        } else {
+            put_u(&mut s[CONN], 0);
+            put_s(&mut s[REFS], v as i64 - cur.vref as i64);
+            cur.vref = v;
+            vocab.insert(v, (n_new + 4 * n_rw) as u64 + n_extra);
+            n_extra += 1;
+        }
+    };
+    for &(slot, q) in &r.rewritten {
+        let old = st.quads[slot as usize];
+        let mask = (0..4)
+            .filter(|&c| q[c] != old[c])
+            .fold(0u64, |m, c| m | 1 << c);
+        put_u(&mut s[CONN], mask);
+        for (c, &v) in q.iter().enumerate() {
+            if mask & (1 << c) != 0 {
+                corner(v, s, cur);
+            }
+        }
+    }
+    for q in &r.appended {
+        for &v in q {
+            corner(v, s, cur);
+        }
+    }
+    let first = first_faces(r, v0, n_new);
+    let mut partial = r.clone();
+    partial.new_pos.clear();
+    for (t, f) in first.into_iter().enumerate() {
+        let pred = predict(st, &partial, v0, v0 + t as u32, f);
+        put_residual(&mut s[POS], pred, r.new_pos[t]);
+        partial.new_pos.push(r.new_pos[t]);
+    }
+    false
+}
+
+/// Concatenates the five streams, each prefixed by its LEB128 length.
+pub fn join_streams(s: &[Vec<u8>; 5]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(s.iter().map(|x| x.len() + 5).sum());
+    for x in s {
+        put_u(&mut out, x.len() as u64);
+        out.extend_from_slice(x);
+    }
+    out
+}
+
+/// Splits a chunk payload into its five streams.
+pub fn split_streams(buf: &[u8]) -> Result<[Reader<'_>; 5], String> {
+    let mut r = Reader::new(buf, "payload");
+    let mut parts: [&[u8]; 5] = [&[]; 5];
+    for (k, part) in parts.iter_mut().enumerate() {
+        let n = r.u()?;
+        let n = usize::try_from(n).map_err(|_| "stream length too large".to_string())?;
+        *part = r
+            .bytes(n)
+            .map_err(|_| format!("stream {} is longer than the payload", STREAM_NAMES[k]))?;
+    }
+    if r.remaining() != 0 {
+        return Err(format!("{} bytes after the last stream", r.remaining()));
+    }
+    Ok([0, 1, 2, 3, 4].map(|k| Reader::new(parts[k], STREAM_NAMES[k])))
+}
+
+/// Base mesh payload (spec §6): corners as zigzag deltas of the previous
+/// corner, then codes as zigzag deltas of the previous vertex.
+pub fn encode_base(q: &[[u32; 3]], quads: &[[u32; 4]]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut prev = 0i64;
+    for quad in quads {
+        for &v in quad {
+            put_s(&mut out, v as i64 - prev);
+            prev = v as i64;
+        }
+    }
+    let mut pp = [0i64; 3];
+    for p in q {
+        for t in 0..3 {
+            put_s(&mut out, p[t] as i64 - pp[t]);
+            pp[t] = p[t] as i64;
+        }
+    }
+    out
+}
+
+/// Decodes a base payload with `nv` vertices and `nf` quads.
+pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState, String> {
+    // Every corner and every coordinate takes at least one byte: check the
+    // claimed counts against the payload before allocating.
+    if (nf as u64) * 4 + (nv as u64) * 3 > buf.len() as u64 {
+        return Err(format!(
+            "{nv} vertices and {nf} faces cannot fit in {} bytes",
+            buf.len()
+        ));
+    }
+    let mut r = Reader::new(buf, "base");
+    let mut quads = Vec::with_capacity(nf as usize);
+    let mut prev = 0i64;
+    for f in 0..nf {
+        let mut q = [0u32; 4];
+        for qc in q.iter_mut() {
+            let v = prev.saturating_add(r.s()?);
+            if v < 0 || v >= nv as i64 {
+                return Err(format!(
+                    "face {f} references vertex {v} but only {nv} vertices exist"
+                ));
+            }
+            *qc = v as u32;
+            prev = v;
+        }
+        check_distinct(&q, &format!("face {f}"))?;
+        quads.push(q);
+    }
+    let mut pos = Vec::with_capacity(nv as usize);
+    let mut pp = [0u32; 3];
+    for _ in 0..nv {
+        pp = add_residual(pp, &mut r, qmax)?;
+        pos.push(pp);
+    }
+    if r.remaining() != 0 {
+        return Err(format!("{} unused bytes at the end", r.remaining()));
+    }
+    Ok(MeshState::new(qmax, pos, quads))
+}

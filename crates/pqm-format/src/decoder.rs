@@ -1,0 +1,1148 @@
+//! The push (streaming) decoder, in the style of the `png` crate's
+//! `StreamingDecoder`: feed bytes as they arrive with [`Decoder::push`] —
+//! any number at a time, one byte at a time gives exactly the same result —
+//! and get [`Event`]s as sections complete. Then move between any two
+//! decoded levels with [`Decoder::refine_to`] / [`Decoder::coarsen_to`] /
+//! [`Decoder::set_level`], each returning a [`Change`] that tells a renderer
+//! which buffer sub-ranges to update.
+//!
+//! Internally the decoder keeps two meshes: the *frontier* (the deepest
+//! decoded level, with vertex→face adjacency, needed to decode the next
+//! record) and the *current* level the caller sees. Every decoded record is
+//! stored in explicit form together with its undo data (old positions of
+//! moved vertices, old contents of rewritten slots), so moving between levels
+//! never re-decodes anything.
+//!
+//! Every count and index in the input is checked before it is used or
+//! allocated for; claims in the header and chunk table are checked against
+//! [`Limits`] up front. Nothing here panics on any input.
+
+use crate::codec::{self, Cursors, MeshState};
+use crate::error::{DecodeError, FormatError, Section};
+use crate::layout::*;
+use crate::quant::Quantizer;
+use crate::varint::Reader;
+use byteorder::{ByteOrder, LittleEndian as LE};
+use glam::DVec3;
+use pqm_core::{IndexedMesh, OpKind, ProgressiveMesh, SplitRecord};
+use std::ops::Range;
+
+/// Resource budget of a decoder. The header's counts and the chunk table's
+/// sizes are checked against it before anything is allocated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// Largest final vertex count accepted.
+    pub max_vertices: u32,
+    /// Largest final face count accepted.
+    pub max_faces: u32,
+    /// Upper bound on the decoder's memory, estimated from the header and
+    /// chunk table (see [`Limits::estimate`]).
+    pub max_memory_bytes: u64,
+}
+
+impl Default for Limits {
+    /// 2^26 vertices, 2^26 faces, 4 GiB.
+    fn default() -> Self {
+        Limits {
+            max_vertices: 1 << 26,
+            max_faces: 1 << 26,
+            max_memory_bytes: 4 << 30,
+        }
+    }
+}
+
+impl Limits {
+    /// No limits beyond what the format can express.
+    pub fn none() -> Self {
+        Limits {
+            max_vertices: u32::MAX,
+            max_faces: u32::MAX,
+            max_memory_bytes: u64::MAX,
+        }
+    }
+
+    /// Conservative memory estimate of a decoder for a file with `v` final
+    /// vertices, `f` final faces, `r` records and `payload` uncompressed
+    /// payload bytes in all: two meshes, adjacency, the explicit records
+    /// (each stored entry is at most ~18 bytes per coded byte) and the
+    /// largest decompression buffer.
+    pub fn estimate(v: u64, f: u64, r: u64, payload: u64) -> u64 {
+        v.saturating_mul(96)
+            .saturating_add(f.saturating_mul(80))
+            .saturating_add(r.saturating_mul(40))
+            .saturating_add(payload.saturating_mul(20))
+    }
+}
+
+/// What a [`Decoder::push`] call completed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Event {
+    /// Header and chunk table are read: counts, bounding box, chunk sizes
+    /// and errors are known ([`Decoder::header`], [`Decoder::chunks`]).
+    HeaderReady,
+    /// Level 0 is available.
+    BaseMeshReady,
+    /// Chunk `i` is decoded: its records can be applied.
+    ChunkReady(u32),
+    /// An optional section with this tag was read (or skipped, if unknown).
+    SectionReady([u8; 4]),
+    /// The whole file was read.
+    Finished,
+}
+
+/// Which level to go to. Targets beyond the decoded levels clamp to the
+/// deepest decoded level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target {
+    /// Level `k` (records `0..k` applied).
+    Level(usize),
+    /// The finest level with at most `n` faces (level 0 if none).
+    Faces(usize),
+    /// The coarsest chunk boundary (or level 0) whose geometric error is
+    /// `<= e`; the deepest decoded level if none is.
+    Error(f64),
+}
+
+/// What changed between two levels, in buffer terms. Quad slot `f` maps to
+/// triangles `2f` = `(v0, v1, v2)` and `2f + 1` = `(v0, v2, v3)`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Change {
+    /// Level before.
+    pub from_level: usize,
+    /// Level after.
+    pub to_level: usize,
+    /// New vertex ids (refining): upload these positions.
+    pub vertices_appended: Range<u32>,
+    /// Removed vertex ids (coarsening): the vertex buffer is truncated to
+    /// `vertices_removed.start`.
+    pub vertices_removed: Range<u32>,
+    /// Vertices that existed before and after and whose position changed
+    /// (sorted, distinct).
+    pub vertices_moved: Vec<u32>,
+    /// Face slots that existed before and after and whose quad changed
+    /// (sorted, distinct).
+    pub faces_rewritten: Vec<u32>,
+    /// New face slots (refining).
+    pub faces_appended: Range<u32>,
+    /// Removed face slots (coarsening): truncate to `faces_truncated.start`.
+    pub faces_truncated: Range<u32>,
+}
+
+impl Change {
+    /// True when no buffer range changed.
+    pub fn is_empty(&self) -> bool {
+        self.vertices_appended.is_empty()
+            && self.vertices_removed.is_empty()
+            && self.vertices_moved.is_empty()
+            && self.faces_rewritten.is_empty()
+            && self.faces_appended.is_empty()
+            && self.faces_truncated.is_empty()
+    }
+
+    /// `vertices_moved` merged into maximal runs of consecutive ids.
+    pub fn moved_ranges(&self) -> Vec<Range<u32>> {
+        runs(&self.vertices_moved)
+    }
+
+    /// `faces_rewritten` merged into maximal runs of consecutive slots.
+    pub fn rewritten_ranges(&self) -> Vec<Range<u32>> {
+        runs(&self.faces_rewritten)
+    }
+}
+
+fn runs(sorted: &[u32]) -> Vec<Range<u32>> {
+    let mut out: Vec<Range<u32>> = Vec::new();
+    for &x in sorted {
+        match out.last_mut() {
+            Some(r) if r.end == x => r.end = x + 1,
+            _ => out.push(x..x + 1),
+        }
+    }
+    out
+}
+
+/// Where the decoder is in the byte stream.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    Prefix,
+    Header(u32),
+    Table,
+    Base,
+    Chunk(u32),
+    SectionHead(u32),
+    SectionBody(u32, [u8; 4], u32, u32, u32),
+    Done,
+}
+
+/// Progress report: what is decoded and what is missing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Status {
+    /// Bytes consumed so far (pushed and parsed).
+    pub bytes_consumed: u64,
+    /// Bytes pushed but waiting for the rest of their section.
+    pub bytes_buffered: u64,
+    /// Header and chunk table read.
+    pub header_ready: bool,
+    /// Level 0 available.
+    pub base_ready: bool,
+    /// Decoded chunks (always a prefix `0..chunks_ready`).
+    pub chunks_ready: u32,
+    /// Chunks in the file (once the header is read).
+    pub chunk_count: Option<u32>,
+    /// Deepest level that can be reached now (`None` before the base mesh).
+    pub deepest_level: Option<usize>,
+    /// Finest level of the file (once the header is read).
+    pub final_level: Option<usize>,
+    /// The section being waited for (`None` when finished or failed).
+    pub waiting_for: Option<Section>,
+    /// Bytes still needed to complete that section (known once its length is).
+    pub bytes_needed: Option<u64>,
+    /// Total file length (once the chunk table is read; optional sections
+    /// after the chunks are not included).
+    pub bytes_to_last_chunk: Option<u64>,
+    /// The whole file was read.
+    pub finished: bool,
+    /// The decoder hit an error; it accepts no more input.
+    pub failed: bool,
+}
+
+/// Explicit records with undo data, structure-of-arrays.
+#[derive(Default)]
+struct Records {
+    op: Vec<OpKind>,
+    /// Vertex / face count at level k (k = 0 ..= decoded records).
+    v_at: Vec<u32>,
+    f_at: Vec<u32>,
+    moved_at: Vec<usize>,
+    moved: Vec<(u32, [u32; 3], [u32; 3])>,
+    rw_at: Vec<usize>,
+    rw: Vec<(u32, [u32; 4], [u32; 4])>,
+    /// Codes of vertices `base_v..`, and quads of slots `base_f..`.
+    new_pos: Vec<[u32; 3]>,
+    appended: Vec<[u32; 4]>,
+}
+
+/// The push decoder (see the module docs).
+pub struct Decoder {
+    limits: Limits,
+    buf: Vec<u8>,
+    start: usize,
+    consumed: u64,
+    stage: Stage,
+    failed: Option<FormatError>,
+    failed_other: Option<String>,
+    header: Option<Header>,
+    quant: Option<Quantizer>,
+    chunks: Vec<ChunkInfo>,
+    chunks_ready: u32,
+    /// Level reached after each ready chunk (cumulative records).
+    chunk_levels: Vec<usize>,
+    frontier: Option<MeshState>,
+    recs: Records,
+    vertex_order: Option<Vec<u32>>,
+    zstd: Option<zstd::bulk::Decompressor<'static>>,
+    // Current level.
+    level: usize,
+    q: Vec<[u32; 3]>,
+    pos: Vec<[f32; 3]>,
+    quads: Vec<[u32; 4]>,
+}
+
+impl Decoder {
+    /// A decoder with the given budget.
+    pub fn new(limits: Limits) -> Self {
+        Decoder {
+            limits,
+            buf: Vec::new(),
+            start: 0,
+            consumed: 0,
+            stage: Stage::Prefix,
+            failed: None,
+            failed_other: None,
+            header: None,
+            quant: None,
+            chunks: Vec::new(),
+            chunks_ready: 0,
+            chunk_levels: Vec::new(),
+            frontier: None,
+            recs: Records::default(),
+            vertex_order: None,
+            zstd: None,
+            level: 0,
+            q: Vec::new(),
+            pos: Vec::new(),
+            quads: Vec::new(),
+        }
+    }
+
+    /// Feeds the next bytes of the file; returns the events they completed,
+    /// in file order. After an error the decoder is failed and every further
+    /// call returns an error; the events of the failing call are not
+    /// returned, but every level decoded before the error stays usable
+    /// ([`Decoder::status`], [`Decoder::deepest_level`]).
+    pub fn push(&mut self, data: &[u8]) -> Result<Vec<Event>, DecodeError> {
+        if let Some(e) = &self.failed {
+            return Err(DecodeError::Format(e.clone()));
+        }
+        if let Some(e) = &self.failed_other {
+            return Err(DecodeError::Parameter(format!(
+                "the decoder failed earlier: {e}"
+            )));
+        }
+        self.buf.extend_from_slice(data);
+        let mut events = Vec::new();
+        let r = self.run(&mut events);
+        if self.start > 0 && (self.start >= self.buf.len() / 2 || self.start > 1 << 20) {
+            self.buf.drain(..self.start);
+            self.start = 0;
+        }
+        match r {
+            Ok(()) => Ok(events),
+            Err(e) => {
+                match &e {
+                    DecodeError::Format(f) => self.failed = Some(f.clone()),
+                    other => self.failed_other = Some(other.to_string()),
+                }
+                Err(e)
+            }
+        }
+    }
+
+    /// Reads `r` to the end, pushing everything (a convenience for files and
+    /// sockets; I/O errors are `DecodeError::Io`).
+    pub fn push_reader(&mut self, mut r: impl std::io::Read) -> Result<Vec<Event>, DecodeError> {
+        let mut events = Vec::new();
+        let mut chunk = vec![0u8; 64 * 1024];
+        loop {
+            let n = match r.read(&mut chunk) {
+                Ok(0) => return Ok(events),
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e.into()),
+            };
+            events.extend(self.push(&chunk[..n])?);
+        }
+    }
+
+    fn avail(&self) -> &[u8] {
+        &self.buf[self.start..]
+    }
+
+    fn take(&mut self, n: usize) -> Vec<u8> {
+        let v = self.buf[self.start..self.start + n].to_vec();
+        self.start += n;
+        self.consumed += n as u64;
+        v
+    }
+
+    /// Bytes the current stage needs (None when done).
+    fn need(&self) -> Option<usize> {
+        let h = self.header.as_ref();
+        match self.stage {
+            Stage::Prefix => Some(HEADER_PREFIX),
+            Stage::Header(len) => Some(len as usize),
+            Stage::Table => h.map(|h| h.chunk_count as usize * h.chunk_entry_len as usize + 4),
+            Stage::Base => h.map(|h| h.base_compressed_len as usize),
+            Stage::Chunk(i) => self
+                .chunks
+                .get(i as usize)
+                .map(|c| c.compressed_len as usize),
+            Stage::SectionHead(_) => Some(SECTION_HEADER_LEN),
+            Stage::SectionBody(_, _, clen, _, _) => Some(clen as usize),
+            Stage::Done => None,
+        }
+    }
+
+    fn run(&mut self, events: &mut Vec<Event>) -> Result<(), DecodeError> {
+        loop {
+            let Some(need) = self.need() else {
+                if !self.avail().is_empty() {
+                    return Err(DecodeError::invalid(
+                        Section::Trailer,
+                        format!("{} bytes after the end of the file", self.avail().len()),
+                    ));
+                }
+                return Ok(());
+            };
+            if self.avail().len() < need {
+                return Ok(());
+            }
+            match self.stage {
+                Stage::Prefix => self.on_prefix()?,
+                Stage::Header(len) => self.on_header(len as usize)?,
+                Stage::Table => {
+                    let b = self.take(need);
+                    self.on_table(&b)?;
+                    events.push(Event::HeaderReady);
+                }
+                Stage::Base => {
+                    let b = self.take(need);
+                    self.on_base(&b)?;
+                    events.push(Event::BaseMeshReady);
+                    self.after_chunks(0, events);
+                }
+                Stage::Chunk(i) => {
+                    let b = self.take(need);
+                    self.on_chunk(i, &b)?;
+                    events.push(Event::ChunkReady(i));
+                    self.after_chunks(i + 1, events);
+                }
+                Stage::SectionHead(i) => {
+                    let b = self.take(need);
+                    let tag = [b[0], b[1], b[2], b[3]];
+                    self.stage = Stage::SectionBody(
+                        i,
+                        tag,
+                        LE::read_u32(&b[4..]),
+                        LE::read_u32(&b[8..]),
+                        LE::read_u32(&b[12..]),
+                    );
+                }
+                Stage::SectionBody(i, tag, _, ulen, crc) => {
+                    let b = self.take(need);
+                    self.on_section(i, tag, ulen, crc, &b)?;
+                    events.push(Event::SectionReady(tag));
+                    let n = self.header.as_ref().map_or(0, |h| h.section_count);
+                    self.stage = if i + 1 < n {
+                        Stage::SectionHead(i + 1)
+                    } else {
+                        Stage::Done
+                    };
+                    if self.stage == Stage::Done {
+                        events.push(Event::Finished);
+                    }
+                }
+                Stage::Done => return Ok(()),
+            }
+        }
+    }
+
+    /// Moves to chunk `next`, or to the sections / the end.
+    fn after_chunks(&mut self, next: u32, events: &mut Vec<Event>) {
+        let (chunks, sections) = self
+            .header
+            .as_ref()
+            .map_or((0, 0), |h| (h.chunk_count, h.section_count));
+        self.stage = if next < chunks {
+            Stage::Chunk(next)
+        } else if sections > 0 {
+            Stage::SectionHead(0)
+        } else {
+            events.push(Event::Finished);
+            Stage::Done
+        };
+    }
+
+    fn on_prefix(&mut self) -> Result<(), DecodeError> {
+        let b = self.avail();
+        if b[..8] != MAGIC {
+            return Err(FormatError::BadMagic.into());
+        }
+        let major = LE::read_u16(&b[8..]);
+        let minor = LE::read_u16(&b[10..]);
+        if major != VERSION_MAJOR {
+            return Err(FormatError::UnsupportedVersion {
+                major,
+                minor,
+                supported: VERSION_MAJOR,
+            }
+            .into());
+        }
+        let len = LE::read_u32(&b[12..]);
+        if !(HEADER_LEN..=MAX_HEADER_LEN).contains(&len) {
+            return Err(DecodeError::invalid(
+                Section::Header,
+                format!("header_len {len} outside {HEADER_LEN}..={MAX_HEADER_LEN}"),
+            ));
+        }
+        self.stage = Stage::Header(len);
+        Ok(())
+    }
+
+    fn on_header(&mut self, len: usize) -> Result<(), DecodeError> {
+        let b = self.take(len);
+        let stored = LE::read_u32(&b[len - 4..]);
+        let computed = crc32(&b[..len - 4]);
+        if stored != computed {
+            return Err(FormatError::CrcMismatch {
+                section: Section::Header,
+                stored,
+                computed,
+            }
+            .into());
+        }
+        let h = Header::parse(&b);
+        let bad = |m: String| Err(DecodeError::invalid(Section::Header, m));
+        if !(8..=24).contains(&h.quant_bits) {
+            return bad(format!("quantization bits {} outside 8..=24", h.quant_bits));
+        }
+        if h.chunk_entry_len < CHUNK_ENTRY_LEN || h.chunk_entry_len > 4096 {
+            return bad(format!(
+                "chunk entry length {} outside {CHUNK_ENTRY_LEN}..=4096",
+                h.chunk_entry_len
+            ));
+        }
+        for k in 0..3 {
+            let (lo, hi) = (h.bbox_min[k], h.bbox_max[k]);
+            if !lo.is_finite() || !hi.is_finite() || lo > hi || !(hi - lo).is_finite() {
+                return bad(format!("bounding box axis {k} is [{lo}, {hi}]"));
+            }
+        }
+        if h.base_vertex_count > h.final_vertex_count || h.base_face_count > h.final_face_count {
+            return bad("base counts exceed final counts".into());
+        }
+        if h.chunk_count > h.record_count || (h.record_count > 0 && h.chunk_count == 0) {
+            return bad(format!(
+                "{} chunks cannot hold {} records",
+                h.chunk_count, h.record_count
+            ));
+        }
+        if h.base_error.is_nan() || h.base_error < 0.0 {
+            return bad(format!(
+                "base error {} is not a non-negative number",
+                h.base_error
+            ));
+        }
+        if h.final_vertex_count > self.limits.max_vertices {
+            return Err(DecodeError::LimitsExceeded(format!(
+                "{} vertices > max_vertices {}",
+                h.final_vertex_count, self.limits.max_vertices
+            )));
+        }
+        if h.final_face_count > self.limits.max_faces {
+            return Err(DecodeError::LimitsExceeded(format!(
+                "{} faces > max_faces {}",
+                h.final_face_count, self.limits.max_faces
+            )));
+        }
+        let est = Limits::estimate(
+            h.final_vertex_count as u64,
+            h.final_face_count as u64,
+            h.record_count as u64,
+            h.base_uncompressed_len as u64,
+        );
+        if est > self.limits.max_memory_bytes {
+            return Err(DecodeError::LimitsExceeded(format!(
+                "estimated memory {est} bytes > max_memory_bytes {}",
+                self.limits.max_memory_bytes
+            )));
+        }
+        self.quant = Some(Quantizer::new(h.bbox_min, h.bbox_max, h.quant_bits));
+        self.header = Some(h);
+        self.stage = Stage::Table;
+        Ok(())
+    }
+
+    fn on_table(&mut self, b: &[u8]) -> Result<(), DecodeError> {
+        let h = self
+            .header
+            .clone()
+            .ok_or_else(|| DecodeError::Internal("table before header".into()))?;
+        let n = b.len() - 4;
+        let stored = LE::read_u32(&b[n..]);
+        let computed = crc32(&b[..n]);
+        if stored != computed {
+            return Err(FormatError::CrcMismatch {
+                section: Section::ChunkTable,
+                stored,
+                computed,
+            }
+            .into());
+        }
+        let bad = |m: String| Err(DecodeError::invalid(Section::ChunkTable, m));
+        let mut offset = h.header_len as u64 + n as u64 + 4 + h.base_compressed_len as u64;
+        let (mut records, mut v, mut f, mut err) =
+            (0u64, h.base_vertex_count, h.base_face_count, h.base_error);
+        let mut payload = h.base_uncompressed_len as u64;
+        let mut chunks = Vec::with_capacity(h.chunk_count as usize);
+        for i in 0..h.chunk_count as usize {
+            let e = ChunkInfo::parse(&b[i * h.chunk_entry_len as usize..]);
+            if e.offset != offset {
+                return bad(format!(
+                    "chunk {i} offset {} != expected {offset}",
+                    e.offset
+                ));
+            }
+            if e.record_count == 0 {
+                return bad(format!("chunk {i} has no records"));
+            }
+            if e.vertex_count < v || e.face_count < f {
+                return bad(format!("chunk {i} vertex/face counts decrease"));
+            }
+            if e.error.is_nan() || e.error < 0.0 || e.error > err {
+                return bad(format!("chunk {i} error {} is not in [0, {err}]", e.error));
+            }
+            offset += e.compressed_len as u64;
+            records += e.record_count as u64;
+            payload += e.uncompressed_len as u64;
+            (v, f, err) = (e.vertex_count, e.face_count, e.error);
+            chunks.push(e);
+        }
+        if records != h.record_count as u64 {
+            return bad(format!(
+                "chunks hold {records} records, header says {}",
+                h.record_count
+            ));
+        }
+        if v != h.final_vertex_count || f != h.final_face_count {
+            return bad(format!(
+                "chunks end at {v} vertices and {f} faces, header says {} and {}",
+                h.final_vertex_count, h.final_face_count
+            ));
+        }
+        let est = Limits::estimate(
+            h.final_vertex_count as u64,
+            h.final_face_count as u64,
+            h.record_count as u64,
+            payload,
+        );
+        if est > self.limits.max_memory_bytes {
+            return Err(DecodeError::LimitsExceeded(format!(
+                "estimated memory {est} bytes > max_memory_bytes {}",
+                self.limits.max_memory_bytes
+            )));
+        }
+        self.chunks = chunks;
+        self.stage = Stage::Base;
+        Ok(())
+    }
+
+    fn decompress(
+        &mut self,
+        section: Section,
+        data: &[u8],
+        ulen: u32,
+    ) -> Result<Vec<u8>, DecodeError> {
+        if self.zstd.is_none() {
+            let mut d = zstd::bulk::Decompressor::new()
+                .map_err(|e| DecodeError::Internal(e.to_string()))?;
+            d.set_parameter(zstd::zstd_safe::DParameter::WindowLogMax(MAX_WINDOW_LOG))
+                .map_err(|e| DecodeError::Internal(e.to_string()))?;
+            self.zstd = Some(d);
+        }
+        let d = self
+            .zstd
+            .as_mut()
+            .ok_or_else(|| DecodeError::Internal("no zstd context".into()))?;
+        let out = d
+            .decompress(data, ulen as usize)
+            .map_err(|e| DecodeError::invalid(section, format!("zstd: {e}")))?;
+        if out.len() != ulen as usize {
+            return Err(DecodeError::invalid(
+                section,
+                format!("decompressed to {} bytes, expected {ulen}", out.len()),
+            ));
+        }
+        Ok(out)
+    }
+
+    fn check_crc(section: Section, data: &[u8], stored: u32) -> Result<(), DecodeError> {
+        let computed = crc32(data);
+        if computed != stored {
+            return Err(FormatError::CrcMismatch {
+                section,
+                stored,
+                computed,
+            }
+            .into());
+        }
+        Ok(())
+    }
+
+    fn on_base(&mut self, b: &[u8]) -> Result<(), DecodeError> {
+        let h = self
+            .header
+            .clone()
+            .ok_or_else(|| DecodeError::Internal("base before header".into()))?;
+        Self::check_crc(Section::BaseMesh, b, h.base_crc32)?;
+        let payload = self.decompress(Section::BaseMesh, b, h.base_uncompressed_len)?;
+        let qmax = self.quant.map_or(0, |q| q.qmax());
+        let st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
+            .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
+        self.q = st.q.clone();
+        self.pos = self.q.iter().map(|&c| self.f32_of(c)).collect();
+        self.quads = st.quads.clone();
+        self.level = 0;
+        self.recs.v_at.push(st.q.len() as u32);
+        self.recs.f_at.push(st.quads.len() as u32);
+        self.recs.moved_at.push(0);
+        self.recs.rw_at.push(0);
+        self.frontier = Some(st);
+        Ok(())
+    }
+
+    fn f32_of(&self, c: [u32; 3]) -> [f32; 3] {
+        match &self.quant {
+            Some(q) => q.dequantize(c).map(|x| x as f32),
+            None => [0.0; 3],
+        }
+    }
+
+    fn on_chunk(&mut self, i: u32, b: &[u8]) -> Result<(), DecodeError> {
+        let info = self
+            .chunks
+            .get(i as usize)
+            .cloned()
+            .ok_or_else(|| DecodeError::Internal("chunk index".into()))?;
+        let h = self
+            .header
+            .clone()
+            .ok_or_else(|| DecodeError::Internal("chunk before header".into()))?;
+        Self::check_crc(Section::Chunk(i), b, info.crc32)?;
+        let payload = self.decompress(Section::Chunk(i), b, info.uncompressed_len)?;
+        let mut rd = codec::split_streams(&payload)
+            .map_err(|m| DecodeError::invalid(Section::Chunk(i), m))?;
+        let mut st = self
+            .frontier
+            .take()
+            .ok_or_else(|| DecodeError::Internal("no frontier".into()))?;
+        let mut cur = Cursors::default();
+        let first_record = self.recs.op.len() as u32;
+        let result = (|| {
+            for t in 0..info.record_count {
+                let rec = codec::decode_record(
+                    &st,
+                    &mut rd,
+                    &mut cur,
+                    h.final_vertex_count,
+                    h.final_face_count,
+                )
+                .map_err(|message| FormatError::BadRecord {
+                    chunk: i,
+                    record: first_record + t,
+                    message,
+                })?;
+                let (old_pos, old_quads) = st.apply(&rec);
+                let r = &mut self.recs;
+                r.op.push(rec.op);
+                r.new_pos.extend_from_slice(&rec.new_pos);
+                r.appended.extend_from_slice(&rec.appended);
+                r.moved
+                    .extend(rec.moved.iter().zip(old_pos).map(|(&(v, p), o)| (v, p, o)));
+                r.rw.extend(
+                    rec.rewritten
+                        .iter()
+                        .zip(old_quads)
+                        .map(|(&(s, q), o)| (s, q, o)),
+                );
+                r.v_at.push(st.q.len() as u32);
+                r.f_at.push(st.quads.len() as u32);
+                r.moved_at.push(r.moved.len());
+                r.rw_at.push(r.rw.len());
+            }
+            for s in &rd {
+                if s.remaining() != 0 {
+                    return Err(FormatError::Invalid {
+                        section: Section::Chunk(i),
+                        message: format!("{} unused bytes in stream {}", s.remaining(), s.name),
+                    });
+                }
+            }
+            if st.q.len() as u32 != info.vertex_count || st.quads.len() as u32 != info.face_count {
+                return Err(FormatError::Invalid {
+                    section: Section::Chunk(i),
+                    message: format!(
+                        "records reach {} vertices and {} faces, the table says {} and {}",
+                        st.q.len(),
+                        st.quads.len(),
+                        info.vertex_count,
+                        info.face_count
+                    ),
+                });
+            }
+            Ok(())
+        })();
+        self.frontier = Some(st);
+        result?;
+        self.chunks_ready = i + 1;
+        self.chunk_levels.push(self.recs.op.len());
+        Ok(())
+    }
+
+    fn on_section(
+        &mut self,
+        i: u32,
+        tag: [u8; 4],
+        ulen: u32,
+        crc: u32,
+        b: &[u8],
+    ) -> Result<(), DecodeError> {
+        Self::check_crc(Section::Optional(i), b, crc)?;
+        if tag != TAG_VORD {
+            return Ok(()); // unknown optional section: skipped (spec §8)
+        }
+        let n = self.header.as_ref().map_or(0, |h| h.final_vertex_count);
+        if (ulen as u64) < n as u64 {
+            return Err(DecodeError::invalid(
+                Section::Optional(i),
+                "VORD payload too short",
+            ));
+        }
+        let payload = self.decompress(Section::Optional(i), b, ulen)?;
+        let mut r = Reader::new(&payload, "VORD");
+        let mut order = Vec::with_capacity(n as usize);
+        let mut seen = vec![false; n as usize];
+        let mut prev = 0i64;
+        for k in 0..n {
+            let v = r
+                .s()
+                .map(|d| prev.saturating_add(d))
+                .map_err(|m| DecodeError::invalid(Section::Optional(i), m))?;
+            match usize::try_from(v).ok().and_then(|u| seen.get_mut(u)) {
+                Some(s) if !*s => *s = true,
+                _ => {
+                    return Err(DecodeError::invalid(
+                        Section::Optional(i),
+                        format!("VORD entry {k} = {v} is out of range or repeated"),
+                    ))
+                }
+            }
+            order.push(v as u32);
+            prev = v;
+        }
+        if r.remaining() != 0 {
+            return Err(DecodeError::invalid(
+                Section::Optional(i),
+                "unused bytes in VORD",
+            ));
+        }
+        self.vertex_order = Some(order);
+        Ok(())
+    }
+
+    // ---- navigation -------------------------------------------------------
+
+    /// The current level.
+    pub fn level(&self) -> usize {
+        self.level
+    }
+
+    /// Deepest level reachable now (`None` before the base mesh).
+    pub fn deepest_level(&self) -> Option<usize> {
+        (!self.recs.v_at.is_empty()).then_some(self.recs.op.len())
+    }
+
+    /// Resolves `t` to a level among the decoded ones.
+    pub fn resolve(&self, t: Target) -> Result<usize, DecodeError> {
+        let deepest = self.deepest_level().ok_or_else(|| {
+            DecodeError::Parameter("no level is available before the base mesh is decoded".into())
+        })?;
+        Ok(match t {
+            Target::Level(k) => k.min(deepest),
+            Target::Faces(n) => {
+                let f_at = &self.recs.f_at[..=deepest];
+                f_at.partition_point(|&f| f as usize <= n).saturating_sub(1)
+            }
+            Target::Error(e) => {
+                let h = self.header.as_ref().map_or(0.0, |h| h.base_error);
+                if h as f64 <= e {
+                    0
+                } else {
+                    (0..self.chunks_ready as usize)
+                        .find(|&c| self.chunks[c].error as f64 <= e)
+                        .map_or(deepest, |c| self.chunk_levels[c])
+                }
+            }
+        })
+    }
+
+    /// Goes to `t` if that is finer than the current level (else no change).
+    pub fn refine_to(&mut self, t: Target) -> Result<Change, DecodeError> {
+        let k = self.resolve(t)?;
+        self.go_to(k.max(self.level))
+    }
+
+    /// Goes to `t` if that is coarser than the current level (else no change).
+    pub fn coarsen_to(&mut self, t: Target) -> Result<Change, DecodeError> {
+        let k = self.resolve(t)?;
+        self.go_to(k.min(self.level))
+    }
+
+    /// Goes to `t`, refining or coarsening.
+    pub fn set_level(&mut self, t: Target) -> Result<Change, DecodeError> {
+        let k = self.resolve(t)?;
+        self.go_to(k)
+    }
+
+    fn go_to(&mut self, to: usize) -> Result<Change, DecodeError> {
+        let from = self.level;
+        let r = &self.recs;
+        if to >= r.v_at.len() {
+            return Err(DecodeError::Internal(format!("level {to} not decoded")));
+        }
+        let (v_from, v_to) = (r.v_at[from], r.v_at[to]);
+        let (f_from, f_to) = (r.f_at[from], r.f_at[to]);
+        let (bv, bf) = (r.v_at[0], r.f_at[0]);
+        let mut moved = Vec::new();
+        let mut rewritten = Vec::new();
+        let quant = self.quant;
+        let f32_of = |c: [u32; 3]| quant.map_or([0.0; 3], |q| q.dequantize(c).map(|x| x as f32));
+        if to > from {
+            let nv = (v_to - bv) as usize;
+            let new = &r.new_pos[(v_from - bv) as usize..nv];
+            self.q.extend_from_slice(new);
+            self.pos.extend(new.iter().map(|&c| f32_of(c)));
+            for k in from..to {
+                for &(v, p, _) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
+                    self.q[v as usize] = p;
+                    self.pos[v as usize] = f32_of(p);
+                    moved.push(v);
+                }
+                for &(s, q, _) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
+                    self.quads[s as usize] = q;
+                    rewritten.push(s);
+                }
+                self.quads.extend_from_slice(
+                    &r.appended[(r.f_at[k] - bf) as usize..(r.f_at[k + 1] - bf) as usize],
+                );
+            }
+        } else if to < from {
+            for k in (to..from).rev() {
+                self.q.truncate(r.v_at[k] as usize);
+                self.pos.truncate(r.v_at[k] as usize);
+                self.quads.truncate(r.f_at[k] as usize);
+                for &(v, _, o) in r.moved[r.moved_at[k]..r.moved_at[k + 1]].iter().rev() {
+                    self.q[v as usize] = o;
+                    self.pos[v as usize] = f32_of(o);
+                    moved.push(v);
+                }
+                for &(s, _, o) in r.rw[r.rw_at[k]..r.rw_at[k + 1]].iter().rev() {
+                    self.quads[s as usize] = o;
+                    rewritten.push(s);
+                }
+            }
+        }
+        self.level = to;
+        let (vmin, fmin) = (v_from.min(v_to), f_from.min(f_to));
+        moved.retain(|&v| v < vmin);
+        moved.sort_unstable();
+        moved.dedup();
+        rewritten.retain(|&s| s < fmin);
+        rewritten.sort_unstable();
+        rewritten.dedup();
+        Ok(Change {
+            from_level: from,
+            to_level: to,
+            vertices_appended: v_from.min(v_to)..v_to,
+            vertices_removed: v_to..v_from.max(v_to),
+            vertices_moved: moved,
+            faces_rewritten: rewritten,
+            faces_appended: f_from.min(f_to)..f_to,
+            faces_truncated: f_to..f_from.max(f_to),
+        })
+    }
+
+    /// A change that uploads the whole current level into empty buffers
+    /// (every vertex and face appended): what a renderer applies once, when
+    /// [`Event::BaseMeshReady`] arrives or after it recreates its buffers.
+    pub fn full_upload(&self) -> Change {
+        Change {
+            from_level: self.level,
+            to_level: self.level,
+            vertices_appended: 0..self.q.len() as u32,
+            faces_appended: 0..self.quads.len() as u32,
+            ..Change::default()
+        }
+    }
+
+    // ---- access -----------------------------------------------------------
+
+    /// The header (after [`Event::HeaderReady`]).
+    pub fn header(&self) -> Option<&Header> {
+        self.header.as_ref()
+    }
+
+    /// The chunk table (empty before [`Event::HeaderReady`]).
+    pub fn chunks(&self) -> &[ChunkInfo] {
+        &self.chunks
+    }
+
+    /// The quantization grid (after the header).
+    pub fn quantizer(&self) -> Option<Quantizer> {
+        self.quant
+    }
+
+    /// Positions of the current level as f32 (dequantized in f64, then
+    /// rounded to f32), ready for a vertex buffer.
+    pub fn positions(&self) -> &[[f32; 3]] {
+        &self.pos
+    }
+
+    /// Quantization codes of the current level's vertices.
+    pub fn position_codes(&self) -> &[[u32; 3]] {
+        &self.q
+    }
+
+    /// Positions of the current level in f64, exactly as the spec dequantizes.
+    pub fn positions_f64(&self) -> Vec<DVec3> {
+        match &self.quant {
+            Some(q) => self.q.iter().map(|&c| q.dequantize_vec(c)).collect(),
+            None => Vec::new(),
+        }
+    }
+
+    /// Quads of the current level, by slot (counter-clockwise).
+    pub fn quads(&self) -> &[[u32; 4]] {
+        &self.quads
+    }
+
+    /// Triangle index buffer of the current level: quad `f` becomes
+    /// triangles `2f = (v0, v1, v2)` and `2f + 1 = (v0, v2, v3)`.
+    pub fn triangle_indices(&self) -> Vec<u32> {
+        self.quads.iter().flat_map(|q| quad_triangles(*q)).collect()
+    }
+
+    /// The current level as an [`IndexedMesh`] (f64 positions).
+    pub fn to_indexed_mesh(&self) -> IndexedMesh {
+        IndexedMesh::from_faces(self.positions_f64(), self.quads.iter())
+    }
+
+    /// Vertex count and face count of level `k`, if decoded.
+    pub fn level_counts(&self, k: usize) -> Option<(u32, u32)> {
+        Some((*self.recs.v_at.get(k)?, *self.recs.f_at.get(k)?))
+    }
+
+    /// The `VORD` permutation (canonical id → input vertex index at the
+    /// finest level), once read.
+    pub fn vertex_order(&self) -> Option<&[u32]> {
+        self.vertex_order.as_deref()
+    }
+
+    /// Progress: what is decoded, what is missing.
+    pub fn status(&self) -> Status {
+        let h = self.header.as_ref();
+        let waiting_for = match self.stage {
+            _ if self.failed.is_some() || self.failed_other.is_some() => None,
+            Stage::Prefix | Stage::Header(_) => Some(Section::Header),
+            Stage::Table => Some(Section::ChunkTable),
+            Stage::Base => Some(Section::BaseMesh),
+            Stage::Chunk(i) => Some(Section::Chunk(i)),
+            Stage::SectionHead(i) | Stage::SectionBody(i, ..) => Some(Section::Optional(i)),
+            Stage::Done => None,
+        };
+        let bytes_needed = match self.stage {
+            Stage::Prefix => None,
+            _ => self
+                .need()
+                .map(|n| n.saturating_sub(self.avail().len()) as u64),
+        };
+        Status {
+            bytes_consumed: self.consumed,
+            bytes_buffered: self.avail().len() as u64,
+            header_ready: !self.chunks.is_empty()
+                || !matches!(self.stage, Stage::Prefix | Stage::Header(_) | Stage::Table),
+            base_ready: !self.recs.v_at.is_empty(),
+            chunks_ready: self.chunks_ready,
+            chunk_count: h.map(|h| h.chunk_count),
+            deepest_level: self.deepest_level(),
+            final_level: h.map(|h| h.record_count as usize),
+            waiting_for,
+            bytes_needed: if waiting_for.is_some() {
+                bytes_needed
+            } else {
+                None
+            },
+            bytes_to_last_chunk: self
+                .chunks
+                .last()
+                .map(|c| c.offset + c.compressed_len as u64)
+                .or_else(|| {
+                    h.filter(|_| {
+                        !matches!(self.stage, Stage::Prefix | Stage::Header(_) | Stage::Table)
+                    })
+                    .map(|h| h.header_len as u64 + 4 + h.base_compressed_len as u64)
+                }),
+            finished: self.stage == Stage::Done && self.failed.is_none(),
+            failed: self.failed.is_some() || self.failed_other.is_some(),
+        }
+    }
+
+    /// Rebuilds a [`ProgressiveMesh`] from everything decoded so far
+    /// (dequantized positions). `level_error[k]` is the error of the last
+    /// chunk boundary at or before `k` — an upper bound, since the file
+    /// stores errors per chunk only.
+    pub fn to_progressive_mesh(&self) -> Option<ProgressiveMesh> {
+        let quant = self.quant?;
+        let r = &self.recs;
+        let (bv, bf) = (*r.v_at.first()? as usize, *r.f_at.first()? as usize);
+        let dq = |c: [u32; 3]| quant.dequantize_vec(c);
+        // Level 0 contents: undo every decoded record from the frontier.
+        let st = self.frontier.as_ref()?;
+        let mut q = st.q[..bv].to_vec();
+        let mut quads = st.quads[..bf].to_vec();
+        for k in (0..r.op.len()).rev() {
+            for &(v, _, o) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
+                if (v as usize) < bv {
+                    q[v as usize] = o;
+                }
+            }
+            for &(s, _, o) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
+                if (s as usize) < bf {
+                    quads[s as usize] = o;
+                }
+            }
+        }
+        let base = IndexedMesh::from_faces(q.into_iter().map(dq).collect(), quads.iter());
+        let records = (0..r.op.len())
+            .map(|k| SplitRecord {
+                op: r.op[k],
+                new_vertices: r.new_pos[(r.v_at[k] as usize - bv)..(r.v_at[k + 1] as usize - bv)]
+                    .iter()
+                    .map(|&c| dq(c))
+                    .collect(),
+                moved: r.moved[r.moved_at[k]..r.moved_at[k + 1]]
+                    .iter()
+                    .map(|&(v, p, _)| (v, dq(p)))
+                    .collect(),
+                rewritten: r.rw[r.rw_at[k]..r.rw_at[k + 1]]
+                    .iter()
+                    .map(|&(s, q, _)| (s, q))
+                    .collect(),
+                appended_faces: r.appended
+                    [(r.f_at[k] as usize - bf)..(r.f_at[k + 1] as usize - bf)]
+                    .to_vec(),
+            })
+            .collect();
+        let base_error = self.header.as_ref().map_or(0.0, |h| h.base_error as f64);
+        let mut level_error = vec![base_error; r.op.len() + 1];
+        for (c, &l) in self.chunk_levels.iter().enumerate() {
+            for e in level_error.iter_mut().skip(l) {
+                *e = self.chunks[c].error as f64;
+            }
+        }
+        let vertex_order =
+            if self.deepest_level() == self.header.as_ref().map(|h| h.record_count as usize) {
+                self.vertex_order.clone().unwrap_or_default()
+            } else {
+                Vec::new()
+            };
+        Some(ProgressiveMesh {
+            base,
+            records,
+            vertex_order,
+            level_error,
+        })
+    }
+}
+
+/// The two triangles of a quad: `(v0, v1, v2)` and `(v0, v2, v3)`.
+pub fn quad_triangles(q: [u32; 4]) -> [u32; 6] {
+    [q[0], q[1], q[2], q[0], q[2], q[3]]
+}
+
+/// Decodes a complete file held in memory (all levels available, current
+/// level 0). A file that ends early is `FormatError::Truncated`.
+pub fn decode_all(bytes: &[u8], limits: Limits) -> Result<Decoder, DecodeError> {
+    let mut d = Decoder::new(limits);
+    d.push(bytes)?;
+    let s = d.status();
+    if !s.finished {
+        return Err(FormatError::Truncated(format!(
+            "input ends after {} bytes while waiting for the {}",
+            bytes.len(),
+            s.waiting_for.map_or("rest".to_string(), |w| w.to_string())
+        ))
+        .into());
+    }
+    Ok(d)
+}

@@ -1,0 +1,368 @@
+//! The `.pqm` writer: [`write`] a [`ProgressiveMesh`] in one pass to any
+//! `Write` (chunks are buffered in memory because the chunk table, which
+//! holds their offsets and lengths, comes first).
+//!
+//! Steps: validate the mesh; compute the bounding box of every position it
+//! ever shows; quantize everything on that one grid; run the decoder's
+//! [`MeshState`] alongside and code each record in the split form when that
+//! reproduces it exactly, else in the general form; cut chunks by record
+//! count or payload size; compress each chunk as an independent zstd frame.
+
+use crate::codec::{self, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
+use crate::error::EncodeError;
+use crate::layout::*;
+use crate::quant::Quantizer;
+use crate::varint::put_s;
+use pqm_core::ProgressiveMesh;
+use std::io::Write;
+
+/// Encoder settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EncodeOptions {
+    /// Quantization bits per axis, 8..=24 (default 14).
+    pub bits: u8,
+    /// Close a chunk after this many records (`None`: only `chunk_bytes` decides).
+    pub chunk_records: Option<usize>,
+    /// Close a chunk once its uncompressed payload reaches this many bytes
+    /// (default 16 KiB: a few thousand splits, so a client can stop often).
+    pub chunk_bytes: usize,
+    /// zstd compression level, 1..=22 (default 19).
+    pub zstd_level: i32,
+    /// zstd window log, 10..=25 (default 21; the spec caps it at 25 so that
+    /// small pure-JavaScript decoders can read every frame).
+    pub window_log: u32,
+    /// Use the compact split form where it applies (default true; false
+    /// codes every record in the general form, for measurement and tests).
+    pub split_form: bool,
+    /// Write the `VORD` section when the mesh has a vertex order (default true).
+    pub vertex_order: bool,
+}
+
+impl Default for EncodeOptions {
+    fn default() -> Self {
+        EncodeOptions {
+            bits: 14,
+            chunk_records: None,
+            chunk_bytes: 16 * 1024,
+            zstd_level: 19,
+            window_log: 21,
+            split_form: true,
+            vertex_order: true,
+        }
+    }
+}
+
+/// Bits per vertex of the refinement records, split by content.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BitsPerVertex {
+    /// Connectivity (symbols, counts, wings, vertex references, slots).
+    pub connectivity: f64,
+    /// Position residuals.
+    pub positions: f64,
+    /// Both (all record chunk bytes).
+    pub total: f64,
+}
+
+/// What [`write`] produced.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EncodeReport {
+    /// Header bytes.
+    pub header_bytes: u64,
+    /// Chunk table bytes (entries + CRC).
+    pub table_bytes: u64,
+    /// Base mesh section bytes (compressed).
+    pub base_bytes: u64,
+    /// All record chunks (compressed).
+    pub chunk_bytes: u64,
+    /// Optional sections, headers included.
+    pub section_bytes: u64,
+    /// Whole file.
+    pub total_bytes: u64,
+    /// Number of chunks.
+    pub chunk_count: usize,
+    /// Records coded in the split form.
+    pub split_records: usize,
+    /// Records coded in the general form.
+    pub general_records: usize,
+    /// Uncompressed bytes per stream (ops, conn, refs, slots, pos), all chunks.
+    pub stream_raw_bytes: [u64; 5],
+    /// Compressed chunk bytes attributed to each stream: every stream is also
+    /// compressed alone and the chunk's real size is shared in proportion.
+    pub stream_bytes: [f64; 5],
+    /// Vertices added by the records (final − base).
+    pub refined_vertices: u64,
+    /// Record chunk bits per refined vertex.
+    pub bits_per_vertex: BitsPerVertex,
+    /// Whole-file bits per final vertex (base, table and sections included).
+    pub file_bits_per_vertex: f64,
+}
+
+fn compress(data: &[u8], opts: &EncodeOptions) -> Result<Vec<u8>, EncodeError> {
+    use zstd::zstd_safe::CParameter;
+    let mut c = zstd::bulk::Compressor::new(opts.zstd_level)?;
+    c.set_parameter(CParameter::WindowLog(opts.window_log))?;
+    c.set_parameter(CParameter::ContentSizeFlag(true))?;
+    c.set_parameter(CParameter::ChecksumFlag(false))?;
+    Ok(c.compress(data)?)
+}
+
+struct Chunk {
+    info: ChunkInfo,
+    bytes: Vec<u8>,
+}
+
+/// Encodes `mesh` as a `.pqm` file into `w` (see the module docs and
+/// `spec/pqm.md`). Decoding the result gives, at every level `k`, exactly
+/// `mesh.level(k)` with positions snapped to the file's grid.
+pub fn write(
+    mesh: &ProgressiveMesh,
+    opts: &EncodeOptions,
+    mut w: impl Write,
+) -> Result<EncodeReport, EncodeError> {
+    if !(8..=24).contains(&opts.bits) {
+        return Err(EncodeError::InvalidOptions(format!(
+            "bits = {} (allowed 8..=24)",
+            opts.bits
+        )));
+    }
+    if !(10..=MAX_WINDOW_LOG).contains(&opts.window_log) {
+        return Err(EncodeError::InvalidOptions(format!(
+            "window_log = {} (allowed 10..={MAX_WINDOW_LOG})",
+            opts.window_log
+        )));
+    }
+    if opts.chunk_records == Some(0) || opts.chunk_bytes == 0 {
+        return Err(EncodeError::InvalidOptions(
+            "chunk size must be positive".into(),
+        ));
+    }
+    mesh.validate().map_err(EncodeError::InvalidMesh)?;
+    let too_big = |n: usize, what: &str| {
+        if n > u32::MAX as usize - 1 {
+            Err(EncodeError::InvalidMesh(format!(
+                "{what} = {n} does not fit the format"
+            )))
+        } else {
+            Ok(n as u32)
+        }
+    };
+    let final_v = too_big(mesh.final_vertex_count(), "final vertex count")?;
+    let final_f = too_big(mesh.final_face_count(), "final face count")?;
+    let record_count = too_big(mesh.records.len(), "record count")?;
+
+    // One grid over every position any level shows.
+    let all = mesh.base.positions.iter().chain(
+        mesh.records
+            .iter()
+            .flat_map(|r| r.new_vertices.iter().chain(r.moved.iter().map(|m| &m.1))),
+    );
+    let (mut lo, mut hi) = ([0.0f64; 3], [0.0f64; 3]);
+    for (i, p) in all.enumerate() {
+        let p = p.to_array();
+        for k in 0..3 {
+            if i == 0 || p[k] < lo[k] {
+                lo[k] = p[k];
+            }
+            if i == 0 || p[k] > hi[k] {
+                hi[k] = p[k];
+            }
+        }
+    }
+    if (0..3).any(|k| !(hi[k] - lo[k]).is_finite()) {
+        return Err(EncodeError::InvalidMesh(
+            "bounding box extent is not finite".into(),
+        ));
+    }
+    let quant = Quantizer::new(lo, hi, opts.bits);
+    let qp = |p: &glam::DVec3| quant.quantize(*p);
+
+    let base_q: Vec<[u32; 3]> = mesh.base.positions.iter().map(qp).collect();
+    let base_quads: Vec<[u32; 4]> = mesh
+        .base
+        .faces()
+        .map(|f| [f[0], f[1], f[2], f[3]])
+        .collect();
+    let base_payload = codec::encode_base(&base_q, &base_quads);
+    let base_bytes = compress(&base_payload, opts)?;
+    let mut state = MeshState::new(quant.qmax(), base_q, base_quads);
+
+    let error_at = |k: usize| -> f32 {
+        match mesh.level_error.get(k) {
+            Some(&e) => e as f32,
+            None if k == mesh.records.len() => 0.0,
+            None => f32::INFINITY,
+        }
+    };
+
+    let mut report = EncodeReport::default();
+    let mut chunks: Vec<Chunk> = Vec::new();
+    let mut streams: [Vec<u8>; 5] = Default::default();
+    let mut cursors = Cursors::default();
+    let mut in_chunk = 0u32;
+    let mut close = |streams: &mut [Vec<u8>; 5],
+                     in_chunk: &mut u32,
+                     cursors: &mut Cursors,
+                     state: &MeshState,
+                     k: usize,
+                     report: &mut EncodeReport|
+     -> Result<(), EncodeError> {
+        let payload = codec::join_streams(streams);
+        let bytes = compress(&payload, opts)?;
+        let alone: Vec<f64> = streams
+            .iter()
+            .map(|s| compress(s, opts).map(|c| c.len() as f64))
+            .collect::<Result<_, _>>()?;
+        let sum: f64 = alone.iter().sum();
+        for t in 0..5 {
+            report.stream_raw_bytes[t] += streams[t].len() as u64;
+            report.stream_bytes[t] += bytes.len() as f64 * alone[t] / sum.max(1.0);
+        }
+        chunks.push(Chunk {
+            info: ChunkInfo {
+                offset: 0,
+                compressed_len: bytes.len() as u32,
+                uncompressed_len: payload.len() as u32,
+                record_count: *in_chunk,
+                vertex_count: state.q.len() as u32,
+                face_count: state.quads.len() as u32,
+                error: error_at(k),
+                crc32: crc32(&bytes),
+            },
+            bytes,
+        });
+        *streams = Default::default();
+        *cursors = Cursors::default();
+        *in_chunk = 0;
+        Ok(())
+    };
+
+    for (k, rec) in mesh.records.iter().enumerate() {
+        let mut moved: Vec<(u32, [u32; 3])> = rec.moved.iter().map(|(v, p)| (*v, qp(p))).collect();
+        moved.sort_unstable_by_key(|m| m.0);
+        let q = QRecord {
+            op: rec.op,
+            new_pos: rec.new_vertices.iter().map(qp).collect(),
+            moved,
+            rewritten: rec.rewritten.clone(),
+            appended: rec.appended_faces.clone(),
+        };
+        if codec::encode_record(&state, &q, &mut cursors, &mut streams, opts.split_form) {
+            report.split_records += 1;
+        } else {
+            report.general_records += 1;
+        }
+        state.apply(&q);
+        in_chunk += 1;
+        let size: usize = streams.iter().map(|s| s.len()).sum();
+        if opts.chunk_records.is_some_and(|n| in_chunk as usize >= n) || size >= opts.chunk_bytes {
+            close(
+                &mut streams,
+                &mut in_chunk,
+                &mut cursors,
+                &state,
+                k + 1,
+                &mut report,
+            )?;
+        }
+    }
+    if in_chunk > 0 {
+        close(
+            &mut streams,
+            &mut in_chunk,
+            &mut cursors,
+            &state,
+            mesh.records.len(),
+            &mut report,
+        )?;
+    }
+
+    // Optional sections.
+    let mut sections: Vec<u8> = Vec::new();
+    let mut section_count = 0u32;
+    let mut flags = 0u32;
+    if opts.vertex_order && !mesh.vertex_order.is_empty() {
+        let mut payload = Vec::new();
+        let mut prev = 0i64;
+        for &o in &mesh.vertex_order {
+            put_s(&mut payload, o as i64 - prev);
+            prev = o as i64;
+        }
+        let c = compress(&payload, opts)?;
+        sections.extend_from_slice(&TAG_VORD);
+        sections.extend_from_slice(&(c.len() as u32).to_le_bytes());
+        sections.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+        sections.extend_from_slice(&crc32(&c).to_le_bytes());
+        sections.extend_from_slice(&c);
+        section_count += 1;
+        flags |= FLAG_VERTEX_ORDER;
+    }
+
+    let table_len = chunks.len() as u64 * CHUNK_ENTRY_LEN as u64 + 4;
+    let mut offset = HEADER_LEN as u64 + table_len + base_bytes.len() as u64;
+    let mut table = Vec::with_capacity(table_len as usize);
+    for c in &mut chunks {
+        c.info.offset = offset;
+        offset += c.bytes.len() as u64;
+        table.extend_from_slice(&c.info.to_bytes());
+    }
+    let table_crc = crc32(&table);
+    table.extend_from_slice(&table_crc.to_le_bytes());
+
+    let header = Header {
+        version_major: VERSION_MAJOR,
+        version_minor: VERSION_MINOR,
+        header_len: HEADER_LEN,
+        flags,
+        quant_bits: opts.bits,
+        chunk_entry_len: CHUNK_ENTRY_LEN,
+        base_vertex_count: mesh.base.vertex_count() as u32,
+        base_face_count: mesh.base.face_count() as u32,
+        final_vertex_count: final_v,
+        final_face_count: final_f,
+        record_count,
+        chunk_count: chunks.len() as u32,
+        section_count,
+        base_compressed_len: base_bytes.len() as u32,
+        base_uncompressed_len: base_payload.len() as u32,
+        base_crc32: crc32(&base_bytes),
+        bbox_min: lo,
+        bbox_max: hi,
+        base_error: error_at(0),
+    };
+    w.write_all(&header.to_bytes())?;
+    w.write_all(&table)?;
+    w.write_all(&base_bytes)?;
+    for c in &chunks {
+        w.write_all(&c.bytes)?;
+    }
+    w.write_all(&sections)?;
+    w.flush()?;
+
+    report.header_bytes = HEADER_LEN as u64;
+    report.table_bytes = table_len;
+    report.base_bytes = base_bytes.len() as u64;
+    report.chunk_bytes = chunks.iter().map(|c| c.bytes.len() as u64).sum();
+    report.section_bytes = sections.len() as u64;
+    report.total_bytes = offset + sections.len() as u64;
+    report.chunk_count = chunks.len();
+    report.refined_vertices = (final_v as u64).saturating_sub(mesh.base.vertex_count() as u64);
+    let n = report.refined_vertices.max(1) as f64;
+    let sb = report.stream_bytes;
+    report.bits_per_vertex = BitsPerVertex {
+        connectivity: 8.0 * (sb[OPS] + sb[CONN] + sb[REFS] + sb[SLOTS]) / n,
+        positions: 8.0 * sb[POS] / n,
+        total: 8.0 * report.chunk_bytes as f64 / n,
+    };
+    report.file_bits_per_vertex = 8.0 * report.total_bytes as f64 / (final_v.max(1) as f64);
+    Ok(report)
+}
+
+/// [`write`] into a new `Vec<u8>`.
+pub fn write_to_vec(
+    mesh: &ProgressiveMesh,
+    opts: &EncodeOptions,
+) -> Result<(Vec<u8>, EncodeReport), EncodeError> {
+    let mut out = Vec::new();
+    let report = write(mesh, opts, &mut out)?;
+    Ok((out, report))
+}

@@ -1,0 +1,192 @@
+//! Fixed byte layout of the header and the chunk table (spec §3–§4).
+
+use byteorder::{ByteOrder, LittleEndian as LE};
+
+/// File signature: `\x89 P Q M \r \n \x1a \n` (PNG-style: catches 7-bit and
+/// newline-mangling transfers).
+pub const MAGIC: [u8; 8] = [0x89, b'P', b'Q', b'M', 0x0D, 0x0A, 0x1A, 0x0A];
+/// Major version this crate writes and reads.
+pub const VERSION_MAJOR: u16 = 1;
+/// Minor version this crate writes.
+pub const VERSION_MINOR: u16 = 0;
+/// Header length written by v1.0 (readers accept longer headers).
+pub const HEADER_LEN: u32 = 120;
+/// Bytes of the header needed to learn `header_len`.
+pub const HEADER_PREFIX: usize = 16;
+/// Chunk table entry length written by v1.0 (readers accept longer entries).
+pub const CHUNK_ENTRY_LEN: u16 = 36;
+/// Header flag: a `VORD` section is present.
+pub const FLAG_VERTEX_ORDER: u32 = 1;
+/// Tag of the vertex-order section.
+pub const TAG_VORD: [u8; 4] = *b"VORD";
+/// Optional section header length (tag, compressed length, uncompressed length, CRC).
+pub const SECTION_HEADER_LEN: usize = 16;
+/// Largest header a reader accepts (sanity bound against hostile input).
+pub const MAX_HEADER_LEN: u32 = 1 << 16;
+/// Largest zstd window (log2) a writer may use and a reader accepts.
+pub const MAX_WINDOW_LOG: u32 = 25;
+
+/// The file header (spec §3).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Header {
+    /// Major version (incompatible changes).
+    pub version_major: u16,
+    /// Minor version (compatible additions).
+    pub version_minor: u16,
+    /// Header length in bytes, magic and trailing CRC included.
+    pub header_len: u32,
+    /// Flags (`FLAG_*`).
+    pub flags: u32,
+    /// Quantization bits per axis, 8..=24.
+    pub quant_bits: u8,
+    /// Bytes per chunk table entry.
+    pub chunk_entry_len: u16,
+    /// Base (level 0) vertex count.
+    pub base_vertex_count: u32,
+    /// Base (level 0) face count.
+    pub base_face_count: u32,
+    /// Finest-level vertex count.
+    pub final_vertex_count: u32,
+    /// Finest-level face count.
+    pub final_face_count: u32,
+    /// Number of records (levels − 1).
+    pub record_count: u32,
+    /// Number of record chunks.
+    pub chunk_count: u32,
+    /// Number of optional sections after the last chunk.
+    pub section_count: u32,
+    /// Compressed length of the base section.
+    pub base_compressed_len: u32,
+    /// Uncompressed length of the base payload.
+    pub base_uncompressed_len: u32,
+    /// CRC-32 of the base section's compressed bytes.
+    pub base_crc32: u32,
+    /// Quantization grid minimum.
+    pub bbox_min: [f64; 3],
+    /// Quantization grid maximum.
+    pub bbox_max: [f64; 3],
+    /// Geometric error of level 0.
+    pub base_error: f32,
+}
+
+/// One chunk table entry (spec §4).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChunkInfo {
+    /// Absolute file offset of the chunk's compressed bytes.
+    pub offset: u64,
+    /// Compressed length.
+    pub compressed_len: u32,
+    /// Uncompressed payload length.
+    pub uncompressed_len: u32,
+    /// Records in the chunk.
+    pub record_count: u32,
+    /// Vertex count after the chunk's last record.
+    pub vertex_count: u32,
+    /// Face count after the chunk's last record.
+    pub face_count: u32,
+    /// Geometric error of the level reached after the chunk.
+    pub error: f32,
+    /// CRC-32 of the compressed bytes.
+    pub crc32: u32,
+}
+
+/// CRC-32 (ISO-HDLC, as zlib and PNG) of `data`.
+pub fn crc32(data: &[u8]) -> u32 {
+    crc32fast::hash(data)
+}
+
+impl Header {
+    /// Serializes a v1.0 header (`HEADER_LEN` bytes, CRC included).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = vec![0u8; HEADER_LEN as usize];
+        b[..8].copy_from_slice(&MAGIC);
+        LE::write_u16(&mut b[8..], self.version_major);
+        LE::write_u16(&mut b[10..], self.version_minor);
+        LE::write_u32(&mut b[12..], HEADER_LEN);
+        LE::write_u32(&mut b[16..], self.flags);
+        b[20] = self.quant_bits;
+        b[21] = 0;
+        LE::write_u16(&mut b[22..], self.chunk_entry_len);
+        let words = [
+            self.base_vertex_count,
+            self.base_face_count,
+            self.final_vertex_count,
+            self.final_face_count,
+            self.record_count,
+            self.chunk_count,
+            self.section_count,
+            self.base_compressed_len,
+            self.base_uncompressed_len,
+            self.base_crc32,
+        ];
+        for (i, w) in words.iter().enumerate() {
+            LE::write_u32(&mut b[24 + 4 * i..], *w);
+        }
+        for k in 0..3 {
+            LE::write_f64(&mut b[64 + 8 * k..], self.bbox_min[k]);
+            LE::write_f64(&mut b[88 + 8 * k..], self.bbox_max[k]);
+        }
+        LE::write_f32(&mut b[112..], self.base_error);
+        let crc = crc32(&b[..116]);
+        LE::write_u32(&mut b[116..], crc);
+        b
+    }
+
+    /// Parses the fields of a full header `b` (`b.len() == header_len >= 120`,
+    /// magic, version and CRC already checked by the caller).
+    pub fn parse(b: &[u8]) -> Header {
+        let w = |i: usize| LE::read_u32(&b[24 + 4 * i..]);
+        Header {
+            version_major: LE::read_u16(&b[8..]),
+            version_minor: LE::read_u16(&b[10..]),
+            header_len: LE::read_u32(&b[12..]),
+            flags: LE::read_u32(&b[16..]),
+            quant_bits: b[20],
+            chunk_entry_len: LE::read_u16(&b[22..]),
+            base_vertex_count: w(0),
+            base_face_count: w(1),
+            final_vertex_count: w(2),
+            final_face_count: w(3),
+            record_count: w(4),
+            chunk_count: w(5),
+            section_count: w(6),
+            base_compressed_len: w(7),
+            base_uncompressed_len: w(8),
+            base_crc32: w(9),
+            bbox_min: [0, 1, 2].map(|k| LE::read_f64(&b[64 + 8 * k..])),
+            bbox_max: [0, 1, 2].map(|k| LE::read_f64(&b[88 + 8 * k..])),
+            base_error: LE::read_f32(&b[112..]),
+        }
+    }
+}
+
+impl ChunkInfo {
+    /// Serializes a v1.0 entry (`CHUNK_ENTRY_LEN` bytes).
+    pub fn to_bytes(&self) -> [u8; CHUNK_ENTRY_LEN as usize] {
+        let mut b = [0u8; CHUNK_ENTRY_LEN as usize];
+        LE::write_u64(&mut b[0..], self.offset);
+        LE::write_u32(&mut b[8..], self.compressed_len);
+        LE::write_u32(&mut b[12..], self.uncompressed_len);
+        LE::write_u32(&mut b[16..], self.record_count);
+        LE::write_u32(&mut b[20..], self.vertex_count);
+        LE::write_u32(&mut b[24..], self.face_count);
+        LE::write_f32(&mut b[28..], self.error);
+        LE::write_u32(&mut b[32..], self.crc32);
+        b
+    }
+
+    /// Parses the first `CHUNK_ENTRY_LEN` bytes of `b` (longer entries of
+    /// newer minors carry extra fields that are ignored).
+    pub fn parse(b: &[u8]) -> ChunkInfo {
+        ChunkInfo {
+            offset: LE::read_u64(&b[0..]),
+            compressed_len: LE::read_u32(&b[8..]),
+            uncompressed_len: LE::read_u32(&b[12..]),
+            record_count: LE::read_u32(&b[16..]),
+            vertex_count: LE::read_u32(&b[20..]),
+            face_count: LE::read_u32(&b[24..]),
+            error: LE::read_f32(&b[28..]),
+            crc32: LE::read_u32(&b[32..]),
+        }
+    }
+}

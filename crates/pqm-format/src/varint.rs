@@ -1,0 +1,130 @@
+//! LEB128 varints and zigzag signed integers, the integer coding of every
+//! `.pqm` stream (spec §1).
+//!
+//! * unsigned: little-endian base-128, 7 bits per byte, high bit = "more";
+//!   at most 10 bytes (a `u64`); a value that does not fit 64 bits is an error;
+//! * signed: zigzag first (`0, -1, 1, -2, … → 0, 1, 2, 3, …`), then LEB128.
+
+/// Appends `v` as LEB128.
+pub fn put_u(out: &mut Vec<u8>, mut v: u64) {
+    while v >= 0x80 {
+        out.push((v as u8) | 0x80);
+        v >>= 7;
+    }
+    out.push(v as u8);
+}
+
+/// Zigzag map of a signed value (`0, -1, 1, -2 … → 0, 1, 2, 3 …`).
+pub fn zigzag(v: i64) -> u64 {
+    ((v << 1) ^ (v >> 63)) as u64
+}
+
+/// Inverse of [`zigzag`].
+pub fn unzigzag(u: u64) -> i64 {
+    ((u >> 1) as i64) ^ -((u & 1) as i64)
+}
+
+/// Appends `v` zigzag-mapped, as LEB128.
+pub fn put_s(out: &mut Vec<u8>, v: i64) {
+    put_u(out, zigzag(v));
+}
+
+/// A bounds-checked cursor over one stream; errors are plain messages that
+/// the caller wraps with the section and record they belong to.
+#[derive(Clone, Debug)]
+pub struct Reader<'a> {
+    buf: &'a [u8],
+    pos: usize,
+    /// Stream name used in error messages.
+    pub name: &'static str,
+}
+
+impl<'a> Reader<'a> {
+    /// A reader over `buf` named `name`.
+    pub fn new(buf: &'a [u8], name: &'static str) -> Self {
+        Reader { buf, pos: 0, name }
+    }
+    /// Bytes not read yet.
+    pub fn remaining(&self) -> usize {
+        self.buf.len() - self.pos
+    }
+    /// One raw byte.
+    pub fn byte(&mut self) -> Result<u8, String> {
+        let b = *self
+            .buf
+            .get(self.pos)
+            .ok_or_else(|| format!("stream {} ends early", self.name))?;
+        self.pos += 1;
+        Ok(b)
+    }
+    /// One unsigned LEB128 value.
+    pub fn u(&mut self) -> Result<u64, String> {
+        let mut v: u64 = 0;
+        for i in 0..10 {
+            let b = self.byte()?;
+            let bits = (b & 0x7f) as u64;
+            if i == 9 && bits > 1 {
+                return Err(format!("stream {}: varint overflows 64 bits", self.name));
+            }
+            v |= bits << (7 * i);
+            if b & 0x80 == 0 {
+                return Ok(v);
+            }
+        }
+        Err(format!("stream {}: varint longer than 10 bytes", self.name))
+    }
+    /// One unsigned value that must be `<= max` (`what` names it in errors).
+    pub fn u_max(&mut self, max: u64, what: &str) -> Result<u64, String> {
+        let v = self.u()?;
+        if v > max {
+            return Err(format!("{what} = {v} exceeds {max}"));
+        }
+        Ok(v)
+    }
+    /// One zigzag-coded signed value.
+    pub fn s(&mut self) -> Result<i64, String> {
+        Ok(unzigzag(self.u()?))
+    }
+    /// `n` raw bytes.
+    pub fn bytes(&mut self, n: usize) -> Result<&'a [u8], String> {
+        if n > self.remaining() {
+            return Err(format!("stream {} ends early", self.name));
+        }
+        let s = &self.buf[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn unsigned_and_signed_round_trip(u in any::<u64>(), s in any::<i64>()) {
+            let mut out = Vec::new();
+            put_u(&mut out, u);
+            put_s(&mut out, s);
+            let mut r = Reader::new(&out, "t");
+            prop_assert_eq!(r.u().unwrap(), u);
+            prop_assert_eq!(r.s().unwrap(), s);
+            prop_assert_eq!(r.remaining(), 0);
+        }
+    }
+
+    #[test]
+    fn overlong_and_truncated_varints_are_errors() {
+        assert!(Reader::new(&[0x80; 11], "t").u().is_err());
+        assert!(Reader::new(
+            &[0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x02],
+            "t"
+        )
+        .u()
+        .is_err());
+        assert!(Reader::new(&[0x80], "t").u().is_err());
+        assert_eq!(zigzag(-1), 1);
+        assert_eq!(zigzag(1), 2);
+    }
+}

@@ -1,0 +1,678 @@
+//! Round trips: generated progressive meshes → `.pqm` → push decoder, at
+//! every level, with random push sizes, random level walks, truncations and
+//! corruptions.
+
+use glam::DVec3;
+use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
+use pqm_core::ProgressiveMesh;
+use pqm_format::*;
+use proptest::prelude::*;
+
+fn encode(pm: &ProgressiveMesh, opts: &EncodeOptions) -> Vec<u8> {
+    write_to_vec(pm, opts).expect("encode").0
+}
+
+/// The grid every file must use: the bounding box of every position.
+fn expected_quantizer(pm: &ProgressiveMesh, bits: u8) -> Quantizer {
+    let mut all: Vec<DVec3> = pm.base.positions.clone();
+    for r in &pm.records {
+        all.extend(&r.new_vertices);
+        all.extend(r.moved.iter().map(|m| m.1));
+    }
+    let lo = all.iter().fold(DVec3::INFINITY, |a, p| a.min(*p));
+    let hi = all.iter().fold(DVec3::NEG_INFINITY, |a, p| a.max(*p));
+    Quantizer::new(lo.to_array(), hi.to_array(), bits)
+}
+
+/// Asserts that the decoder's current level equals `pm.level(k)` with
+/// quantized positions: indices exactly, positions bit for bit.
+fn assert_level(dec: &Decoder, pm: &ProgressiveMesh, q: &Quantizer, k: usize) {
+    assert_eq!(dec.level(), k);
+    let (pos, quads) = pm.level_quads(k);
+    assert_eq!(dec.quads(), &quads[..], "quads at level {k}");
+    let want: Vec<DVec3> = pos
+        .iter()
+        .map(|p| q.dequantize_vec(q.quantize(*p)))
+        .collect();
+    let got = dec.positions_f64();
+    assert_eq!(got.len(), want.len(), "vertex count at level {k}");
+    for (i, (a, b)) in got.iter().zip(&want).enumerate() {
+        assert!(
+            a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits),
+            "vertex {i} at level {k}: {a} vs {b}"
+        );
+    }
+    let f32s: Vec<[f32; 3]> = want
+        .iter()
+        .map(|p| p.to_array().map(|x| x as f32))
+        .collect();
+    assert_eq!(dec.positions(), &f32s[..]);
+}
+
+fn push_in_pieces(bytes: &[u8], sizes: &[usize]) -> (Decoder, Vec<Event>) {
+    let mut dec = Decoder::new(Limits::default());
+    let mut events = Vec::new();
+    let mut at = 0;
+    let mut i = 0;
+    while at < bytes.len() {
+        let n = sizes
+            .get(i % sizes.len().max(1))
+            .copied()
+            .unwrap_or(1)
+            .max(1)
+            .min(bytes.len() - at);
+        events.extend(dec.push(&bytes[at..at + n]).expect("push"));
+        at += n;
+        i += 1;
+    }
+    (dec, events)
+}
+
+/// Simulated GPU buffers updated only through `Change` events.
+struct Shadow {
+    pos: Vec<[f32; 3]>,
+    tris: Vec<u32>,
+}
+
+impl Shadow {
+    fn apply(&mut self, dec: &Decoder, c: &Change) {
+        let pos = dec.positions();
+        self.pos.truncate(c.vertices_removed.start as usize);
+        for r in c.moved_ranges() {
+            for v in r {
+                self.pos[v as usize] = pos[v as usize];
+            }
+        }
+        for v in c.vertices_appended.clone() {
+            assert_eq!(v as usize, self.pos.len());
+            self.pos.push(pos[v as usize]);
+        }
+        self.tris.truncate(6 * c.faces_truncated.start as usize);
+        for r in c.rewritten_ranges() {
+            for f in r {
+                self.tris[6 * f as usize..6 * f as usize + 6]
+                    .copy_from_slice(&quad_triangles(dec.quads()[f as usize]));
+            }
+        }
+        for f in c.faces_appended.clone() {
+            assert_eq!(6 * f as usize, self.tris.len());
+            self.tris.extend(quad_triangles(dec.quads()[f as usize]));
+        }
+    }
+}
+
+fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
+    (
+        8u8..=24,
+        prop::option::of(1usize..40),
+        64usize..4096,
+        any::<bool>(),
+        1i32..20,
+    )
+        .prop_map(
+            |(bits, chunk_records, chunk_bytes, split_form, zstd_level)| EncodeOptions {
+                bits,
+                chunk_records,
+                chunk_bytes,
+                zstd_level,
+                split_form,
+                ..EncodeOptions::default()
+            },
+        )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    #[test]
+    fn every_level_decodes_to_the_quantized_reference(
+        seed in any::<u64>(),
+        splits in 0usize..150,
+        opts in opts_strategy(),
+        sizes in prop::collection::vec(1usize..300, 1..8),
+    ) {
+        let pm = testgen::generate(seed, splits);
+        let bytes = encode(&pm, &opts);
+        let (mut dec, events) = push_in_pieces(&bytes, &sizes);
+        prop_assert_eq!(events.last(), Some(&Event::Finished));
+        let q = expected_quantizer(&pm, opts.bits);
+        prop_assert_eq!(dec.quantizer(), Some(q));
+        for k in 0..=pm.records.len() {
+            dec.set_level(Target::Level(k)).unwrap();
+            assert_level(&dec, &pm, &q, k);
+        }
+        if !pm.vertex_order.is_empty() {
+            prop_assert_eq!(dec.vertex_order(), Some(&pm.vertex_order[..]));
+        }
+    }
+
+    #[test]
+    fn random_walks_match_direct_decoding_and_change_events(
+        seed in any::<u64>(),
+        walk in prop::collection::vec(0usize..200, 1..12),
+        split_form in any::<bool>(),
+    ) {
+        let pm = testgen::generate(seed, 120);
+        let opts = EncodeOptions { chunk_records: Some(17), split_form, ..EncodeOptions::default() };
+        let bytes = encode(&pm, &opts);
+        let mut dec = decode_all(&bytes, Limits::default()).unwrap();
+        let q = expected_quantizer(&pm, opts.bits);
+        let mut shadow = Shadow { pos: dec.positions().to_vec(), tris: dec.triangle_indices() };
+        for &t in &walk {
+            let k = t.min(pm.records.len());
+            let before = dec.level();
+            let c = dec.set_level(Target::Level(k)).unwrap();
+            prop_assert_eq!((c.from_level, c.to_level), (before, k));
+            assert_level(&dec, &pm, &q, k);
+            shadow.apply(&dec, &c);
+            prop_assert_eq!(&shadow.pos[..], dec.positions());
+            prop_assert_eq!(&shadow.tris, &dec.triangle_indices());
+        }
+    }
+
+    #[test]
+    fn corrupted_or_truncated_input_never_panics(
+        seed in any::<u64>(),
+        flips in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 0..4),
+        cut in any::<prop::sample::Index>(),
+        split in any::<prop::sample::Index>(),
+    ) {
+        let pm = testgen::generate(seed, 60);
+        let mut bytes = encode(&pm, &EncodeOptions { chunk_records: Some(9), ..EncodeOptions::default() });
+        for (i, x) in &flips {
+            let i = i.index(bytes.len());
+            bytes[i] ^= x | 1;
+        }
+        bytes.truncate(cut.index(bytes.len() + 1));
+        let at = split.index(bytes.len() + 1);
+        let mut dec = Decoder::new(Limits::default());
+        let a = dec.push(&bytes[..at]);
+        let b = a.and_then(|_| dec.push(&bytes[at..]));
+        let _ = dec.status();
+        if b.is_ok() {
+            if let Ok(c) = dec.set_level(Target::Level(usize::MAX)) {
+                prop_assert_eq!(c.to_level, dec.deepest_level().unwrap());
+            }
+        }
+    }
+}
+
+#[test]
+fn one_byte_at_a_time_equals_all_at_once() {
+    for seed in 0..6 {
+        let pm = testgen::generate(seed, 80);
+        let bytes = encode(
+            &pm,
+            &EncodeOptions {
+                chunk_records: Some(10),
+                ..EncodeOptions::default()
+            },
+        );
+        let (mut whole, ev_whole) = push_in_pieces(&bytes, &[bytes.len()]);
+        let (mut single, ev_single) = push_in_pieces(&bytes, &[1]);
+        assert_eq!(ev_whole, ev_single);
+        assert_eq!(whole.status(), single.status());
+        for k in [0, pm.records.len() / 3, pm.records.len()] {
+            whole.set_level(Target::Level(k)).unwrap();
+            single.set_level(Target::Level(k)).unwrap();
+            assert_eq!(whole.quads(), single.quads());
+            assert_eq!(whole.position_codes(), single.position_codes());
+        }
+    }
+}
+
+#[test]
+fn every_prefix_yields_the_deepest_complete_level() {
+    let pm = testgen::generate_with(&GenOptions {
+        base: BaseShape::Grid { nx: 3, ny: 3 },
+        ..GenOptions::new(11, 25)
+    });
+    let opts = EncodeOptions {
+        chunk_records: Some(6),
+        ..EncodeOptions::default()
+    };
+    let bytes = encode(&pm, &opts);
+    let full = decode_all(&bytes, Limits::default()).unwrap();
+    let q = full.quantizer().unwrap();
+    // Level reached after each chunk, and where each chunk ends.
+    let ends: Vec<(u64, usize)> = full
+        .chunks()
+        .iter()
+        .scan(0usize, |lvl, c| {
+            *lvl += c.record_count as usize;
+            Some((c.offset + c.compressed_len as u64, *lvl))
+        })
+        .collect();
+    let h = full.header().unwrap();
+    let base_end =
+        h.header_len as u64 + full.chunks().len() as u64 * 36 + 4 + h.base_compressed_len as u64;
+    for n in 0..=bytes.len() {
+        let mut dec = Decoder::new(Limits::default());
+        dec.push(&bytes[..n])
+            .unwrap_or_else(|e| panic!("prefix {n}: {e}"));
+        let s = dec.status();
+        assert_eq!(s.bytes_consumed + s.bytes_buffered, n as u64);
+        let expect = if (n as u64) < base_end {
+            None
+        } else {
+            Some(
+                ends.iter()
+                    .filter(|(end, _)| *end <= n as u64)
+                    .map(|e| e.1)
+                    .max()
+                    .unwrap_or(0),
+            )
+        };
+        assert_eq!(s.deepest_level, expect, "prefix {n}");
+        assert_eq!(s.finished, n == bytes.len());
+        if let Some(k) = expect {
+            dec.refine_to(Target::Level(usize::MAX)).unwrap();
+            assert_level(&dec, &pm, &q, k);
+            if n < bytes.len() {
+                assert!(
+                    s.waiting_for.is_some() && s.bytes_needed.is_some_and(|b| b > 0),
+                    "prefix {n}: {s:?}"
+                );
+            }
+        } else {
+            assert!(dec.refine_to(Target::Level(1)).is_err());
+        }
+    }
+    assert!(matches!(
+        decode_all(&bytes[..bytes.len() - 1], Limits::default()),
+        Err(DecodeError::Format(FormatError::Truncated(_)))
+    ));
+}
+
+#[test]
+fn crc_mismatch_names_the_chunk() {
+    let pm = testgen::generate(3, 100);
+    let bytes = encode(
+        &pm,
+        &EncodeOptions {
+            chunk_records: Some(20),
+            ..EncodeOptions::default()
+        },
+    );
+    let full = decode_all(&bytes, Limits::default()).unwrap();
+    for (i, c) in full.chunks().iter().enumerate() {
+        let mut bad = bytes.clone();
+        bad[(c.offset + c.compressed_len as u64 / 2) as usize] ^= 0x40;
+        let mut dec = Decoder::new(Limits::default());
+        match dec.push(&bad) {
+            Err(DecodeError::Format(FormatError::CrcMismatch { section, .. })) => {
+                assert_eq!(section, Section::Chunk(i as u32))
+            }
+            other => panic!("chunk {i}: {other:?}"),
+        }
+        // Everything before the damaged chunk is still usable.
+        assert_eq!(
+            dec.deepest_level(),
+            Some(
+                full.chunks()[..i]
+                    .iter()
+                    .map(|c| c.record_count as usize)
+                    .sum()
+            )
+        );
+        assert!(dec.push(&[]).is_err(), "a failed decoder stays failed");
+    }
+    let mut bad = bytes.clone();
+    bad[30] ^= 1;
+    assert!(matches!(
+        Decoder::new(Limits::default()).push(&bad),
+        Err(DecodeError::Format(FormatError::CrcMismatch {
+            section: Section::Header,
+            ..
+        }))
+    ));
+    bad = bytes.clone();
+    bad[0] = b'X';
+    assert!(matches!(
+        Decoder::new(Limits::default()).push(&bad),
+        Err(DecodeError::Format(FormatError::BadMagic))
+    ));
+}
+
+/// Rewrites the header of `bytes` through `f`, fixing its CRC.
+fn patch_header(bytes: &mut [u8], f: impl FnOnce(&mut [u8])) {
+    f(&mut bytes[..120]);
+    let crc = crc32fast::hash(&bytes[..116]);
+    bytes[116..120].copy_from_slice(&crc.to_le_bytes());
+}
+
+#[test]
+fn versioning_newer_minor_is_read_newer_major_is_refused() {
+    let pm = testgen::generate(5, 40);
+    let bytes = encode(&pm, &EncodeOptions::default());
+    let reference = decode_all(&bytes, Limits::default()).unwrap();
+
+    // Newer major: clear error.
+    let mut b = bytes.clone();
+    patch_header(&mut b, |h| h[8..10].copy_from_slice(&2u16.to_le_bytes()));
+    match Decoder::new(Limits::default()).push(&b) {
+        Err(DecodeError::Format(FormatError::UnsupportedVersion { major: 2, .. })) => {}
+        other => panic!("{other:?}"),
+    }
+
+    // Newer minor: a longer header, longer chunk entries, an unknown section.
+    let h = Header::parse(&bytes[..120]);
+    let extra_h = 8usize;
+    let extra_e = 4usize;
+    let n = h.chunk_count as usize;
+    let shift = (extra_h + n * extra_e) as u64;
+    let mut out = bytes[..116].to_vec();
+    out[10..12].copy_from_slice(&7u16.to_le_bytes());
+    out[12..16].copy_from_slice(&(120 + extra_h as u32).to_le_bytes());
+    out[22..24].copy_from_slice(&(36 + extra_e as u16).to_le_bytes());
+    out[48..52].copy_from_slice(&(h.section_count + 1).to_le_bytes());
+    out.extend_from_slice(&[0xEE; 8]);
+    let crc = crc32fast::hash(&out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    let mut table = Vec::new();
+    for c in reference.chunks() {
+        let mut e = c.clone();
+        e.offset += shift;
+        table.extend_from_slice(&e.to_bytes());
+        table.extend_from_slice(&[0xAB; 4]);
+    }
+    let tcrc = crc32fast::hash(&table);
+    out.extend_from_slice(&table);
+    out.extend_from_slice(&tcrc.to_le_bytes());
+    out.extend_from_slice(&bytes[120 + n * 36 + 4..]);
+    let payload = b"future data";
+    out.extend_from_slice(b"XTRA");
+    out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    out.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
+    out.extend_from_slice(payload);
+    let mut dec = Decoder::new(Limits::default());
+    let events = dec.push(&out).unwrap();
+    assert!(events.contains(&Event::SectionReady(*b"XTRA")));
+    assert_eq!(events.last(), Some(&Event::Finished));
+    let mut r = reference;
+    r.set_level(Target::Level(usize::MAX)).unwrap();
+    dec.set_level(Target::Level(usize::MAX)).unwrap();
+    assert_eq!(dec.quads(), r.quads());
+    assert_eq!(dec.position_codes(), r.position_codes());
+    assert_eq!(dec.vertex_order(), r.vertex_order());
+}
+
+#[test]
+fn limits_are_checked_from_the_header_before_allocating() {
+    let pm = testgen::generate(8, 100);
+    let bytes = encode(&pm, &EncodeOptions::default());
+    let n = pm.final_vertex_count() as u32;
+    for limits in [
+        Limits {
+            max_vertices: n - 1,
+            ..Limits::default()
+        },
+        Limits {
+            max_faces: pm.final_face_count() as u32 - 1,
+            ..Limits::default()
+        },
+        Limits {
+            max_memory_bytes: 1000,
+            ..Limits::default()
+        },
+    ] {
+        let mut dec = Decoder::new(limits);
+        assert!(
+            matches!(dec.push(&bytes[..120]), Err(DecodeError::LimitsExceeded(_))),
+            "{limits:?}"
+        );
+    }
+    // A header claiming 4 billion vertices is refused by the default limits.
+    let mut b = bytes.clone();
+    patch_header(&mut b, |h| {
+        h[32..36].copy_from_slice(&u32::MAX.to_le_bytes())
+    });
+    assert!(matches!(
+        Decoder::new(Limits::default()).push(&b),
+        Err(DecodeError::LimitsExceeded(_))
+    ));
+}
+
+#[test]
+fn targets_by_faces_and_error() {
+    let pm = testgen::generate(21, 200);
+    let bytes = encode(
+        &pm,
+        &EncodeOptions {
+            chunk_records: Some(25),
+            ..EncodeOptions::default()
+        },
+    );
+    let mut dec = decode_all(&bytes, Limits::default()).unwrap();
+    let budget = pm.base.face_count() + 57;
+    dec.set_level(Target::Faces(budget)).unwrap();
+    assert!(dec.quads().len() <= budget);
+    let (_, next_f) = dec.level_counts(dec.level() + 1).unwrap();
+    assert!(
+        next_f as usize > budget,
+        "the finest level within the budget"
+    );
+    // Error targets land on chunk boundaries with error <= e.
+    for c in dec.chunks().to_vec() {
+        dec.set_level(Target::Error(c.error as f64)).unwrap();
+        let k = dec.level();
+        let reached = dec.chunks().iter().scan(0, |l, c| {
+            *l += c.record_count as usize;
+            Some((*l, c.error))
+        });
+        let e = reached
+            .filter(|(l, _)| *l == k)
+            .map(|x| x.1)
+            .next()
+            .unwrap_or(dec.header().unwrap().base_error);
+        assert!(e <= c.error);
+    }
+    dec.set_level(Target::Error(0.0)).unwrap();
+    assert_eq!(dec.level(), pm.records.len());
+    // refine_to never coarsens, coarsen_to never refines.
+    dec.set_level(Target::Level(50)).unwrap();
+    assert!(dec.refine_to(Target::Level(10)).unwrap().is_empty());
+    assert!(dec.coarsen_to(Target::Level(90)).unwrap().is_empty());
+    assert_eq!(dec.level(), 50);
+}
+
+#[test]
+fn to_progressive_mesh_round_trips_connectivity() {
+    let pm = testgen::generate(2, 90);
+    let bytes = encode(&pm, &EncodeOptions::default());
+    let dec = decode_all(&bytes, Limits::default()).unwrap();
+    let back = dec.to_progressive_mesh().unwrap();
+    back.validate().unwrap();
+    assert_eq!(back.records.len(), pm.records.len());
+    for k in [0, 45, pm.records.len()] {
+        assert_eq!(back.level_quads(k).1, pm.level_quads(k).1);
+    }
+    assert_eq!(back.vertex_order, pm.vertex_order);
+    // Re-encoding the decoded mesh keeps every code (dequantized positions
+    // lie on the grid; the stored bbox max may differ by an ulp).
+    let mut again =
+        decode_all(&encode(&back, &EncodeOptions::default()), Limits::default()).unwrap();
+    let mut first = dec;
+    first.set_level(Target::Level(usize::MAX)).unwrap();
+    again.set_level(Target::Level(usize::MAX)).unwrap();
+    assert!(again.position_codes() == first.position_codes());
+    assert!(again.quads() == first.quads());
+}
+
+#[test]
+fn split_form_covers_generated_splits_and_is_smaller() {
+    let pm = testgen::generate(9, 2000);
+    let (a, ra) = write_to_vec(&pm, &EncodeOptions::default()).unwrap();
+    let (b, rb) = write_to_vec(
+        &pm,
+        &EncodeOptions {
+            split_form: false,
+            ..EncodeOptions::default()
+        },
+    )
+    .unwrap();
+    let splits = pm
+        .records
+        .iter()
+        .filter(|r| r.op == pqm_core::OpKind::QvMerge)
+        .count();
+    assert_eq!(
+        ra.split_records, splits,
+        "every single split uses the split form"
+    );
+    assert_eq!(rb.split_records, 0);
+    assert!(
+        a.len() < b.len(),
+        "split form {} vs general {}",
+        a.len(),
+        b.len()
+    );
+    assert!(ra.bits_per_vertex.connectivity < rb.bits_per_vertex.connectivity);
+}
+
+#[test]
+fn empty_and_record_free_meshes() {
+    let mut pm = testgen::generate(4, 0);
+    pm.level_error = vec![0.0];
+    let bytes = encode(&pm, &EncodeOptions::default());
+    let dec = decode_all(&bytes, Limits::default()).unwrap();
+    assert_eq!(dec.deepest_level(), Some(0));
+    assert_eq!(dec.quads().len(), pm.base.face_count());
+    let empty = ProgressiveMesh {
+        base: pqm_core::IndexedMesh::new(),
+        ..Default::default()
+    };
+    let bytes = encode(&empty, &EncodeOptions::default());
+    let dec = decode_all(&bytes, Limits::default()).unwrap();
+    assert!(dec.quads().is_empty() && dec.positions().is_empty());
+}
+
+/// Rebuilds `bytes` with chunk `i`'s uncompressed payload changed by `f`
+/// (recompressed, table and CRCs fixed), so the damage reaches the record
+/// decoder instead of being caught by a CRC.
+fn repack_chunk(bytes: &[u8], i: usize, f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+    let h = Header::parse(&bytes[..120]);
+    let n = h.chunk_count as usize;
+    let table_end = 120 + n * 36 + 4;
+    let mut chunks: Vec<ChunkInfo> = (0..n)
+        .map(|c| ChunkInfo::parse(&bytes[120 + c * 36..]))
+        .collect();
+    let body = |c: &ChunkInfo| {
+        bytes[c.offset as usize..(c.offset + c.compressed_len as u64) as usize].to_vec()
+    };
+    let mut bodies: Vec<Vec<u8>> = chunks.iter().map(body).collect();
+    let tail_start = (chunks[n - 1].offset + chunks[n - 1].compressed_len as u64) as usize;
+    let mut payload =
+        zstd::bulk::decompress(&bodies[i], chunks[i].uncompressed_len as usize).unwrap();
+    f(&mut payload);
+    bodies[i] = zstd::bulk::compress(&payload, 3).unwrap();
+    chunks[i].uncompressed_len = payload.len() as u32;
+    chunks[i].compressed_len = bodies[i].len() as u32;
+    chunks[i].crc32 = crc32fast::hash(&bodies[i]);
+    let mut off = chunks[0].offset;
+    let mut out = bytes[..120].to_vec();
+    let mut table = Vec::new();
+    for c in chunks.iter_mut() {
+        c.offset = off;
+        off += c.compressed_len as u64;
+        table.extend_from_slice(&c.to_bytes());
+    }
+    out.extend_from_slice(&table);
+    out.extend_from_slice(&crc32fast::hash(&table).to_le_bytes());
+    out.extend_from_slice(&bytes[table_end..chunks[0].offset as usize]);
+    for b in &bodies {
+        out.extend_from_slice(b);
+    }
+    out.extend_from_slice(&bytes[tail_start..]);
+    out
+}
+
+#[test]
+fn bad_record_errors_name_the_record() {
+    let pm = testgen::generate(12, 60);
+    let opts = EncodeOptions {
+        chunk_records: Some(20),
+        ..EncodeOptions::default()
+    };
+    let bytes = encode(&pm, &opts);
+    // Unchanged repack decodes (checks the helper itself).
+    let same = repack_chunk(&bytes, 1, |_| {});
+    decode_all(&same, Limits::default()).unwrap();
+    // Make the first record of chunk 1 reference a far-away vertex: its refs
+    // stream starts with the anchor delta; replace it by a huge svarint.
+    let bad = repack_chunk(&bytes, 1, |p| {
+        let mut r = pqm_format::varint::Reader::new(p, "t");
+        let mut lens = Vec::new();
+        let mut starts = Vec::new();
+        for _ in 0..5 {
+            let n = r.u().unwrap() as usize;
+            starts.push(p.len() - r.remaining());
+            lens.push(n);
+            r.bytes(n).unwrap();
+        }
+        let refs_start = starts[2];
+        // Rebuild the payload with a new first refs value (vertex 10^6).
+        let mut rd = pqm_format::varint::Reader::new(&p[refs_start..refs_start + lens[2]], "refs");
+        rd.s().unwrap();
+        let rest = rd.bytes(rd.remaining()).unwrap().to_vec();
+        let mut refs = Vec::new();
+        pqm_format::varint::put_s(&mut refs, 1_000_000);
+        refs.extend_from_slice(&rest);
+        let mut out = Vec::new();
+        for k in 0..5 {
+            let s: &[u8] = if k == 2 {
+                &refs
+            } else {
+                &p[starts[k]..starts[k] + lens[k]]
+            };
+            pqm_format::varint::put_u(&mut out, s.len() as u64);
+            out.extend_from_slice(s);
+        }
+        *p = out;
+    });
+    let mut dec = Decoder::new(Limits::default());
+    match dec.push(&bad) {
+        Err(DecodeError::Format(FormatError::BadRecord {
+            chunk: 1,
+            record: 20,
+            message,
+        })) => {
+            assert!(message.contains("1000000"), "{message}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(dec.deepest_level(), Some(20));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+
+    /// Random bytes as the five record streams of a valid mesh state: the
+    /// record decoder returns errors, never panics, and whatever it accepts
+    /// applies cleanly.
+    #[test]
+    fn random_record_streams_never_panic(
+        seed in 0u64..50,
+        streams in prop::collection::vec(prop::collection::vec(any::<u8>(), 0..48), 5),
+    ) {
+        use pqm_format::codec::{decode_record, Cursors, MeshState};
+        use pqm_format::varint::Reader;
+        let pm = testgen::generate(seed, 30);
+        let (pos, quads) = pm.level_quads(pm.records.len());
+        let q = expected_quantizer(&pm, 14);
+        let mut st = MeshState::new(q.qmax(), pos.iter().map(|p| q.quantize(*p)).collect(), quads);
+        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&streams[k], "s"));
+        let mut cur = Cursors::default();
+        let (mv, mf) = (st.q.len() as u32 + 20, st.quads.len() as u32 + 20);
+        for _ in 0..10 {
+            match decode_record(&st, &mut rd, &mut cur, mv, mf) {
+                Ok(r) => {
+                    st.apply(&r);
+                    prop_assert!(st.quads.iter().flatten().all(|&v| (v as usize) < st.q.len()));
+                }
+                Err(_) => break,
+            }
+        }
+    }
+}

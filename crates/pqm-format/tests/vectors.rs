@@ -1,0 +1,65 @@
+//! The checked-in vectors of `spec/vectors/` are what the generator writes
+//! today, byte for byte, and decode to their recorded digests and OBJs.
+
+use pqm_format::{decode_all, vectors, Limits, Target};
+use std::path::PathBuf;
+
+fn dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../spec/vectors")
+}
+
+#[test]
+fn checked_in_vectors_match_the_generator_and_their_digests() {
+    let all = vectors::all();
+    assert!(all.len() >= 4);
+    for v in all {
+        let path = dir().join(format!("{}.pqm", v.name));
+        let on_disk = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(
+            on_disk == v.bytes,
+            "{} differs from the generator (rerun `cargo run -p pqm-format --example make_vectors` if the format changed on purpose)",
+            v.name
+        );
+        // Decode the checked-in bytes and compare with the checked-in digest.
+        let mut dec = decode_all(&on_disk, Limits::default()).unwrap();
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir().join(format!("{}.json", v.name))).unwrap(),
+        )
+        .unwrap();
+        assert_eq!(json["bytes"].as_u64(), Some(on_disk.len() as u64));
+        let levels = json["levels"].as_array().unwrap();
+        assert_eq!(levels.len(), v.levels.len());
+        for l in levels {
+            let k = l["level"].as_u64().unwrap() as usize;
+            dec.set_level(Target::Level(k)).unwrap();
+            let (p, q) = vectors::level_digests(&dec);
+            assert_eq!(
+                l["vertex_count"].as_u64(),
+                Some(dec.positions().len() as u64)
+            );
+            assert_eq!(l["face_count"].as_u64(), Some(dec.quads().len() as u64));
+            assert_eq!(
+                l["positions_fnv1a64"].as_str().unwrap(),
+                format!("{p:016x}"),
+                "{} level {k}",
+                v.name
+            );
+            assert_eq!(
+                l["quads_fnv1a64"].as_str().unwrap(),
+                format!("{q:016x}"),
+                "{} level {k}",
+                v.name
+            );
+            let obj =
+                std::fs::read_to_string(dir().join(format!("{}.level{k}.obj", v.name))).unwrap();
+            assert!(obj == vectors::obj(&dec), "{} level {k} OBJ", v.name);
+        }
+    }
+}
+
+#[test]
+fn fnv1a64_matches_the_published_check_value() {
+    // FNV-1a 64 of "a" is 0xaf63dc4c8601ec8c (reference value of the algorithm).
+    assert_eq!(vectors::fnv1a64(*b"a"), 0xaf63_dc4c_8601_ec8c);
+    assert_eq!(vectors::fnv1a64([]), 0xcbf2_9ce4_8422_2325);
+}
