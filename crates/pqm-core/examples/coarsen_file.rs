@@ -17,7 +17,10 @@ fn main() {
     }
     let t = Instant::now();
     let mesh = Mesh::from_indexed(&im).expect("mesh");
-    let opts = CoarsenOptions { target_faces: Some(target), ..Default::default() };
+    let opts = CoarsenOptions {
+        target_faces: Some(target),
+        ..Default::default()
+    };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
     let r = c.run(&mut |_| {});
     let dt = t.elapsed();
@@ -29,7 +32,10 @@ fn main() {
         .map(|q| quad_scaled_jacobian(q.map(|v| m.position(v))))
         .collect();
     sj.sort_by(f64::total_cmp);
-    let ideal = m.vertices().filter(|&v| m.valence(v) == m.ideal_valence(v)).count();
+    let ideal = m
+        .vertices()
+        .filter(|&v| m.valence(v) == m.ideal_valence(v))
+        .count();
     let worst = m.vertices().map(|v| m.valence(v)).max().unwrap_or(0);
     println!(
         "{}: {} -> {} faces in {:.2?}; ideal {:.1}%, worst valence {}, SJ median {:.3} worst {:.3}; genus {} loops {} comps {}; {:?}",
