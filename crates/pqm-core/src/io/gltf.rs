@@ -7,8 +7,9 @@
 //! (vertices are not shared between primitives) and its triangles are offset
 //! accordingly; other modes (points, lines, strips, fans) are skipped.
 //! Non-indexed primitives use consecutive vertex triples. A mesh instanced
-//! by a scene node gets the world transform of its first instance (depth
-//! first, default scene first); meshes no node instances are read as stored.
+//! by a node gets the world transform of its first instance (depth first:
+//! default scene, other scenes, then root nodes in no scene, such as the
+//! coarser `MSFT_lod` levels); meshes no node instances are read as stored.
 //! Several instances of one mesh are read once.
 //!
 //! When `FB_ngon_encoding` is listed in `extensionsUsed`, polygons are
@@ -200,16 +201,32 @@ fn component_reader(t: DataType, normalized: bool) -> impl Fn(&[u8]) -> f64 {
 }
 
 /// The world transform of the first node instancing each mesh, in a
-/// depth-first walk of the default scene and then of the other scenes;
-/// `None` for meshes no scene node instances. The walk is iterative and
+/// depth-first walk of the default scene, then of the other scenes, then of
+/// the root nodes outside every scene; `None` for meshes no node instances. The walk is iterative and
 /// visits each node once, so hostile hierarchies (cycles, deep chains)
 /// neither loop nor overflow the stack.
 fn mesh_transforms(doc: &gltf::Document) -> Vec<Option<DMat4>> {
     let mut out = vec![None; doc.meshes().len()];
     let mut seen = vec![false; doc.nodes().len()];
+    let mut has_parent = vec![false; doc.nodes().len()];
+    for n in doc.nodes() {
+        for c in n.children() {
+            has_parent[c.index()] = true;
+        }
+    }
+    // Root nodes outside every scene come last: MSFT_lod keeps its coarser
+    // levels there.
+    let roots = doc
+        .default_scene()
+        .into_iter()
+        .chain(doc.scenes())
+        .map(|s| s.nodes().collect::<Vec<_>>())
+        .chain(std::iter::once(
+            doc.nodes().filter(|n| !has_parent[n.index()]).collect(),
+        ));
     let mut stack = Vec::new();
-    for scene in doc.default_scene().into_iter().chain(doc.scenes()) {
-        stack.extend(scene.nodes().map(|n| (n, DMat4::IDENTITY)));
+    for nodes in roots {
+        stack.extend(nodes.into_iter().rev().map(|n| (n, DMat4::IDENTITY)));
         while let Some((node, parent)) = stack.pop() {
             if std::mem::replace(&mut seen[node.index()], true) {
                 continue;
