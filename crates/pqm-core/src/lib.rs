@@ -7,8 +7,10 @@
 //! * [`mesh`] — [`Mesh`], the half-edge mesh with typed handles, ring iterators,
 //!   local patch replacement and `validate()`.
 
+pub mod bvh;
 pub mod indexed;
 pub mod mesh;
+pub mod metrics;
 
 pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};
