@@ -84,7 +84,7 @@ pub fn scaled_jacobian(mesh: &IndexedMesh) -> ScaledJacobianReport {
 /// corners score 0.
 pub fn polygon_scaled_jacobian(corners: &[DVec3]) -> f64 {
     let n = corners.len();
-    if n < 3 {
+    if n < 3 || !corners.iter().all(|p| p.is_finite()) {
         return 0.0;
     }
     let normal = newell_normal(corners);
@@ -116,7 +116,7 @@ pub fn polygon_scaled_jacobian(corners: &[DVec3]) -> f64 {
         } else {
             0.0
         };
-        // NaN/inf coordinates fall through every comparison above; map them to 0.
+        // Overflow (huge coordinates) could still produce NaN; never report it.
         let value = if value.is_finite() { value } else { 0.0 };
         worst = worst.min(value);
     }
