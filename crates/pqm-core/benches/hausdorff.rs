@@ -39,7 +39,9 @@ fn bench(c: &mut Criterion) {
     let a = bumpy_grid(450, 450);
     let b = bumpy_grid(452, 448);
     let mut group = c.benchmark_group("hausdorff");
-    group.sample_size(10).measurement_time(Duration::from_secs(30));
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(30));
     group.bench_function("grid450_vs_grid452x448_default", |bench| {
         bench.iter(|| black_box(hausdorff(&a, &b, &HausdorffOptions::default())))
     });

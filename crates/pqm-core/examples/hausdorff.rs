@@ -66,9 +66,16 @@ fn run() -> Result<(), String> {
         for (name, s, n) in [
             ("forward  (mesh -> ref)", r.forward, r.forward_samples),
             ("backward (ref -> mesh)", r.backward, r.backward_samples),
-            ("symmetric", r.symmetric, r.forward_samples + r.backward_samples),
+            (
+                "symmetric",
+                r.symmetric,
+                r.forward_samples + r.backward_samples,
+            ),
         ] {
-            println!("{name:<24} max {:.6e}  mean {:.6e}  ({n} samples)", s.max, s.mean);
+            println!(
+                "{name:<24} max {:.6e}  mean {:.6e}  ({n} samples)",
+                s.max, s.mean
+            );
         }
         println!("time {seconds:.3} s");
     }

@@ -6,18 +6,22 @@
 //! leaf when it holds at most 2 triangles, or at most 8 triangles and no split
 //! is cheaper than testing them all). Below depth 48 the builder switches to
 //! median splits so the depth stays below 48 + log2(n) even for pathological
-//! inputs. The tree is flattened into one array in depth-first order (left
-//! child right after its parent), and the triangles' corner positions are
-//! copied in leaf order so a query touches contiguous memory.
+//! inputs. Subtrees of more than 8192 triangles are built in parallel with
+//! rayon. The tree is flattened into one array of 64-byte nodes in depth-first
+//! order, each node holding the `f32` boxes of its two children (so one cache
+//! line decides which children to visit; see `Node`), and the triangles'
+//! corner positions are copied in leaf order so a query touches contiguous
+//! memory.
 //!
 //! [`Bvh::closest_point`] returns the exact closest point on the union of the
 //! triangles (Ericson, *Real-Time Collision Detection*, §5.1.5, with a
 //! segment fallback for degenerate triangles), the index of the triangle it
 //! lies on (into the `triangles` slice given to `build`) and the squared
 //! distance. The traversal visits the nearer child first and prunes boxes that
-//! are farther than the best distance found; [`Bvh::closest_point_hinted`]
-//! starts from a guess (typically the previous answer for a nearby point),
-//! which makes coherent query streams much faster.
+//! are farther than the best distance found (conservatively: `f32` boxes are
+//! padded and rounded outwards, so pruning never loses the true answer);
+//! [`Bvh::closest_point_hinted`] starts from a guess (typically the previous
+//! answer for a nearby point).
 //!
 //! All coordinates are `f64`, in the units of the input positions. Queries are
 //! `&self` and thread-safe.
@@ -52,35 +56,59 @@ pub enum BvhError {
     TooManyTriangles(usize),
 }
 
-/// One flattened node. Interior nodes (`count == 0`) have their left child at
-/// `index + 1` and their right child at `first`; leaves hold the triangles
-/// `first .. first + count` of the leaf-ordered arrays.
+/// Node of the temporary build tree (each node has its own box). Interior
+/// nodes (`count == 0`) have their left child right after them and their right
+/// child `right` entries after them (relative, so subtrees built in parallel
+/// concatenate without fix-ups); leaves hold the triangles `first .. first + count`.
 #[derive(Clone, Copy, Debug)]
-struct Node {
-    lo: DVec3,
-    hi: DVec3,
+struct BuildNode {
+    bounds: Aabb,
+    right: u32,
     first: u32,
     count: u32,
+}
+
+/// A flattened node, holding the boxes of its two children so one cache line
+/// (64 bytes) decides which children to visit. Child `k` is a leaf with the
+/// triangles `link[k] .. link[k] + count[k]` when `count[k] > 0`, an interior
+/// node at index `link[k]` otherwise, or absent when `link[k] == u32::MAX`.
+/// Boxes are `f32`, relative to [`Bvh::origin`], rounded outwards and padded
+/// so that box distances can only be underestimated (see [`Bvh::search`]).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node {
+    lo: [[f32; 3]; 2],
+    hi: [[f32; 3]; 2],
+    link: [u32; 2],
+    count: [u32; 2],
 }
 
 /// Triangle BVH for closest-point queries (see the module documentation).
 #[derive(Clone, Debug)]
 pub struct Bvh {
     nodes: Vec<Node>,
+    /// Centre of the scene box; node boxes are stored relative to it.
+    origin: DVec3,
     /// Corner positions of the triangles, in leaf order.
     corners: Vec<[DVec3; 3]>,
     /// `original[i]` = index (into the build input) of leaf-ordered triangle `i`.
     original: Vec<u32>,
     /// `slot[t]` = leaf-order position of input triangle `t`.
     slot: Vec<u32>,
+    /// Bounds of all triangles (exact, `f64`).
+    bounds: Option<(DVec3, DVec3)>,
 }
 
 const BINS: usize = 16;
 const MAX_SAH_DEPTH: usize = 48;
 /// Fixed traversal stack: the depth bound above plus 32 median levels, with margin.
 const STACK: usize = 128;
+/// Subtrees with more triangles than this are built in parallel (rayon::join).
+const PARALLEL_BUILD: usize = 8192;
+/// Relative safety factor on `f32` box distances (see [`Bvh::search`]).
+const PRUNE_FACTOR: f64 = 1.0 - 1e-5;
 
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Aabb {
     lo: DVec3,
     hi: DVec3,
@@ -108,32 +136,54 @@ impl Aabb {
 struct Builder<'a> {
     boxes: &'a [Aabb],
     centroids: &'a [DVec3],
-    nodes: Vec<Node>,
 }
 
 impl Builder<'_> {
-    /// Builds the subtree over `items` (triangle indices, reordered in place);
-    /// `offset` is the position of `items[0]` in the final leaf order.
-    fn build(&mut self, items: &mut [u32], offset: usize, depth: usize) {
+    /// Builds the subtree over `items` (triangle indices, reordered in place)
+    /// and appends its nodes to `out`; `offset` is the position of `items[0]`
+    /// in the final leaf order.
+    fn build(&self, items: &mut [u32], offset: usize, depth: usize, out: &mut Vec<BuildNode>) {
         let mut bounds = Aabb::EMPTY;
         let mut cbounds = Aabb::EMPTY;
         for &t in items.iter() {
             bounds.grow(&self.boxes[t as usize]);
             cbounds.grow_point(self.centroids[t as usize]);
         }
-        let index = self.nodes.len();
-        self.nodes.push(Node {
-            lo: bounds.lo,
-            hi: bounds.hi,
+        let index = out.len();
+        out.push(BuildNode {
+            bounds,
+            right: 0,
             first: offset as u32,
-            count: 0,
+            count: items.len() as u32,
         });
+        let Some(mid) = self.split(items, depth, &bounds, &cbounds) else {
+            return;
+        };
+        out[index].count = 0;
+        let (left, right) = items.split_at_mut(mid);
+        if items_len(left, right) > PARALLEL_BUILD {
+            let (mut l, mut r) = (Vec::new(), Vec::new());
+            rayon::join(
+                || self.build(left, offset, depth + 1, &mut l),
+                || self.build(right, offset + mid, depth + 1, &mut r),
+            );
+            out[index].right = (l.len() + 1) as u32;
+            out.extend_from_slice(&l);
+            out.extend_from_slice(&r);
+        } else {
+            self.build(left, offset, depth + 1, out);
+            out[index].right = (out.len() - index) as u32;
+            self.build(right, offset + mid, depth + 1, out);
+        }
+    }
+
+    /// Where to split `items` (after partitioning them), or `None` for a leaf.
+    fn split(&self, items: &mut [u32], depth: usize, bounds: &Aabb, cb: &Aabb) -> Option<usize> {
         let n = items.len();
         if n <= 2 {
-            self.nodes[index].count = n as u32;
-            return;
+            return None;
         }
-        let extent = cbounds.hi - cbounds.lo;
+        let extent = cb.hi - cb.lo;
         let axis = if extent.x >= extent.y && extent.x >= extent.z {
             0
         } else if extent.y >= extent.z {
@@ -141,29 +191,15 @@ impl Builder<'_> {
         } else {
             2
         };
-        let mid = if extent[axis] <= 0.0 {
-            // All centroids coincide: any split is as good as another.
-            if n <= 8 {
-                self.nodes[index].count = n as u32;
-                return;
-            }
-            n / 2
-        } else if depth >= MAX_SAH_DEPTH {
-            self.median_split(items, axis)
-        } else {
-            match self.sah_split(items, axis, cbounds.lo[axis], extent[axis], &bounds) {
-                Some(mid) => mid,
-                None => {
-                    // A leaf is cheaper; only accepted for small sets (see `sah_split`).
-                    self.nodes[index].count = n as u32;
-                    return;
-                }
-            }
-        };
-        let (left, right) = items.split_at_mut(mid);
-        self.build(left, offset, depth + 1);
-        self.nodes[index].first = self.nodes.len() as u32;
-        self.build(right, offset + mid, depth + 1);
+        if extent[axis] <= 0.0 {
+            // All centroids coincide: any split is as good as another. Leaves
+            // stay at most 8 triangles.
+            return (n > 8).then_some(n / 2);
+        }
+        if depth >= MAX_SAH_DEPTH {
+            return Some(self.median_split(items, axis));
+        }
+        self.sah_split(items, axis, cb.lo[axis], extent[axis], bounds)
     }
 
     fn median_split(&self, items: &mut [u32], axis: usize) -> usize {
@@ -223,19 +259,16 @@ impl Builder<'_> {
             }
         }
         let n = items.len();
-        // Cost model: traversal step = 1 triangle test, costs relative to the parent area.
-        let parent = bounds.half_area().max(f64::MIN_POSITIVE);
-        let split_cost = 1.0 + best.0 / parent;
         if best.0.is_infinite() {
             return Some(self.median_split(items, axis));
         }
-        if n <= 8 && split_cost >= n as f64 {
+        // Cost model: one traversal step costs one triangle test.
+        let parent = bounds.half_area().max(f64::MIN_POSITIVE);
+        if n <= 8 && 1.0 + best.0 / parent >= n as f64 {
             return None;
         }
         let split_bin = best.1;
-        // Partition: bins < split_bin to the left.
-        let mut i = 0;
-        let mut j = n;
+        let (mut i, mut j) = (0, n);
         while i < j {
             if bin_of(items[i]) < split_bin {
                 i += 1;
@@ -248,13 +281,17 @@ impl Builder<'_> {
     }
 }
 
+fn items_len(a: &[u32], b: &[u32]) -> usize {
+    a.len() + b.len()
+}
+
 impl Bvh {
     /// Builds the BVH of `triangles` (vertex index triples into `positions`).
     ///
     /// Degenerate triangles (repeated or collinear corners) are accepted. Fails
     /// with a [`BvhError`] when an index is out of range or a used position is
     /// not finite. An empty triangle list gives an empty BVH whose queries
-    /// return `None`.
+    /// return `None`. Large inputs are built in parallel (rayon).
     pub fn build(positions: &[DVec3], triangles: &[[u32; 3]]) -> Result<Bvh, BvhError> {
         if triangles.len() > (1usize << 31) {
             return Err(BvhError::TooManyTriangles(triangles.len()));
@@ -287,15 +324,16 @@ impl Bvh {
             .collect();
         let centroids: Vec<DVec3> = boxes.iter().map(|b| (b.lo + b.hi) * 0.5).collect();
         let mut items: Vec<u32> = (0..triangles.len() as u32).collect();
-        let mut builder = Builder {
-            boxes: &boxes,
-            centroids: &centroids,
-            nodes: Vec::with_capacity(triangles.len()),
-        };
+        let mut tree = Vec::with_capacity(2 * triangles.len());
         if !items.is_empty() {
-            builder.build(&mut items, 0, 0);
+            Builder {
+                boxes: &boxes,
+                centroids: &centroids,
+            }
+            .build(&mut items, 0, 0, &mut tree);
         }
-        let nodes = builder.nodes;
+        let bounds = tree.first().map(|n| (n.bounds.lo, n.bounds.hi));
+        let (origin, nodes) = flatten(&tree);
         let corners: Vec<[DVec3; 3]> = items.iter().map(|&t| tri_corners[t as usize]).collect();
         let mut slot = vec![0u32; triangles.len()];
         for (i, &t) in items.iter().enumerate() {
@@ -303,9 +341,11 @@ impl Bvh {
         }
         Ok(Bvh {
             nodes,
+            origin,
             corners,
             original: items,
             slot,
+            bounds,
         })
     }
 
@@ -321,16 +361,13 @@ impl Bvh {
 
     /// Bounding box `(min, max)` of all triangles; `None` when empty.
     pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
-        self.nodes.first().map(|n| (n.lo, n.hi))
+        self.bounds
     }
 
     /// Closest point to `p` on the triangles: `(point, triangle index, squared
     /// distance)`, the triangle index being into the slice given to
     /// [`Bvh::build`]. `None` only when the BVH is empty or `p` is not finite.
     pub fn closest_point(&self, p: DVec3) -> Option<(DVec3, usize, f64)> {
-        if !p.is_finite() {
-            return None;
-        }
         self.search(p, None)
             .map(|(q, s, d2)| (q, self.original[s as usize] as usize, d2))
     }
@@ -341,86 +378,268 @@ impl Bvh {
     /// result is the same as without a hint (up to ties); an out-of-range hint
     /// is ignored.
     pub fn closest_point_hinted(&self, p: DVec3, hint: usize) -> Option<(DVec3, usize, f64)> {
-        if !p.is_finite() {
-            return None;
-        }
         let slot = self.slot.get(hint).copied();
         self.search(p, slot)
             .map(|(q, s, d2)| (q, self.original[s as usize] as usize, d2))
     }
 
-    /// Internal query working with leaf-order slots (used by the Hausdorff
-    /// sampler to carry hints without translating indices).
+    /// The query, working with leaf-order slots (the Hausdorff sampler carries
+    /// hints as slots to avoid translating indices).
+    ///
+    /// Pruning uses `f32` box distances computed from `p − origin` rounded to
+    /// `f32`. Boxes were padded by `1e-6 ×` the scene's half-diagonal before
+    /// rounding outwards, which covers the rounding of `p` for points within
+    /// twice that distance of the origin; farther points have box distances
+    /// large enough for the relative factor `PRUNE_FACTOR` to cover it. A box
+    /// is skipped only when its distance provably exceeds the best so far, so
+    /// the answer is exact (up to `f64` rounding in the triangle test).
     pub(crate) fn search(&self, p: DVec3, hint_slot: Option<u32>) -> Option<(DVec3, u32, f64)> {
-        let root = self.nodes.first()?;
-        let mut best_d2 = f64::INFINITY;
-        let mut best = (DVec3::ZERO, 0u32);
-        if let Some(s) = hint_slot.filter(|&s| (s as usize) < self.corners.len()) {
-            let [a, b, c] = self.corners[s as usize];
-            let q = closest_point_on_triangle(p, a, b, c);
-            best_d2 = (p - q).length_squared();
-            best = (q, s);
+        if self.nodes.is_empty() || !p.is_finite() {
+            return None;
         }
+        // (closest point, slot, squared distance) so far.
+        let mut best = (DVec3::ZERO, 0u32, f64::INFINITY);
+        if let Some(s) = hint_slot.filter(|&s| (s as usize) < self.corners.len()) {
+            self.test_leaf(p, s, 1, &mut best);
+        }
+        let rel = p - self.origin;
+        let q32 = [rel.x as f32, rel.y as f32, rel.z as f32];
         let mut stack = [(0u32, 0.0f64); STACK];
         let mut sp = 0usize;
         let mut node = 0u32;
-        if box_distance_squared(p, root.lo, root.hi) > best_d2 {
-            return Some((best.0, best.1, best_d2));
-        }
         loop {
             let n = &self.nodes[node as usize];
-            if n.count > 0 {
-                let first = n.first as usize;
-                for s in first..first + n.count as usize {
-                    let [a, b, c] = self.corners[s];
-                    let q = closest_point_on_triangle(p, a, b, c);
-                    let d2 = (p - q).length_squared();
-                    if d2 < best_d2 {
-                        best_d2 = d2;
-                        best = (q, s as u32);
-                    }
-                }
+            let d0 = box_distance_squared(q32, &n.lo[0], &n.hi[0]) as f64 * PRUNE_FACTOR;
+            let d1 = box_distance_squared(q32, &n.lo[1], &n.hi[1]) as f64 * PRUNE_FACTOR;
+            let (near, dn, far, df) = if d0 <= d1 {
+                (0, d0, 1, d1)
             } else {
-                let (l, r) = (node + 1, n.first);
-                let nl = &self.nodes[l as usize];
-                let nr = &self.nodes[r as usize];
-                let dl = box_distance_squared(p, nl.lo, nl.hi);
-                let dr = box_distance_squared(p, nr.lo, nr.hi);
-                let (near, dn, far, df) = if dl <= dr {
-                    (l, dl, r, dr)
+                (1, d1, 0, d0)
+            };
+            // Strict comparisons: a box no closer than the best cannot improve it
+            // (and the absent child's infinite distance is never visited).
+            let mut next = None;
+            if dn < best.2 {
+                if n.count[near] > 0 {
+                    self.test_leaf(p, n.link[near], n.count[near], &mut best);
                 } else {
-                    (r, dr, l, dl)
-                };
-                if dn < best_d2 {
-                    if df < best_d2 && sp < STACK {
-                        stack[sp] = (far, df);
-                        sp += 1;
-                    }
-                    node = near;
-                    continue;
+                    next = Some(n.link[near]);
                 }
             }
-            // Pop the next box that can still hold something closer.
+            if df < best.2 {
+                if n.count[far] > 0 {
+                    self.test_leaf(p, n.link[far], n.count[far], &mut best);
+                } else if next.is_none() {
+                    next = Some(n.link[far]);
+                } else if sp < STACK {
+                    stack[sp] = (n.link[far], df);
+                    sp += 1;
+                }
+            }
+            if let Some(m) = next {
+                node = m;
+                continue;
+            }
+            // Pop the next subtree that can still hold something closer.
             loop {
                 if sp == 0 {
-                    return Some((best.0, best.1, best_d2));
+                    return Some(best);
                 }
                 sp -= 1;
                 let (m, d) = stack[sp];
-                if d < best_d2 {
+                if d < best.2 {
                     node = m;
                     break;
                 }
             }
         }
     }
+
+    /// Appends to `out` the leaf-order slots of the triangles whose boxes lie
+    /// within `radius` of the box `[lo, hi]` (conservatively: a few slightly
+    /// farther ones may be included, none within `radius` is missed). Stops and
+    /// returns `false` as soon as more than `limit` slots would be appended.
+    pub(crate) fn collect_near_box(
+        &self,
+        lo: DVec3,
+        hi: DVec3,
+        radius: f64,
+        limit: usize,
+        out: &mut Vec<u32>,
+    ) -> bool {
+        if self.nodes.is_empty() {
+            return true;
+        }
+        let (qlo, qhi) = (round_down(lo - self.origin), round_up(hi - self.origin));
+        let r2 = radius * radius;
+        let start = out.len();
+        let mut stack = [0u32; STACK];
+        let mut sp = 0usize;
+        let mut node = 0u32;
+        loop {
+            let n = &self.nodes[node as usize];
+            let mut next = None;
+            for k in 0..2 {
+                let d2 = box_box_distance_squared(&qlo, &qhi, &n.lo[k], &n.hi[k]) as f64;
+                if d2 * PRUNE_FACTOR > r2 || n.link[k] == u32::MAX {
+                    continue;
+                }
+                if n.count[k] > 0 {
+                    if out.len() - start + n.count[k] as usize > limit {
+                        return false;
+                    }
+                    out.extend(n.link[k]..n.link[k] + n.count[k]);
+                } else if next.is_none() {
+                    next = Some(n.link[k]);
+                } else if sp < STACK {
+                    stack[sp] = n.link[k];
+                    sp += 1;
+                }
+            }
+            match next {
+                Some(m) => node = m,
+                None if sp > 0 => {
+                    sp -= 1;
+                    node = stack[sp];
+                }
+                None => return true,
+            }
+        }
+    }
+
+    /// Corner positions of the triangle at leaf-order `slot`.
+    #[inline]
+    pub(crate) fn slot_corners(&self, slot: u32) -> [DVec3; 3] {
+        self.corners[slot as usize]
+    }
+
+    /// Tests the leaf-ordered triangles `first .. first + count` against `best`.
+    #[inline(always)]
+    fn test_leaf(&self, p: DVec3, first: u32, count: u32, best: &mut (DVec3, u32, f64)) {
+        for s in first..first + count {
+            let [a, b, c] = self.corners[s as usize];
+            let q = closest_point_on_triangle(p, a, b, c);
+            let d2 = (p - q).length_squared();
+            if d2 < best.2 {
+                *best = (q, s, d2);
+            }
+        }
+    }
 }
 
-/// Squared distance from `p` to the box `[lo, hi]` (0 inside).
-#[inline]
-fn box_distance_squared(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
-    let d = (lo - p).max(p - hi).max(DVec3::ZERO);
-    d.length_squared()
+/// Converts the build tree into the child-box layout (see [`Node`]).
+fn flatten(tree: &[BuildNode]) -> (DVec3, Vec<Node>) {
+    let Some(root) = tree.first() else {
+        return (DVec3::ZERO, Vec::new());
+    };
+    let origin = (root.bounds.lo + root.bounds.hi) * 0.5;
+    let pad = 1e-6 * (root.bounds.hi - root.bounds.lo).length() * 0.5;
+    let to_f32 = |b: &Aabb| -> ([f32; 3], [f32; 3]) {
+        let lo = b.lo - origin - DVec3::splat(pad);
+        let hi = b.hi - origin + DVec3::splat(pad);
+        (round_down(lo), round_up(hi))
+    };
+    // New index of every interior build node (depth-first order is kept).
+    let mut new_index = vec![u32::MAX; tree.len()];
+    let mut count = 0u32;
+    for (i, n) in tree.iter().enumerate() {
+        if n.count == 0 {
+            new_index[i] = count;
+            count += 1;
+        }
+    }
+    let empty = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    let child = |i: usize| -> ([f32; 3], [f32; 3], u32, u32) {
+        let n = &tree[i];
+        let (lo, hi) = to_f32(&n.bounds);
+        if n.count > 0 {
+            (lo, hi, n.first, n.count)
+        } else {
+            (lo, hi, new_index[i], 0)
+        }
+    };
+    let mut nodes = Vec::with_capacity(count.max(1) as usize);
+    if root.count > 0 {
+        // A single leaf: one node whose second child is absent.
+        let (lo, hi, link, cnt) = child(0);
+        nodes.push(Node {
+            lo: [lo, empty.0],
+            hi: [hi, empty.1],
+            link: [link, u32::MAX],
+            count: [cnt, 0],
+        });
+        return (origin, nodes);
+    }
+    for (i, n) in tree.iter().enumerate() {
+        if n.count == 0 {
+            let (lo0, hi0, l0, c0) = child(i + 1);
+            let (lo1, hi1, l1, c1) = child(i + n.right as usize);
+            nodes.push(Node {
+                lo: [lo0, lo1],
+                hi: [hi0, hi1],
+                link: [l0, l1],
+                count: [c0, c1],
+            });
+        }
+    }
+    (origin, nodes)
+}
+
+/// Componentwise `f32` not above `v` (the cast rounds to nearest; step one ulp down if needed).
+fn round_down(v: DVec3) -> [f32; 3] {
+    v.to_array().map(|x| {
+        let y = x as f32;
+        if (y as f64) > x {
+            next_toward_neg(y)
+        } else {
+            y
+        }
+    })
+}
+
+/// Componentwise `f32` not below `v`.
+fn round_up(v: DVec3) -> [f32; 3] {
+    v.to_array().map(|x| {
+        let y = x as f32;
+        if (y as f64) < x {
+            -next_toward_neg(-y)
+        } else {
+            y
+        }
+    })
+}
+
+/// The largest `f32` below `y` (finite, non-NaN `y`).
+fn next_toward_neg(y: f32) -> f32 {
+    if y == 0.0 {
+        -f32::from_bits(1)
+    } else if y > 0.0 {
+        f32::from_bits(y.to_bits() - 1)
+    } else {
+        f32::from_bits(y.to_bits() + 1)
+    }
+}
+
+/// Squared distance from `p` to the box `[lo, hi]` (0 inside; +∞ for the
+/// empty box of an absent child).
+#[inline(always)]
+fn box_distance_squared(p: [f32; 3], lo: &[f32; 3], hi: &[f32; 3]) -> f32 {
+    let dx = (lo[0] - p[0]).max(p[0] - hi[0]).max(0.0);
+    let dy = (lo[1] - p[1]).max(p[1] - hi[1]).max(0.0);
+    let dz = (lo[2] - p[2]).max(p[2] - hi[2]).max(0.0);
+    dx * dx + dy * dy + dz * dz
+}
+
+/// Squared distance between the boxes `[alo, ahi]` and `[blo, bhi]` (0 when
+/// they overlap; +∞ when one is the empty box).
+#[inline(always)]
+fn box_box_distance_squared(alo: &[f32; 3], ahi: &[f32; 3], blo: &[f32; 3], bhi: &[f32; 3]) -> f32 {
+    let mut d2 = 0.0;
+    for k in 0..3 {
+        let gap = (blo[k] - ahi[k]).max(alo[k] - bhi[k]).max(0.0);
+        d2 += gap * gap;
+    }
+    d2
 }
 
 /// Closest point to `p` on triangle `abc` (Ericson, *Real-Time Collision
@@ -477,7 +696,7 @@ pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec
     }
     // Interior: va + vb + vc = |ab × ac|² (Lagrange's identity).
     let sum = va + vb + vc;
-    if !(sum > 1e-24 * ab.length_squared() * ac.length_squared()) {
+    if sum.is_nan() || sum <= 1e-24 * ab.length_squared() * ac.length_squared() {
         return closest_point_on_degenerate(p, a, b, c);
     }
     let inv = 1.0 / sum;
@@ -508,4 +727,58 @@ fn segment_closest(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
         return a;
     }
     a + ab * ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn collect_near_box_finds_every_close_triangle() {
+        let mut state = 7u64;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let positions: Vec<DVec3> = (0..600)
+            .map(|_| DVec3::new(rnd() * 10.0, rnd() * 10.0, rnd()))
+            .collect();
+        let tris: Vec<[u32; 3]> = (0..400)
+            .map(|i| {
+                let a = (i % 600) as u32;
+                [
+                    a,
+                    (a + 1 + (rnd() * 5.0) as u32) % 600,
+                    (a + 2 + (rnd() * 5.0) as u32) % 600,
+                ]
+            })
+            .collect();
+        let bvh = Bvh::build(&positions, &tris).unwrap();
+        for _ in 0..200 {
+            let lo = DVec3::new(rnd() * 10.0, rnd() * 10.0, rnd());
+            let hi = lo + DVec3::new(rnd(), rnd(), rnd()) * 0.5;
+            let radius = rnd() * 2.0;
+            let mut got = Vec::new();
+            assert!(bvh.collect_near_box(lo, hi, radius, usize::MAX, &mut got));
+            let got: std::collections::HashSet<usize> = got
+                .iter()
+                .map(|&s| bvh.original[s as usize] as usize)
+                .collect();
+            for (t, tri) in tris.iter().enumerate() {
+                let c = tri.map(|v| positions[v as usize]);
+                let (tlo, thi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                let gap = (tlo - hi).max(lo - thi).max(DVec3::ZERO).length();
+                if gap <= radius {
+                    assert!(got.contains(&t), "triangle {t} at {gap} <= {radius} missed");
+                }
+            }
+            // The limit aborts.
+            let mut few = Vec::new();
+            if got.len() > 1 {
+                assert!(!bvh.collect_near_box(lo, hi, radius, got.len() - 1, &mut few));
+            }
+        }
+    }
 }

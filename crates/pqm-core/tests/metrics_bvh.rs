@@ -97,7 +97,9 @@ fn large_grid_queries_match_brute_force() {
     let bvh = Bvh::build(&positions, &tris).unwrap();
     let mut state = 12345u64;
     let mut rnd = || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
     for _ in 0..300 {
@@ -112,10 +114,23 @@ fn large_grid_queries_match_brute_force() {
 fn errors_and_empty_inputs() {
     let pos = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
     let err = Bvh::build(&pos, &[[0, 1, 2], [0, 1, 3]]).unwrap_err();
-    assert_eq!(err, BvhError::IndexOutOfRange { triangle: 1, vertex: 3, count: 3 });
+    assert_eq!(
+        err,
+        BvhError::IndexOutOfRange {
+            triangle: 1,
+            vertex: 3,
+            count: 3
+        }
+    );
     assert!(err.to_string().contains("triangle 1 references vertex 3"));
     let nan = vec![DVec3::ZERO, DVec3::X, DVec3::new(f64::NAN, 0.0, 0.0)];
-    assert_eq!(Bvh::build(&nan, &[[0, 1, 2]]).unwrap_err(), BvhError::NonFinite { triangle: 0, vertex: 2 });
+    assert_eq!(
+        Bvh::build(&nan, &[[0, 1, 2]]).unwrap_err(),
+        BvhError::NonFinite {
+            triangle: 0,
+            vertex: 2
+        }
+    );
     let empty = Bvh::build(&pos, &[]).unwrap();
     assert!(empty.is_empty());
     assert_eq!(empty.closest_point(DVec3::ONE), None);
@@ -124,5 +139,10 @@ fn errors_and_empty_inputs() {
     let (q, t, d2) = one.closest_point(DVec3::new(0.25, 0.25, 2.0)).unwrap();
     assert_eq!((q, t, d2), (DVec3::new(0.25, 0.25, 0.0), 0, 4.0));
     // An out-of-range hint is ignored.
-    assert_eq!(one.closest_point_hinted(DVec3::new(0.25, 0.25, 2.0), 99).unwrap().2, 4.0);
+    assert_eq!(
+        one.closest_point_hinted(DVec3::new(0.25, 0.25, 2.0), 99)
+            .unwrap()
+            .2,
+        4.0
+    );
 }

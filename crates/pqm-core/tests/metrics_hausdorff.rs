@@ -59,7 +59,9 @@ fn pyramid_apex_gives_the_height() {
 #[test]
 fn swapping_the_meshes_swaps_directions() {
     let a = common::grid(12, 9, |x, y| 0.3 * (x * 0.7).sin() + 0.2 * (y * 0.5).cos());
-    let b = common::grid(12, 9, |x, y| 0.25 * (x * 0.6).sin() + 0.2 * (y * 0.55).cos());
+    let b = common::grid(12, 9, |x, y| {
+        0.25 * (x * 0.6).sin() + 0.2 * (y * 0.55).cos()
+    });
     let b = translated(&b, DVec3::new(0.5, 0.5, 0.5)); // different bounding box too
     let opts = HausdorffOptions::default();
     let ab = hausdorff(&a, &b, &opts);
@@ -68,8 +70,14 @@ fn swapping_the_meshes_swaps_directions() {
     let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * x.abs().max(y.abs());
     assert!(close(ab.forward.max * ab.unit, ba.backward.max * ba.unit));
     assert!(close(ab.backward.max * ab.unit, ba.forward.max * ba.unit));
-    assert!(close(ab.symmetric.max * ab.unit, ba.symmetric.max * ba.unit));
-    assert!(close(ab.symmetric.mean * ab.unit, ba.symmetric.mean * ba.unit));
+    assert!(close(
+        ab.symmetric.max * ab.unit,
+        ba.symmetric.max * ba.unit
+    ));
+    assert!(close(
+        ab.symmetric.mean * ab.unit,
+        ba.symmetric.mean * ba.unit
+    ));
     assert!(ab.symmetric.max > 0.0 && ab.forward_samples == ba.backward_samples);
     assert_eq!(ab.symmetric.max, ab.forward.max.max(ab.backward.max));
     // The symmetric mean is the sample-weighted mean of both directions.
@@ -89,22 +97,53 @@ fn more_samples_never_lower_much_and_converge() {
         flat.positions.iter().map(|p| *p * 10.0 / 3.0).collect(),
         flat.faces().map(|f| f.to_vec()).collect::<Vec<_>>(),
     );
-    let coarse = hausdorff(&bumpy, &flat, &HausdorffOptions { samples: Some(100), ..Default::default() });
-    let fine = hausdorff(&bumpy, &flat, &HausdorffOptions { samples: Some(100_000), ..Default::default() });
+    let coarse = hausdorff(
+        &bumpy,
+        &flat,
+        &HausdorffOptions {
+            samples: Some(100),
+            ..Default::default()
+        },
+    );
+    let fine = hausdorff(
+        &bumpy,
+        &flat,
+        &HausdorffOptions {
+            samples: Some(100_000),
+            ..Default::default()
+        },
+    );
     // The exact forward maximum is max |z| = 0.2 · max|sin| · max|cos| over the grid points.
-    let exact = bumpy.positions.iter().map(|p| p.z.abs()).fold(0.0, f64::max) / flat.bbox_diagonal();
+    let exact = bumpy
+        .positions
+        .iter()
+        .map(|p| p.z.abs())
+        .fold(0.0, f64::max)
+        / flat.bbox_diagonal();
     assert!(fine.forward.max >= coarse.forward.max - 1e-15);
-    assert!((fine.forward.max - exact).abs() < 1e-12, "{} vs {exact}", fine.forward.max);
+    assert!(
+        (fine.forward.max - exact).abs() < 1e-12,
+        "{} vs {exact}",
+        fine.forward.max
+    );
     assert!(fine.forward_samples > coarse.forward_samples);
 }
 
 #[test]
 fn sampling_flags_and_degenerate_inputs() {
     let m = common::grid(4, 4, |_, _| 0.0);
-    let only_vertices = HausdorffOptions { sample_edges: false, sample_faces: false, ..Default::default() };
+    let only_vertices = HausdorffOptions {
+        sample_edges: false,
+        sample_faces: false,
+        ..Default::default()
+    };
     let r = hausdorff(&m, &m, &only_vertices);
     assert_eq!(r.forward_samples, 25);
-    let only_edges = HausdorffOptions { sample_vertices: false, sample_faces: false, ..Default::default() };
+    let only_edges = HausdorffOptions {
+        sample_vertices: false,
+        sample_faces: false,
+        ..Default::default()
+    };
     assert_eq!(hausdorff(&m, &m, &only_edges).forward_samples, 40);
 
     // Empty reference: infinitely far. Empty both: zero.

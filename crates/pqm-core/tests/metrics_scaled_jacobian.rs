@@ -48,7 +48,12 @@ fn dart_quad_is_negative() {
 fn folded_non_planar_quad_is_negative() {
     // A square whose corner 2 is folded back past the diagonal and lifted out
     // of the plane: its corner normal points against the average (Newell) normal.
-    let folded = [v(0., 0., 0.), v(1., 0., 0.), v(0.25, 0.25, 0.3), v(0., 1., 0.)];
+    let folded = [
+        v(0., 0., 0.),
+        v(1., 0., 0.),
+        v(0.25, 0.25, 0.3),
+        v(0., 1., 0.),
+    ];
     let sj = polygon_scaled_jacobian(&folded);
     assert!(sj < 0.0, "{sj}");
     // A mildly non-planar quad stays positive and close to its planar value.
@@ -80,15 +85,26 @@ fn degenerate_faces_score_zero_or_negative_never_nan() {
     // All corners on one point.
     assert_eq!(polygon_scaled_jacobian(&[v(1., 1., 1.); 4]), 0.0);
     // Collinear.
-    assert_eq!(polygon_scaled_jacobian(&[v(0., 0., 0.), v(1., 0., 0.), v(2., 0., 0.)]), 0.0);
+    assert_eq!(
+        polygon_scaled_jacobian(&[v(0., 0., 0.), v(1., 0., 0.), v(2., 0., 0.)]),
+        0.0
+    );
     // Symmetric bow-tie: zero vector area, no orientation → counted as folded.
     let bowtie = [v(0., 0., 0.), v(1., 1., 0.), v(1., 0., 0.), v(0., 1., 0.)];
     assert!(polygon_scaled_jacobian(&bowtie) < 0.0);
     // NaN coordinates.
-    let nan = [v(f64::NAN, 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)];
+    let nan = [
+        v(f64::NAN, 0., 0.),
+        v(1., 0., 0.),
+        v(1., 1., 0.),
+        v(0., 1., 0.),
+    ];
     assert_eq!(polygon_scaled_jacobian(&nan), 0.0);
     // Bad faces in a mesh: too short, out of range.
-    let mut m = IndexedMesh::from_faces(vec![v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.)], [[0u32, 1, 2]]);
+    let mut m = IndexedMesh::from_faces(
+        vec![v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.)],
+        [[0u32, 1, 2]],
+    );
     m.push_face(&[0, 1]);
     m.push_face(&[0, 1, 9]);
     let r = scaled_jacobian(&m);
@@ -116,7 +132,11 @@ fn real_quad_mesh_is_mostly_well_shaped() {
     let r = scaled_jacobian(&common::load_shared("quad/spot_quadrangulated.obj"));
     assert_eq!(r.per_face.len(), 2928);
     assert!(r.stats.median > 0.8, "{:?}", r.stats);
-    assert!(r.stats.worst > 0.0 && r.stats.worst <= r.stats.median, "{:?}", r.stats);
+    assert!(
+        r.stats.worst > 0.0 && r.stats.worst <= r.stats.median,
+        "{:?}",
+        r.stats
+    );
 }
 
 fn arb_point() -> impl Strategy<Value = DVec3> {
@@ -128,7 +148,7 @@ proptest! {
     fn bounded_and_invariant_under_similarity(
         quad in proptest::array::uniform4(arb_point()),
         axis in arb_point(),
-        angle in 0.0f64..6.28,
+        angle in 0.0f64..std::f64::consts::TAU,
         scale in 0.01f64..100.0,
         shift in arb_point(),
     ) {

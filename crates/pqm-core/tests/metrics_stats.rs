@@ -8,8 +8,14 @@ use pqm_core::metrics::{mesh_stats, scaled_jacobian, topology, valence};
 fn stats_agree_with_the_metrics_and_the_manifest() {
     let m = common::load_shared("quad/suzanne.obj");
     let s = mesh_stats(&m, None);
-    assert_eq!((s.vertices, s.faces, s.quads, s.triangles, s.other_faces), (507, 500, 468, 32, 0));
-    assert_eq!((s.components, s.boundary_loops, s.genus, s.euler), (3, 4, 0, 2));
+    assert_eq!(
+        (s.vertices, s.faces, s.quads, s.triangles, s.other_faces),
+        (507, 500, 468, 32, 0)
+    );
+    assert_eq!(
+        (s.components, s.boundary_loops, s.genus, s.euler),
+        (3, 4, 0, 2)
+    );
     assert_eq!(s.scaled_jacobian, scaled_jacobian(&m).stats);
     assert_eq!(s.valence, valence(&m).stats);
     assert_eq!(topology(&m).genus, s.genus);
@@ -30,8 +36,17 @@ fn json_has_exactly_the_documented_fields() {
     assert_eq!(
         keys,
         [
-            "boundary_loops", "components", "euler", "faces", "genus", "other_faces", "quads",
-            "scaled_jacobian", "triangles", "valence", "vertices"
+            "boundary_loops",
+            "components",
+            "euler",
+            "faces",
+            "genus",
+            "other_faces",
+            "quads",
+            "scaled_jacobian",
+            "triangles",
+            "valence",
+            "vertices"
         ]
     );
     assert_eq!(json["scaled_jacobian"]["worst"], 1.0);
@@ -48,7 +63,10 @@ fn display_is_a_readable_table() {
     let m = common::torus(8, 6);
     let text = mesh_stats(&m, Some(&m)).to_string();
     let row = |name: &str| -> String {
-        let line = text.lines().find(|l| l.starts_with(name)).unwrap_or_else(|| panic!("{name}"));
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(name))
+            .unwrap_or_else(|| panic!("{name}"));
         line[name.len()..].trim().to_string()
     };
     assert_eq!(row("vertices"), "48");
@@ -59,7 +77,13 @@ fn display_is_a_readable_table() {
     assert!(row("scaled jacobian").starts_with("median "));
     // "max 7.7e-17, mean ..." — rounding-level for a mesh against itself.
     let h = row("hausdorff");
-    let max: f64 = h.split(['(', ')', ',', ' ']).skip_while(|t| *t != "max").nth(1).unwrap().parse().unwrap();
+    let max: f64 = h
+        .split(['(', ')', ',', ' '])
+        .skip_while(|t| *t != "max")
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
     assert!(max < 1e-12, "{text}");
     assert_eq!(text.lines().count(), 9);
 }

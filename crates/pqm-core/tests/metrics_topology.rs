@@ -26,7 +26,11 @@ const MANIFEST: &[(&str, usize, usize, i64, i64, usize, usize)] = &[
 fn every_shared_mesh_matches_the_manifest() {
     for &(name, v, f, chi, genus, comps, loops) in MANIFEST {
         let m = common::load_shared(name);
-        assert_eq!((m.vertex_count(), m.face_count()), (v, f), "{name}: file counts");
+        assert_eq!(
+            (m.vertex_count(), m.face_count()),
+            (v, f),
+            "{name}: file counts"
+        );
         let t = topology(&m);
         assert_eq!(t.vertices, v, "{name}: every vertex is used");
         assert_eq!(t.faces, f, "{name}");
@@ -43,13 +47,32 @@ fn every_shared_mesh_matches_the_manifest() {
 fn small_known_surfaces() {
     let cube = topology(&common::cube());
     assert_eq!((cube.vertices, cube.edges, cube.faces), (8, 12, 6));
-    assert_eq!((cube.euler, cube.genus, cube.components, cube.boundary_loops), (2, 0, 1, 0));
+    assert_eq!(
+        (cube.euler, cube.genus, cube.components, cube.boundary_loops),
+        (2, 0, 1, 0)
+    );
 
     let torus = topology(&common::torus(10, 6));
-    assert_eq!((torus.euler, torus.genus, torus.components, torus.boundary_loops), (0, 1, 1, 0));
+    assert_eq!(
+        (
+            torus.euler,
+            torus.genus,
+            torus.components,
+            torus.boundary_loops
+        ),
+        (0, 1, 1, 0)
+    );
 
     let disk = topology(&common::grid(4, 3, |_, _| 0.0));
-    assert_eq!((disk.euler, disk.genus, disk.boundary_loops, disk.boundary_edges), (1, 0, 1, 14));
+    assert_eq!(
+        (
+            disk.euler,
+            disk.genus,
+            disk.boundary_loops,
+            disk.boundary_edges
+        ),
+        (1, 0, 1, 14)
+    );
 }
 
 #[test]
@@ -58,7 +81,10 @@ fn cylinder_has_two_loops_and_genus_zero() {
     let t = common::torus(10, 6);
     let faces: Vec<Vec<u32>> = t.faces().take(9 * 6).map(|f| f.to_vec()).collect();
     let tube = topology(&IndexedMesh::from_faces(t.positions.clone(), faces));
-    assert_eq!((tube.euler, tube.genus, tube.components, tube.boundary_loops), (0, 0, 1, 2));
+    assert_eq!(
+        (tube.euler, tube.genus, tube.components, tube.boundary_loops),
+        (0, 0, 1, 2)
+    );
 }
 
 #[test]
@@ -71,11 +97,18 @@ fn components_genus_sum_and_unreferenced_vertices() {
     positions.push(DVec3::splat(99.0));
     let off = cube.positions.len() as u32;
     let mut faces: Vec<Vec<u32>> = cube.faces().map(|f| f.to_vec()).collect();
-    faces.extend(torus.faces().map(|f| f.iter().map(|&v| v + off).collect::<Vec<_>>()));
+    faces.extend(
+        torus
+            .faces()
+            .map(|f| f.iter().map(|&v| v + off).collect::<Vec<_>>()),
+    );
     let m = IndexedMesh::from_faces(positions, faces);
     let t = topology(&m);
     assert_eq!(t.vertices, m.vertex_count() - 1);
-    assert_eq!((t.components, t.euler, t.genus, t.boundary_loops), (2, 2, 1, 0));
+    assert_eq!(
+        (t.components, t.euler, t.genus, t.boundary_loops),
+        (2, 2, 1, 0)
+    );
 }
 
 #[test]
@@ -86,5 +119,8 @@ fn bad_faces_are_skipped() {
     let t = topology(&m);
     assert_eq!((t.faces, t.euler, t.genus), (6, 2, 0));
     let empty = topology(&IndexedMesh::new());
-    assert_eq!((empty.vertices, empty.components, empty.genus, empty.euler), (0, 0, 0, 0));
+    assert_eq!(
+        (empty.vertices, empty.components, empty.genus, empty.euler),
+        (0, 0, 0, 0)
+    );
 }

@@ -77,8 +77,8 @@ pub fn topology(mesh: &IndexedMesh) -> Topology {
     let mut loops = vec![0i64; n];
     let mut is_root = vec![false; n];
     let mut vertices = 0usize;
-    for v in 0..n {
-        if used[v] {
+    for (v, &u) in used.iter().enumerate() {
+        if u {
             vertices += 1;
             let r = components.find(v as u32) as usize;
             is_root[r] = true;

@@ -24,7 +24,11 @@ pub fn load_shared(name: &str) -> IndexedMesh {
 /// Loads an OBJ or OFF (ASCII, or pmp-library `OFF BINARY`) file.
 pub fn load(path: &Path) -> Result<IndexedMesh, String> {
     let data = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
     let result = match ext.as_str() {
         "obj" => parse_obj(&data),
         "off" => parse_off(&data),
@@ -37,7 +41,9 @@ fn check_indices(mesh: &IndexedMesh) -> Result<(), String> {
     let n = mesh.positions.len();
     for (f, face) in mesh.faces().enumerate() {
         if let Some(&v) = face.iter().find(|&&v| v as usize >= n) {
-            return Err(format!("face {f} references vertex {v} but there are {n} vertices"));
+            return Err(format!(
+                "face {f} references vertex {v} but there are {n} vertices"
+            ));
         }
     }
     Ok(())
@@ -89,13 +95,18 @@ fn parse_off(data: &[u8]) -> Result<IndexedMesh, String> {
         return parse_off_binary(data);
     }
     let text = String::from_utf8_lossy(data);
-    let mut tokens = text.lines().flat_map(|l| l.split('#').next().unwrap_or("").split_whitespace());
+    let mut tokens = text
+        .lines()
+        .flat_map(|l| l.split('#').next().unwrap_or("").split_whitespace());
     let header = tokens.next().ok_or("empty file")?;
     if !header.ends_with("OFF") {
         return Err("not an OFF file".into());
     }
     let mut num = |what: &str| -> Result<f64, String> {
-        tokens.next().and_then(|t| t.parse::<f64>().ok()).ok_or(format!("bad or missing {what}"))
+        tokens
+            .next()
+            .and_then(|t| t.parse::<f64>().ok())
+            .ok_or(format!("bad or missing {what}"))
     };
     let nv = num("vertex count")? as usize;
     let nf = num("face count")? as usize;
@@ -105,7 +116,8 @@ fn parse_off(data: &[u8]) -> Result<IndexedMesh, String> {
     }
     let mut mesh = IndexedMesh::new();
     for _ in 0..nv {
-        mesh.positions.push(DVec3::new(num("x")?, num("y")?, num("z")?));
+        mesh.positions
+            .push(DVec3::new(num("x")?, num("y")?, num("z")?));
     }
     // Faces may carry colours after the indices, so read line by line.
     let text_lines: Vec<&str> = text
@@ -130,7 +142,11 @@ fn parse_off(data: &[u8]) -> Result<IndexedMesh, String> {
 }
 
 fn parse_off_binary(data: &[u8]) -> Result<IndexedMesh, String> {
-    let mut pos = data.iter().position(|&b| b == b'\n').ok_or("no header line")? + 1;
+    let mut pos = data
+        .iter()
+        .position(|&b| b == b'\n')
+        .ok_or("no header line")?
+        + 1;
     let int = |pos: &mut usize| -> Result<i32, String> {
         let b = data.get(*pos..*pos + 4).ok_or("truncated")?;
         *pos += 4;
