@@ -2,7 +2,8 @@
 //! `scripts/hausdorff_check.py`.
 //!
 //! ```text
-//! cargo run --release -p pqm-core --example hausdorff -- MESH REFERENCE [--samples N] [--json]
+//! cargo run --release -p pqm-core --example hausdorff -- MESH REFERENCE \
+//!     [--samples N] [--no-vertices] [--no-edges] [--no-faces] [--json]
 //! ```
 //!
 //! Prints the forward (MESH → REFERENCE), backward and symmetric `{max, mean}`
@@ -35,6 +36,9 @@ fn run() -> Result<(), String> {
     while let Some(a) = args.next() {
         match a.as_str() {
             "--json" => json = true,
+            "--no-vertices" => opts.sample_vertices = false,
+            "--no-edges" => opts.sample_edges = false,
+            "--no-faces" => opts.sample_faces = false,
             "--samples" => {
                 let n = args.next().ok_or("--samples needs a number")?;
                 opts.samples = Some(n.parse().map_err(|_| format!("bad sample count {n:?}"))?);
@@ -44,7 +48,11 @@ fn run() -> Result<(), String> {
         }
     }
     let [mesh, reference] = files.as_slice() else {
-        return Err("usage: hausdorff MESH REFERENCE [--samples N] [--json]".into());
+        return Err(
+            "usage: hausdorff MESH REFERENCE [--samples N] [--no-vertices] \
+                    [--no-edges] [--no-faces] [--json]"
+                .into(),
+        );
     };
     let mesh = common::load(Path::new(mesh))?;
     let reference = common::load(Path::new(reference))?;

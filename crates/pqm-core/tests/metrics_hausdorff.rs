@@ -144,7 +144,20 @@ fn sampling_flags_and_degenerate_inputs() {
         sample_faces: false,
         ..Default::default()
     };
-    assert_eq!(hausdorff(&m, &m, &only_edges).forward_samples, 40);
+    // Metro's edge density: √(target / area) samples per unit length, here
+    // target = 10 × 32 triangles over area 16, on 40 unit edges.
+    let per_length = (320.0f64 / 16.0).sqrt();
+    let expected = (40.0 * per_length).floor() as usize;
+    assert_eq!(hausdorff(&m, &m, &only_edges).forward_samples, expected);
+    // A small target leaves one sample (the midpoint) per edge.
+    let few = HausdorffOptions {
+        samples: Some(40),
+        ..only_edges
+    };
+    assert_eq!(hausdorff(&m, &m, &few).forward_samples, 40);
+    // Vertices + edges + faces always add up to the target when it is large enough.
+    let r = hausdorff(&m, &m, &HausdorffOptions::default());
+    assert_eq!(r.forward_samples, 320);
 
     // Empty reference: infinitely far. Empty both: zero.
     let empty = IndexedMesh::new();

@@ -8,8 +8,15 @@
 //!    corner. Faces with a non-finite corner are left out of the surface.
 //! 2. Each direction `A → B` samples the surface of `A` deterministically:
 //!    * every vertex of `A`'s faces (option `sample_vertices`);
-//!    * the midpoint of every edge of `A`'s polygons (option `sample_edges`;
-//!      quad diagonals and fan edges are not polygon edges);
+//!    * points on every edge of `A`'s polygons (option `sample_edges`; quad
+//!      diagonals and fan edges are not polygon edges), spaced like Metro's:
+//!      with `ρ = target / area(A)` face samples per unit area, edges get
+//!      `√ρ` samples per unit length (the face samples' linear spacing),
+//!      edge by edge with the fractional part carried over, but at least
+//!      one — the midpoint — per edge (and at most `target` in all). An edge
+//!      with `m` samples takes the points at `j/(m+1)`, `j = 1..=m`, of its
+//!      length. On a mesh much coarser than the other one this samples its
+//!      edges densely, where the error of a simplified mesh often peaks;
 //!    * face samples (option `sample_faces`): the budget left after the vertex
 //!      and edge samples, `max(0, target − vertex samples − edge samples)`, is
 //!      shared among the triangles in proportion to their area (running
@@ -192,9 +199,9 @@ struct Surface {
     /// Vertex samples owned by triangle `t`: `vertices[vertex_start[t] .. vertex_start[t + 1]]`.
     vertex_start: Vec<u32>,
     vertices: Vec<DVec3>,
-    /// Edge-midpoint samples owned by triangle `t`, likewise.
+    /// Edges (end points) owned by triangle `t`, likewise.
     edge_start: Vec<u32>,
-    edges: Vec<DVec3>,
+    edges: Vec<[DVec3; 2]>,
 }
 
 impl Surface {
@@ -236,7 +243,7 @@ impl Surface {
         let (vertex_start, vertices) = bucket(tris.len(), vertex_items);
         let edge_items = edge_keys
             .iter()
-            .map(|&(a, b, o)| (o, 0.5 * (pos[a as usize] + pos[b as usize])));
+            .map(|&(a, b, o)| (o, [pos[a as usize], pos[b as usize]]));
         let (edge_start, edges) = bucket(tris.len(), edge_items);
         Surface {
             tris,
@@ -248,9 +255,12 @@ impl Surface {
     }
 }
 
-/// Groups `(owner, point)` items by owner `0..n` (counting sort, stable):
-/// returns the `n + 1` offsets and the points.
-fn bucket(n: usize, items: impl Iterator<Item = (u32, DVec3)> + Clone) -> (Vec<u32>, Vec<DVec3>) {
+/// Groups `(owner, item)` pairs by owner `0..n` (counting sort, stable):
+/// returns the `n + 1` offsets and the items.
+fn bucket<T: Copy + Default>(
+    n: usize,
+    items: impl Iterator<Item = (u32, T)> + Clone,
+) -> (Vec<u32>, Vec<T>) {
     let mut start = vec![0u32; n + 1];
     for (o, _) in items.clone() {
         start[o as usize + 1] += 1;
@@ -259,12 +269,12 @@ fn bucket(n: usize, items: impl Iterator<Item = (u32, DVec3)> + Clone) -> (Vec<u
         start[t + 1] += start[t];
     }
     let mut fill = start.clone();
-    let mut points = vec![DVec3::ZERO; start[n] as usize];
-    for (o, p) in items {
-        points[fill[o as usize] as usize] = p;
+    let mut out = vec![T::default(); start[n] as usize];
+    for (o, item) in items {
+        out[fill[o as usize] as usize] = item;
         fill[o as usize] += 1;
     }
-    (start, points)
+    (start, out)
 }
 
 /// Running max / sum / count of sample distances (absolute units).
@@ -321,9 +331,13 @@ fn one_sided(
     if opts.sample_vertices {
         used += from.vertices.len();
     }
-    if opts.sample_edges {
-        used += from.edges.len();
-    }
+    let edge_counts: Vec<u32> = if opts.sample_edges {
+        let counts = edge_sample_counts(pos, from, target);
+        used += counts.iter().map(|&n| n as usize).sum::<usize>();
+        counts
+    } else {
+        Vec::new()
+    };
     let budget = if opts.sample_faces {
         target.saturating_sub(used)
     } else {
@@ -350,7 +364,12 @@ fn one_sided(
                 }
                 if opts.sample_edges {
                     let r = from.edge_start[t] as usize..from.edge_start[t + 1] as usize;
-                    batch.points.extend_from_slice(&from.edges[r]);
+                    for (&[a, b], &m) in from.edges[r.clone()].iter().zip(&edge_counts[r]) {
+                        let step = 1.0 / (m as f64 + 1.0);
+                        batch
+                            .points
+                            .extend((1..=m).map(|j| a + (b - a) * (j as f64 * step)));
+                    }
                 }
                 let [a, b, c] = from.tris[t].map(|v| pos[v as usize]);
                 batch
@@ -455,8 +474,38 @@ impl Batch {
     }
 }
 
-/// Number of face samples per triangle: `budget` shared in proportion to area
-/// by cumulative rounding (counts sum to `budget` unless the area is zero).
+/// Samples per owned edge of `from` (see the module documentation): `√ρ` per
+/// unit length with `ρ = target / area`, the fraction carried from edge to
+/// edge as Metro does, at least 1 per edge, at most `target` in all.
+fn edge_sample_counts(pos: &[DVec3], from: &Surface, target: usize) -> Vec<u32> {
+    let area: f64 = from
+        .tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| pos[v as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum();
+    let lengths: Vec<f64> = from.edges.iter().map(|[a, b]| (*b - *a).length()).collect();
+    let total_length: f64 = lengths.iter().sum();
+    let mut per_length = (target as f64 / area).sqrt();
+    per_length = per_length.min(target as f64 / total_length);
+    if !per_length.is_finite() {
+        per_length = 0.0;
+    }
+    let mut carry = 0.0f64;
+    lengths
+        .iter()
+        .map(|&l| {
+            carry += l * per_length;
+            let n = carry.floor();
+            carry -= n;
+            (n as u32).max(1)
+        })
+        .collect()
+}
+
+/// Number of face samples per triangle: `budget` shared in proportion to area.
 fn face_sample_counts(pos: &[DVec3], tris: &[[u32; 3]], budget: usize) -> Vec<u32> {
     let areas: Vec<f64> = tris
         .iter()
@@ -465,16 +514,23 @@ fn face_sample_counts(pos: &[DVec3], tris: &[[u32; 3]], budget: usize) -> Vec<u3
             0.5 * (b - a).cross(c - a).length()
         })
         .collect();
-    let total: f64 = areas.iter().sum();
+    distribute(&areas, budget)
+}
+
+/// Shares `budget` among items in proportion to `weights` by cumulative
+/// rounding, so the counts sum exactly to `budget` (all zero when the total
+/// weight is zero or not finite).
+fn distribute(weights: &[f64], budget: usize) -> Vec<u32> {
+    let total: f64 = weights.iter().sum();
     if !(total > 0.0 && total.is_finite()) || budget == 0 {
-        return vec![0; tris.len()];
+        return vec![0; weights.len()];
     }
     let mut cumulative = 0.0;
     let mut emitted = 0u64;
-    areas
+    weights
         .iter()
-        .map(|&a| {
-            cumulative += a;
+        .map(|&w| {
+            cumulative += w;
             let upto = ((cumulative / total) * budget as f64)
                 .round()
                 .min(budget as f64) as u64;
@@ -667,7 +723,7 @@ mod batch_tests {
         let mut pts: Vec<[u64; 3]> = s
             .edges
             .iter()
-            .map(|p| p.to_array().map(f64::to_bits))
+            .map(|[a, b]| (0.5 * (*a + *b)).to_array().map(f64::to_bits))
             .collect();
         pts.sort_unstable();
         pts.dedup();

@@ -94,46 +94,60 @@ fn parse_off(data: &[u8]) -> Result<IndexedMesh, String> {
     if data.starts_with(b"OFF BINARY") {
         return parse_off_binary(data);
     }
+    // Line based, so that per-vertex normals/colours (NOFF, COFF) and per-face
+    // colours after the indices are ignored.
     let text = String::from_utf8_lossy(data);
-    let mut tokens = text
+    let mut lines = text
         .lines()
-        .flat_map(|l| l.split('#').next().unwrap_or("").split_whitespace());
-    let header = tokens.next().ok_or("empty file")?;
-    if !header.ends_with("OFF") {
+        .map(|l| l.split('#').next().unwrap_or("").trim())
+        .filter(|l| !l.is_empty());
+    let header = lines.next().ok_or("empty file")?;
+    let mut head = header.split_whitespace();
+    if !head.next().is_some_and(|h| h.ends_with("OFF")) {
         return Err("not an OFF file".into());
     }
-    let mut num = |what: &str| -> Result<f64, String> {
-        tokens
+    let counts: Vec<&str> = match head.next() {
+        Some(first) => std::iter::once(first).chain(head).collect(),
+        None => lines
             .next()
-            .and_then(|t| t.parse::<f64>().ok())
-            .ok_or(format!("bad or missing {what}"))
+            .ok_or("missing counts")?
+            .split_whitespace()
+            .collect(),
     };
-    let nv = num("vertex count")? as usize;
-    let nf = num("face count")? as usize;
-    let _ne = num("edge count")?;
+    let count = |i: usize| -> Result<usize, String> {
+        counts
+            .get(i)
+            .and_then(|t| t.parse().ok())
+            .ok_or(format!("bad count {i}"))
+    };
+    let (nv, nf) = (count(0)?, count(1)?);
     if nv > data.len() || nf > data.len() {
         return Err("counts exceed file size".into());
     }
     let mut mesh = IndexedMesh::new();
-    for _ in 0..nv {
-        mesh.positions
-            .push(DVec3::new(num("x")?, num("y")?, num("z")?));
+    for i in 0..nv {
+        let line = lines.next().ok_or(format!("missing vertex {i}"))?;
+        let c: Vec<f64> = line
+            .split_whitespace()
+            .take(3)
+            .filter_map(|t| t.parse().ok())
+            .collect();
+        if c.len() != 3 {
+            return Err(format!("vertex {i}: expected 3 coordinates"));
+        }
+        mesh.positions.push(DVec3::new(c[0], c[1], c[2]));
     }
-    // Faces may carry colours after the indices, so read line by line.
-    let text_lines: Vec<&str> = text
-        .lines()
-        .map(|l| l.split('#').next().unwrap_or("").trim())
-        .filter(|l| !l.is_empty())
-        .collect();
-    // Header line(s) + nv vertex lines precede the faces when each vertex is on its own line.
-    let face_lines = &text_lines[text_lines.len().saturating_sub(nf)..];
-    for l in face_lines {
-        let t: Vec<&str> = l.split_whitespace().collect();
-        let k: usize = t.first().and_then(|s| s.parse().ok()).ok_or("bad face")?;
+    for f in 0..nf {
+        let line = lines.next().ok_or(format!("missing face {f}"))?;
+        let t: Vec<&str> = line.split_whitespace().collect();
+        let k: usize = t
+            .first()
+            .and_then(|s| s.parse().ok())
+            .ok_or(format!("face {f}: bad size"))?;
         let idx: Result<Vec<u32>, _> = t.iter().skip(1).take(k).map(|s| s.parse::<u32>()).collect();
-        let idx = idx.map_err(|_| "bad face index".to_string())?;
+        let idx = idx.map_err(|_| format!("face {f}: bad index"))?;
         if idx.len() != k {
-            return Err("short face".into());
+            return Err(format!("face {f}: short"));
         }
         mesh.push_face(&idx);
     }
