@@ -3,7 +3,8 @@
 
 use crate::ctx::usage;
 use anyhow::Context;
-use pqm_core::io::MeshFormat;
+use pqm_core::io::{self, MeshFormat};
+use pqm_core::IndexedMesh;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
@@ -24,6 +25,13 @@ pub fn write_atomic(
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
+    if !dir.is_dir() {
+        anyhow::bail!(
+            "{}: cannot write: the directory {} does not exist",
+            path.display(),
+            dir.display()
+        );
+    }
     let tmp = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
         .suffix(".tmp")
@@ -35,6 +43,15 @@ pub fn write_atomic(
                 dir.display()
             )
         })?;
+    // Temporary files are created private (0600); a finished output should
+    // have the usual permissions of a new file.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = tmp
+            .as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644));
+    }
     let mut w = BufWriter::with_capacity(1 << 20, tmp);
     body(&mut w).with_context(|| format!("{}", path.display()))?;
     let tmp = w
@@ -51,6 +68,23 @@ pub fn write_atomic(
         )
     })?;
     Ok(())
+}
+
+/// Writes `mesh` to `path` atomically in the format of its extension (see
+/// [`write_atomic`]): OBJ, OFF (ASCII), PLY (binary little endian), glTF
+/// (embedded buffer) or GLB. Errors name `path`.
+pub fn write_mesh(path: &Path, mesh: &IndexedMesh) -> anyhow::Result<()> {
+    let format = mesh_output_format(path)?;
+    write_atomic(path, |w| {
+        match format {
+            MeshFormat::Obj => io::write_obj(w, mesh),
+            MeshFormat::Off => io::write_off(w, mesh),
+            MeshFormat::Ply => io::write_ply(w, mesh),
+            MeshFormat::Gltf => io::write_gltf(w, mesh),
+            MeshFormat::Glb => io::write_glb(w, mesh),
+        }
+        .map_err(|e| anyhow::anyhow!("{e}"))
+    })
 }
 
 /// Checks that `path` names a mesh format pqm writes (by extension); a

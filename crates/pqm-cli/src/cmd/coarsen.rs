@@ -4,15 +4,15 @@ use crate::ctx::Ctx;
 use crate::pipeline::{prepare, CoarsenerArgs};
 use crate::stats::{mesh_stats, MeshStats};
 use crate::util::{mesh_output_format, parse_nonneg, parse_ratio};
-use anyhow::anyhow;
 use pqm_core::coarsen::{CoarsenOptions, CoarsenReport, Coarsener, StopReason};
-use pqm_core::io;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// Coarsen a quad mesh with qCoarsen (qvMerge, qeMerge, doublet removal in
-/// one priority queue) and write the coarse quad mesh.
+/// Coarsen a quad mesh with qCoarsen to a face count, ratio or error bound.
+///
+/// qvMerge, qeMerge and doublet removal run from one priority queue (the
+/// qCoarsen paper's error), and the coarse quad mesh is written.
 ///
 /// The result stays quad-only and valid, with the same topology (components,
 /// boundary loops, genus) and every feature curve kept. Non-quad input is
@@ -159,7 +159,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         .unwrap_or_default();
     let r = run_with_bar(&mut p.coarsener, target, &label, ctx);
     let out = p.coarsener.mesh().to_indexed().0;
-    io::write_mesh(&args.output, &out).map_err(|e| anyhow!("{e}"))?;
+    crate::util::write_mesh(&args.output, &out)?;
     let time_s = t0.elapsed().as_secs_f64();
     let report = Report {
         input: args.input.display().to_string(),

@@ -19,8 +19,9 @@ pub enum SubdivideArg {
     CatmullClark,
 }
 
-/// Convert a mesh between OBJ, OFF, PLY, glTF and GLB (chosen by extension),
-/// optionally repairing it or splitting it into quads.
+/// Convert between OBJ, OFF, PLY, glTF and GLB; optionally repair or split into quads.
+///
+/// Formats are chosen by file extension.
 ///
 /// Quads stay quads in every format (glTF/GLB use FB_ngon_encoding). The
 /// input is checked (manifold, oriented, no degenerate or repeated-vertex
@@ -97,7 +98,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             mesh.face_count()
         ));
     }
-    io::write_mesh(&args.output, &mesh).map_err(|e| anyhow!("{e}"))?;
+    crate::util::write_mesh(&args.output, &mesh)?;
     let stats = args.stats.then(|| mesh_stats(&mesh, None));
     let report = Report {
         input: args.input.display().to_string(),

@@ -5,13 +5,14 @@ use crate::ctx::Ctx;
 use crate::stats::{mesh_stats, MeshStats};
 use crate::util::{mesh_output_format, parse_nonneg};
 use anyhow::{anyhow, bail};
-use pqm_core::{io, IndexedMesh};
+use pqm_core::IndexedMesh;
 use pqm_format::Target;
 use serde::Serialize;
 use std::path::PathBuf;
 
-/// Decode a level of a .pqm file and write it as a mesh (.glb, .gltf, .obj,
-/// .ply, .off; quads stay quads).
+/// Decode any level of a .pqm file to .glb, .gltf, .obj, .ply or .off.
+///
+/// Quads stay quads (glTF: FB_ngon_encoding).
 ///
 /// Pick the level with --level, --faces (the finest level with at most N
 /// faces) or --error (the coarsest level whose error bound is at most E,
@@ -77,9 +78,9 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let Some(deepest) = dec.deepest_level() else {
         bail!(
             "{name}: the first {n} bytes do not hold the base mesh yet{}",
-            status
-                .bytes_needed
-                .map_or(String::new(), |b| format!(" (it needs {b} bytes)"))
+            level_rows(&dec)
+                .first()
+                .map_or(String::new(), |r| format!(" (it ends at byte {})", r.bytes))
         );
     };
     if !status.finished && args.bytes.is_none() {
@@ -122,7 +123,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             }
         }
     }
-    io::write_mesh(&args.output, &mesh).map_err(|e| anyhow!("{e}"))?;
+    crate::util::write_mesh(&args.output, &mesh)?;
     let rows = level_rows(&dec);
     let report = Report {
         input: name,

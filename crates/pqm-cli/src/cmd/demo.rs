@@ -7,16 +7,17 @@ use crate::pipeline::{prepare, CoarsenerArgs, SmoothingArg};
 use crate::util::{human_bytes, write_atomic};
 use anyhow::{anyhow, bail, Context};
 use pqm_core::coarsen::CoarsenOptions;
-use pqm_core::io;
 use pqm_format::{EncodeOptions, Target};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Run the whole pipeline on the bundled fixture (Keenan Crane's Spot, 2,928
-/// quads): encode it as a progressive .pqm file, show the file's chunk
-/// table, and decode three levels (base, middle, full) to GLB files you can
-/// open in any glTF viewer. Prints where the files are.
+/// Run encode -> info -> decode (3 levels) -> GLB on the bundled fixture.
+///
+/// The fixture is Keenan Crane's Spot (2,928 quads). It is encoded as a
+/// progressive .pqm file, the file's chunk table is shown, and three levels
+/// (base, middle, full) are decoded to GLB files you can open in any glTF
+/// viewer. Prints where the files are.
 ///
 /// The same steps by hand:
 ///   pqm encode fixtures/spot_quadrangulated.obj -o pqm-demo/spot.pqm
@@ -113,7 +114,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             .map_err(|e| anyhow!("{}: {e}", pqm.display()))?;
         let mesh = dec.to_indexed_mesh();
         let file = args.out_dir.join(format!("spot_{name}.glb"));
-        io::write_mesh(&file, &mesh).map_err(|e| anyhow!("{e}"))?;
+        crate::util::write_mesh(&file, &mesh)?;
         let bytes_needed = rows
             .iter()
             .find(|r| r.level >= k)

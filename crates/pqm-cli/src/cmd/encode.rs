@@ -13,10 +13,12 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Encode meshes as progressive .pqm files: coarsen each to a base mesh
-/// (by default as far as the quality rules allow) and store the base plus
-/// every refinement step, so a client shows the base from the first bytes
-/// and refines while the rest arrives.
+/// Encode meshes as progressive .pqm files (coarse base + refinement records).
+///
+/// Each input is coarsened to a base mesh (by default as far as the quality
+/// rules allow); the file stores the base plus every refinement step, so a
+/// client shows the base from the first bytes and refines while the rest
+/// arrives.
 ///
 /// Several inputs run in parallel, one progress bar each plus a total; a
 /// failing input is reported and the others still finish (exit code 1 if

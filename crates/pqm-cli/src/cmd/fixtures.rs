@@ -2,13 +2,14 @@
 //! `fixtures/generated/` from `pqm_core::shapes`.
 
 use crate::ctx::Ctx;
-use anyhow::{anyhow, Context};
-use pqm_core::{io, shapes, IndexedMesh};
+use anyhow::Context;
+use pqm_core::{shapes, IndexedMesh};
 use serde::Serialize;
 use std::path::PathBuf;
 
-/// Regenerate the procedural fixtures (cube, quad sphere, torus, grid, two
-/// components) as OBJ files.
+/// Regenerate the procedural fixtures as OBJ files.
+///
+/// Writes a cube, a quad sphere, a torus, a grid and a two-component mesh.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Example:
   cargo run -p pqm-cli -- fixtures --out-dir fixtures/generated")]
@@ -43,7 +44,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let mut written = Vec::new();
     for (name, mesh) in fixtures() {
         let path = args.out_dir.join(name);
-        io::write_mesh(&path, &mesh).map_err(|e| anyhow!("{e}"))?;
+        crate::util::write_mesh(&path, &mesh)?;
         written.push(Written {
             file: path.display().to_string(),
             vertices: mesh.vertex_count(),

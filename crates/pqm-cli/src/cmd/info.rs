@@ -6,10 +6,11 @@ use pqm_format::{Decoder, Limits};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// Show what a .pqm file holds: format version, counts, bounding box,
-/// quantization, and the chunk table — one row per level a streaming client
-/// can stop at, with its faces, vertices, error bound and the bytes needed
-/// to reach it.
+/// Show the header and chunk table of a .pqm file.
+///
+/// Prints format version, counts, bounding box, quantization, and the chunk
+/// table: one row per level a streaming client can stop at, with its faces,
+/// vertices, error bound and the bytes needed to reach it.
 ///
 /// The error is the geometric error bound of that level as a fraction of
 /// the bounding-box diagonal. "bytes" is cumulative: a client that has

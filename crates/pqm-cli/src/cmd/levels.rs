@@ -3,7 +3,7 @@
 
 use crate::ctx::Ctx;
 
-/// Write several levels of a .pqm file as glTF (placeholder, not implemented yet).
+/// Write several levels of a .pqm file as glTF (not implemented yet).
 #[derive(clap::Args, Debug)]
 pub struct Args {}
 

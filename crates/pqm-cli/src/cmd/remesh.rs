@@ -3,7 +3,7 @@
 
 use crate::ctx::Ctx;
 
-/// Remesh any polygon mesh into a clean quad mesh (placeholder, not implemented yet).
+/// Remesh any polygon mesh into a clean quad mesh (not implemented yet).
 #[derive(clap::Args, Debug)]
 pub struct Args {}
 

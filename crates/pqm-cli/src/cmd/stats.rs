@@ -7,8 +7,9 @@ use anyhow::anyhow;
 use pqm_core::io;
 use std::path::PathBuf;
 
-/// Print the quality figures of a mesh: counts, topology, Scaled Jacobian and
-/// valence structure, and with --reference the Hausdorff distance.
+/// Print quality figures of a mesh (counts, topology, Scaled Jacobian, valence).
+///
+/// With --reference, also the Hausdorff distance to another mesh.
 ///
 /// The Scaled Jacobian of a quad is the minimum over its four corners (1 =
 /// square corners, <= 0 = folded). A vertex is ideal when its valence is 4
