@@ -1,0 +1,251 @@
+//! `pqm encode`: coarsen to a base mesh and write a progressive `.pqm` file.
+
+use crate::cmd::coarsen::{run_with_bar, stop_code, target_faces, Operators};
+use crate::ctx::{usage, Ctx};
+use crate::pipeline::{prepare, CoarsenerArgs};
+use crate::util::{human_bytes, in_dir_with_ext, parse_nonneg, parse_ratio, write_atomic};
+use anyhow::Context;
+use pqm_core::coarsen::CoarsenOptions;
+use pqm_format::EncodeOptions;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Encode meshes as progressive .pqm files (coarse base + refinement records).
+///
+/// Each input is coarsened to a base mesh (by default as far as the quality
+/// rules allow); the file stores the base plus every refinement step, so a
+/// client shows the base from the first bytes and refines while the rest
+/// arrives.
+///
+/// Several inputs run in parallel, one progress bar each plus a total; a
+/// failing input is reported and the others still finish (exit code 1 if
+/// any failed). Positions are quantized to --bits per axis over the bounding
+/// box; decoding the full level gives exactly the quantized input. Non-quad
+/// input is split into quads first (see `pqm coarsen --help`).
+#[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:
+  pqm encode spot.obj -o spot.pqm
+  pqm encode assets/*.obj --out-dir pqm/ --bits 16 --json
+  pqm encode bunny.off -o bunny.pqm --base-faces 500 --chunk-bytes 8192")]
+#[command(group(clap::ArgGroup::new("out").required(true).args(["output", "out_dir"])))]
+pub struct Args {
+    /// Input meshes (.obj, .off, .ply, .gltf, .glb).
+    #[arg(required = true, value_name = "IN")]
+    pub inputs: Vec<PathBuf>,
+    /// Output file (one input only).
+    #[arg(short, long, value_name = "OUT.pqm")]
+    pub output: Option<PathBuf>,
+    /// Output directory: IN's name with the .pqm extension (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out_dir: Option<PathBuf>,
+    /// Coarsen the base mesh down to this many faces (or fewer).
+    #[arg(long, value_name = "N", help_heading = "Base mesh")]
+    pub base_faces: Option<usize>,
+    /// Coarsen the base mesh down to this fraction of the input's faces, in (0, 1].
+    #[arg(long, value_name = "R", value_parser = parse_ratio, conflicts_with = "base_faces", help_heading = "Base mesh")]
+    pub base_ratio: Option<f64>,
+    /// Never exceed this error bound (fraction of the bbox diagonal).
+    #[arg(long, value_name = "E", value_parser = parse_nonneg, help_heading = "Base mesh")]
+    pub max_error: Option<f64>,
+    #[command(flatten)]
+    pub coarsener: CoarsenerArgs,
+    /// Quantization bits per axis, 8..=24.
+    #[arg(long, value_name = "N", default_value_t = 14, value_parser = clap::value_parser!(u8).range(8..=24), help_heading = "File")]
+    pub bits: u8,
+    /// Close a record chunk once its uncompressed size reaches this many
+    /// bytes (smaller chunks: finer streaming steps, a little more overhead).
+    #[arg(long, value_name = "N", default_value_t = 16384, value_parser = clap::value_parser!(u64).range(64..=(1 << 30)), help_heading = "File")]
+    pub chunk_bytes: u64,
+}
+
+/// What one encoded file reports.
+#[derive(Serialize, Clone, Debug)]
+pub struct FileReport {
+    pub input: String,
+    pub output: String,
+    /// Faces of the full level (the coarsener's input).
+    pub faces: usize,
+    pub vertices: usize,
+    pub base_faces: usize,
+    pub base_vertices: usize,
+    pub records: usize,
+    pub chunks: usize,
+    pub bytes: u64,
+    /// Whole-file bits per final vertex.
+    pub bits_per_vertex: f64,
+    /// Record bits per refined vertex.
+    pub record_bits_per_vertex: f64,
+    pub bits: u8,
+    pub subdivided: bool,
+    pub stop: &'static str,
+    pub error: f64,
+    pub operators: Operators,
+    /// Seconds for reading, coarsening and writing.
+    pub encode_time_s: f64,
+}
+
+#[derive(Serialize)]
+struct Failure {
+    input: String,
+    error: String,
+}
+
+#[derive(Serialize)]
+struct Report {
+    files: Vec<FileReport>,
+    failed: Vec<Failure>,
+}
+
+/// Runs the command.
+pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
+    let outputs = output_paths(args)?;
+    if let Some(dir) = &args.out_dir {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    }
+    let total = ctx.bar(args.inputs.len() as u64, "total");
+    total.set_message("files");
+    let results: Vec<anyhow::Result<FileReport>> = args
+        .inputs
+        .par_iter()
+        .zip(outputs.par_iter())
+        .map(|(input, output)| {
+            let r = encode_one(input, output, args, ctx);
+            if let Err(e) = &r {
+                ctx.error_line(format!("{e:#}").replace('\n', " "));
+            }
+            total.inc(1);
+            r
+        })
+        .collect();
+    total.finish_and_clear();
+    let mut report = Report {
+        files: Vec::new(),
+        failed: Vec::new(),
+    };
+    for (input, r) in args.inputs.iter().zip(results) {
+        match r {
+            Ok(f) => report.files.push(f),
+            Err(e) => report.failed.push(Failure {
+                input: input.display().to_string(),
+                error: format!("{e:#}").replace('\n', " "),
+            }),
+        }
+    }
+    ctx.emit(&report, || {
+        let mut s = String::new();
+        for f in &report.files {
+            s.push_str(&format!(
+                "{} -> {}: {} faces, base {} faces, {} records in {} chunks, {} ({:.1} bits/vertex), {:.2} s\n",
+                f.input,
+                f.output,
+                f.faces,
+                f.base_faces,
+                f.records,
+                f.chunks,
+                human_bytes(f.bytes),
+                f.bits_per_vertex,
+                f.encode_time_s
+            ));
+        }
+        if !report.failed.is_empty() {
+            s.push_str(&format!(
+                "{} of {} inputs failed (see the errors above)\n",
+                report.failed.len(),
+                args.inputs.len()
+            ));
+        }
+        s
+    })?;
+    if report.failed.is_empty() {
+        Ok(())
+    } else {
+        anyhow::bail!(
+            "{} of {} inputs failed",
+            report.failed.len(),
+            args.inputs.len()
+        )
+    }
+}
+
+/// The output path of each input; usage errors for `-o` with several
+/// inputs and for two inputs that would write the same file.
+fn output_paths(args: &Args) -> anyhow::Result<Vec<PathBuf>> {
+    if let Some(o) = &args.output {
+        if args.inputs.len() > 1 {
+            return Err(usage(format!(
+                "-o names one output file but {} inputs were given; use --out-dir DIR",
+                args.inputs.len()
+            )));
+        }
+        return Ok(vec![o.clone()]);
+    }
+    let dir = args.out_dir.as_deref().unwrap_or(Path::new("."));
+    let outs: Vec<PathBuf> = args
+        .inputs
+        .iter()
+        .map(|i| in_dir_with_ext(dir, i, "pqm"))
+        .collect();
+    let mut seen = BTreeSet::new();
+    for (i, o) in args.inputs.iter().zip(&outs) {
+        if !seen.insert(o.clone()) {
+            return Err(usage(format!(
+                "{}: would overwrite {} written for another input with the same name",
+                i.display(),
+                o.display()
+            )));
+        }
+    }
+    Ok(outs)
+}
+
+fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Result<FileReport> {
+    let t0 = Instant::now();
+    let opts = CoarsenOptions {
+        target_faces: args.base_faces,
+        target_ratio: args.base_ratio,
+        max_error: args.max_error,
+        ..Default::default()
+    };
+    let mut p = prepare(input, &args.coarsener, opts, ctx)?;
+    let target = target_faces(args.base_faces, args.base_ratio, p.quad_faces);
+    let label = input
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let r = run_with_bar(&mut p.coarsener, target, &label, ctx);
+    let pm = p.coarsener.to_progressive();
+    let eopts = EncodeOptions {
+        bits: args.bits,
+        chunk_bytes: args.chunk_bytes as usize,
+        ..Default::default()
+    };
+    let mut enc = None;
+    write_atomic(output, |w| {
+        enc = Some(pqm_format::write(&pm, &eopts, w)?);
+        Ok(())
+    })?;
+    let enc = enc.context("encoder produced no report")?;
+    Ok(FileReport {
+        input: input.display().to_string(),
+        output: output.display().to_string(),
+        faces: pm.final_face_count(),
+        vertices: pm.final_vertex_count(),
+        base_faces: pm.base.face_count(),
+        base_vertices: pm.base.vertex_count(),
+        records: pm.records.len(),
+        chunks: enc.chunk_count,
+        bytes: enc.total_bytes,
+        bits_per_vertex: enc.file_bits_per_vertex,
+        record_bits_per_vertex: enc.bits_per_vertex.total,
+        bits: args.bits,
+        subdivided: p.split,
+        stop: stop_code(&r),
+        error: r.error,
+        operators: Operators::from(&r),
+        encode_time_s: t0.elapsed().as_secs_f64(),
+    })
+}

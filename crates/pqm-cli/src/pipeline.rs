@@ -1,0 +1,270 @@
+//! The shared front half of `coarsen` and `encode`: read and check the
+//! input, load the user's attributes, split non-quad meshes into quads, and
+//! set up the [`Coarsener`].
+//!
+//! User attributes are read against the input *as read* (vertex indices of
+//! the file). When the input goes through the linear split, they are carried
+//! onto the quad mesh: per-vertex values travel as vertex properties through
+//! the split (edge points get the average of their endpoints, face points the
+//! average of their face), and each feature polyline step `a → b` becomes
+//! `a → edge point → b`. Original vertices keep their indices in the split.
+
+use crate::ctx::Ctx;
+use crate::util::mesh_input_format;
+use anyhow::{anyhow, bail, Context};
+use glam::DVec3;
+use pqm_core::attributes::{
+    importance_from_scalars, load_field_sidecar, load_importance_sidecar, remap_importance, Field,
+};
+use pqm_core::coarsen::{Attributes, CoarsenOptions, Coarsener, Smoothing};
+use pqm_core::features::{feature_edges_from_polylines, load_features, sharp_edges, FeatureCurves};
+use pqm_core::subdivide::{catmull_clark_split, SplitMode};
+use pqm_core::{io, IndexedMesh, Mesh, VertexId};
+use std::path::{Path, PathBuf};
+
+/// Smoothing mode on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SmoothingArg {
+    /// Only the relaxation each operator needs.
+    None,
+    /// Smooth the step's 1-ring after every step.
+    Local,
+    /// Smooth the whole coarse mesh once at the end (the paper's default).
+    Global,
+}
+
+impl From<SmoothingArg> for Smoothing {
+    fn from(s: SmoothingArg) -> Smoothing {
+        match s {
+            SmoothingArg::None => Smoothing::None,
+            SmoothingArg::Local => Smoothing::Local,
+            SmoothingArg::Global => Smoothing::Global,
+        }
+    }
+}
+
+/// Options of the coarsener shared by `pqm coarsen` and `pqm encode` (the
+/// stop targets differ and are declared by each command).
+#[derive(clap::Args, Clone, Debug)]
+pub struct CoarsenerArgs {
+    /// Importance map: a text file with one number per input vertex (`#`
+    /// comments allowed), remapped to [1, 3]. Larger keeps elements smaller
+    /// there. Default: from the curvature.
+    #[arg(long, value_name = "FILE", help_heading = "Coarsener")]
+    pub importance: Option<PathBuf>,
+    /// Importance map from a per-vertex property of the input file (for
+    /// example a PLY `quality` property).
+    #[arg(
+        long,
+        value_name = "NAME",
+        conflicts_with = "importance",
+        help_heading = "Coarsener"
+    )]
+    pub importance_property: Option<String>,
+    /// Direction field the quads align to: a text file with one `x y z`
+    /// vector per input vertex or per face, or `x`, `y`, `z` for a constant
+    /// axis. Default: principal curvature directions.
+    #[arg(long, value_name = "FILE|x|y|z", help_heading = "Coarsener")]
+    pub field: Option<String>,
+    /// Feature polylines to keep: a text file, one polyline of 0-based input
+    /// vertex indices per line (a closed curve repeats its first vertex).
+    #[arg(long, value_name = "FILE", help_heading = "Coarsener")]
+    pub features: Option<PathBuf>,
+    /// Edges with a dihedral angle above DEG degrees are features; 180 turns
+    /// automatic features off.
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 60.0,
+        help_heading = "Coarsener"
+    )]
+    pub sharp_angle: f64,
+    /// Where vertices are smoothed.
+    #[arg(long, value_enum, default_value = "global", help_heading = "Coarsener")]
+    pub smoothing: SmoothingArg,
+    /// Refuse non-quad input instead of splitting each n-gon into n quads.
+    #[arg(long, help_heading = "Coarsener")]
+    pub no_subdivide: bool,
+    /// Repair the input first (weld duplicates, drop unused vertices, split
+    /// non-manifold vertices, re-orient) and report what changed.
+    #[arg(long, help_heading = "Coarsener")]
+    pub repair: bool,
+}
+
+/// Name of the vertex properties used to carry user attributes through the split.
+const IMPORTANCE_KEY: &str = "pqm:importance";
+const FIELD_KEYS: [&str; 3] = ["pqm:field_x", "pqm:field_y", "pqm:field_z"];
+
+/// Reads a mesh, naming the file in every error, and checks it. With
+/// `repair`, repairs it first and reports the changes as a note. The error
+/// for a defect reads `spot.obj: face 812 repeats vertex 40`.
+pub fn load_mesh(path: &Path, repair: bool, ctx: &Ctx) -> anyhow::Result<IndexedMesh> {
+    mesh_input_format(path)?;
+    let mut mesh = io::read_mesh(path).map_err(|e| anyhow!("{e}"))?;
+    if repair {
+        let report = io::repair(&mut mesh);
+        if report.changed() {
+            ctx.note(format!("{}: repaired: {report}", path.display()));
+        } else {
+            ctx.note(format!("{}: repair: nothing to change", path.display()));
+        }
+    }
+    if let Err(e) = io::check(&mesh) {
+        let hint = if repair { "" } else { " (--repair may fix it)" };
+        bail!("{}: {e}{hint}", path.display());
+    }
+    Ok(mesh)
+}
+
+/// The quad mesh given to the coarsener, and what happened on the way.
+pub struct Prepared {
+    /// The input as read (after `--repair`).
+    pub input: IndexedMesh,
+    /// True when the input went through the linear split.
+    pub split: bool,
+    /// The coarsener, set up and not yet run.
+    pub coarsener: Coarsener,
+    /// Faces of the coarsener's input.
+    pub quad_faces: usize,
+}
+
+/// Reads `path` and sets up the coarsener with `args` and `opts`.
+pub fn prepare(
+    path: &Path,
+    args: &CoarsenerArgs,
+    opts: CoarsenOptions,
+    ctx: &Ctx,
+) -> anyhow::Result<Prepared> {
+    let input = load_mesh(path, args.repair, ctx)?;
+    let name = path.display().to_string();
+    let mut work = input.clone();
+
+    // User attributes, read against the input's vertex indices.
+    let importance = match (&args.importance, &args.importance_property) {
+        (Some(file), _) => Some(load_importance_sidecar(file, work.vertex_count())?),
+        (None, Some(prop)) => {
+            Some(importance_from_scalars(&work, prop).map_err(|e| anyhow!("{name}: {e}"))?)
+        }
+        _ => None,
+    };
+    if let Some(v) = importance {
+        work.vertex_scalars.insert(IMPORTANCE_KEY.into(), v);
+    }
+    let axis_field = match args.field.as_deref() {
+        Some(f)
+            if ["x", "y", "z"].contains(&f.to_ascii_lowercase().as_str())
+                && !Path::new(f).exists() =>
+        {
+            Some(f.to_string())
+        }
+        Some(f) => {
+            let mesh = Mesh::from_indexed(&work).map_err(|e| anyhow!("{name}: {e}"))?;
+            let field = load_field_sidecar(Path::new(f), &mesh)?;
+            for (k, key) in FIELD_KEYS.iter().enumerate() {
+                let comp = (0..work.vertex_count())
+                    .map(|v| field.at(VertexId(v as u32))[k])
+                    .collect();
+                work.vertex_scalars.insert((*key).into(), comp);
+            }
+            None
+        }
+        None => None,
+    };
+    let mut polylines = match &args.features {
+        Some(file) => load_features(file, work.vertex_count())?,
+        None => Vec::new(),
+    };
+
+    // Non-quad input: one linear split (the surface does not change).
+    let split = !work.is_quad_only();
+    if split {
+        let (q, t, o) = work.face_size_counts();
+        if args.no_subdivide {
+            bail!(
+                "{name}: not a quad mesh ({q} quads, {t} triangles, {o} other polygons) and \
+                 --no-subdivide was given (without it, each n-gon is split into n quads first)"
+            );
+        }
+        let before = work.face_count();
+        work = catmull_clark_split(&work, SplitMode::Linear).map_err(|e| anyhow!("{name}: {e}"))?;
+        ctx.note(format!(
+            "{name}: not quad-only ({q} quads, {t} triangles, {o} other); split each n-gon into \
+             n quads with linear points (surface unchanged): {before} faces -> {} quads",
+            work.face_count()
+        ));
+    }
+    let mesh = Mesh::from_indexed(&work).map_err(|e| anyhow!("{name}: {e}"))?;
+    if split && !polylines.is_empty() {
+        polylines = polylines
+            .iter()
+            .map(|p| split_polyline(&mesh, p, input.vertex_count()))
+            .collect::<anyhow::Result<_>>()?;
+    }
+
+    // Attributes: curvature by default, the user's where given.
+    let mut attrs = Attributes::from_curvature(&mesh);
+    if let Some(v) = work.vertex_scalars.get(IMPORTANCE_KEY) {
+        attrs.importance = remap_importance(v);
+    }
+    if let Some(axis) = axis_field {
+        attrs.field = Field::from_axis_name(&mesh, &axis)?.dirs;
+    } else if let (Some(x), Some(y), Some(z)) = (
+        work.vertex_scalars.get(FIELD_KEYS[0]),
+        work.vertex_scalars.get(FIELD_KEYS[1]),
+        work.vertex_scalars.get(FIELD_KEYS[2]),
+    ) {
+        attrs.field = (0..x.len()).map(|i| DVec3::new(x[i], y[i], z[i])).collect();
+    }
+
+    let mut edges = sharp_edges(&mesh, args.sharp_angle);
+    edges.extend(
+        feature_edges_from_polylines(&mesh, &polylines).map_err(|e| {
+            anyhow!(
+                "{}: {e}",
+                args.features.as_deref().unwrap_or(path).display()
+            )
+        })?,
+    );
+    let curves = FeatureCurves::new(&mesh, &edges, true).map_err(|e| anyhow!("{name}: {e}"))?;
+    ctx.verbose(format!(
+        "{name}: {} feature curves ({} sharp edges at {}°, {} annotated polylines)",
+        curves.curve_count(),
+        sharp_edges(&mesh, args.sharp_angle).len(),
+        args.sharp_angle,
+        polylines.len()
+    ));
+    let quad_faces = mesh.face_count();
+    let opts = CoarsenOptions {
+        smoothing: args.smoothing.into(),
+        ..opts
+    };
+    let coarsener = Coarsener::new(mesh, attrs, &curves, opts);
+    Ok(Prepared {
+        input,
+        split,
+        coarsener,
+        quad_faces,
+    })
+}
+
+/// Maps a polyline of input vertices onto the split mesh: each step `a → b`
+/// goes through the edge point of edge `ab` (the common neighbour of `a` and
+/// `b` with an index `>= original_vertices`).
+fn split_polyline(mesh: &Mesh, poly: &[u32], original_vertices: usize) -> anyhow::Result<Vec<u32>> {
+    let mut out = Vec::with_capacity(poly.len() * 2);
+    for w in poly.windows(2) {
+        let (a, b) = (VertexId(w[0]), VertexId(w[1]));
+        let mid = mesh
+            .vertex_ring(a)
+            .find(|&e| e.idx() >= original_vertices && mesh.find_halfedge(e, b).is_some())
+            .with_context(|| {
+                format!("feature polyline: vertices {a} and {b} are not joined by a mesh edge")
+            })?;
+        if out.is_empty() {
+            out.push(a.0);
+        }
+        out.push(mid.0);
+        out.push(b.0);
+    }
+    Ok(out)
+}
