@@ -7,10 +7,12 @@
 //! * [`mesh`] — [`Mesh`], the half-edge mesh with typed handles, ring iterators,
 //!   local patch replacement and `validate()`.
 
+pub mod bvh;
 pub mod coarsen;
 pub mod indexed;
 pub mod io;
 pub mod mesh;
+pub mod metrics;
 
 pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};

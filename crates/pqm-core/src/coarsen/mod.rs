@@ -49,6 +49,17 @@ use std::collections::BinaryHeap;
 pub const ALPHA: f64 = 0.01;
 /// The paper's β: penalty weight when the worst valence gets worse.
 pub const BETA: f64 = 100.0;
+/// No step may raise a vertex's valence above this (unless it was already
+/// higher): the quality bar's worst valence.
+pub const MAX_VALENCE: usize = 6;
+/// Iterations of the relaxation after each step.
+pub const RELAX_ITERATIONS: u32 = 2;
+/// A vertex whose incident quads have a Scaled Jacobian below this after a
+/// step is relaxed.
+pub const RELAX_BELOW_JACOBIAN: f64 = 0.5;
+/// Floor of `V_after`, so a step that leaves no ideal vertex among the ones
+/// it changes scores badly but finitely.
+pub const V_FLOOR: f64 = 0.1;
 
 /// Where smoothing happens.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -104,6 +115,15 @@ pub struct CoarsenReport {
     pub stop: Option<StopReason>,
     /// Error bound of the coarsest level (fraction of the bbox diagonal).
     pub error: f64,
+    /// Popped candidates that were not committed, by reason.
+    pub rejections: std::collections::BTreeMap<String, usize>,
+}
+
+fn reject_name(e: &Reject) -> String {
+    match e {
+        Reject::NotApplicable(w) | Reject::Geometry(w) | Reject::Feature(w) => w.to_string(),
+        Reject::Invalid(_) => "topology".to_string(),
+    }
 }
 
 /// Per-vertex inputs of the error `E`.
@@ -363,7 +383,9 @@ impl Coarsener {
         // to commit time: a candidate that fails it is dropped when popped
         // and comes back only when its neighbourhood changes.
         let Ok(patch) = self.build(cand) else { return };
-        let cost = self.cost(cand, &patch);
+        let Some(cost) = self.cost(cand, &patch) else {
+            return;
+        };
         let stamps = match cand {
             Cand::Qv(f, _) => (self.stamp[f.idx()], 0),
             Cand::Qe(h) => {
@@ -442,8 +464,9 @@ impl Coarsener {
         }
     }
 
-    /// The paper's error `E` for a built patch.
-    fn cost(&mut self, cand: Cand, patch: &Patch) -> f64 {
+    /// The paper's error `E` for a built patch; `None` when the step would
+    /// push a vertex past [`MAX_VALENCE`] (and past its valence before).
+    fn cost(&mut self, cand: Cand, patch: &Patch) -> Option<f64> {
         // --- V: ideal-vertex fraction before/after over the touched vertices.
         // Valences after come from the distinct neighbour pairs over kept
         // and inserted faces; epoch marks make the set tests O(1).
@@ -471,11 +494,11 @@ impl Coarsener {
             }
         }
         let kept = |f: Option<FaceId>| f.is_some_and(|f| self.fmark[f.idx()] != epoch);
-        let mut ideal_b = 0usize;
         let mut dev_b = 0usize;
+        let mut before: Vec<(VertexId, usize, usize)> = Vec::with_capacity(touched.len());
         for &v in &touched {
             let (val, ideal) = (m.valence(v), m.ideal_valence(v));
-            ideal_b += (val == ideal) as usize;
+            before.push((v, val, ideal));
             dev_b = dev_b.max(val.abs_diff(ideal));
             if patch.merged.iter().any(|g| g.0 == v) {
                 continue;
@@ -526,8 +549,25 @@ impl Coarsener {
             .filter(|a| a.2 == 4 && a.1 == 2)
             .map(|a| a.0 .0)
             .collect();
+        // V counts the vertices whose valence the step changes (merged,
+        // doublet-removed, or with another valence after): unchanged ones
+        // would only dilute the ratio.
         let (mut ideal_a, mut dev_a, mut count_a) = (0usize, 0usize, 0usize);
-        for &(_, val, ideal, start) in &after {
+        let (mut ideal_b, mut count_b) = (0usize, 0usize);
+        let mut over_cap = false;
+        let merge_target = |v: VertexId| patch.merged.iter().any(|g| g.1 == v);
+        for &(v, val_b, ideal_vb) in &before {
+            let survivor = after.iter().find(|a| a.0 == v);
+            let changed = match survivor {
+                None => true,
+                Some(a) => merge_target(v) || a.1 != val_b || gone.contains(&v.0),
+            };
+            if changed {
+                count_b += 1;
+                ideal_b += (val_b == ideal_vb) as usize;
+            }
+        }
+        for &(v, val, ideal, start) in &after {
             if ideal == 4 && val == 2 {
                 continue;
             }
@@ -540,12 +580,27 @@ impl Coarsener {
                     .count()
             };
             let val = val - lost;
-            count_a += 1;
-            ideal_a += (val == ideal) as usize;
+            let val_b = before.iter().find(|b| b.0 == v).map_or(0, |b| b.1);
+            if val > MAX_VALENCE.max(val_b) {
+                over_cap = true;
+            }
             dev_a = dev_a.max(val.abs_diff(ideal));
+            if val != val_b || merge_target(v) {
+                count_a += 1;
+                ideal_a += (val == ideal) as usize;
+            }
         }
-        let v_b = ideal_b as f64 / touched.len().max(1) as f64;
-        let v_a = (ideal_a as f64 / count_a.max(1) as f64).max(1e-3);
+        let v_b = if count_b == 0 {
+            1.0
+        } else {
+            ideal_b as f64 / count_b as f64
+        };
+        let v_a = if count_a == 0 {
+            1.0
+        } else {
+            ideal_a as f64 / count_a as f64
+        }
+        .max(V_FLOOR);
         self.scratch_touched = touched;
         self.scratch_pairs = pairs;
         let m = &self.mesh;
@@ -608,7 +663,7 @@ impl Coarsener {
         if dev_a > dev_b {
             e += BETA * dev_a as f64;
         }
-        e
+        (!over_cap).then_some(e)
     }
 
     // ------------------------------------------------------------- commit
@@ -616,10 +671,19 @@ impl Coarsener {
     /// Rebuilds, applies, relaxes, removes doublets, checks and either
     /// commits (logging every step) or undoes everything.
     fn try_commit(&mut self, cand: Cand) -> bool {
-        let Ok(patch) = self.build(cand) else {
-            return false;
+        let patch = match self.build(cand) {
+            Ok(p) => p,
+            Err(e) => {
+                *self.report.rejections.entry(reject_name(&e)).or_insert(0) += 1;
+                return false;
+            }
         };
         if ops::check_patch(&self.mesh, &patch).is_err() {
+            *self
+                .report
+                .rejections
+                .entry("topology".to_string())
+                .or_insert(0) += 1;
             return false;
         }
         let op = match cand {
@@ -637,6 +701,15 @@ impl Coarsener {
             }
         }
         let guard = GeometryGuard::capture(&self.mesh, &region);
+        // valences before, for the cap after the whole step
+        let mut valence_before: Vec<(VertexId, usize)> = Vec::with_capacity(32);
+        for &f in &region {
+            for v in self.mesh.face_vertices(f) {
+                if !valence_before.iter().any(|x| x.0 == v) {
+                    valence_before.push((v, self.mesh.valence(v)));
+                }
+            }
+        }
         let positions_before: Vec<(VertexId, DVec3)> = patch
             .moved
             .iter()
@@ -651,9 +724,6 @@ impl Coarsener {
             return false;
         };
         let mut undo_stack: Vec<Applied> = vec![applied];
-        // relax the re-fanned vertices (and with local smoothing the 1-ring)
-        let relax_set = self.relax_set(&patch);
-        let relaxed = self.relax(&relax_set, 1);
         // doublets triggered by the step
         let mut doublet_logs: Vec<(Patch, DVec3)> = Vec::new();
         let mut merged_all = patch.merged.clone();
@@ -679,6 +749,15 @@ impl Coarsener {
                 }
             }
         }
+        // relax what the step left badly shaped (a re-fan or a doublet
+        // removal leaves vertices on straight lines); local smoothing relaxes
+        // every vertex of the inserted quads
+        let mut inserted: Vec<VertexId> = patch.add.iter().flatten().copied().collect();
+        for (d, _) in &doublet_logs {
+            inserted.extend(d.add.iter().flatten().copied());
+        }
+        let relax_set = self.relax_set(&patch, &inserted);
+        let relaxed = self.relax(&relax_set, RELAX_ITERATIONS);
         // compose merges: a vertex merged into one that later merged again
         let composed: Vec<(VertexId, VertexId)> = merged_all
             .iter()
@@ -696,21 +775,41 @@ impl Coarsener {
             .copied()
             .collect();
         let drift = self.drift_updates(&moves, &composed);
-        let after_faces = self.faces_around_touched(&patch, &composed);
+        let after_faces = self.faces_around_touched(&patch, &composed, &inserted);
         let mut delta = FeatureDelta::default();
-        let ok = guard_ok
-            && after_faces
-                .iter()
-                .all(|&f| self.mesh.check_dual_chords(f).is_ok())
-            && guard.check(&self.mesh, &after_faces).is_ok()
-            && match self.features.check_after(&self.mesh, &composed) {
-                Ok(d) => {
-                    delta = d;
-                    true
-                }
-                Err(_) => false,
+        let verdict: Result<FeatureDelta, &'static str> = if !guard_ok {
+            Err("doublet")
+        } else if !after_faces
+            .iter()
+            .all(|&f| self.mesh.check_dual_chords(f).is_ok())
+        {
+            Err("dual chords")
+        } else if valence_before.iter().any(|&(v, before)| {
+            self.mesh.is_vertex_alive(v) && self.mesh.valence(v) > MAX_VALENCE.max(before)
+        }) {
+            Err("valence above the cap")
+        } else if let Err(Reject::Geometry(why)) = guard.check(&self.mesh, &after_faces) {
+            Err(why)
+        } else if self.error_with(&drift) > self.opts.max_error.unwrap_or(f64::INFINITY) {
+            Err("error bound")
+        } else {
+            self.features
+                .check_after(&self.mesh, &composed)
+                .map_err(|e| match e {
+                    Reject::Feature(why) => why,
+                    _ => "feature",
+                })
+        };
+        let ok = match verdict {
+            Ok(d) => {
+                delta = d;
+                true
             }
-            && self.error_with(&drift) <= self.opts.max_error.unwrap_or(f64::INFINITY);
+            Err(why) => {
+                *self.report.rejections.entry(why.to_string()).or_insert(0) += 1;
+                false
+            }
+        };
         if !ok {
             while let Some(a) = undo_stack.pop() {
                 ops::undo(&mut self.mesh, &a).expect("undo of a just-applied patch");
@@ -723,16 +822,24 @@ impl Coarsener {
         // ---- commit: logs, attributes, error, queue
         self.features.commit(delta);
         let applied = &undo_stack[0];
-        let mut moved: Vec<(VertexId, DVec3, DVec3)> = positions_before
+        // the op's own moves are logged with it; the relaxation came last, so
+        // it goes with the last log of the step (undone first when refining)
+        let moved: Vec<(VertexId, DVec3, DVec3)> = positions_before
             .iter()
+            .map(|&(v, before)| {
+                let after = patch
+                    .moved
+                    .iter()
+                    .find(|m| m.0 == v)
+                    .map_or(before, |m| m.1);
+                (v, before, after)
+            })
+            .collect();
+        let relax_moves: Vec<(VertexId, DVec3, DVec3)> = relaxed
+            .iter()
+            .filter(|&&(v, before)| self.mesh.position(v) != before)
             .map(|&(v, before)| (v, before, self.mesh.position(v)))
             .collect();
-        for &(v, before) in &relaxed {
-            match moved.iter_mut().find(|m| m.0 == v) {
-                Some(m) => m.2 = self.mesh.position(v),
-                None => moved.push((v, before, self.mesh.position(v))),
-            }
-        }
         self.logs.push(StepLog {
             op,
             faces_before: patch
@@ -773,6 +880,9 @@ impl Coarsener {
             self.errors.push(self.error);
             self.report.doublets += 1;
         }
+        if let Some(last) = self.logs.last_mut() {
+            last.moved.extend(relax_moves);
+        }
         match op {
             OpKind::QvMerge => self.report.qv_merges += 1,
             _ => self.report.qe_merges += 1,
@@ -794,20 +904,35 @@ impl Coarsener {
     /// path vertices, which a re-fan leaves on a straight line) and, with
     /// local smoothing, every vertex of the inserted quads. Feature vertices
     /// never move.
-    fn relax_set(&self, patch: &Patch) -> Vec<VertexId> {
+    fn relax_set(&self, patch: &Patch, inserted: &[VertexId]) -> Vec<VertexId> {
         let merged_into: Vec<VertexId> = patch.moved.iter().map(|m| m.0).collect();
+        let local = self.opts.smoothing == Smoothing::Local;
         let mut set: Vec<VertexId> = Vec::new();
-        for q in &patch.add {
-            for (i, &v) in q.iter().enumerate() {
-                let fan_middle = i == 2 && merged_into.contains(&q[0]);
-                let local = self.opts.smoothing == Smoothing::Local && !merged_into.contains(&v);
-                if (fan_middle || local) && !self.features.is_feature(v) && !set.contains(&v) {
-                    set.push(v);
-                }
+        for &v in inserted {
+            if set.contains(&v)
+                || merged_into.contains(&v)
+                || !self.mesh.is_vertex_alive(v)
+                || self.mesh.is_boundary_vertex(v)
+                || self.features.is_feature(v)
+            {
+                continue;
+            }
+            if local || self.badly_shaped_at(v) {
+                set.push(v);
             }
         }
-        set.retain(|&v| self.mesh.is_vertex_alive(v) && !self.mesh.is_boundary_vertex(v));
         set
+    }
+
+    /// True when a quad around `v` has a corner below [`RELAX_BELOW_JACOBIAN`]
+    /// (a vertex left on a straight line by a re-fan or doublet removal).
+    fn badly_shaped_at(&self, v: VertexId) -> bool {
+        let m = &self.mesh;
+        m.vertex_faces(v).any(|f| {
+            m.quad_vertices(f).is_some_and(|q| {
+                ops::quad_scaled_jacobian(q.map(|u| m.position(u))) < RELAX_BELOW_JACOBIAN
+            })
+        })
     }
 
     /// The paper's centroidal smoothing on `vs` (importance-weighted face
@@ -843,8 +968,9 @@ impl Coarsener {
         &self,
         patch: &Patch,
         composed: &[(VertexId, VertexId)],
+        inserted: &[VertexId],
     ) -> Vec<FaceId> {
-        let mut vs: Vec<VertexId> = patch.add.iter().flatten().copied().collect();
+        let mut vs: Vec<VertexId> = inserted.to_vec();
         vs.extend(patch.moved.iter().map(|m| m.0));
         vs.extend(composed.iter().map(|m| m.1));
         vs.sort_unstable();
