@@ -256,18 +256,27 @@ fn stats_json_has_the_documented_fields_and_topology() {
 }
 
 #[test]
-fn stats_with_reference_reports_hausdorff_when_available() {
+fn stats_with_reference_reports_hausdorff() {
     let v = json_ok(&[
         "stats",
         s(&generated("quad_sphere.obj")),
         "--reference",
         s(&generated("quad_sphere.obj")),
     ]);
-    // The metrics module fills `hausdorff`; a mesh against itself is at 0.
-    if let Some(h) = v.get("hausdorff") {
-        assert!(h["max"].as_f64().unwrap() < 1e-9, "{v}");
-        assert!(h["mean"].as_f64().unwrap() < 1e-9, "{v}");
-    }
+    // a mesh against itself is at distance 0
+    let h = &v["hausdorff"];
+    assert!(h["max"].as_f64().unwrap() < 1e-9, "{v}");
+    assert!(h["mean"].as_f64().unwrap() < 1e-9, "{v}");
+    // a coarsened sphere is not, but stays close (fractions of the diagonal)
+    let d = TempDir::new().unwrap();
+    let lo = d.path().join("lo.obj");
+    json_ok(&["coarsen", s(&generated("quad_sphere.obj")), "-o", s(&lo), "--ratio", "0.5"]);
+    let v = json_ok(&["stats", s(&lo), "--reference", s(&generated("quad_sphere.obj"))]);
+    let (max, mean) = (
+        v["hausdorff"]["max"].as_f64().unwrap(),
+        v["hausdorff"]["mean"].as_f64().unwrap(),
+    );
+    assert!(max > 0.0 && max < 0.1 && mean <= max, "{v}");
 }
 
 // ---------------------------------------------------------------- convert
