@@ -1,0 +1,761 @@
+//! End-to-end tests of the `pqm` binary: every command run as a user would,
+//! on the bundled fixtures and on `../shared/meshes`.
+
+use assert_cmd::Command;
+use pqm_core::{io, IndexedMesh, Mesh};
+use predicates::prelude::*;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use tempfile::TempDir;
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures")
+}
+
+fn shared(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/meshes")
+        .join(rel)
+}
+
+fn spot() -> PathBuf {
+    fixtures().join("spot_quadrangulated.obj")
+}
+
+fn generated(name: &str) -> PathBuf {
+    fixtures().join("generated").join(name)
+}
+
+fn pqm() -> Command {
+    Command::cargo_bin("pqm").expect("pqm binary")
+}
+
+/// Runs `pqm --json ARGS`, expects success, parses stdout as one JSON value.
+fn json_ok(args: &[&str]) -> Value {
+    let out = pqm().arg("--json").args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "pqm {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!(
+            "stdout of pqm {args:?} is not one JSON value ({e}): {}",
+            String::from_utf8_lossy(&out.stdout)
+        )
+    })
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Reads a mesh and checks every structural invariant of the half-edge mesh.
+fn load_valid(path: &Path) -> (IndexedMesh, Mesh) {
+    let im = io::read_mesh(path).unwrap_or_else(|e| panic!("{e}"));
+    let m = Mesh::from_indexed(&im).unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+    m.validate_structure()
+        .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
+    (im, m)
+}
+
+/// The faces of `m` as a sorted list, each rotated to start at its smallest
+/// vertex (orientation kept).
+fn face_set(m: &IndexedMesh) -> Vec<Vec<u32>> {
+    let mut out: Vec<Vec<u32>> = m
+        .faces()
+        .map(|f| {
+            let i = (0..f.len()).min_by_key(|&i| f[i]).unwrap();
+            f[i..].iter().chain(&f[..i]).copied().collect()
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// Files in `dir` whose name ends in `.tmp` (left-over temporaries).
+fn temp_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+// ---------------------------------------------------------------- usage
+
+#[test]
+fn no_arguments_prints_help_and_exits_2() {
+    pqm()
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("Usage: pqm"))
+        .stderr(predicate::str::contains("encode"));
+}
+
+#[test]
+fn every_command_has_help_with_an_example() {
+    for c in [
+        "stats", "convert", "coarsen", "encode", "decode", "info", "demo",
+    ] {
+        pqm()
+            .args([c, "--help"])
+            .assert()
+            .success()
+            .stdout(predicate::str::contains("Example"))
+            .stdout(predicate::str::contains(format!("pqm {c}")));
+    }
+}
+
+#[test]
+fn bad_usage_exits_2() {
+    let d = TempDir::new().unwrap();
+    let out = d.path().join("o.obj");
+    let spot = spot();
+    let spot = s(&spot);
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["frobnicate"],
+        vec!["stats"],
+        vec!["coarsen", spot],
+        vec!["coarsen", spot, "-o", s(&out), "--ratio", "1.5"],
+        vec!["coarsen", spot, "-o", s(&out), "--smoothing", "sometimes"],
+        vec!["encode", spot, "-o", "x.pqm", "--bits", "30"],
+        vec!["encode", spot, spot, "-o", "x.pqm"],
+        vec!["encode", spot],
+        vec!["convert", spot, "out.xyz"],
+        vec![
+            "decode", "x.pqm", "-o", "y.glb", "--level", "1", "--faces", "3",
+        ],
+    ];
+    for args in cases {
+        pqm().args(&args).assert().code(2);
+    }
+    assert!(temp_files(d.path()).is_empty());
+}
+
+// ---------------------------------------------------------------- errors
+
+#[test]
+fn missing_file_gives_one_clear_line() {
+    let out = pqm().args(["stats", "no/such/mesh.obj"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: no/such/mesh.obj: "), "{err}");
+    assert!(out.stdout.is_empty());
+}
+
+#[test]
+fn defective_mesh_names_file_face_and_vertex() {
+    let d = TempDir::new().unwrap();
+    let bad = d.path().join("bad.obj");
+    std::fs::write(
+        &bad,
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1 2 2 4\n",
+    )
+    .unwrap();
+    let out_path = d.path().join("out.obj");
+    let out = pqm()
+        .args(["coarsen", s(&bad), "-o", s(&out_path)])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("bad.obj: face 1 repeats vertex 1"), "{err}");
+    assert!(!out_path.exists());
+}
+
+#[test]
+fn not_a_pqm_file_is_a_clear_error() {
+    pqm()
+        .args(["info", s(&spot())])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("spot_quadrangulated.obj"))
+        .stderr(predicate::str::contains("not a .pqm file"));
+}
+
+#[test]
+fn failed_writes_leave_no_file_behind() {
+    let d = TempDir::new().unwrap();
+    // a directory that does not exist
+    let missing = d.path().join("nope").join("out.obj");
+    pqm()
+        .args(["convert", s(&generated("cube.obj")), s(&missing)])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("does not exist"));
+    assert!(!missing.exists());
+    // the target is a directory: the temporary file is written, then the
+    // rename fails and the temporary must be removed
+    let blocker = d.path().join("out.obj");
+    std::fs::create_dir(&blocker).unwrap();
+    pqm()
+        .args(["convert", s(&generated("cube.obj")), s(&blocker)])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("out.obj"));
+    assert!(blocker.is_dir());
+    let pqm_out = d.path().join("x.pqm");
+    std::fs::create_dir(&pqm_out).unwrap();
+    pqm()
+        .args(["encode", s(&generated("cube.obj")), "-o", s(&pqm_out)])
+        .assert()
+        .code(1);
+    assert_eq!(temp_files(d.path()), Vec::<String>::new());
+}
+
+// ---------------------------------------------------------------- stats
+
+#[test]
+fn stats_json_has_the_documented_fields_and_topology() {
+    for (file, genus, loops, comps) in [
+        ("torus.obj", 1, 0, 1),
+        ("grid.obj", 0, 1, 1),
+        ("two_components.obj", 0, 0, 2),
+        ("quad_sphere.obj", 0, 0, 1),
+    ] {
+        let v = json_ok(&["stats", s(&generated(file))]);
+        for k in [
+            "vertices",
+            "faces",
+            "quads",
+            "triangles",
+            "other_faces",
+            "boundary_loops",
+            "components",
+            "genus",
+        ] {
+            assert!(v[k].is_number(), "{file}: {k} missing in {v}");
+        }
+        assert!(v["scaled_jacobian"]["median"].is_number());
+        assert!(v["scaled_jacobian"]["worst"].is_number());
+        assert!(v["valence"]["ideal_fraction"].is_number());
+        assert!(v["valence"]["extraordinary"].is_number());
+        assert!(v["valence"]["worst"].is_number());
+        assert_eq!(v["genus"], genus, "{file}");
+        assert_eq!(v["boundary_loops"], loops, "{file}");
+        assert_eq!(v["components"], comps, "{file}");
+        assert_eq!(v["quads"], v["faces"], "{file}");
+    }
+    // MANIFEST.md: spot_quadrangulated has V 2930, F 2928 (all quads), genus 0
+    let v = json_ok(&["stats", s(&spot())]);
+    assert_eq!(v["vertices"], 2930);
+    assert_eq!(v["faces"], 2928);
+    assert_eq!(v["quads"], 2928);
+    assert_eq!(v["genus"], 0);
+    // the text form is a table naming the figures
+    pqm()
+        .args(["stats", s(&spot())])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("scaled jacobian"))
+        .stdout(predicate::str::contains("valence"));
+}
+
+#[test]
+fn stats_with_reference_reports_hausdorff() {
+    let v = json_ok(&[
+        "stats",
+        s(&generated("quad_sphere.obj")),
+        "--reference",
+        s(&generated("quad_sphere.obj")),
+    ]);
+    // a mesh against itself is at distance 0
+    let h = &v["hausdorff"];
+    assert!(h["max"].as_f64().unwrap() < 1e-9, "{v}");
+    assert!(h["mean"].as_f64().unwrap() < 1e-9, "{v}");
+    // a coarsened sphere is not, but stays close (fractions of the diagonal)
+    let d = TempDir::new().unwrap();
+    let lo = d.path().join("lo.obj");
+    json_ok(&["coarsen", s(&generated("quad_sphere.obj")), "-o", s(&lo), "--ratio", "0.5"]);
+    let v = json_ok(&["stats", s(&lo), "--reference", s(&generated("quad_sphere.obj"))]);
+    let (max, mean) = (
+        v["hausdorff"]["max"].as_f64().unwrap(),
+        v["hausdorff"]["mean"].as_f64().unwrap(),
+    );
+    assert!(max > 0.0 && max < 0.1 && mean <= max, "{v}");
+}
+
+// ---------------------------------------------------------------- convert
+
+#[test]
+fn convert_round_trips_through_every_format() {
+    let d = TempDir::new().unwrap();
+    let src = generated("two_components.obj");
+    let orig = io::read_mesh(&src).unwrap();
+    for ext in ["glb", "gltf", "ply", "off", "obj"] {
+        let out = d.path().join(format!("m.{ext}"));
+        let v = json_ok(&["convert", s(&src), s(&out)]);
+        assert_eq!(v["faces"], orig.face_count());
+        let (im, m) = load_valid(&out);
+        assert_eq!(im.face_count(), orig.face_count(), "{ext}");
+        assert_eq!(im.vertex_count(), orig.vertex_count(), "{ext}");
+        assert!(im.is_quad_only(), "{ext}: quads must come back as quads");
+        assert_eq!(m.components().1, 2);
+    }
+}
+
+#[test]
+fn convert_subdivide_and_repair_report_what_they_did() {
+    let d = TempDir::new().unwrap();
+    // spot's control cage: 160 quads, 4 triangles, 16 pentagons → one quad per corner
+    let out = d.path().join("cage.obj");
+    let v = json_ok(&[
+        "convert",
+        s(&fixtures().join("spot_control_mesh.obj")),
+        s(&out),
+        "--subdivide",
+        "split",
+        "--stats",
+    ]);
+    assert_eq!(v["faces"], 160 * 4 + 4 * 3 + 16 * 5);
+    assert_eq!(v["stats"]["quads"], v["faces"]);
+    assert_eq!(v["stats"]["genus"], 0);
+    load_valid(&out);
+
+    // a quad strip with a duplicated vertex (same position twice) and an unused one
+    let dup = d.path().join("dup.obj");
+    std::fs::write(
+        &dup,
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\nv 1 0 0\nv 9 9 9\n\
+         f 1 2 3 4\nf 7 5 6 3\n",
+    )
+    .unwrap();
+    let fixed = d.path().join("fixed.obj");
+    pqm()
+        .args(["convert", s(&dup), s(&fixed)])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("dup.obj"));
+    pqm()
+        .args(["convert", s(&dup), s(&fixed), "--repair"])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("repaired"));
+    let (im, _) = load_valid(&fixed);
+    assert_eq!(im.vertex_count(), 6);
+    let v = json_ok(&["convert", s(&dup), s(&fixed), "--repair"]);
+    assert_eq!(v["repair"]["welded_vertices"], 1);
+    // the welded copy and the unused vertex both become unreferenced
+    assert_eq!(v["repair"]["dropped_unreferenced_vertices"], 2);
+}
+
+// ---------------------------------------------------------------- coarsen
+
+#[test]
+fn coarsen_reaches_the_target_and_keeps_a_valid_quad_mesh() {
+    let d = TempDir::new().unwrap();
+    let out = d.path().join("spot_lo.obj");
+    let v = json_ok(&["coarsen", s(&spot()), "-o", s(&out), "--faces", "1500"]);
+    let (im, m) = load_valid(&out);
+    assert!(im.is_quad_only());
+    assert_eq!(m.genus(), 0);
+    assert_eq!(m.components().1, 1);
+    assert_eq!(v["output_stats"]["faces"], im.face_count());
+    assert_eq!(v["input_stats"]["faces"], 2928);
+    assert_eq!(v["subdivided"], false);
+    if v["stop"] == "target_reached" {
+        assert!(im.face_count() <= 1500);
+    } else {
+        assert_eq!(v["stop"], "nothing_legal");
+    }
+    assert!(im.face_count() < 2928, "nothing was coarsened");
+    let ops = &v["operators"];
+    let steps = ops["qv_merges"].as_u64().unwrap() + ops["qe_merges"].as_u64().unwrap();
+    assert!(steps > 0, "{v}");
+    assert!(v["time_s"].as_f64().unwrap() >= 0.0);
+}
+
+#[test]
+fn coarsen_splits_non_quad_input_and_says_so() {
+    let d = TempDir::new().unwrap();
+    let cage = fixtures().join("spot_control_mesh.obj");
+    let out = d.path().join("cage.obj");
+    pqm()
+        .args(["coarsen", s(&cage), "-o", s(&out), "--ratio", "0.9"])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("split each n-gon into n quads"));
+    let (im, m) = load_valid(&out);
+    assert!(im.is_quad_only());
+    assert_eq!(m.genus(), 0);
+    // --no-subdivide refuses, naming the file and the face kinds
+    let out2 = d.path().join("cage2.obj");
+    pqm()
+        .args(["coarsen", s(&cage), "-o", s(&out2), "--no-subdivide"])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains(
+            "spot_control_mesh.obj: not a quad mesh",
+        ))
+        .stderr(predicate::str::contains("4 triangles"));
+    assert!(!out2.exists());
+}
+
+#[test]
+fn coarsen_with_user_attributes_and_features() {
+    let d = TempDir::new().unwrap();
+    let sphere = generated("quad_sphere.obj");
+    let im = io::read_mesh(&sphere).unwrap();
+    // importance: high on one side
+    let imp = d.path().join("imp.txt");
+    let text: String = im
+        .positions
+        .iter()
+        .map(|p| format!("{}\n", if p.x > 0.0 { 5.0 } else { 0.0 }))
+        .collect();
+    std::fs::write(&imp, format!("# importance\n{text}")).unwrap();
+    // a feature polyline along the first face's edges
+    let f0 = im.face(0);
+    let feat = d.path().join("feat.txt");
+    std::fs::write(&feat, format!("{} {} {}\n", f0[0], f0[1], f0[2])).unwrap();
+    let out = d.path().join("s.obj");
+    let v = json_ok(&[
+        "coarsen",
+        s(&sphere),
+        "-o",
+        s(&out),
+        "--ratio",
+        "0.5",
+        "--importance",
+        s(&imp),
+        "--field",
+        "z",
+        "--features",
+        s(&feat),
+        "--sharp-angle",
+        "180",
+        "--smoothing",
+        "local",
+    ]);
+    assert!(v["output_stats"]["faces"].as_u64().unwrap() < 384);
+    load_valid(&out);
+    // a sidecar with the wrong count names the file and both counts
+    std::fs::write(&imp, "1\n2\n3\n").unwrap();
+    pqm()
+        .args([
+            "coarsen",
+            s(&sphere),
+            "-o",
+            s(&out),
+            "--importance",
+            s(&imp),
+        ])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("imp.txt"))
+        .stderr(predicate::str::contains("3 values for 386 vertices"));
+}
+
+#[test]
+fn quiet_prints_nothing_and_pipes_get_no_progress_bars() {
+    let d = TempDir::new().unwrap();
+    let out = d.path().join("t.obj");
+    let o = pqm()
+        .args(["-q", "coarsen", s(&generated("torus.obj")), "-o", s(&out)])
+        .args(["--ratio", "0.5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert!(o.stdout.is_empty());
+    assert!(
+        o.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let o = pqm()
+        .args(["coarsen", s(&generated("torus.obj")), "-o", s(&out)])
+        .args(["--ratio", "0.5"])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    // no cursor movement or carriage returns from a bar on a pipe
+    assert!(!o.stderr.contains(&b'\r') && !o.stderr.contains(&0x1b));
+    assert!(!o.stdout.contains(&b'\r') && !o.stdout.contains(&0x1b));
+}
+
+// ---------------------------------------------------------------- encode / info / decode
+
+#[test]
+fn encode_info_decode_levels_prefixes_and_full_equality() {
+    let d = TempDir::new().unwrap();
+    let file = d.path().join("spot.pqm");
+    let e = json_ok(&[
+        "encode",
+        s(&spot()),
+        "-o",
+        s(&file),
+        "--base-ratio",
+        "0.4",
+        "--chunk-bytes",
+        "4096",
+    ]);
+    let f = &e["files"][0];
+    for k in [
+        "input",
+        "faces",
+        "base_faces",
+        "records",
+        "bytes",
+        "bits_per_vertex",
+        "encode_time_s",
+    ] {
+        assert!(!f[k].is_null(), "{k} missing in {e}");
+    }
+    assert_eq!(f["faces"], 2928);
+    assert_eq!(e["failed"].as_array().unwrap().len(), 0);
+    let size = std::fs::metadata(&file).unwrap().len();
+    assert_eq!(f["bytes"], size);
+
+    let info = json_ok(&["info", s(&file)]);
+    assert_eq!(info["final_faces"], 2928);
+    assert_eq!(info["base_faces"], f["base_faces"]);
+    assert_eq!(info["records"], f["records"]);
+    assert_eq!(info["complete"], true);
+    assert_eq!(info["quant_bits"], 14);
+    let levels = info["levels"].as_array().unwrap();
+    assert!(levels.len() >= 3, "want several chunks: {info}");
+    let mut prev_bytes = 0;
+    for row in levels {
+        let b = row["bytes"].as_u64().unwrap();
+        assert!(b > prev_bytes && b <= size);
+        prev_bytes = b;
+    }
+    assert_eq!(levels.last().unwrap()["faces"], 2928);
+    // the text form shows the table
+    pqm()
+        .args(["info", s(&file)])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("level"))
+        .stdout(predicate::str::contains("bytes"));
+
+    // decode at several levels: each is a valid genus-0 quad mesh with the
+    // face count the chunk table announces
+    let records = info["records"].as_u64().unwrap();
+    for (i, k) in [0, records / 3, 2 * records / 3].iter().enumerate() {
+        let out = d.path().join(format!("l{i}.glb"));
+        let v = json_ok(&["decode", s(&file), "-o", s(&out), "--level", &k.to_string()]);
+        assert_eq!(v["level"], *k);
+        let (im, m) = load_valid(&out);
+        assert_eq!(im.face_count() as u64, v["faces"].as_u64().unwrap());
+        assert!(im.is_quad_only());
+        assert_eq!(m.genus(), 0);
+    }
+    // --faces: the finest level with at most N faces
+    let out = d.path().join("f.obj");
+    let v = json_ok(&["decode", s(&file), "-o", s(&out), "--faces", "2000"]);
+    assert!(v["faces"].as_u64().unwrap() <= 2000);
+    load_valid(&out);
+    // --error: the coarsest level within the bound
+    let e_mid = levels[levels.len() / 2]["error"].as_f64().unwrap();
+    let v = json_ok(&[
+        "decode",
+        s(&file),
+        "-o",
+        s(&out),
+        "--error",
+        &e_mid.to_string(),
+    ]);
+    assert!(v["error"].as_f64().unwrap() <= e_mid + 1e-12);
+    load_valid(&out);
+
+    // byte prefixes: at each chunk end the level after that chunk, in
+    // between the deepest complete one
+    for (i, row) in levels.iter().enumerate() {
+        let b = row["bytes"].as_u64().unwrap();
+        for prefix in [b, b + 17] {
+            if prefix > size {
+                continue;
+            }
+            let out = d.path().join(format!("p{i}_{prefix}.ply"));
+            let v = json_ok(&[
+                "decode",
+                s(&file),
+                "-o",
+                s(&out),
+                "--bytes",
+                &prefix.to_string(),
+            ]);
+            assert_eq!(v["level"], row["level"], "prefix {prefix}");
+            assert_eq!(v["faces"], row["faces"], "prefix {prefix}");
+            let (im, _) = load_valid(&out);
+            assert_eq!(im.face_count() as u64, row["faces"].as_u64().unwrap());
+        }
+    }
+    // too few bytes for the base mesh: one clear line, nothing written
+    let first = levels[0]["bytes"].as_u64().unwrap();
+    let out = d.path().join("none.glb");
+    pqm()
+        .args([
+            "decode",
+            s(&file),
+            "-o",
+            s(&out),
+            "--bytes",
+            &(first - 1).to_string(),
+        ])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("do not hold the base mesh"));
+    assert!(!out.exists());
+
+    // the full level equals the quantized input: same faces (input vertex
+    // order restored), positions within half a quantization step
+    let out = d.path().join("full.obj");
+    json_ok(&["decode", s(&file), "-o", s(&out), "--stats"]);
+    let (full, _) = load_valid(&out);
+    let input = io::read_mesh(&spot()).unwrap();
+    assert_eq!(full.vertex_count(), input.vertex_count());
+    // same faces (the slot order is the stream's, so compare as sets of
+    // faces, each rotated to start at its smallest vertex)
+    assert!(
+        face_set(&full) == face_set(&input),
+        "the full level's faces differ from the input's"
+    );
+    let step: Vec<f64> = info["quant_step"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    for (a, b) in full.positions.iter().zip(&input.positions) {
+        for k in 0..3 {
+            assert!(
+                (a[k] - b[k]).abs() <= 0.5 * step[k] * (1.0 + 1e-9) + 1e-12,
+                "{a} vs {b}"
+            );
+        }
+    }
+    // a truncated file without --bytes is refused with a hint
+    let cut = d.path().join("cut.pqm");
+    let bytes = std::fs::read(&file).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() - 10]).unwrap();
+    pqm()
+        .args(["decode", s(&cut), "-o", s(&out)])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("truncated"));
+}
+
+#[test]
+fn batch_encode_reports_the_broken_input_and_finishes_the_others() {
+    let d = TempDir::new().unwrap();
+    let broken = d.path().join("broken.obj");
+    std::fs::write(&broken, "v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
+    let out_dir = d.path().join("out");
+    let inputs = [
+        generated("torus.obj"),
+        broken.clone(),
+        generated("grid.obj"),
+        shared("quad/fandisk_quads.off"),
+    ];
+    let mut cmd = pqm();
+    cmd.arg("--json").arg("encode");
+    for i in &inputs {
+        cmd.arg(i);
+    }
+    let o = cmd.arg("--out-dir").arg(&out_dir).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("broken.obj"), "{err}");
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["files"].as_array().unwrap().len(), 3);
+    assert_eq!(v["failed"].as_array().unwrap().len(), 1);
+    assert!(v["failed"][0]["input"]
+        .as_str()
+        .unwrap()
+        .ends_with("broken.obj"));
+    for name in ["torus.pqm", "grid.pqm", "fandisk_quads.pqm"] {
+        let p = out_dir.join(name);
+        assert!(p.is_file(), "{name} missing");
+        let info = json_ok(&["info", s(&p)]);
+        assert_eq!(info["complete"], true);
+    }
+    assert!(!out_dir.join("broken.pqm").exists());
+    assert!(temp_files(&out_dir).is_empty());
+    // the grid's full level keeps its boundary loop
+    let g = d.path().join("grid.obj");
+    json_ok(&["decode", s(&out_dir.join("grid.pqm")), "-o", s(&g)]);
+    let (_, m) = load_valid(&g);
+    assert_eq!(m.boundary_loops().len(), 1);
+}
+
+#[test]
+fn encode_triangle_mesh_goes_through_the_split() {
+    let d = TempDir::new().unwrap();
+    // fertility: 12k triangles, genus 4 (MANIFEST.md)
+    let file = d.path().join("fertility.pqm");
+    let o = pqm()
+        .args([
+            "--json",
+            "encode",
+            s(&shared("tri/fertility.off")),
+            "-o",
+            s(&file),
+        ])
+        .args(["--base-ratio", "0.5", "--bits", "12"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("split each n-gon"));
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["files"][0]["subdivided"], true);
+    let out = d.path().join("base.glb");
+    json_ok(&["decode", s(&file), "-o", s(&out), "--level", "0"]);
+    let (im, m) = load_valid(&out);
+    assert!(im.is_quad_only());
+    assert_eq!(m.genus(), 4);
+}
+
+// ---------------------------------------------------------------- demo, fixtures
+
+#[test]
+fn demo_writes_three_glb_levels() {
+    let d = TempDir::new().unwrap();
+    let dir = d.path().join("demo");
+    let v = json_ok(&["demo", "--out-dir", s(&dir)]);
+    assert!(dir.join("spot.pqm").is_file());
+    let levels = v["levels"].as_array().unwrap();
+    assert_eq!(levels.len(), 3);
+    let mut faces = Vec::new();
+    for l in levels {
+        let p = PathBuf::from(l["file"].as_str().unwrap());
+        let (im, _) = load_valid(&p);
+        assert!(im.is_quad_only());
+        faces.push(im.face_count());
+    }
+    assert!(faces[0] < faces[1] && faces[1] < faces[2], "{faces:?}");
+    assert_eq!(faces[2], 2928);
+    // the text form says where the files are
+    pqm()
+        .args(["demo", "--out-dir", s(&dir)])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("spot_base.glb"))
+        .stdout(predicate::str::contains("Files are in"));
+}
+
+#[test]
+fn checked_in_procedural_fixtures_are_what_the_command_generates() {
+    let d = TempDir::new().unwrap();
+    json_ok(&["fixtures", "--out-dir", s(d.path())]);
+    for name in [
+        "cube.obj",
+        "quad_sphere.obj",
+        "torus.obj",
+        "grid.obj",
+        "two_components.obj",
+    ] {
+        let fresh = std::fs::read(d.path().join(name)).unwrap();
+        let checked_in = std::fs::read(generated(name)).unwrap();
+        assert!(
+            fresh == checked_in,
+            "fixtures/generated/{name} is stale: run `cargo run -p pqm-cli -- fixtures`"
+        );
+        load_valid(&generated(name));
+    }
+}
