@@ -591,7 +591,7 @@ fn prepare(mesh: &IndexedMesh, normals: Normals) -> Result<Prepared<'_>, MeshIoE
             let mut nrm = Vec::with_capacity(mesh.indices.len());
             for face in mesh.faces() {
                 let n = unit_or_z(newell(&mesh.positions, face));
-                nrm.extend(std::iter::repeat(n).take(face.len()));
+                nrm.resize(nrm.len() + face.len(), n);
             }
             Prepared {
                 tris: ngon_triangles(&flat)?,
@@ -683,7 +683,7 @@ impl DocBuilder {
         stride: Option<usize>,
         target: json::buffer::Target,
     ) -> json::Index<json::buffer::View> {
-        while self.bin.len() % 4 != 0 {
+        while self.bin.len() & 3 != 0 {
             self.bin.push(0);
         }
         let offset = self.bin.len();
@@ -861,7 +861,7 @@ impl DocBuilder {
     /// Adds the scene showing `nodes`, pads the buffer and fills in its
     /// length (and its base64 data URI when `embed`).
     fn finish(mut self, nodes: Vec<json::Index<json::Node>>, embed: bool) -> (json::Root, Vec<u8>) {
-        while self.bin.len() % 4 != 0 {
+        while self.bin.len() & 3 != 0 {
             self.bin.push(0);
         }
         let scene = self.root.push(json::Scene {
