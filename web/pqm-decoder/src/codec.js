@@ -1,0 +1,716 @@
+/**
+ * Decoding of the base mesh section (spec §6) and of record chunks (spec §7)
+ * into the decoder's *frontier* mesh (the deepest decoded level, with its
+ * vertex→face adjacency) and its *record log* (every record in explicit form
+ * with undo data, so that moving between levels never decodes again).
+ *
+ * Errors inside a record are thrown as message strings; `decodeChunk` turns
+ * them into a `bad-record` error naming the chunk and the record.
+ */
+import { Reader } from './reader.js';
+import { ensure } from './grow.js';
+import { badRecord, invalid } from './errors.js';
+
+/**
+ * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
+ * slot) and for each vertex the list of slots whose quad contains it.
+ */
+export class Frontier {
+  constructor() {
+    this.q = new Uint32Array(0);
+    this.nv = 0;
+    this.f = new Uint32Array(0);
+    this.nf = 0;
+    /** @type {number[][]} */
+    this.adj = [];
+  }
+}
+
+/**
+ * Explicit records with undo data, structure-of-arrays (spec §7.1). Level
+ * `k` has `vAt[k]` vertices and `fAt[k]` faces; record `k` (from level `k`
+ * to `k + 1`) moved the entries `movedAt[k] .. movedAt[k+1]` of `moved`
+ * (stride 7: vertex, new code xyz, old code xyz) and rewrote the entries
+ * `rwAt[k] .. rwAt[k+1]` of `rw` (stride 9: slot, new quad, old quad).
+ * `newCodes` holds the first code of every vertex after the base ones and
+ * `app` the first quad of every slot after the base ones.
+ */
+export class RecordLog {
+  constructor() {
+    this.ops = new Uint8Array(0);
+    this.nRecords = 0;
+    this.vAt = new Uint32Array(0);
+    this.fAt = new Uint32Array(0);
+    this.movedAt = new Float64Array(0);
+    this.rwAt = new Float64Array(0);
+    this.moved = new Uint32Array(0);
+    this.nMoved = 0;
+    this.rw = new Uint32Array(0);
+    this.nRw = 0;
+    this.newCodes = new Uint32Array(0);
+    this.nNew = 0;
+    this.app = new Uint32Array(0);
+    this.nApp = 0;
+  }
+
+  /** Appends the counts of a new level (after the base or a record). */
+  pushLevel(v, f) {
+    const n = this.levels;
+    this.vAt = ensure(this.vAt, n + 1, n);
+    this.fAt = ensure(this.fAt, n + 1, n);
+    this.movedAt = ensure(this.movedAt, n + 1, n);
+    this.rwAt = ensure(this.rwAt, n + 1, n);
+    this.vAt[n] = v;
+    this.fAt[n] = f;
+    this.movedAt[n] = this.nMoved;
+    this.rwAt[n] = this.nRw;
+    this.levels = n + 1;
+  }
+}
+RecordLog.prototype.levels = 0;
+
+/**
+ * Decodes the base payload (spec §6) into a fresh frontier.
+ * @param {Uint8Array} payload
+ * @param {number} nv base_vertex_count
+ * @param {number} nf base_face_count
+ * @param {number} qmax
+ * @returns {Frontier}
+ */
+export function decodeBase(payload, nv, nf, qmax) {
+  const section = 'base mesh';
+  // Every corner and coordinate takes at least one byte.
+  if (4 * nf + 3 * nv > payload.length) {
+    throw invalid(
+      section,
+      `${nf} faces and ${nv} vertices need at least ${4 * nf + 3 * nv} bytes, the payload has ${payload.length}`,
+    );
+  }
+  const st = new Frontier();
+  st.q = new Uint32Array(3 * nv);
+  st.f = new Uint32Array(4 * nf);
+  const r = new Reader(payload, 0, payload.length, 'base');
+  try {
+    let prev = 0;
+    const f = st.f;
+    for (let i = 0; i < nf; i++) {
+      for (let c = 0; c < 4; c++) {
+        const v = prev + r.s();
+        if (v < 0 || v >= nv) throw `face ${i} corner ${c} is vertex ${v}, outside 0..${nv}`;
+        f[4 * i + c] = v;
+        prev = v;
+      }
+      const a = f[4 * i], b = f[4 * i + 1], c = f[4 * i + 2], d = f[4 * i + 3];
+      if (a === b || a === c || a === d || b === c || b === d || c === d) {
+        throw `face ${i} repeats a vertex (${a} ${b} ${c} ${d})`;
+      }
+    }
+    const q = st.q;
+    let x = 0, y = 0, z = 0;
+    for (let i = 0; i < nv; i++) {
+      x += r.s();
+      y += r.s();
+      z += r.s();
+      if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
+        throw `vertex ${i} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+      }
+      q[3 * i] = x;
+      q[3 * i + 1] = y;
+      q[3 * i + 2] = z;
+    }
+    if (r.remaining() !== 0) throw `${r.remaining()} unused bytes after the last vertex`;
+  } catch (e) {
+    if (typeof e === 'string') throw invalid(section, e);
+    throw e;
+  }
+  st.nv = nv;
+  st.nf = nf;
+  const adj = new Array(nv);
+  for (let v = 0; v < nv; v++) adj[v] = [];
+  for (let s = 0; s < 4 * nf; s++) adj[st.f[s]].push(s >> 2);
+  st.adj = adj;
+  return st;
+}
+
+/** Removes `x` from the unordered list `list` (it is there). */
+function removeFrom(list, x) {
+  const i = list.indexOf(x);
+  const last = list.pop();
+  if (i >= 0 && i < list.length) list[i] = last;
+}
+
+// Scratch buffers reused across records (single-threaded).
+let scratchFirst = new Int32Array(64);
+
+/**
+ * Decoding context of one chunk: the five streams, the two cursors, the
+ * file's final counts and the quantization range.
+ */
+class ChunkContext {
+  constructor(streams, st, log, finalV, finalF, bits) {
+    this.ops = streams[0];
+    this.conn = streams[1];
+    this.refs = streams[2];
+    this.slots = streams[3];
+    this.pos = streams[4];
+    this.st = st;
+    this.log = log;
+    this.VF = finalV;
+    this.FF = finalF;
+    this.qmax = 2 ** bits - 1;
+    this.half = 2 ** (bits - 1);
+    this.vcur = 0;
+    this.scur = 0;
+    // per-record scratch (general form)
+    this.rwSlots = [];
+    this.rwOld = [];
+    this.rwNew = [];
+    this.appQuads = [];
+    this.extra = [];
+  }
+}
+
+/** Splits a chunk payload into its five streams (spec §7.2). */
+function splitStreams(payload) {
+  const names = ['ops', 'conn', 'refs', 'slots', 'pos'];
+  const top = new Reader(payload, 0, payload.length, 'chunk payload');
+  const out = [];
+  for (const name of names) {
+    const len = top.u();
+    if (len > top.remaining()) {
+      throw `stream ${name} claims ${len} bytes, ${top.remaining()} remain`;
+    }
+    out.push(new Reader(payload, top.p, top.p + len, name));
+    top.p += len;
+  }
+  if (top.remaining() !== 0) throw `${top.remaining()} bytes after the fifth stream`;
+  return out;
+}
+
+/**
+ * Decodes record chunk `index` into the frontier and the log. On success the
+ * log holds `info.recordCount` more levels; on failure the log is left as it
+ * was before the chunk (a chunk's records are available only once the
+ * whole chunk is, spec §7.2) and the frontier is unusable.
+ * @param {Uint8Array} payload decompressed chunk
+ * @param {number} index chunk index
+ * @param {{recordCount:number, vertexCount:number, faceCount:number}} info chunk table entry
+ * @param {Frontier} st
+ * @param {RecordLog} log
+ * @param {{finalVertexCount:number, finalFaceCount:number, quantBits:number}} h header
+ */
+export function decodeChunk(payload, index, info, st, log, h) {
+  const section = `chunk ${index}`;
+  let streams;
+  try {
+    streams = splitStreams(payload);
+  } catch (e) {
+    if (typeof e === 'string') throw invalid(section, e);
+    throw e;
+  }
+  const ctx = new ChunkContext(streams, st, log, h.finalVertexCount, h.finalFaceCount, h.quantBits);
+  const saved = {
+    nRecords: log.nRecords,
+    levels: log.levels,
+    nMoved: log.nMoved,
+    nRw: log.nRw,
+    nNew: log.nNew,
+    nApp: log.nApp,
+  };
+  const first = log.nRecords;
+  let t = 0;
+  try {
+    for (; t < info.recordCount; t++) {
+      decodeRecord(ctx);
+      log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords);
+      log.ops[log.nRecords++] = ctx.lastOp;
+      log.pushLevel(st.nv, st.nf);
+    }
+    for (const s of streams) {
+      if (s.remaining() !== 0) {
+        t = -1;
+        throw `${s.remaining()} unused bytes in stream ${s.name}`;
+      }
+    }
+    if (st.nv !== info.vertexCount || st.nf !== info.faceCount) {
+      t = -1;
+      throw `records reach ${st.nv} vertices and ${st.nf} faces, the chunk table says ${info.vertexCount} and ${info.faceCount}`;
+    }
+  } catch (e) {
+    Object.assign(log, saved);
+    if (typeof e !== 'string') throw e;
+    if (t < 0) throw invalid(section, e);
+    throw badRecord(index, first + t, e);
+  }
+}
+
+/** Decodes one record and applies it to the frontier, logging undo data. */
+function decodeRecord(ctx) {
+  const sym = ctx.ops.byte();
+  const op = sym & 3;
+  const form = (sym >> 2) & 3;
+  ctx.lastOp = op;
+  if (form === 0) {
+    if (sym >> 4) throw `general-form symbol 0x${sym.toString(16)} has bits 4-7 set`;
+    decodeGeneral(ctx);
+  } else if (form === 1) {
+    decodeSplit(ctx, sym);
+  } else {
+    throw `record form ${form} is invalid (symbol 0x${sym.toString(16)})`;
+  }
+}
+
+/** Reads three residuals and adds them to `(px, py, pz)`; checks the range. */
+function readCode(ctx, px, py, pz, what) {
+  const p = ctx.pos;
+  const x = px + p.s();
+  const y = py + p.s();
+  const z = pz + p.s();
+  const qmax = ctx.qmax;
+  if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
+    throw `${what} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+  }
+  ctx.cx = x;
+  ctx.cy = y;
+  ctx.cz = z;
+}
+
+const clamp = (x, qmax) => (x < 0 ? 0 : x > qmax ? qmax : x);
+
+/** Logs a move of `v` to the code in ctx.cx/cy/cz and applies it. */
+function logMove(ctx, v) {
+  const log = ctx.log;
+  const q = ctx.st.q;
+  const n = log.nMoved;
+  log.moved = ensure(log.moved, 7 * (n + 1), 7 * n);
+  const m = log.moved;
+  const o = 7 * n;
+  m[o] = v;
+  m[o + 1] = ctx.cx;
+  m[o + 2] = ctx.cy;
+  m[o + 3] = ctx.cz;
+  m[o + 4] = q[3 * v];
+  m[o + 5] = q[3 * v + 1];
+  m[o + 6] = q[3 * v + 2];
+  log.nMoved = n + 1;
+  q[3 * v] = ctx.cx;
+  q[3 * v + 1] = ctx.cy;
+  q[3 * v + 2] = ctx.cz;
+}
+
+/** Logs that `slot` becomes quad `a b c d`, updating quads and adjacency. */
+function rewriteSlot(ctx, slot, a, b, c, d) {
+  const st = ctx.st;
+  const log = ctx.log;
+  const f = st.f;
+  const n = log.nRw;
+  log.rw = ensure(log.rw, 9 * (n + 1), 9 * n);
+  const r = log.rw;
+  const o = 9 * n;
+  const s4 = 4 * slot;
+  r[o] = slot;
+  r[o + 1] = a;
+  r[o + 2] = b;
+  r[o + 3] = c;
+  r[o + 4] = d;
+  r[o + 5] = f[s4];
+  r[o + 6] = f[s4 + 1];
+  r[o + 7] = f[s4 + 2];
+  r[o + 8] = f[s4 + 3];
+  log.nRw = n + 1;
+  const adj = st.adj;
+  for (let k = 0; k < 4; k++) removeFrom(adj[f[s4 + k]], slot);
+  f[s4] = a;
+  f[s4 + 1] = b;
+  f[s4 + 2] = c;
+  f[s4 + 3] = d;
+  adj[a].push(slot);
+  adj[b].push(slot);
+  adj[c].push(slot);
+  adj[d].push(slot);
+}
+
+/** Appends quad `a b c d` at the next slot. */
+function appendQuad(ctx, a, b, c, d) {
+  const st = ctx.st;
+  const log = ctx.log;
+  const slot = st.nf;
+  st.f = ensure(st.f, 4 * (slot + 1), 4 * slot);
+  const f = st.f;
+  f[4 * slot] = a;
+  f[4 * slot + 1] = b;
+  f[4 * slot + 2] = c;
+  f[4 * slot + 3] = d;
+  st.nf = slot + 1;
+  const n = log.nApp;
+  log.app = ensure(log.app, 4 * (n + 1), 4 * n);
+  log.app.set(f.subarray(4 * slot, 4 * slot + 4), 4 * n);
+  log.nApp = n + 1;
+  const adj = st.adj;
+  adj[a].push(slot);
+  adj[b].push(slot);
+  adj[c].push(slot);
+  adj[d].push(slot);
+}
+
+/** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
+function appendVertex(ctx) {
+  const st = ctx.st;
+  const log = ctx.log;
+  const v = st.nv;
+  st.q = ensure(st.q, 3 * (v + 1), 3 * v);
+  st.q[3 * v] = ctx.cx;
+  st.q[3 * v + 1] = ctx.cy;
+  st.q[3 * v + 2] = ctx.cz;
+  st.nv = v + 1;
+  st.adj.push([]);
+  const n = log.nNew;
+  log.newCodes = ensure(log.newCodes, 3 * (n + 1), 3 * n);
+  log.newCodes[3 * n] = ctx.cx;
+  log.newCodes[3 * n + 1] = ctx.cy;
+  log.newCodes[3 * n + 2] = ctx.cz;
+  log.nNew = n + 1;
+}
+
+/** General form (spec §7.4). */
+function decodeGeneral(ctx) {
+  const st = ctx.st;
+  const conn = ctx.conn;
+  const V = st.nv;
+  const NF = st.nf;
+  const nNew = conn.u();
+  if (nNew > ctx.VF - V) throw `${nNew} new vertices exceed the final count ${ctx.VF} (now ${V})`;
+  const nMoved = conn.u();
+  if (nMoved > V) throw `${nMoved} moved vertices, only ${V} exist`;
+  const nRw = conn.u();
+  if (nRw > NF) throw `${nRw} rewritten faces, only ${NF} exist`;
+  const nApp = conn.u();
+  if (nApp > ctx.FF - NF) throw `${nApp} appended faces exceed the final count ${ctx.FF} (now ${NF})`;
+
+  // 2. moved vertices: applied at once, so that predictions see them.
+  let prevMoved = -1;
+  for (let i = 0; i < nMoved; i++) {
+    const v = ctx.vcur + ctx.refs.s();
+    if (v < 0 || v >= V) throw `moved vertex ${v} outside 0..${V}`;
+    if (v <= prevMoved) throw `moved vertex ${v} does not follow ${prevMoved}`;
+    ctx.vcur = v;
+    prevMoved = v;
+    const q = st.q;
+    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], `moved vertex ${v}`);
+    logMove(ctx, v);
+  }
+
+  // 3. rewritten slots.
+  const slots = ctx.rwSlots;
+  slots.length = 0;
+  if (nRw > 0) {
+    let s = ctx.scur + ctx.slots.s();
+    if (s < 0 || s >= NF) throw `rewritten slot ${s} outside 0..${NF}`;
+    slots.push(s);
+    for (let i = 1; i < nRw; i++) {
+      const gap = ctx.slots.u();
+      if (gap > NF) throw `slot gap ${gap} exceeds the face count ${NF}`;
+      s = s + 1 + gap;
+      if (s >= NF) throw `rewritten slot ${s} outside 0..${NF}`;
+      slots.push(s);
+    }
+    ctx.scur = s;
+  }
+
+  // 4.–5. quads. Old quads of rewritten slots stay in st.f until applied.
+  const extra = ctx.extra;
+  extra.length = 0;
+  const limit = V + nNew;
+  const f = st.f;
+  const corner = () => {
+    const x = conn.u();
+    if (x === 0) {
+      const v = ctx.vcur + ctx.refs.s();
+      if (v < 0 || v >= limit) throw `explicit vertex ${v} outside 0..${limit}`;
+      ctx.vcur = v;
+      extra.push(v);
+      return v;
+    }
+    if (x <= nNew) return V + x - 1;
+    if (x <= nNew + 4 * nRw) {
+      const i = x - 1 - nNew;
+      return f[4 * slots[i >> 2] + (i & 3)];
+    }
+    const e = x - 1 - nNew - 4 * nRw;
+    if (e >= extra.length) throw `corner code ${x} names extra entry ${e}, only ${extra.length} exist`;
+    return extra[e];
+  };
+  const rwNew = ctx.rwNew;
+  rwNew.length = 4 * nRw;
+  for (let i = 0; i < nRw; i++) {
+    const mask = conn.u();
+    if (mask > 15) throw `corner mask ${mask} of slot ${slots[i]} exceeds 15`;
+    const s4 = 4 * slots[i];
+    for (let c = 0; c < 4; c++) rwNew[4 * i + c] = mask & (1 << c) ? corner() : f[s4 + c];
+    checkDistinct(rwNew, 4 * i, `rewritten slot ${slots[i]}`);
+  }
+  const app = ctx.appQuads;
+  app.length = 4 * nApp;
+  for (let i = 0; i < nApp; i++) {
+    for (let c = 0; c < 4; c++) app[4 * i + c] = corner();
+    checkDistinct(app, 4 * i, `appended quad ${i}`);
+  }
+
+  // 6. new vertex codes. First find, for each new vertex, the first quad
+  // containing it in the order "appended, then rewritten by slot" — one
+  // pass over the quads rather than one per vertex.
+  if (nNew > 0) {
+    if (scratchFirst.length < nNew) scratchFirst = new Int32Array(Math.max(nNew, 2 * scratchFirst.length));
+    const firstHit = scratchFirst;
+    firstHit.fill(-1, 0, nNew);
+    // hit = (list << 30) | (quad index << 2) | corner, list 0 appended, 1 rewritten
+    for (let i = 0; i < 4 * nApp; i++) {
+      const v = app[i] - V;
+      if (v >= 0 && firstHit[v] < 0) firstHit[v] = i;
+    }
+    const base = 4 * nApp;
+    for (let i = 0; i < 4 * nRw; i++) {
+      const v = rwNew[i] - V;
+      if (v >= 0 && firstHit[v] < 0) firstHit[v] = base + i;
+    }
+    st.q = ensure(st.q, 3 * (V + nNew), 3 * V);
+    for (let k = 0; k < nNew; k++) {
+      const x = V + k;
+      const q = st.q;
+      let px, py, pz;
+      const hit = firstHit[k];
+      let found = false;
+      if (hit >= 0) {
+        const arr = hit < base ? app : rwNew;
+        const o = hit < base ? hit & ~3 : (hit - base) & ~3;
+        const c = hit & 3; // base is a multiple of 4
+        const n1 = arr[o + ((c + 1) & 3)];
+        const op = arr[o + ((c + 2) & 3)];
+        const n3 = arr[o + ((c + 3) & 3)];
+        const k1 = n1 < x, ko = op < x, k3 = n3 < x;
+        if (k1 && ko && k3) {
+          const qmax = ctx.qmax;
+          px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
+          py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
+          pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
+          found = true;
+        } else if (k1 || ko || k3) {
+          let sx = 0, sy = 0, sz = 0, n = 0;
+          for (const u of [k1 ? n1 : -1, ko ? op : -1, k3 ? n3 : -1]) {
+            if (u < 0) continue;
+            sx += q[3 * u];
+            sy += q[3 * u + 1];
+            sz += q[3 * u + 2];
+            n++;
+          }
+          px = Math.floor(sx / n);
+          py = Math.floor(sy / n);
+          pz = Math.floor(sz / n);
+          found = true;
+        }
+      }
+      if (!found) {
+        if (x > V) {
+          px = q[3 * (x - 1)];
+          py = q[3 * (x - 1) + 1];
+          pz = q[3 * (x - 1) + 2];
+        } else {
+          px = py = pz = ctx.half;
+        }
+      }
+      readCode(ctx, px, py, pz, `new vertex ${x}`);
+      appendVertex(ctx);
+    }
+  }
+
+  // Apply the connectivity.
+  for (let i = 0; i < nRw; i++) {
+    rewriteSlot(ctx, slots[i], rwNew[4 * i], rwNew[4 * i + 1], rwNew[4 * i + 2], rwNew[4 * i + 3]);
+  }
+  for (let i = 0; i < nApp; i++) {
+    appendQuad(ctx, app[4 * i], app[4 * i + 1], app[4 * i + 2], app[4 * i + 3]);
+  }
+}
+
+function checkDistinct(a, o, what) {
+  const x = a[o], y = a[o + 1], z = a[o + 2], w = a[o + 3];
+  if (x === y || x === z || x === w || y === z || y === w || z === w) {
+    throw `${what} repeats a vertex (${x} ${y} ${z} ${w})`;
+  }
+}
+
+// Split-form scratch (K ≤ 255).
+const sS = new Int32Array(256);
+const sN = new Int32Array(256);
+const sP = new Int32Array(256);
+const sO = new Int32Array(256);
+const sList = new Int32Array(256);
+const sIn = new Uint8Array(256);
+const sLink = new Int32Array(257);
+const sSideC = new Int32Array(256);
+
+/** Split form (spec §7.5). */
+function decodeSplit(ctx, sym) {
+  const st = ctx.st;
+  const V = st.nv;
+  const NF = st.nf;
+  if (V >= ctx.VF || NF >= ctx.FF) {
+    throw `a vertex split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
+  }
+  const m = ctx.vcur + ctx.refs.s();
+  if (m < 0 || m >= V) throw `split vertex ${m} outside 0..${V}`;
+  ctx.vcur = m;
+
+  // 2. canonical star of m: S sorted by slot.
+  const star = st.adj[m];
+  const K = star.length;
+  if (K < 1 || K > 255) throw `vertex ${m} is in ${K} faces (must be 1..=255)`;
+  const S = sS;
+  for (let i = 0; i < K; i++) S[i] = star[i];
+  S.subarray(0, K).sort();
+  const f = st.f;
+  for (let i = 0; i < K; i++) {
+    const s4 = 4 * S[i];
+    let k = 0;
+    while (f[s4 + k] !== m) k++;
+    sN[i] = f[s4 + ((k + 1) & 3)];
+    sO[i] = f[s4 + ((k + 2) & 3)];
+    sP[i] = f[s4 + ((k + 3) & 3)];
+  }
+  // succ(i) / pred(i): smallest other slot (S is sorted, so the first index).
+  const succ = (i) => {
+    const p = sP[i];
+    for (let j = 0; j < K; j++) if (j !== i && sN[j] === p) return j;
+    return -1;
+  };
+  const pred = (i) => {
+    const n = sN[i];
+    for (let j = 0; j < K; j++) if (j !== i && sP[j] === n) return j;
+    return -1;
+  };
+  // Rewind.
+  let start = -1;
+  let boundary = false;
+  for (let it = 0, g = 0; it < K; it++) {
+    const pr = pred(g);
+    if (pr < 0) {
+      start = g;
+      boundary = true;
+      break;
+    }
+    if (pr === 0) {
+      start = 0;
+      break;
+    }
+    g = pr;
+  }
+  if (start < 0) throw `the faces around vertex ${m} do not form a fan`;
+  // Walk.
+  sIn.fill(0, 0, K);
+  let len = 0;
+  sList[len++] = start;
+  sIn[start] = 1;
+  for (;;) {
+    const g = succ(sList[len - 1]);
+    if (boundary ? g < 0 : g === start) break;
+    if (g < 0 || sIn[g] || len >= K) {
+      throw `the faces around vertex ${m} do not form a single fan`;
+    }
+    sList[len++] = g;
+    sIn[g] = 1;
+  }
+  if (len !== K) throw `the fan around vertex ${m} holds ${len} of its ${K} faces`;
+  // Link.
+  for (let t = 0; t < K; t++) sLink[t] = sN[sList[t]];
+  let L = K;
+  if (boundary) sLink[L++] = sP[sList[K - 1]];
+  if (L < 2) throw `vertex ${m} has a link of ${L} vertex`;
+
+  // 3. wings.
+  const i = ctx.conn.u();
+  if (i > L - 1) throw `wing index ${i} exceeds ${L - 1}`;
+  const e = ctx.conn.u();
+  if (e > L - 2) throw `wing offset ${e} exceeds ${L - 2}`;
+  const j = (i + 1 + e) % L;
+  const b = sLink[i];
+  const d = sLink[j];
+  if (b === d) throw `wings ${i} and ${j} of vertex ${m} are the same vertex ${b}`;
+
+  // 4. sides.
+  let nC = 0;
+  let sax = 0, say = 0, saz = 0, nA = 0;
+  let scx = 0, scy = 0, scz = 0;
+  const q = st.q;
+  for (let t = 0; t < K; t++) {
+    const sideA = i < j ? i <= t && t < j : t >= i || t < j;
+    const idx = sList[t];
+    const o = 3 * sO[idx];
+    if (sideA) {
+      sax += q[o];
+      say += q[o + 1];
+      saz += q[o + 2];
+      nA++;
+    } else {
+      scx += q[o];
+      scy += q[o + 1];
+      scz += q[o + 2];
+      sSideC[nC++] = S[idx];
+    }
+  }
+
+  // 6. positions. a (moved m) first, then c.
+  const qmax = ctx.qmax;
+  const mx = q[3 * m], my = q[3 * m + 1], mz = q[3 * m + 2];
+  let ax = mx, ay = my, az = mz;
+  if (sym & 0x40) {
+    const mean = (s, n, own) => (n === 0 ? own : Math.floor(s / n));
+    const ma = [mean(sax, nA, mx), mean(say, nA, my), mean(saz, nA, mz)];
+    const mc = [mean(scx, nC, mx), mean(scy, nC, my), mean(scz, nC, mz)];
+    readCode(
+      ctx,
+      clamp(mx + Math.floor((ma[0] - mc[0]) / 4), qmax),
+      clamp(my + Math.floor((ma[1] - mc[1]) / 4), qmax),
+      clamp(mz + Math.floor((ma[2] - mc[2]) / 4), qmax),
+      `split vertex ${m} (a)`,
+    );
+    ax = ctx.cx;
+    ay = ctx.cy;
+    az = ctx.cz;
+    logMove(ctx, m);
+  }
+  const c = V;
+  let px, py, pz;
+  if (sym & 0x80) {
+    // reflection of a through the old position of m
+    px = clamp(2 * mx - ax, qmax);
+    py = clamp(2 * my - ay, qmax);
+    pz = clamp(2 * mz - az, qmax);
+  } else {
+    // §7.6: the appended quad (m, d, c, b) rotated is the first quad holding
+    // c; its neighbours there are b and d, its opposite corner m (code a).
+    px = clamp(q[3 * b] + q[3 * d] - ax, qmax);
+    py = clamp(q[3 * b + 1] + q[3 * d + 1] - ay, qmax);
+    pz = clamp(q[3 * b + 2] + q[3 * d + 2] - az, qmax);
+  }
+  readCode(ctx, px, py, pz, `split vertex ${m} (c)`);
+  appendVertex(ctx);
+
+  // 5. the explicit record: side-C slots by ascending slot, m → c.
+  const sideC = sSideC.subarray(0, nC).sort();
+  for (let t = 0; t < nC; t++) {
+    const s = sideC[t];
+    const s4 = 4 * s;
+    const fq = st.f;
+    rewriteSlot(
+      ctx,
+      s,
+      fq[s4] === m ? c : fq[s4],
+      fq[s4 + 1] === m ? c : fq[s4 + 1],
+      fq[s4 + 2] === m ? c : fq[s4 + 2],
+      fq[s4 + 3] === m ? c : fq[s4 + 3],
+    );
+  }
+  const B = [m, d, c, b];
+  const rot = (sym >> 4) & 3;
+  appendQuad(ctx, B[rot & 3], B[(1 + rot) & 3], B[(2 + rot) & 3], B[(3 + rot) & 3]);
+}
