@@ -13,7 +13,11 @@ import { badRecord, invalid } from './errors.js';
 
 /**
  * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
- * slot) and for each vertex the list of slots whose quad contains it.
+ * slot) and the vertex→face adjacency as doubly linked lists of *corners*
+ * (corner `4 s + k` is corner `k` of slot `s`): `head[v]` is the first corner
+ * at vertex `v`, `next` / `prev` link the corners of one vertex (−1 ends a
+ * list). Flat typed arrays: no per-vertex objects for the garbage collector,
+ * and rewriting a corner is O(1).
  */
 export class Frontier {
   constructor() {
@@ -21,8 +25,43 @@ export class Frontier {
     this.nv = 0;
     this.f = new Uint32Array(0);
     this.nf = 0;
-    /** @type {number[][]} */
-    this.adj = [];
+    this.head = new Int32Array(0);
+    this.next = new Int32Array(0);
+    this.prev = new Int32Array(0);
+    /** Final counts of the file: capacities never grow beyond them. */
+    this.maxV = Infinity;
+    this.maxF = Infinity;
+  }
+
+  /** Adds corner `c` to the list of vertex `v`. */
+  link(c, v) {
+    const h = this.head[v];
+    this.next[c] = h;
+    this.prev[c] = -1;
+    if (h >= 0) this.prev[h] = c;
+    this.head[v] = c;
+  }
+
+  /** Removes corner `c` from the list of vertex `v`. */
+  unlink(c, v) {
+    const p = this.prev[c];
+    const n = this.next[c];
+    if (p >= 0) this.next[p] = n;
+    else this.head[v] = n;
+    if (n >= 0) this.prev[n] = p;
+  }
+
+  /** Room for `nv` vertices and `nf` slots. */
+  reserve(nv, nf) {
+    const mv = this.maxV;
+    const mf = this.maxF;
+    if (3 * nv > this.q.length) this.q = ensure(this.q, 3 * nv, 3 * this.nv, 3 * mv);
+    if (nv > this.head.length) this.head = ensure(this.head, nv, this.nv, mv);
+    if (4 * nf > this.f.length) this.f = ensure(this.f, 4 * nf, 4 * this.nf, 4 * mf);
+    if (4 * nf > this.next.length) {
+      this.next = ensure(this.next, 4 * nf, 4 * this.nf, 4 * mf);
+      this.prev = ensure(this.prev, 4 * nf, 4 * this.nf, 4 * mf);
+    }
   }
 }
 
@@ -41,8 +80,8 @@ export class RecordLog {
     this.nRecords = 0;
     this.vAt = new Uint32Array(0);
     this.fAt = new Uint32Array(0);
-    this.movedAt = new Float64Array(0);
-    this.rwAt = new Float64Array(0);
+    this.movedAt = new Uint32Array(0);
+    this.rwAt = new Uint32Array(0);
     this.moved = new Uint32Array(0);
     this.nMoved = 0;
     this.rw = new Uint32Array(0);
@@ -56,10 +95,13 @@ export class RecordLog {
   /** Appends the counts of a new level (after the base or a record). */
   pushLevel(v, f) {
     const n = this.levels;
-    this.vAt = ensure(this.vAt, n + 1, n);
-    this.fAt = ensure(this.fAt, n + 1, n);
-    this.movedAt = ensure(this.movedAt, n + 1, n);
-    this.rwAt = ensure(this.rwAt, n + 1, n);
+    if (n + 1 > this.vAt.length) {
+      const max = this.maxLevels;
+      this.vAt = ensure(this.vAt, n + 1, n, max);
+      this.fAt = ensure(this.fAt, n + 1, n, max);
+      this.movedAt = ensure(this.movedAt, n + 1, n, max);
+      this.rwAt = ensure(this.rwAt, n + 1, n, max);
+    }
     this.vAt[n] = v;
     this.fAt[n] = f;
     this.movedAt[n] = this.nMoved;
@@ -68,6 +110,8 @@ export class RecordLog {
   }
 }
 RecordLog.prototype.levels = 0;
+/** Levels of the file (record_count + 1): capacities never grow beyond. */
+RecordLog.prototype.maxLevels = Infinity;
 
 /**
  * Decodes the base payload (spec §6) into a fresh frontier.
@@ -125,18 +169,11 @@ export function decodeBase(payload, nv, nf, qmax) {
   }
   st.nv = nv;
   st.nf = nf;
-  const adj = new Array(nv);
-  for (let v = 0; v < nv; v++) adj[v] = [];
-  for (let s = 0; s < 4 * nf; s++) adj[st.f[s]].push(s >> 2);
-  st.adj = adj;
+  st.head = new Int32Array(nv).fill(-1);
+  st.next = new Int32Array(4 * nf);
+  st.prev = new Int32Array(4 * nf);
+  for (let c = 0; c < 4 * nf; c++) st.link(c, st.f[c]);
   return st;
-}
-
-/** Removes `x` from the unordered list `list` (it is there). */
-function removeFrom(list, x) {
-  const i = list.indexOf(x);
-  const last = list.pop();
-  if (i >= 0 && i < list.length) list[i] = last;
 }
 
 // Scratch buffers reused across records (single-threaded).
@@ -222,7 +259,9 @@ export function decodeChunk(payload, index, info, st, log, h) {
   try {
     for (; t < info.recordCount; t++) {
       decodeRecord(ctx);
-      log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords);
+      if (log.nRecords + 1 > log.ops.length) {
+        log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords, log.maxLevels);
+      }
       log.ops[log.nRecords++] = ctx.lastOp;
       log.pushLevel(st.nv, st.nf);
     }
@@ -282,7 +321,7 @@ function logMove(ctx, v) {
   const log = ctx.log;
   const q = ctx.st.q;
   const n = log.nMoved;
-  log.moved = ensure(log.moved, 7 * (n + 1), 7 * n);
+  if (7 * (n + 1) > log.moved.length) log.moved = ensure(log.moved, 7 * (n + 1), 7 * n);
   const m = log.moved;
   const o = 7 * n;
   m[o] = v;
@@ -304,7 +343,7 @@ function rewriteSlot(ctx, slot, a, b, c, d) {
   const log = ctx.log;
   const f = st.f;
   const n = log.nRw;
-  log.rw = ensure(log.rw, 9 * (n + 1), 9 * n);
+  if (9 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 9 * (n + 1), 9 * n);
   const r = log.rw;
   const o = 9 * n;
   const s4 = 4 * slot;
@@ -318,16 +357,19 @@ function rewriteSlot(ctx, slot, a, b, c, d) {
   r[o + 7] = f[s4 + 2];
   r[o + 8] = f[s4 + 3];
   log.nRw = n + 1;
-  const adj = st.adj;
-  for (let k = 0; k < 4; k++) removeFrom(adj[f[s4 + k]], slot);
-  f[s4] = a;
-  f[s4 + 1] = b;
-  f[s4 + 2] = c;
-  f[s4 + 3] = d;
-  adj[a].push(slot);
-  adj[b].push(slot);
-  adj[c].push(slot);
-  adj[d].push(slot);
+  relink(st, s4, a);
+  relink(st, s4 + 1, b);
+  relink(st, s4 + 2, c);
+  relink(st, s4 + 3, d);
+}
+
+/** Sets corner `c` to vertex `v`, moving it between adjacency lists. */
+function relink(st, c, v) {
+  const old = st.f[c];
+  if (old === v) return;
+  st.unlink(c, old);
+  st.f[c] = v;
+  st.link(c, v);
 }
 
 /** Appends quad `a b c d` at the next slot. */
@@ -335,7 +377,7 @@ function appendQuad(ctx, a, b, c, d) {
   const st = ctx.st;
   const log = ctx.log;
   const slot = st.nf;
-  st.f = ensure(st.f, 4 * (slot + 1), 4 * slot);
+  st.reserve(st.nv, slot + 1);
   const f = st.f;
   f[4 * slot] = a;
   f[4 * slot + 1] = b;
@@ -343,14 +385,18 @@ function appendQuad(ctx, a, b, c, d) {
   f[4 * slot + 3] = d;
   st.nf = slot + 1;
   const n = log.nApp;
-  log.app = ensure(log.app, 4 * (n + 1), 4 * n);
-  log.app.set(f.subarray(4 * slot, 4 * slot + 4), 4 * n);
+  if (4 * (n + 1) > log.app.length) log.app = ensure(log.app, 4 * (n + 1), 4 * n, 4 * st.maxF);
+  const ap = log.app;
+  ap[4 * n] = a;
+  ap[4 * n + 1] = b;
+  ap[4 * n + 2] = c;
+  ap[4 * n + 3] = d;
   log.nApp = n + 1;
-  const adj = st.adj;
-  adj[a].push(slot);
-  adj[b].push(slot);
-  adj[c].push(slot);
-  adj[d].push(slot);
+  const c0 = 4 * slot;
+  st.link(c0, a);
+  st.link(c0 + 1, b);
+  st.link(c0 + 2, c);
+  st.link(c0 + 3, d);
 }
 
 /** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
@@ -358,14 +404,16 @@ function appendVertex(ctx) {
   const st = ctx.st;
   const log = ctx.log;
   const v = st.nv;
-  st.q = ensure(st.q, 3 * (v + 1), 3 * v);
+  st.reserve(v + 1, st.nf);
   st.q[3 * v] = ctx.cx;
   st.q[3 * v + 1] = ctx.cy;
   st.q[3 * v + 2] = ctx.cz;
+  st.head[v] = -1;
   st.nv = v + 1;
-  st.adj.push([]);
   const n = log.nNew;
-  log.newCodes = ensure(log.newCodes, 3 * (n + 1), 3 * n);
+  if (3 * (n + 1) > log.newCodes.length) {
+    log.newCodes = ensure(log.newCodes, 3 * (n + 1), 3 * n, 3 * st.maxV);
+  }
   log.newCodes[3 * n] = ctx.cx;
   log.newCodes[3 * n + 1] = ctx.cy;
   log.newCodes[3 * n + 2] = ctx.cz;
@@ -473,7 +521,7 @@ function decodeGeneral(ctx) {
       const v = rwNew[i] - V;
       if (v >= 0 && firstHit[v] < 0) firstHit[v] = base + i;
     }
-    st.q = ensure(st.q, 3 * (V + nNew), 3 * V);
+    st.reserve(V + nNew, NF);
     for (let k = 0; k < nNew; k++) {
       const x = V + k;
       const q = st.q;
@@ -541,6 +589,7 @@ function checkDistinct(a, o, what) {
 
 // Split-form scratch (K ≤ 255).
 const sS = new Int32Array(256);
+const sK = new Int32Array(256);
 const sN = new Int32Array(256);
 const sP = new Int32Array(256);
 const sO = new Int32Array(256);
@@ -561,38 +610,46 @@ function decodeSplit(ctx, sym) {
   if (m < 0 || m >= V) throw `split vertex ${m} outside 0..${V}`;
   ctx.vcur = m;
 
-  // 2. canonical star of m: S sorted by slot.
-  const star = st.adj[m];
-  const K = star.length;
-  if (K < 1 || K > 255) throw `vertex ${m} is in ${K} faces (must be 1..=255)`;
-  const S = sS;
-  for (let i = 0; i < K; i++) S[i] = star[i];
-  S.subarray(0, K).sort();
+  // 2. canonical star of m: S sorted by slot (insertion sort: K is small).
   const f = st.f;
+  const S = sS;
+  let K = 0;
+  for (let c = st.head[m]; c >= 0; c = st.next[c]) {
+    if (K === 255) throw `vertex ${m} is in more than 255 faces`;
+    const slot = c >> 2;
+    const k = c & 3;
+    let i = K++;
+    while (i > 0 && S[i - 1] > slot) {
+      S[i] = S[i - 1];
+      sK[i] = sK[i - 1];
+      i--;
+    }
+    S[i] = slot;
+    sK[i] = k;
+  }
+  if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
-    let k = 0;
-    while (f[s4 + k] !== m) k++;
+    const k = sK[i];
     sN[i] = f[s4 + ((k + 1) & 3)];
     sO[i] = f[s4 + ((k + 2) & 3)];
     sP[i] = f[s4 + ((k + 3) & 3)];
   }
-  // succ(i) / pred(i): smallest other slot (S is sorted, so the first index).
-  const succ = (i) => {
-    const p = sP[i];
-    for (let j = 0; j < K; j++) if (j !== i && sN[j] === p) return j;
-    return -1;
-  };
-  const pred = (i) => {
-    const n = sN[i];
-    for (let j = 0; j < K; j++) if (j !== i && sP[j] === n) return j;
-    return -1;
-  };
+  // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
+  // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
+  // first index found.
   // Rewind.
   let start = -1;
   let boundary = false;
   for (let it = 0, g = 0; it < K; it++) {
-    const pr = pred(g);
+    const n = sN[g];
+    let pr = -1;
+    for (let j = 0; j < K; j++) {
+      if (j !== g && sP[j] === n) {
+        pr = j;
+        break;
+      }
+    }
     if (pr < 0) {
       start = g;
       boundary = true;
@@ -611,7 +668,15 @@ function decodeSplit(ctx, sym) {
   sList[len++] = start;
   sIn[start] = 1;
   for (;;) {
-    const g = succ(sList[len - 1]);
+    const last = sList[len - 1];
+    const p = sP[last];
+    let g = -1;
+    for (let j = 0; j < K; j++) {
+      if (j !== last && sN[j] === p) {
+        g = j;
+        break;
+      }
+    }
     if (boundary ? g < 0 : g === start) break;
     if (g < 0 || sIn[g] || len >= K) {
       throw `the faces around vertex ${m} do not form a single fan`;
@@ -696,7 +761,16 @@ function decodeSplit(ctx, sym) {
   appendVertex(ctx);
 
   // 5. the explicit record: side-C slots by ascending slot, m → c.
-  const sideC = sSideC.subarray(0, nC).sort();
+  const sideC = sSideC;
+  for (let t = 1; t < nC; t++) {
+    const x = sideC[t];
+    let u = t;
+    while (u > 0 && sideC[u - 1] > x) {
+      sideC[u] = sideC[u - 1];
+      u--;
+    }
+    sideC[u] = x;
+  }
   for (let t = 0; t < nC; t++) {
     const s = sideC[t];
     const s4 = 4 * s;
@@ -710,7 +784,10 @@ function decodeSplit(ctx, sym) {
       fq[s4 + 3] === m ? c : fq[s4 + 3],
     );
   }
-  const B = [m, d, c, b];
+  // Q'[t] = B[(t + rot) mod 4] with B = (m, d, c, b)
   const rot = (sym >> 4) & 3;
-  appendQuad(ctx, B[rot & 3], B[(1 + rot) & 3], B[(2 + rot) & 3], B[(3 + rot) & 3]);
+  if (rot === 0) appendQuad(ctx, m, d, c, b);
+  else if (rot === 1) appendQuad(ctx, d, c, b, m);
+  else if (rot === 2) appendQuad(ctx, c, b, m, d);
+  else appendQuad(ctx, b, m, d, c);
 }

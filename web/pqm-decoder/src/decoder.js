@@ -551,6 +551,9 @@ export class PqmDecoder {
       throw e;
     }
     const st = decodeBase(payload, nv, nf, 2 ** h.quantBits - 1);
+    st.maxV = h.finalVertexCount;
+    st.maxF = h.finalFaceCount;
+    this._log.maxLevels = h.recordCount + 1;
     this._frontier = st;
     this._log.pushLevel(nv, nf);
     // level 0 becomes the current level
@@ -814,10 +817,12 @@ export class PqmDecoder {
   _reserve(nv, nf) {
     const v = this._nv;
     const f = this._nf;
-    this._q = ensure(this._q, 3 * nv, 3 * v);
-    this._pos = ensure(this._pos, 3 * nv, 3 * v);
-    this._quads = ensure(this._quads, 4 * nf, 4 * f);
-    this._tris = ensure(this._tris, 6 * nf, 6 * f);
+    const mv = this._header.finalVertexCount;
+    const mf = this._header.finalFaceCount;
+    this._q = ensure(this._q, 3 * nv, 3 * v, 3 * mv);
+    this._pos = ensure(this._pos, 3 * nv, 3 * v, 3 * mv);
+    this._quads = ensure(this._quads, 4 * nf, 4 * f, 4 * mf);
+    this._tris = ensure(this._tris, 6 * nf, 6 * f, 6 * mf);
   }
 
   /** f32 positions of vertices `a .. b` from their codes (spec §5). */
