@@ -63,6 +63,19 @@ class Mirror {
     assert.equal(this.nf, dec.faceCount);
     assert.deepEqual(this.pos.subarray(0, 3 * this.nv), pos, 'positions mirror the decoder');
     assert.deepEqual(this.tris.subarray(0, 6 * this.nf), tris, 'triangles mirror the decoder');
+    // and the decoder's buffers are its level: triangles from quads, f32 from f64
+    const q = dec.quads;
+    for (let f = 0; f < this.nf; f++) {
+      const [a, b, c, d] = q.subarray(4 * f, 4 * f + 4);
+      const t = tris.subarray(6 * f, 6 * f + 6);
+      if (t[0] !== a || t[1] !== b || t[2] !== c || t[3] !== a || t[4] !== c || t[5] !== d) {
+        assert.fail(`slot ${f}: triangles ${t} do not split quad ${[a, b, c, d]}`);
+      }
+    }
+    const p64 = dec.positionsF64();
+    for (let i = 0; i < p64.length; i++) {
+      if (pos[i] !== Math.fround(p64[i])) assert.fail(`position ${i}: f32 ${pos[i]} != f64 ${p64[i]}`);
+    }
   }
 }
 
