@@ -176,9 +176,6 @@ export function decodeBase(payload, nv, nf, qmax) {
   return st;
 }
 
-// Scratch buffers reused across records (single-threaded).
-let scratchFirst = new Int32Array(64);
-
 /**
  * Decoding context of one chunk: the five streams, the two cursors, the
  * file's final counts and the quantization range.
@@ -198,12 +195,11 @@ class ChunkContext {
     this.half = 2 ** (bits - 1);
     this.vcur = 0;
     this.scur = 0;
-    // per-record scratch (general form)
-    this.rwSlots = [];
-    this.rwOld = [];
-    this.rwNew = [];
-    this.appQuads = [];
-    this.extra = [];
+    this.nExtra = 0; // entries of the general form's extra list
+    this.lastOp = 0;
+    this.cx = 0; // last code read by readCode
+    this.cy = 0;
+    this.cz = 0;
   }
 }
 
@@ -420,6 +416,35 @@ function appendVertex(ctx) {
   log.nNew = n + 1;
 }
 
+// General-form scratch, grown on demand (sizes are bounded by the streams).
+let gSlots = new Int32Array(64);
+let gRw = new Int32Array(256);
+let gApp = new Int32Array(256);
+let gExtra = new Int32Array(64);
+let gFirst = new Int32Array(64);
+
+/** Resolves a corner code (spec §7.4) of the record being decoded. */
+function cornerCode(ctx, V, nNew, nRw, f) {
+  const x = ctx.conn.u();
+  if (x === 0) {
+    const v = ctx.vcur + ctx.refs.s();
+    const limit = V + nNew;
+    if (v < 0 || v >= limit) throw `explicit vertex ${v} outside 0..${limit}`;
+    ctx.vcur = v;
+    if (ctx.nExtra === gExtra.length) gExtra = ensure(gExtra, ctx.nExtra + 1);
+    gExtra[ctx.nExtra++] = v;
+    return v;
+  }
+  if (x <= nNew) return V + x - 1;
+  if (x <= nNew + 4 * nRw) {
+    const i = x - 1 - nNew;
+    return f[4 * gSlots[i >> 2] + (i & 3)];
+  }
+  const e = x - 1 - nNew - 4 * nRw;
+  if (e >= ctx.nExtra) throw `corner code ${x} names extra entry ${e}, only ${ctx.nExtra} exist`;
+  return gExtra[e];
+}
+
 /** General form (spec §7.4). */
 function decodeGeneral(ctx) {
   const st = ctx.st;
@@ -434,6 +459,11 @@ function decodeGeneral(ctx) {
   if (nRw > NF) throw `${nRw} rewritten faces, only ${NF} exist`;
   const nApp = conn.u();
   if (nApp > ctx.FF - NF) throw `${nApp} appended faces exceed the final count ${ctx.FF} (now ${NF})`;
+  // Each element takes at least one byte of its streams: check before
+  // sizing any scratch buffer by these counts.
+  if (nRw > ctx.slots.remaining() || nRw + 4 * nApp > conn.remaining() || 3 * (nNew + nMoved) > ctx.pos.remaining()) {
+    throw `counts (${nNew} new, ${nMoved} moved, ${nRw} rewritten, ${nApp} appended) exceed what the streams hold`;
+  }
 
   // 2. moved vertices: applied at once, so that predictions see them.
   let prevMoved = -1;
@@ -449,58 +479,40 @@ function decodeGeneral(ctx) {
   }
 
   // 3. rewritten slots.
-  const slots = ctx.rwSlots;
-  slots.length = 0;
+  if (nRw > gSlots.length) gSlots = new Int32Array(2 * nRw);
+  const slots = gSlots;
   if (nRw > 0) {
     let s = ctx.scur + ctx.slots.s();
     if (s < 0 || s >= NF) throw `rewritten slot ${s} outside 0..${NF}`;
-    slots.push(s);
+    slots[0] = s;
     for (let i = 1; i < nRw; i++) {
       const gap = ctx.slots.u();
       if (gap > NF) throw `slot gap ${gap} exceeds the face count ${NF}`;
       s = s + 1 + gap;
       if (s >= NF) throw `rewritten slot ${s} outside 0..${NF}`;
-      slots.push(s);
+      slots[i] = s;
     }
     ctx.scur = s;
   }
 
   // 4.–5. quads. Old quads of rewritten slots stay in st.f until applied.
-  const extra = ctx.extra;
-  extra.length = 0;
-  const limit = V + nNew;
+  ctx.nExtra = 0;
   const f = st.f;
-  const corner = () => {
-    const x = conn.u();
-    if (x === 0) {
-      const v = ctx.vcur + ctx.refs.s();
-      if (v < 0 || v >= limit) throw `explicit vertex ${v} outside 0..${limit}`;
-      ctx.vcur = v;
-      extra.push(v);
-      return v;
-    }
-    if (x <= nNew) return V + x - 1;
-    if (x <= nNew + 4 * nRw) {
-      const i = x - 1 - nNew;
-      return f[4 * slots[i >> 2] + (i & 3)];
-    }
-    const e = x - 1 - nNew - 4 * nRw;
-    if (e >= extra.length) throw `corner code ${x} names extra entry ${e}, only ${extra.length} exist`;
-    return extra[e];
-  };
-  const rwNew = ctx.rwNew;
-  rwNew.length = 4 * nRw;
+  if (4 * nRw > gRw.length) gRw = new Int32Array(8 * nRw);
+  if (4 * nApp > gApp.length) gApp = new Int32Array(8 * nApp);
+  const rwNew = gRw;
+  const app = gApp;
   for (let i = 0; i < nRw; i++) {
     const mask = conn.u();
     if (mask > 15) throw `corner mask ${mask} of slot ${slots[i]} exceeds 15`;
     const s4 = 4 * slots[i];
-    for (let c = 0; c < 4; c++) rwNew[4 * i + c] = mask & (1 << c) ? corner() : f[s4 + c];
+    for (let c = 0; c < 4; c++) {
+      rwNew[4 * i + c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, f) : f[s4 + c];
+    }
     checkDistinct(rwNew, 4 * i, `rewritten slot ${slots[i]}`);
   }
-  const app = ctx.appQuads;
-  app.length = 4 * nApp;
   for (let i = 0; i < nApp; i++) {
-    for (let c = 0; c < 4; c++) app[4 * i + c] = corner();
+    for (let c = 0; c < 4; c++) app[4 * i + c] = cornerCode(ctx, V, nNew, nRw, f);
     checkDistinct(app, 4 * i, `appended quad ${i}`);
   }
 
@@ -508,10 +520,10 @@ function decodeGeneral(ctx) {
   // containing it in the order "appended, then rewritten by slot" — one
   // pass over the quads rather than one per vertex.
   if (nNew > 0) {
-    if (scratchFirst.length < nNew) scratchFirst = new Int32Array(Math.max(nNew, 2 * scratchFirst.length));
-    const firstHit = scratchFirst;
+    if (nNew > gFirst.length) gFirst = new Int32Array(2 * nNew);
+    const firstHit = gFirst;
     firstHit.fill(-1, 0, nNew);
-    // hit = (list << 30) | (quad index << 2) | corner, list 0 appended, 1 rewritten
+    // hit = index into the appended corners, or 4 nApp + index into the rewritten ones
     for (let i = 0; i < 4 * nApp; i++) {
       const v = app[i] - V;
       if (v >= 0 && firstHit[v] < 0) firstHit[v] = i;
@@ -522,6 +534,7 @@ function decodeGeneral(ctx) {
       if (v >= 0 && firstHit[v] < 0) firstHit[v] = base + i;
     }
     st.reserve(V + nNew, NF);
+    const qmax = ctx.qmax;
     for (let k = 0; k < nNew; k++) {
       const x = V + k;
       const q = st.q;
@@ -535,20 +548,34 @@ function decodeGeneral(ctx) {
         const n1 = arr[o + ((c + 1) & 3)];
         const op = arr[o + ((c + 2) & 3)];
         const n3 = arr[o + ((c + 3) & 3)];
-        const k1 = n1 < x, ko = op < x, k3 = n3 < x;
+        const k1 = n1 < x;
+        const ko = op < x;
+        const k3 = n3 < x;
         if (k1 && ko && k3) {
-          const qmax = ctx.qmax;
+          // parallelogram
           px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
           py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
           pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
           found = true;
         } else if (k1 || ko || k3) {
+          // mean of the known ones (codes are ≥ 0: floor = truncation)
           let sx = 0, sy = 0, sz = 0, n = 0;
-          for (const u of [k1 ? n1 : -1, ko ? op : -1, k3 ? n3 : -1]) {
-            if (u < 0) continue;
-            sx += q[3 * u];
-            sy += q[3 * u + 1];
-            sz += q[3 * u + 2];
+          if (k1) {
+            sx += q[3 * n1];
+            sy += q[3 * n1 + 1];
+            sz += q[3 * n1 + 2];
+            n++;
+          }
+          if (ko) {
+            sx += q[3 * op];
+            sy += q[3 * op + 1];
+            sz += q[3 * op + 2];
+            n++;
+          }
+          if (k3) {
+            sx += q[3 * n3];
+            sy += q[3 * n3 + 1];
+            sz += q[3 * n3 + 2];
             n++;
           }
           px = Math.floor(sx / n);

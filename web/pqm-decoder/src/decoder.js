@@ -720,9 +720,12 @@ export class PqmDecoder {
     // Only ids below the smaller count are reported as moved / rewritten.
     const vMin = Math.min(vFrom, vTo);
     const fMin = Math.min(fFrom, fTo);
-    let moved = new Uint32Array(16);
+    // at most every logged entry between the two levels
+    const lo = Math.min(from, to);
+    const hi = Math.max(from, to);
+    const moved = new Uint32Array(log.movedAt[hi] - log.movedAt[lo]);
     let nMoved = 0;
-    let rewritten = new Uint32Array(16);
+    const rewritten = new Uint32Array(log.rwAt[hi] - log.rwAt[lo]);
     let nRw = 0;
     const M = log.moved;
     const R = log.rw;
@@ -739,10 +742,7 @@ export class PqmDecoder {
           q[3 * v + 1] = M[7 * e + 2];
           q[3 * v + 2] = M[7 * e + 3];
           this._dequantizeInto(this._pos, q, v, v + 1);
-          if (v < vMin) {
-            moved = ensure(moved, nMoved + 1, nMoved);
-            moved[nMoved++] = v;
-          }
+          if (v < vMin) moved[nMoved++] = v;
         }
         for (let e = log.rwAt[k]; e < log.rwAt[k + 1]; e++) {
           const s = R[9 * e];
@@ -751,10 +751,7 @@ export class PqmDecoder {
           quads[4 * s + 2] = R[9 * e + 3];
           quads[4 * s + 3] = R[9 * e + 4];
           this._writeTris(s);
-          if (s < fMin) {
-            rewritten = ensure(rewritten, nRw + 1, nRw);
-            rewritten[nRw++] = s;
-          }
+          if (s < fMin) rewritten[nRw++] = s;
         }
         const a = log.fAt[k];
         const b = log.fAt[k + 1];
@@ -773,10 +770,7 @@ export class PqmDecoder {
           q[3 * v] = M[7 * e + 4];
           q[3 * v + 1] = M[7 * e + 5];
           q[3 * v + 2] = M[7 * e + 6];
-          if (v < vMin) {
-            moved = ensure(moved, nMoved + 1, nMoved);
-            moved[nMoved++] = v;
-          }
+          if (v < vMin) moved[nMoved++] = v;
         }
         for (let e = log.rwAt[k + 1] - 1; e >= log.rwAt[k]; e--) {
           const s = R[9 * e];
@@ -784,10 +778,7 @@ export class PqmDecoder {
           quads[4 * s + 1] = R[9 * e + 6];
           quads[4 * s + 2] = R[9 * e + 7];
           quads[4 * s + 3] = R[9 * e + 8];
-          if (s < fMin) {
-            rewritten = ensure(rewritten, nRw + 1, nRw);
-            rewritten[nRw++] = s;
-          }
+          if (s < fMin) rewritten[nRw++] = s;
         }
       }
     }
