@@ -590,8 +590,9 @@ export class PqmDecoder {
     if (computed !== sec.crc32) throw crcMismatch(section, sec.crc32, computed);
     if (sec.tag !== 'VORD') return; // unknown optional section: skipped (spec §8)
     const n = this._header.finalVertexCount;
-    // Each entry is a svarint of a difference within ±2^32: 1 to 5 bytes.
-    if (sec.uncompressedLen < n || sec.uncompressedLen > 5 * n) {
+    // Each entry is one varint of 1 to 10 bytes (spec §1): bound the payload
+    // before allocating for it.
+    if (sec.uncompressedLen < n || sec.uncompressedLen > 10 * n) {
       throw invalid(section, `VORD payload of ${sec.uncompressedLen} bytes cannot hold ${n} entries`);
     }
     try {

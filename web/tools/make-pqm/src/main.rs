@@ -65,7 +65,12 @@ fn main() {
                         let (p, q) = vectors::level_digests(&dec);
                         println!("{path} ok {n} {p:016x} {q:016x}");
                     }
-                    Err(e) => println!("{path} err {e}"),
+                    Err(e) => {
+                        // what a streaming decoder keeps after the error
+                        let mut dec = pqm_format::Decoder::new(Limits::default());
+                        let _ = dec.push(&bytes);
+                        println!("{path} err {e} (deepest level {:?})", dec.deepest_level());
+                    }
                 }
             }
             return;
