@@ -82,3 +82,21 @@ for (const file of files) {
     assert.equal(d.status().bytesNeeded, null);
   });
 }
+
+test('pushStream reads a ReadableStream to its end', async () => {
+  const file = files.find((f) => f.name === 'box_vord');
+  const pieces = [];
+  for (let o = 0; o < file.bytes.length; o += 100) pieces.push(file.bytes.slice(o, o + 100));
+  const stream = new ReadableStream({
+    pull(c) {
+      if (pieces.length) c.enqueue(pieces.shift());
+      else c.close();
+    },
+  });
+  const d = new PqmDecoder();
+  const seen = [];
+  const all = await d.pushStream(stream, (ev) => seen.push(...ev));
+  assert.deepEqual(all, seen);
+  assert.equal(all.at(-1).type, 'finished');
+  assert.equal(d.deepestLevel, d.finalLevel);
+});

@@ -8,6 +8,8 @@
 //!   split first if it is not quad-only) to `TARGET_FACES` with the default
 //!   coarsener options and writes its progressive mesh.
 //!
+//! * `make-pqm digest FILE...` — writes `NAME.json` beside each `NAME.pqm`:
+//!   the spec §11 digest of levels 0, n/3, 2n/3 and n by the reference decoder.
 //! * `make-pqm check FILE...` — decodes each file with the reference decoder
 //!   and prints one line per file: `ok LEVELS DIGEST_POSITIONS DIGEST_QUADS`
 //!   of the finest level, or `err MESSAGE` (for differential tests against
@@ -23,7 +25,7 @@ use pqm_format::{decode_all, vectors, write_to_vec, EncodeOptions, Limits, Targe
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: make-pqm synth SPLITS OUT [SEED] | make-pqm mesh IN TARGET_FACES OUT | make-pqm check FILE...";
+    let usage = "usage: make-pqm synth SPLITS OUT [SEED] | make-pqm mesh IN TARGET_FACES OUT | make-pqm digest FILE... | make-pqm check FILE...";
     let pm: ProgressiveMesh;
     let out: &str;
     match args.first().map(String::as_str) {
@@ -54,6 +56,20 @@ fn main() {
             c.run(&mut |_| {});
             pm = c.to_progressive();
             out = &args[3];
+        }
+        Some("digest") => {
+            // NAME.json next to each NAME.pqm (levels 0, n/3, 2n/3, n)
+            for path in &args[1..] {
+                let bytes = std::fs::read(path).expect("read");
+                let mut dec = decode_all(&bytes, Limits::default()).expect("decodes");
+                let n = dec.deepest_level().unwrap_or(0);
+                let p = std::path::Path::new(path);
+                let name = p.file_stem().and_then(|s| s.to_str()).unwrap_or("out");
+                let json =
+                    vectors::digest_json(name, &mut dec, &[0, n / 3, 2 * n / 3, n], bytes.len());
+                std::fs::write(p.with_extension("json"), json).expect("write digest");
+            }
+            return;
         }
         Some("check") => {
             for path in &args[1..] {
