@@ -21,7 +21,7 @@
  */
 import { crc32 } from './crc32.js';
 import { decompressFrame } from './zstd.js';
-import { Frontier, RecordLog, decodeBase, decodeChunk } from './codec.js';
+import { RecordLog, decodeBase, decodeChunk } from './codec.js';
 import { ByteQueue } from './queue.js';
 import { ensure } from './grow.js';
 import { Reader } from './reader.js';
