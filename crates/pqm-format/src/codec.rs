@@ -47,7 +47,25 @@ pub struct QRecord {
     pub appended: Vec<[u32; 4]>,
 }
 
+/// Largest face count a [`MeshState`] holds: corner ids `4 s + k` must fit
+/// in a `u32` below [`NIL`]. (A file beyond it is refused as exceeding the
+/// decoder's limits; it would need tens of GiB anyway.)
+pub const MAX_FACES: u32 = (1 << 30) - 1;
+
+/// "No corner" in the adjacency lists of [`MeshState`].
+pub const NIL: u32 = u32::MAX;
+
 /// The decoder-side mesh at one level (see the module docs).
+///
+/// Vertex→face adjacency is stored flat, as doubly linked lists of
+/// *corners*: corner `4 s + k` is corner `k` of slot `s`, `head[v]` is the
+/// first corner at vertex `v` and `next` / `prev` link the corners of one
+/// vertex ([`NIL`] ends a list). Compared with one `Vec` of faces per vertex
+/// this makes no allocation per vertex or record, keeps the lists of a
+/// region in a few cache lines, and rewriting a corner is O(1) (unlink,
+/// relink) instead of a search in the old vertex's list. The order of a list
+/// carries no meaning: everything the format derives from a star (§7.5) is
+/// defined by slot numbers, not by list order.
 #[derive(Clone, Debug)]
 pub struct MeshState {
     /// Largest quantization code.
@@ -56,8 +74,12 @@ pub struct MeshState {
     pub q: Vec<[u32; 3]>,
     /// Quads by slot.
     pub quads: Vec<[u32; 4]>,
-    /// Face slots around each vertex (unordered).
-    pub vf: Vec<Vec<u32>>,
+    /// First corner at each vertex, or [`NIL`].
+    head: Vec<u32>,
+    /// Next corner at the same vertex, per corner, or [`NIL`].
+    next: Vec<u32>,
+    /// Previous corner at the same vertex, per corner, or [`NIL`].
+    prev: Vec<u32>,
 }
 
 /// Star of a vertex in canonical order (spec §7.5).
@@ -79,93 +101,189 @@ pub struct Cursors {
 }
 
 impl MeshState {
-    /// State for the given codes and quads (indices must be in range).
+    /// State for the given codes and quads (indices must be in range, at
+    /// most [`MAX_FACES`] quads).
     pub fn new(qmax: u32, q: Vec<[u32; 3]>, quads: Vec<[u32; 4]>) -> Self {
-        let mut vf = vec![Vec::new(); q.len()];
-        for (f, quad) in quads.iter().enumerate() {
-            for &v in quad {
-                vf[v as usize].push(f as u32);
+        let mut st = MeshState {
+            qmax,
+            head: vec![NIL; q.len()],
+            next: vec![NIL; 4 * quads.len()],
+            prev: vec![NIL; 4 * quads.len()],
+            q,
+            quads,
+        };
+        for s in 0..st.quads.len() {
+            for k in 0..4 {
+                st.link(4 * s as u32 + k as u32, st.quads[s][k]);
             }
         }
-        MeshState { qmax, q, quads, vf }
+        st
+    }
+
+    /// Adds corner `c` to the list of vertex `v`.
+    #[inline]
+    fn link(&mut self, c: u32, v: u32) {
+        let h = self.head[v as usize];
+        self.next[c as usize] = h;
+        self.prev[c as usize] = NIL;
+        if h != NIL {
+            self.prev[h as usize] = c;
+        }
+        self.head[v as usize] = c;
+    }
+
+    /// Removes corner `c` from the list of vertex `v`.
+    #[inline]
+    fn unlink(&mut self, c: u32, v: u32) {
+        let (p, n) = (self.prev[c as usize], self.next[c as usize]);
+        if p != NIL {
+            self.next[p as usize] = n;
+        } else {
+            self.head[v as usize] = n;
+        }
+        if n != NIL {
+            self.prev[n as usize] = p;
+        }
+    }
+
+    /// Sets slot `s` to `quad`, moving the changed corners between lists.
+    #[inline]
+    fn set_quad(&mut self, s: u32, quad: [u32; 4]) -> [u32; 4] {
+        let old = std::mem::replace(&mut self.quads[s as usize], quad);
+        for k in 0..4 {
+            if old[k] != quad[k] {
+                let c = 4 * s + k as u32;
+                self.unlink(c, old[k]);
+                self.link(c, quad[k]);
+            }
+        }
+        old
+    }
+
+    /// Corners `(slot, k)` at vertex `v`, in no particular order.
+    pub fn corners(&self, v: u32) -> impl Iterator<Item = (u32, usize)> + '_ {
+        let mut c = self.head.get(v as usize).copied().unwrap_or(NIL);
+        std::iter::from_fn(move || {
+            (c != NIL).then(|| {
+                let out = (c >> 2, (c & 3) as usize);
+                c = self.next[c as usize];
+                out
+            })
+        })
+    }
+
+    /// Number of faces at vertex `v`.
+    pub fn valence(&self, v: u32) -> usize {
+        self.corners(v).count()
     }
 
     /// Applies `r` (already checked against this state) and returns the old
     /// codes of its moved vertices and the old contents of its rewritten
     /// slots, in record order (the undo log).
     pub fn apply(&mut self, r: &QRecord) -> (Vec<[u32; 3]>, Vec<[u32; 4]>) {
+        let (mut moved, mut rw) = (Vec::new(), Vec::new());
+        self.apply_logged(r, &mut moved, &mut rw);
+        (
+            moved.into_iter().map(|m| m.2).collect(),
+            rw.into_iter().map(|w| w.2).collect(),
+        )
+    }
+
+    /// Applies `r` (already checked against this state), appending
+    /// `(vertex, new code, old code)` per moved vertex to `moved` and
+    /// `(slot, new quad, old quad)` per rewritten slot to `rw`, in record
+    /// order — the undo log, without allocating per record.
+    pub fn apply_logged(&mut self, r: &QRecord, moved: &mut Moves, rw: &mut Rewrites3) {
         for &p in &r.new_pos {
             self.q.push(p);
-            self.vf.push(Vec::new());
+            self.head.push(NIL);
         }
-        let old_pos = r
-            .moved
-            .iter()
-            .map(|&(v, p)| std::mem::replace(&mut self.q[v as usize], p))
-            .collect();
-        let mut old_quads = Vec::with_capacity(r.rewritten.len());
+        for &(v, p) in &r.moved {
+            moved.push((v, p, std::mem::replace(&mut self.q[v as usize], p)));
+        }
         for &(s, quad) in &r.rewritten {
-            let old = std::mem::replace(&mut self.quads[s as usize], quad);
-            for v in old {
-                let list = &mut self.vf[v as usize];
-                if let Some(i) = list.iter().position(|&f| f == s) {
-                    list.swap_remove(i);
-                }
-            }
-            for v in quad {
-                self.vf[v as usize].push(s);
-            }
-            old_quads.push(old);
+            let old = self.set_quad(s, quad);
+            rw.push((s, quad, old));
         }
         for &quad in &r.appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
-            for v in quad {
-                self.vf[v as usize].push(s);
+            self.next.extend_from_slice(&[NIL; 4]);
+            self.prev.extend_from_slice(&[NIL; 4]);
+            for (k, &v) in quad.iter().enumerate() {
+                self.link(4 * s + k as u32, v);
             }
         }
-        (old_pos, old_quads)
+    }
+
+    /// Undoes one applied record: removes the slots from `f_before` on and
+    /// the vertices from `v_before` on, and restores the old quads of `rw`
+    /// and the old codes of `moved` (entries as [`MeshState::apply_logged`]
+    /// logged them). Records must be undone in reverse order.
+    pub fn undo(&mut self, v_before: usize, f_before: usize, moved: &[Move], rw: &[Rewrite3]) {
+        for s in (f_before..self.quads.len()).rev() {
+            let quad = self.quads[s];
+            for (k, &v) in quad.iter().enumerate() {
+                self.unlink(4 * s as u32 + k as u32, v);
+            }
+        }
+        self.quads.truncate(f_before);
+        self.next.truncate(4 * f_before);
+        self.prev.truncate(4 * f_before);
+        for &(s, _, old) in rw.iter().rev() {
+            self.set_quad(s, old);
+        }
+        for &(v, _, old) in moved.iter().rev() {
+            self.q[v as usize] = old;
+        }
+        self.q.truncate(v_before);
+        self.head.truncate(v_before);
     }
 
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
     pub fn star(&self, m: u32) -> Result<Star, String> {
-        let fs = &self.vf[m as usize];
-        if fs.is_empty() || fs.len() > MAX_SPLIT_STAR {
-            return Err(format!(
-                "vertex {m} has {} faces (split form needs 1..=255)",
-                fs.len()
-            ));
+        // (slot, next of m, prev of m) per face, sorted by slot, on the
+        // stack: the walk below is quadratic in the valence, so its inner
+        // loop runs on a small array, and sorting makes "the smallest slot
+        // with …" the first match. Counting stops past the limit, so a
+        // vertex in a million faces costs no more than one in 256.
+        let mut ring = [(0u32, 0u32, 0u32); MAX_SPLIT_STAR];
+        let mut n = 0usize;
+        for (f, k) in self.corners(m) {
+            if n == MAX_SPLIT_STAR {
+                return Err(format!(
+                    "vertex {m} has more than {MAX_SPLIT_STAR} faces (split form needs 1..=255)"
+                ));
+            }
+            let q = &self.quads[f as usize];
+            let e = (f, q[(k + 1) % 4], q[(k + 3) % 4]);
+            let mut i = n;
+            while i > 0 && ring[i - 1].0 > f {
+                ring[i] = ring[i - 1];
+                i -= 1;
+            }
+            ring[i] = e;
+            n += 1;
         }
-        // (slot, next of m, prev of m) per face, read once: the walk below
-        // is quadratic in the valence, so keep its inner loop on a small array.
-        let ring: Vec<(u32, u32, u32)> = fs
-            .iter()
-            .map(|&f| {
-                let q = &self.quads[f as usize];
-                let k = q.iter().position(|&x| x == m).unwrap_or(0);
-                (f, q[(k + 1) % 4], q[(k + 3) % 4])
-            })
-            .collect();
+        if n == 0 {
+            return Err(format!("vertex {m} has 0 faces (split form needs 1..=255)"));
+        }
+        let ring = &ring[..n];
         let not_fan = || format!("star of vertex {m} is not a single fan");
         // Index (into `ring`) of the smallest slot g != ring[f] with
         // next(g) == key (want_next) or prev(g) == key.
         let find = |f: usize, key: u32, want_next: bool| -> Option<usize> {
-            let mut best: Option<usize> = None;
-            for (g, e) in ring.iter().enumerate() {
-                let hit = if want_next { e.1 == key } else { e.2 == key };
-                if g != f && hit && best.is_none_or(|b| e.0 < ring[b].0) {
-                    best = Some(g);
-                }
-            }
-            best
+            ring.iter()
+                .enumerate()
+                .position(|(g, e)| g != f && if want_next { e.1 == key } else { e.2 == key })
         };
         let succ = |f: usize| find(f, ring[f].2, true);
         let pred = |f: usize| find(f, ring[f].1, false);
-        let first = (0..ring.len()).min_by_key(|&g| ring[g].0).unwrap_or(0);
+        let first = 0;
         let mut start = None;
         let mut boundary = false;
         let mut f = first;
-        for _ in 0..ring.len() {
+        for _ in 0..n {
             match pred(f) {
                 None => {
                     start = Some(f);
@@ -180,20 +298,24 @@ impl MeshState {
             }
         }
         let start = start.ok_or_else(not_fan)?;
-        let mut order = vec![start];
+        let mut order = Vec::with_capacity(n);
+        let mut seen = [false; MAX_SPLIT_STAR];
+        order.push(start);
+        seen[start] = true;
         let mut f = start;
         loop {
             match succ(f) {
                 None if boundary => break,
                 Some(g) if g == start && !boundary => break,
-                Some(g) if !order.contains(&g) && order.len() < ring.len() => {
+                Some(g) if !seen[g] && order.len() < n => {
                     order.push(g);
+                    seen[g] = true;
                     f = g;
                 }
                 _ => return Err(not_fan()),
             }
         }
-        if order.len() != ring.len() {
+        if order.len() != n {
             return Err(not_fan());
         }
         let mut link: Vec<u32> = order.iter().map(|&g| ring[g].1).collect();
@@ -209,6 +331,15 @@ impl MeshState {
 
 /// Rewritten slots with their new quads.
 type Rewrites = Vec<(u32, [u32; 4])>;
+
+/// A moved vertex in the undo log: `(vertex, new code, old code)`.
+pub type Move = (u32, [u32; 3], [u32; 3]);
+/// A rewritten slot in the undo log: `(slot, new quad, old quad)`.
+pub type Rewrite3 = (u32, [u32; 4], [u32; 4]);
+/// Undo log of moved vertices.
+pub type Moves = Vec<Move>;
+/// Undo log of rewritten slots.
+pub type Rewrites3 = Vec<Rewrite3>;
 
 /// The explicit connectivity of a split (spec §7.5): rewritten slots of the
 /// `c` side (sorted) and the appended quad.

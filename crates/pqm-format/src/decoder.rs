@@ -206,7 +206,10 @@ pub struct Status {
     pub failed: bool,
 }
 
-/// Explicit records with undo data, structure-of-arrays.
+/// Explicit records with undo data, structure-of-arrays. The decoder keeps
+/// one for every committed record and a scratch one for the chunk being
+/// decoded (there, `v_at[0]` etc. are the counts at the chunk's start and
+/// `moved_at` / `rw_at` index the scratch's own lists).
 #[derive(Default)]
 struct Records {
     op: Vec<OpKind>,
@@ -220,6 +223,20 @@ struct Records {
     /// Codes of vertices `base_v..`, and quads of slots `base_f..`.
     new_pos: Vec<[u32; 3]>,
     appended: Vec<[u32; 4]>,
+}
+
+impl Records {
+    fn clear(&mut self) {
+        self.op.clear();
+        self.v_at.clear();
+        self.f_at.clear();
+        self.moved_at.clear();
+        self.moved.clear();
+        self.rw_at.clear();
+        self.rw.clear();
+        self.new_pos.clear();
+        self.appended.clear();
+    }
 }
 
 /// The push decoder (see the module docs).
@@ -237,8 +254,12 @@ pub struct Decoder {
     chunks_ready: u32,
     /// Level reached after each ready chunk (cumulative records).
     chunk_levels: Vec<usize>,
+    /// Uncompressed bytes of the base and all chunks (from the table).
+    payload_total: u64,
     frontier: Option<MeshState>,
     recs: Records,
+    /// Records of the chunk being decoded (reused between chunks).
+    scratch: Records,
     vertex_order: Option<Vec<u32>>,
     zstd: Option<zstd::bulk::Decompressor<'static>>,
     // Current level.
@@ -264,8 +285,10 @@ impl Decoder {
             chunks: Vec::new(),
             chunks_ready: 0,
             chunk_levels: Vec::new(),
+            payload_total: 0,
             frontier: None,
             recs: Records::default(),
+            scratch: Records::default(),
             vertex_order: None,
             zstd: None,
             level: 0,
@@ -379,13 +402,13 @@ impl Decoder {
                     let b = self.take(need);
                     self.on_base(&b)?;
                     events.push(Event::BaseMeshReady);
-                    self.after_chunks(0, events);
+                    self.after_chunks(0, events)?;
                 }
                 Stage::Chunk(i) => {
                     let b = self.take(need);
                     self.on_chunk(i, &b)?;
                     events.push(Event::ChunkReady(i));
-                    self.after_chunks(i + 1, events);
+                    self.after_chunks(i + 1, events)?;
                 }
                 Stage::SectionHead(i) => {
                     let b = self.take(need);
@@ -409,6 +432,7 @@ impl Decoder {
                         Stage::Done
                     };
                     if self.stage == Stage::Done {
+                        self.check_vord_flag()?;
                         events.push(Event::Finished);
                     }
                 }
@@ -418,7 +442,7 @@ impl Decoder {
     }
 
     /// Moves to chunk `next`, or to the sections / the end.
-    fn after_chunks(&mut self, next: u32, events: &mut Vec<Event>) {
+    fn after_chunks(&mut self, next: u32, events: &mut Vec<Event>) -> Result<(), DecodeError> {
         let (chunks, sections) = self
             .header
             .as_ref()
@@ -428,9 +452,27 @@ impl Decoder {
         } else if sections > 0 {
             Stage::SectionHead(0)
         } else {
+            self.check_vord_flag()?;
             events.push(Event::Finished);
             Stage::Done
         };
+        Ok(())
+    }
+
+    /// At the end of the file: header flag bit 0 must agree with the
+    /// presence of a `VORD` section (spec §3, §8).
+    fn check_vord_flag(&self) -> Result<(), DecodeError> {
+        let flag = self
+            .header
+            .as_ref()
+            .is_some_and(|h| h.flags & FLAG_VERTEX_ORDER != 0);
+        if flag && self.vertex_order.is_none() {
+            return Err(DecodeError::invalid(
+                Section::Trailer,
+                "header flag bit 0 announces a VORD section but the file has none",
+            ));
+        }
+        Ok(())
     }
 
     fn on_prefix(&mut self) -> Result<(), DecodeError> {
@@ -507,6 +549,13 @@ impl Decoder {
             return Err(DecodeError::LimitsExceeded(format!(
                 "{} vertices > max_vertices {}",
                 h.final_vertex_count, self.limits.max_vertices
+            )));
+        }
+        if h.final_face_count > codec::MAX_FACES {
+            return Err(DecodeError::LimitsExceeded(format!(
+                "{} faces > {} (this decoder's corner ids are 32-bit)",
+                h.final_face_count,
+                codec::MAX_FACES
             )));
         }
         if h.final_face_count > self.limits.max_faces {
@@ -603,6 +652,7 @@ impl Decoder {
             )));
         }
         self.chunks = chunks;
+        self.payload_total = payload;
         self.stage = Stage::Base;
         Ok(())
     }
@@ -620,6 +670,7 @@ impl Decoder {
                 .map_err(|e| DecodeError::Internal(e.to_string()))?;
             self.zstd = Some(d);
         }
+        check_single_frame(data, ulen).map_err(|m| DecodeError::invalid(section, m))?;
         let d = self
             .zstd
             .as_mut()
@@ -696,66 +747,102 @@ impl Decoder {
             .frontier
             .take()
             .ok_or_else(|| DecodeError::Internal("no frontier".into()))?;
-        let mut cur = Cursors::default();
+        // Records go to a scratch list first and are committed only when the
+        // whole chunk checked out (spec §7.2: a chunk's records are available
+        // once the whole chunk is). On failure the frontier is rolled back
+        // with the scratch's undo data, so it stays at the last good chunk.
+        let mut sc = std::mem::take(&mut self.scratch);
+        sc.clear();
         let first_record = self.recs.op.len() as u32;
-        let result = (|| {
-            for t in 0..info.record_count {
-                let rec = codec::decode_record(
-                    &st,
-                    &mut rd,
-                    &mut cur,
-                    h.final_vertex_count,
-                    h.final_face_count,
-                )
-                .map_err(|message| FormatError::BadRecord {
-                    chunk: i,
-                    record: first_record + t,
-                    message,
-                })?;
-                let (old_pos, old_quads) = st.apply(&rec);
+        let result =
+            Self::decode_chunk_records(i, &info, &h, first_record, &mut st, &mut rd, &mut sc);
+        match result {
+            Ok(()) => {
                 let r = &mut self.recs;
-                r.op.push(rec.op);
-                r.new_pos.extend_from_slice(&rec.new_pos);
-                r.appended.extend_from_slice(&rec.appended);
-                r.moved
-                    .extend(rec.moved.iter().zip(old_pos).map(|(&(v, p), o)| (v, p, o)));
-                r.rw.extend(
-                    rec.rewritten
-                        .iter()
-                        .zip(old_quads)
-                        .map(|(&(s, q), o)| (s, q, o)),
-                );
-                r.v_at.push(st.q.len() as u32);
-                r.f_at.push(st.quads.len() as u32);
-                r.moved_at.push(r.moved.len());
-                r.rw_at.push(r.rw.len());
+                let (m0, w0) = (r.moved.len(), r.rw.len());
+                r.op.extend_from_slice(&sc.op);
+                r.v_at.extend_from_slice(&sc.v_at[1..]);
+                r.f_at.extend_from_slice(&sc.f_at[1..]);
+                r.moved_at.extend(sc.moved_at[1..].iter().map(|&k| m0 + k));
+                r.rw_at.extend(sc.rw_at[1..].iter().map(|&k| w0 + k));
+                r.moved.extend_from_slice(&sc.moved);
+                r.rw.extend_from_slice(&sc.rw);
+                r.new_pos.extend_from_slice(&sc.new_pos);
+                r.appended.extend_from_slice(&sc.appended);
             }
-            for s in &rd {
-                if s.remaining() != 0 {
-                    return Err(FormatError::Invalid {
-                        section: Section::Chunk(i),
-                        message: format!("{} unused bytes in stream {}", s.remaining(), s.name),
-                    });
+            Err(_) => {
+                for k in (0..sc.op.len()).rev() {
+                    st.undo(
+                        sc.v_at[k] as usize,
+                        sc.f_at[k] as usize,
+                        &sc.moved[sc.moved_at[k]..sc.moved_at[k + 1]],
+                        &sc.rw[sc.rw_at[k]..sc.rw_at[k + 1]],
+                    );
                 }
             }
-            if st.q.len() as u32 != info.vertex_count || st.quads.len() as u32 != info.face_count {
-                return Err(FormatError::Invalid {
-                    section: Section::Chunk(i),
-                    message: format!(
-                        "records reach {} vertices and {} faces, the table says {} and {}",
-                        st.q.len(),
-                        st.quads.len(),
-                        info.vertex_count,
-                        info.face_count
-                    ),
-                });
-            }
-            Ok(())
-        })();
+        }
+        self.scratch = sc;
         self.frontier = Some(st);
         result?;
         self.chunks_ready = i + 1;
         self.chunk_levels.push(self.recs.op.len());
+        Ok(())
+    }
+
+    /// Decodes and applies the records of chunk `i` to `st`, logging them in
+    /// `sc`; then checks that every stream is consumed and the counts match
+    /// the chunk table. On error `sc` holds the records applied so far.
+    fn decode_chunk_records(
+        i: u32,
+        info: &ChunkInfo,
+        h: &Header,
+        first_record: u32,
+        st: &mut MeshState,
+        rd: &mut [Reader<'_>; 5],
+        sc: &mut Records,
+    ) -> Result<(), FormatError> {
+        let mut cur = Cursors::default();
+        sc.v_at.push(st.q.len() as u32);
+        sc.f_at.push(st.quads.len() as u32);
+        sc.moved_at.push(0);
+        sc.rw_at.push(0);
+        for t in 0..info.record_count {
+            let rec =
+                codec::decode_record(st, rd, &mut cur, h.final_vertex_count, h.final_face_count)
+                    .map_err(|message| FormatError::BadRecord {
+                        chunk: i,
+                        record: first_record + t,
+                        message,
+                    })?;
+            st.apply_logged(&rec, &mut sc.moved, &mut sc.rw);
+            sc.op.push(rec.op);
+            sc.new_pos.extend_from_slice(&rec.new_pos);
+            sc.appended.extend_from_slice(&rec.appended);
+            sc.v_at.push(st.q.len() as u32);
+            sc.f_at.push(st.quads.len() as u32);
+            sc.moved_at.push(sc.moved.len());
+            sc.rw_at.push(sc.rw.len());
+        }
+        for s in rd.iter() {
+            if s.remaining() != 0 {
+                return Err(FormatError::Invalid {
+                    section: Section::Chunk(i),
+                    message: format!("{} unused bytes in stream {}", s.remaining(), s.name),
+                });
+            }
+        }
+        if st.q.len() as u32 != info.vertex_count || st.quads.len() as u32 != info.face_count {
+            return Err(FormatError::Invalid {
+                section: Section::Chunk(i),
+                message: format!(
+                    "records reach {} vertices and {} faces, the table says {} and {}",
+                    st.q.len(),
+                    st.quads.len(),
+                    info.vertex_count,
+                    info.face_count
+                ),
+            });
+        }
         Ok(())
     }
 
@@ -771,12 +858,52 @@ impl Decoder {
         if tag != TAG_VORD {
             return Ok(()); // unknown optional section: skipped (spec §8)
         }
-        let n = self.header.as_ref().map_or(0, |h| h.final_vertex_count);
-        if (ulen as u64) < n as u64 {
+        let (n, flags) = self
+            .header
+            .as_ref()
+            .map_or((0, 0), |h| (h.final_vertex_count, h.flags));
+        if flags & FLAG_VERTEX_ORDER == 0 {
             return Err(DecodeError::invalid(
                 Section::Optional(i),
-                "VORD payload too short",
+                "a VORD section is present but header flag bit 0 is clear",
             ));
+        }
+        if self.vertex_order.is_some() {
+            return Err(DecodeError::invalid(
+                Section::Optional(i),
+                "a second VORD section",
+            ));
+        }
+        // Every entry is one varint of 1 to 10 bytes (spec §8): bound the
+        // stated length before it sizes a buffer, then count the buffer and
+        // the permutation (4 bytes per entry, 1 for the seen-set) in the
+        // memory budget, which the header and table checks did not cover.
+        let (n64, ulen64) = (n as u64, ulen as u64);
+        if ulen64 < n64 || ulen64 > 10 * n64 {
+            return Err(DecodeError::invalid(
+                Section::Optional(i),
+                format!(
+                    "VORD uncompressed length {ulen} outside {n}..={} for {n} vertices",
+                    10 * n64
+                ),
+            ));
+        }
+        let h = self
+            .header
+            .as_ref()
+            .ok_or_else(|| DecodeError::Internal("section before header".into()))?;
+        let est = Limits::estimate(
+            h.final_vertex_count as u64,
+            h.final_face_count as u64,
+            h.record_count as u64,
+            self.payload_total + ulen64,
+        )
+        .saturating_add(5 * n64);
+        if est > self.limits.max_memory_bytes {
+            return Err(DecodeError::LimitsExceeded(format!(
+                "VORD section: estimated memory {est} bytes > max_memory_bytes {}",
+                self.limits.max_memory_bytes
+            )));
         }
         let payload = self.decompress(Section::Optional(i), b, ulen)?;
         let mut r = Reader::new(&payload, "VORD");
@@ -1128,6 +1255,34 @@ impl Decoder {
 /// The two triangles of a quad: `(v0, v1, v2)` and `(v0, v2, v3)`.
 pub fn quad_triangles(q: [u32; 4]) -> [u32; 6] {
     [q[0], q[1], q[2], q[0], q[2], q[3]]
+}
+
+/// Checks that `data` is exactly one Zstandard frame (no skippable frame, no
+/// trailing frame or bytes) whose header states the content size `ulen`
+/// (spec §1). zstd itself would decode concatenated frames as one payload,
+/// which small JavaScript decoders do not: refusing them keeps every reader
+/// in agreement.
+fn check_single_frame(data: &[u8], ulen: u32) -> Result<(), String> {
+    const ZSTD_MAGIC: u32 = 0xFD2F_B528;
+    if data.len() < 4 || LE::read_u32(data) != ZSTD_MAGIC {
+        return Err("not a Zstandard frame (bad frame magic)".into());
+    }
+    let len = zstd::zstd_safe::find_frame_compressed_size(data)
+        .map_err(|_| "zstd: cannot find the end of the frame".to_string())?;
+    if len != data.len() {
+        return Err(format!(
+            "{} bytes after the zstd frame (a section holds exactly one frame)",
+            data.len().saturating_sub(len)
+        ));
+    }
+    match zstd::zstd_safe::get_frame_content_size(data) {
+        Ok(Some(n)) if n == ulen as u64 => Ok(()),
+        Ok(Some(n)) => Err(format!(
+            "zstd frame holds {n} bytes, the file states {ulen}"
+        )),
+        Ok(None) => Err("zstd frame header lacks the content size".into()),
+        Err(_) => Err("zstd: bad frame header".into()),
+    }
 }
 
 /// Decodes a complete file held in memory (all levels available, current

@@ -148,6 +148,12 @@ pub fn write(
     };
     let final_v = too_big(mesh.final_vertex_count(), "final vertex count")?;
     let final_f = too_big(mesh.final_face_count(), "final face count")?;
+    if final_f > codec::MAX_FACES {
+        return Err(EncodeError::InvalidMesh(format!(
+            "final face count {final_f} exceeds {} (32-bit corner ids)",
+            codec::MAX_FACES
+        )));
+    }
     let record_count = too_big(mesh.records.len(), "record count")?;
 
     // One grid over every position any level shows.

@@ -552,6 +552,16 @@ fn empty_and_record_free_meshes() {
 /// (recompressed, table and CRCs fixed), so the damage reaches the record
 /// decoder instead of being caught by a CRC.
 fn repack_chunk(bytes: &[u8], i: usize, f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
+    repack_chunk_with(bytes, i, f, |p| zstd::bulk::compress(p, 3).unwrap())
+}
+
+/// [`repack_chunk`] with the compressed bytes made by `z` from the payload.
+fn repack_chunk_with(
+    bytes: &[u8],
+    i: usize,
+    f: impl FnOnce(&mut Vec<u8>),
+    z: impl FnOnce(&[u8]) -> Vec<u8>,
+) -> Vec<u8> {
     let h = Header::parse(&bytes[..120]);
     let n = h.chunk_count as usize;
     let table_end = 120 + n * 36 + 4;
@@ -566,7 +576,7 @@ fn repack_chunk(bytes: &[u8], i: usize, f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8>
     let mut payload =
         zstd::bulk::decompress(&bodies[i], chunks[i].uncompressed_len as usize).unwrap();
     f(&mut payload);
-    bodies[i] = zstd::bulk::compress(&payload, 3).unwrap();
+    bodies[i] = z(&payload);
     chunks[i].uncompressed_len = payload.len() as u32;
     chunks[i].compressed_len = bodies[i].len() as u32;
     chunks[i].crc32 = crc32fast::hash(&bodies[i]);
@@ -643,6 +653,239 @@ fn bad_record_errors_name_the_record() {
         other => panic!("{other:?}"),
     }
     assert_eq!(dec.deepest_level(), Some(20));
+}
+
+/// Chunk `c` of `bytes` with the symbol of its record `k` made invalid
+/// (record form 2), re-CRC'd: records before `k` decode, record `k` fails.
+fn break_record(bytes: &[u8], c: usize, k: usize) -> Vec<u8> {
+    use pqm_format::codec::{join_streams, split_streams};
+    repack_chunk(bytes, c, |p| {
+        let mut s: [Vec<u8>; 5] = split_streams(p)
+            .unwrap()
+            .map(|mut r| r.bytes(r.remaining()).unwrap().to_vec());
+        s[0][k] = 0x08;
+        *p = join_streams(&s);
+    })
+}
+
+#[test]
+fn a_failing_record_discards_its_whole_chunk() {
+    let pm = testgen::generate(12, 60);
+    let opts = EncodeOptions {
+        chunk_records: Some(20),
+        ..EncodeOptions::default()
+    };
+    let bytes = encode(&pm, &opts);
+    let q = expected_quantizer(&pm, opts.bits);
+    for (chunk, record, level) in [(0usize, 1usize, 0usize), (1, 7, 20)] {
+        let bad = break_record(&bytes, chunk, record);
+        let mut dec = Decoder::new(Limits::default());
+        match dec.push(&bad) {
+            Err(DecodeError::Format(FormatError::BadRecord {
+                chunk: c,
+                record: r,
+                message,
+            })) => {
+                assert_eq!((c as usize, r as usize), (chunk, level + record));
+                assert!(message.contains("form 2"), "{message}");
+            }
+            other => panic!("{other:?}"),
+        }
+        // Only whole chunks count: the records decoded before the bad one
+        // in the same chunk are not available.
+        assert_eq!(dec.deepest_level(), Some(level));
+        assert_eq!(dec.status().chunks_ready, chunk as u32);
+        assert_eq!(dec.resolve(Target::Level(usize::MAX)).unwrap(), level);
+        // The frontier was rolled back too: rebuilding from it gives the
+        // reference levels 0..=level exactly.
+        let back = dec.to_progressive_mesh().unwrap();
+        assert_eq!(back.records.len(), level);
+        for k in [0, level] {
+            assert_eq!(back.level_quads(k).1, pm.level_quads(k).1, "level {k}");
+            let codes = |p: &[DVec3]| p.iter().map(|x| q.quantize(*x)).collect::<Vec<_>>();
+            assert_eq!(
+                codes(&back.level_quads(k).0),
+                codes(&pm.level_quads(k).0),
+                "level {k}"
+            );
+        }
+        dec.set_level(Target::Level(usize::MAX)).unwrap();
+        assert_level(&dec, &pm, &q, level);
+    }
+}
+
+/// Offset of the first optional section (right after the last chunk).
+fn sections_start(bytes: &[u8]) -> usize {
+    let dec = decode_all(bytes, Limits::default()).unwrap();
+    let c = dec.chunks().last().unwrap();
+    (c.offset + c.compressed_len as u64) as usize
+}
+
+#[test]
+fn vord_length_is_bounded_before_allocating() {
+    let pm = testgen::generate(9, 80);
+    let bytes = encode(&pm, &EncodeOptions::default());
+    let n = pm.final_vertex_count() as u32;
+    assert!(n > 0 && !pm.vertex_order.is_empty());
+    let at = sections_start(&bytes);
+    assert_eq!(&bytes[at..at + 4], b"VORD");
+    let ulen = u32::from_le_bytes(bytes[at + 8..at + 12].try_into().unwrap());
+    assert!((n..=10 * n).contains(&ulen));
+    // The section header is not under a CRC: only the bound stops these.
+    for claim in [u32::MAX, 10 * n + 1, n - 1] {
+        let mut b = bytes.clone();
+        b[at + 8..at + 12].copy_from_slice(&claim.to_le_bytes());
+        match Decoder::new(Limits::none()).push(&b) {
+            Err(DecodeError::Format(FormatError::Invalid {
+                section: Section::Optional(0),
+                message,
+            })) => assert!(message.contains("uncompressed length"), "{message}"),
+            other => panic!("claim {claim}: {other:?}"),
+        }
+    }
+    // Within the bound, the VORD buffer counts against the memory budget:
+    // a budget that fits everything before it refuses the section.
+    let dec = decode_all(&bytes, Limits::default()).unwrap();
+    let h = dec.header().unwrap().clone();
+    let payload = h.base_uncompressed_len as u64
+        + dec
+            .chunks()
+            .iter()
+            .map(|c| c.uncompressed_len as u64)
+            .sum::<u64>();
+    let before = Limits::estimate(
+        h.final_vertex_count as u64,
+        h.final_face_count as u64,
+        h.record_count as u64,
+        payload,
+    );
+    let mut d = Decoder::new(Limits {
+        max_memory_bytes: before,
+        ..Limits::default()
+    });
+    assert!(matches!(d.push(&bytes), Err(DecodeError::LimitsExceeded(m)) if m.contains("VORD")));
+    assert_eq!(
+        d.status().chunks_ready,
+        h.chunk_count,
+        "every chunk still decoded"
+    );
+    let mut d = Decoder::new(Limits {
+        max_memory_bytes: before + 20 * ulen as u64 + 5 * n as u64,
+        ..Limits::default()
+    });
+    d.push(&bytes).unwrap();
+    assert!(d.status().finished);
+}
+
+#[test]
+fn vord_flag_must_match_the_section() {
+    let pm = testgen::generate(10, 50);
+    let with = encode(&pm, &EncodeOptions::default());
+    let without = encode(
+        &pm,
+        &EncodeOptions {
+            vertex_order: false,
+            ..EncodeOptions::default()
+        },
+    );
+    assert_eq!(Header::parse(&with).flags & 1, 1);
+    assert_eq!(Header::parse(&without).flags & 1, 0);
+    decode_all(&without, Limits::default()).unwrap();
+    // Section without the flag.
+    let mut b = with.clone();
+    patch_header(&mut b, |h| h[16..20].copy_from_slice(&0u32.to_le_bytes()));
+    match Decoder::new(Limits::default()).push(&b) {
+        Err(DecodeError::Format(FormatError::Invalid {
+            section: Section::Optional(0),
+            message,
+        })) => assert!(message.contains("flag"), "{message}"),
+        other => panic!("{other:?}"),
+    }
+    // Flag without the section: known only at the end of the file.
+    let mut b = without.clone();
+    patch_header(&mut b, |h| h[16..20].copy_from_slice(&1u32.to_le_bytes()));
+    let mut dec = Decoder::new(Limits::default());
+    let last = b.len() - 1;
+    dec.push(&b[..last]).unwrap();
+    match dec.push(&b[last..]) {
+        Err(DecodeError::Format(FormatError::Invalid {
+            section: Section::Trailer,
+            message,
+        })) => assert!(message.contains("flag"), "{message}"),
+        other => panic!("{other:?}"),
+    }
+    // Two VORD sections.
+    let at = sections_start(&with);
+    let mut b = with.clone();
+    patch_header(&mut b, |h| h[48..52].copy_from_slice(&2u32.to_le_bytes()));
+    b.extend_from_slice(&with[at..]);
+    match Decoder::new(Limits::default()).push(&b) {
+        Err(DecodeError::Format(FormatError::Invalid {
+            section: Section::Optional(1),
+            ..
+        })) => {}
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn a_compressed_section_is_exactly_one_frame_with_its_size() {
+    let pm = testgen::generate(11, 60);
+    let opts = EncodeOptions {
+        chunk_records: Some(20),
+        ..EncodeOptions::default()
+    };
+    let bytes = encode(&pm, &opts);
+    fn frame(p: &[u8], size_flag: bool) -> Vec<u8> {
+        use zstd::zstd_safe::CParameter;
+        let mut c = zstd::bulk::Compressor::new(3).unwrap();
+        c.set_parameter(CParameter::ContentSizeFlag(size_flag))
+            .unwrap();
+        c.compress(p).unwrap()
+    }
+    // The helper itself makes valid files.
+    decode_all(
+        &repack_chunk_with(&bytes, 1, |_| {}, |p| frame(p, true)),
+        Limits::default(),
+    )
+    .unwrap();
+    type Compress = Box<dyn Fn(&[u8]) -> Vec<u8>>;
+    let cases: [(&str, Compress); 5] = [
+        (
+            "after the zstd frame",
+            Box::new(|p| [frame(p, true), frame(&[], true)].concat()),
+        ),
+        (
+            "after the zstd frame",
+            Box::new(|p| [frame(p, true), vec![0, 0, 0]].concat()),
+        ),
+        ("lacks the content size", Box::new(|p| frame(p, false))),
+        (
+            // Two frames whose sizes add up to the stated length: zstd alone
+            // would decode them as one payload.
+            "after the zstd frame",
+            Box::new(|p| {
+                let h = p.len() / 2;
+                [frame(&p[..h], true), frame(&p[h..], true)].concat()
+            }),
+        ),
+        (
+            "zstd frame holds",
+            Box::new(|p| frame(&[p, &[0]].concat(), true)),
+        ),
+    ];
+    for (want, z) in cases {
+        let bad = repack_chunk_with(&bytes, 1, |_| {}, z);
+        let mut dec = Decoder::new(Limits::default());
+        match dec.push(&bad) {
+            Err(DecodeError::Format(FormatError::Invalid {
+                section: Section::Chunk(1),
+                message,
+            })) => assert!(message.contains(want), "{want}: {message}"),
+            other => panic!("{want}: {other:?}"),
+        }
+        assert_eq!(dec.deepest_level(), Some(20));
+    }
 }
 
 proptest! {
