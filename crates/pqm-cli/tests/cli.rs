@@ -270,8 +270,20 @@ fn stats_with_reference_reports_hausdorff() {
     // a coarsened sphere is not, but stays close (fractions of the diagonal)
     let d = TempDir::new().unwrap();
     let lo = d.path().join("lo.obj");
-    json_ok(&["coarsen", s(&generated("quad_sphere.obj")), "-o", s(&lo), "--ratio", "0.5"]);
-    let v = json_ok(&["stats", s(&lo), "--reference", s(&generated("quad_sphere.obj"))]);
+    json_ok(&[
+        "coarsen",
+        s(&generated("quad_sphere.obj")),
+        "-o",
+        s(&lo),
+        "--ratio",
+        "0.5",
+    ]);
+    let v = json_ok(&[
+        "stats",
+        s(&lo),
+        "--reference",
+        s(&generated("quad_sphere.obj")),
+    ]);
     let (max, mean) = (
         v["hausdorff"]["max"].as_f64().unwrap(),
         v["hausdorff"]["mean"].as_f64().unwrap(),
