@@ -2,8 +2,7 @@
 //! (the `pqm coarsen` command is the user-facing tool).
 //!
 //! `cargo run --release -p pqm-core --example coarsen_file -- IN TARGET_FACES [OUT]`
-use pqm_core::coarsen::{CoarsenOptions, Coarsener};
-use pqm_core::ops::quad_scaled_jacobian;
+use pqm_core::coarsen::{CoarsenOptions, Coarsener, Smoothing};
 use pqm_core::{io, subdivide, Mesh};
 use std::time::Instant;
 
@@ -17,8 +16,14 @@ fn main() {
     }
     let t = Instant::now();
     let mesh = Mesh::from_indexed(&im).expect("mesh");
+    let smoothing = match std::env::var("PQM_SMOOTHING").as_deref() {
+        Ok("local") => Smoothing::Local,
+        Ok("none") => Smoothing::None,
+        _ => Smoothing::Global,
+    };
     let opts = CoarsenOptions {
         target_faces: Some(target),
+        smoothing,
         ..Default::default()
     };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
@@ -26,33 +31,26 @@ fn main() {
     let dt = t.elapsed();
     let m = c.mesh();
     m.validate().expect("valid");
-    let mut sj: Vec<f64> = m
-        .faces()
-        .filter_map(|f| m.quad_vertices(f))
-        .map(|q| quad_scaled_jacobian(q.map(|v| m.position(v))))
-        .collect();
-    sj.sort_by(f64::total_cmp);
-    let ideal = m
-        .vertices()
-        .filter(|&v| m.valence(v) == m.ideal_valence(v))
-        .count();
-    let worst = m.vertices().map(|v| m.valence(v)).max().unwrap_or(0);
+    let out = m.to_indexed().0;
+    let stats = pqm_core::metrics::mesh_stats(&out, Some(&im));
+    let h = stats.hausdorff.as_ref().map_or(f64::NAN, |h| h.max);
     println!(
-        "{}: {} -> {} faces in {:.2?}; ideal {:.1}%, worst valence {}, SJ median {:.3} worst {:.3}; genus {} loops {} comps {}; {:?}",
+        "{}: {} -> {} faces in {:.2?}; ideal {:.1}%, worst valence {}, SJ median {:.3} worst {:.3}; hausdorff max {:.4}; genus {} loops {} comps {}",
         path.display(),
         im.face_count(),
         m.face_count(),
         dt,
-        100.0 * ideal as f64 / m.vertex_count() as f64,
-        worst,
-        sj[sj.len() / 2],
-        sj[0],
-        m.genus(),
-        m.boundary_loops().len(),
-        m.components().1,
-        r
+        100.0 * stats.valence.ideal_fraction,
+        stats.valence.worst,
+        stats.scaled_jacobian.median,
+        stats.scaled_jacobian.worst,
+        h,
+        stats.genus,
+        stats.boundary_loops,
+        stats.components,
     );
-    if let Some(out) = args.get(2) {
-        io::write_mesh(std::path::Path::new(out), &m.to_indexed().0).expect("write");
+    println!("  {r:?}");
+    if let Some(path) = args.get(2) {
+        io::write_mesh(std::path::Path::new(path), &out).expect("write");
     }
 }

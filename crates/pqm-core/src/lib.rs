@@ -24,4 +24,5 @@ pub use progressive::{OpKind, ProgressiveMesh, SplitRecord};
 pub mod attributes;
 pub mod features;
 pub mod qem;
+pub mod remesh;
 pub mod smoothing;

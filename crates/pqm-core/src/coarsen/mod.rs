@@ -1098,17 +1098,36 @@ impl Coarsener {
         if vs.is_empty() {
             return;
         }
-        let old = self.relax(&vs, iterations);
-        // keep only moves that leave every quad valid
         let faces: Vec<FaceId> = self.mesh.faces().collect();
-        let bad = faces.iter().any(|&f| {
-            self.mesh
-                .quad_vertices(f)
-                .is_some_and(|q| ops::quad_scaled_jacobian(q.map(|v| self.mesh.position(v))) <= 0.0)
-        });
-        if bad {
-            self.restore_relaxed(&old);
-            return;
+        let sj = |m: &Mesh, f: FaceId| {
+            m.quad_vertices(f)
+                .map_or(1.0, |q| ops::quad_scaled_jacobian(q.map(|v| m.position(v))))
+        };
+        let before: Vec<f64> = faces.iter().map(|&f| sj(&self.mesh, f)).collect();
+        let old = self.relax(&vs, iterations);
+        // Keep a vertex's move only where it makes no quad worse than
+        // min(0.2, before): put back the vertices of any quad it would spoil,
+        // a few rounds (putting one back can spoil a neighbour).
+        let mut start: Vec<Option<DVec3>> = vec![None; self.mesh.vertex_capacity()];
+        for &(v, p) in &old {
+            start[v.idx()] = Some(p);
+        }
+        for _ in 0..8 {
+            let mut spoiled = false;
+            for (i, &f) in faces.iter().enumerate() {
+                if sj(&self.mesh, f) < before[i].min(ops::MIN_NEW_QUAD_JACOBIAN) {
+                    spoiled = true;
+                    let vs: Vec<VertexId> = self.mesh.face_vertices(f).collect();
+                    for v in vs {
+                        if let Some(p) = start[v.idx()] {
+                            self.mesh.set_position(v, p);
+                        }
+                    }
+                }
+            }
+            if !spoiled {
+                break;
+            }
         }
         let moved: Vec<(VertexId, DVec3, DVec3)> = old
             .iter()

@@ -26,7 +26,11 @@ mod off;
 mod ply;
 mod repair;
 
-pub use self::gltf::{read_gltf, read_gltf_bytes, write_glb, write_gltf, FB_NGON_ENCODING};
+pub use self::gltf::{
+    lod_screen_coverage, read_gltf, read_gltf_bytes, write_glb, write_glb_lod, write_glb_with,
+    write_gltf, write_gltf_with, GltfWriteOptions, Normals, FB_NGON_ENCODING,
+    KHR_MESH_QUANTIZATION, MSFT_LOD,
+};
 pub use check::{check, Defect, Element, InvalidMesh};
 pub use obj::{read_obj, read_obj_bytes, write_obj};
 pub use off::{read_off, read_off_bytes, write_off};
@@ -229,6 +233,24 @@ pub fn write_mesh(path: &Path, mesh: &IndexedMesh) -> Result<(), MeshIoError> {
     .map_err(|e| e.with_path(path))
 }
 
+/// [`write_mesh`] with glTF options (normals, quantization) for `.gltf` and
+/// `.glb` targets; other formats ignore `gltf`.
+pub fn write_mesh_with(
+    path: &Path,
+    mesh: &IndexedMesh,
+    gltf: &GltfWriteOptions,
+) -> Result<(), MeshIoError> {
+    let format = MeshFormat::from_path(path).ok_or_else(|| unknown_extension(path))?;
+    write_atomic(path, |w| match format {
+        MeshFormat::Obj => write_obj(w, mesh),
+        MeshFormat::Off => write_off(w, mesh),
+        MeshFormat::Ply => write_ply(w, mesh),
+        MeshFormat::Gltf => write_gltf_with(w, mesh, gltf),
+        MeshFormat::Glb => write_glb_with(w, mesh, gltf),
+    })
+    .map_err(|e| e.with_path(path))
+}
+
 fn unknown_extension(path: &Path) -> MeshIoError {
     MeshIoError::unsupported(
         "unknown mesh file extension (expected .obj, .off, .ply, .gltf or .glb)",
@@ -238,8 +260,9 @@ fn unknown_extension(path: &Path) -> MeshIoError {
 
 /// Runs `body` on a buffered writer to a temporary file next to `path`, then
 /// fsyncs and renames it to `path`. The temporary file is deleted on error
-/// (`NamedTempFile` removes itself when dropped unpersisted).
-fn write_atomic(
+/// (`NamedTempFile` removes itself when dropped unpersisted). Public so that
+/// other writers (for example [`write_glb_lod`]) get the same guarantee.
+pub fn write_atomic(
     path: &Path,
     body: impl FnOnce(&mut dyn Write) -> Result<(), MeshIoError>,
 ) -> Result<(), MeshIoError> {

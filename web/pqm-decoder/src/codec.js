@@ -1,0 +1,820 @@
+/**
+ * Decoding of the base mesh section (spec §6) and of record chunks (spec §7)
+ * into the decoder's *frontier* mesh (the deepest decoded level, with its
+ * vertex→face adjacency) and its *record log* (every record in explicit form
+ * with undo data, so that moving between levels never decodes again).
+ *
+ * Errors inside a record are thrown as message strings; `decodeChunk` turns
+ * them into a `bad-record` error naming the chunk and the record.
+ */
+import { Reader } from './reader.js';
+import { ensure } from './grow.js';
+import { badRecord, invalid } from './errors.js';
+
+/**
+ * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
+ * slot) and the vertex→face adjacency as doubly linked lists of *corners*
+ * (corner `4 s + k` is corner `k` of slot `s`): `head[v]` is the first corner
+ * at vertex `v`, `next` / `prev` link the corners of one vertex (−1 ends a
+ * list). Flat typed arrays: no per-vertex objects for the garbage collector,
+ * and rewriting a corner is O(1).
+ */
+export class Frontier {
+  constructor() {
+    this.q = new Uint32Array(0);
+    this.nv = 0;
+    this.f = new Uint32Array(0);
+    this.nf = 0;
+    this.head = new Int32Array(0);
+    this.next = new Int32Array(0);
+    this.prev = new Int32Array(0);
+    /** Final counts of the file: capacities never grow beyond them. */
+    this.maxV = Infinity;
+    this.maxF = Infinity;
+  }
+
+  /** Adds corner `c` to the list of vertex `v`. */
+  link(c, v) {
+    const h = this.head[v];
+    this.next[c] = h;
+    this.prev[c] = -1;
+    if (h >= 0) this.prev[h] = c;
+    this.head[v] = c;
+  }
+
+  /** Removes corner `c` from the list of vertex `v`. */
+  unlink(c, v) {
+    const p = this.prev[c];
+    const n = this.next[c];
+    if (p >= 0) this.next[p] = n;
+    else this.head[v] = n;
+    if (n >= 0) this.prev[n] = p;
+  }
+
+  /** Room for `nv` vertices and `nf` slots. */
+  reserve(nv, nf) {
+    const mv = this.maxV;
+    const mf = this.maxF;
+    if (3 * nv > this.q.length) this.q = ensure(this.q, 3 * nv, 3 * this.nv, 3 * mv);
+    if (nv > this.head.length) this.head = ensure(this.head, nv, this.nv, mv);
+    if (4 * nf > this.f.length) this.f = ensure(this.f, 4 * nf, 4 * this.nf, 4 * mf);
+    if (4 * nf > this.next.length) {
+      this.next = ensure(this.next, 4 * nf, 4 * this.nf, 4 * mf);
+      this.prev = ensure(this.prev, 4 * nf, 4 * this.nf, 4 * mf);
+    }
+  }
+}
+
+/**
+ * Explicit records with undo data, structure-of-arrays (spec §7.1). Level
+ * `k` has `vAt[k]` vertices and `fAt[k]` faces; record `k` (from level `k`
+ * to `k + 1`) moved the entries `movedAt[k] .. movedAt[k+1]` of `moved`
+ * (stride 7: vertex, new code xyz, old code xyz) and rewrote the entries
+ * `rwAt[k] .. rwAt[k+1]` of `rw` (stride 9: slot, new quad, old quad).
+ * `newCodes` holds the first code of every vertex after the base ones and
+ * `app` the first quad of every slot after the base ones.
+ */
+export class RecordLog {
+  constructor() {
+    this.ops = new Uint8Array(0);
+    this.nRecords = 0;
+    this.vAt = new Uint32Array(0);
+    this.fAt = new Uint32Array(0);
+    this.movedAt = new Uint32Array(0);
+    this.rwAt = new Uint32Array(0);
+    this.moved = new Uint32Array(0);
+    this.nMoved = 0;
+    this.rw = new Uint32Array(0);
+    this.nRw = 0;
+    this.newCodes = new Uint32Array(0);
+    this.nNew = 0;
+    this.app = new Uint32Array(0);
+    this.nApp = 0;
+  }
+
+  /** Appends the counts of a new level (after the base or a record). */
+  pushLevel(v, f) {
+    const n = this.levels;
+    if (n + 1 > this.vAt.length) {
+      const max = this.maxLevels;
+      this.vAt = ensure(this.vAt, n + 1, n, max);
+      this.fAt = ensure(this.fAt, n + 1, n, max);
+      this.movedAt = ensure(this.movedAt, n + 1, n, max);
+      this.rwAt = ensure(this.rwAt, n + 1, n, max);
+    }
+    this.vAt[n] = v;
+    this.fAt[n] = f;
+    this.movedAt[n] = this.nMoved;
+    this.rwAt[n] = this.nRw;
+    this.levels = n + 1;
+  }
+}
+RecordLog.prototype.levels = 0;
+/** Levels of the file (record_count + 1): capacities never grow beyond. */
+RecordLog.prototype.maxLevels = Infinity;
+
+/**
+ * Decodes the base payload (spec §6) into a fresh frontier.
+ * @param {Uint8Array} payload
+ * @param {number} nv base_vertex_count
+ * @param {number} nf base_face_count
+ * @param {number} qmax
+ * @returns {Frontier}
+ */
+export function decodeBase(payload, nv, nf, qmax) {
+  const section = 'base mesh';
+  // Every corner and coordinate takes at least one byte.
+  if (4 * nf + 3 * nv > payload.length) {
+    throw invalid(
+      section,
+      `${nf} faces and ${nv} vertices need at least ${4 * nf + 3 * nv} bytes, the payload has ${payload.length}`,
+    );
+  }
+  const st = new Frontier();
+  st.q = new Uint32Array(3 * nv);
+  st.f = new Uint32Array(4 * nf);
+  const r = new Reader(payload, 0, payload.length, 'base');
+  try {
+    let prev = 0;
+    const f = st.f;
+    for (let i = 0; i < nf; i++) {
+      for (let c = 0; c < 4; c++) {
+        const v = prev + r.s();
+        if (v < 0 || v >= nv) throw `face ${i} corner ${c} is vertex ${v}, outside 0..${nv}`;
+        f[4 * i + c] = v;
+        prev = v;
+      }
+      const a = f[4 * i], b = f[4 * i + 1], c = f[4 * i + 2], d = f[4 * i + 3];
+      if (a === b || a === c || a === d || b === c || b === d || c === d) {
+        throw `face ${i} repeats a vertex (${a} ${b} ${c} ${d})`;
+      }
+    }
+    const q = st.q;
+    let x = 0, y = 0, z = 0;
+    for (let i = 0; i < nv; i++) {
+      x += r.s();
+      y += r.s();
+      z += r.s();
+      if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
+        throw `vertex ${i} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+      }
+      q[3 * i] = x;
+      q[3 * i + 1] = y;
+      q[3 * i + 2] = z;
+    }
+    if (r.remaining() !== 0) throw `${r.remaining()} unused bytes after the last vertex`;
+  } catch (e) {
+    if (typeof e === 'string') throw invalid(section, e);
+    throw e;
+  }
+  st.nv = nv;
+  st.nf = nf;
+  st.head = new Int32Array(nv).fill(-1);
+  st.next = new Int32Array(4 * nf);
+  st.prev = new Int32Array(4 * nf);
+  for (let c = 0; c < 4 * nf; c++) st.link(c, st.f[c]);
+  return st;
+}
+
+/**
+ * Decoding context of one chunk: the five streams, the two cursors, the
+ * file's final counts and the quantization range.
+ */
+class ChunkContext {
+  constructor(streams, st, log, finalV, finalF, bits) {
+    this.ops = streams[0];
+    this.conn = streams[1];
+    this.refs = streams[2];
+    this.slots = streams[3];
+    this.pos = streams[4];
+    this.st = st;
+    this.log = log;
+    this.VF = finalV;
+    this.FF = finalF;
+    this.qmax = 2 ** bits - 1;
+    this.half = 2 ** (bits - 1);
+    this.vcur = 0;
+    this.scur = 0;
+    this.nExtra = 0; // entries of the general form's extra list
+    this.lastOp = 0;
+    this.cx = 0; // last code read by readCode
+    this.cy = 0;
+    this.cz = 0;
+  }
+}
+
+/** Splits a chunk payload into its five streams (spec §7.2). */
+function splitStreams(payload) {
+  const names = ['ops', 'conn', 'refs', 'slots', 'pos'];
+  const top = new Reader(payload, 0, payload.length, 'chunk payload');
+  const out = [];
+  for (const name of names) {
+    const len = top.u();
+    if (len > top.remaining()) {
+      throw `stream ${name} claims ${len} bytes, ${top.remaining()} remain`;
+    }
+    out.push(new Reader(payload, top.p, top.p + len, name));
+    top.p += len;
+  }
+  if (top.remaining() !== 0) throw `${top.remaining()} bytes after the fifth stream`;
+  return out;
+}
+
+/**
+ * Decodes record chunk `index` into the frontier and the log. On success the
+ * log holds `info.recordCount` more levels; on failure the log is left as it
+ * was before the chunk (a chunk's records are available only once the
+ * whole chunk is, spec §7.2) and the frontier is unusable.
+ * @param {Uint8Array} payload decompressed chunk
+ * @param {number} index chunk index
+ * @param {{recordCount:number, vertexCount:number, faceCount:number}} info chunk table entry
+ * @param {Frontier} st
+ * @param {RecordLog} log
+ * @param {{finalVertexCount:number, finalFaceCount:number, quantBits:number}} h header
+ */
+export function decodeChunk(payload, index, info, st, log, h) {
+  const section = `chunk ${index}`;
+  let streams;
+  try {
+    streams = splitStreams(payload);
+  } catch (e) {
+    if (typeof e === 'string') throw invalid(section, e);
+    throw e;
+  }
+  const ctx = new ChunkContext(streams, st, log, h.finalVertexCount, h.finalFaceCount, h.quantBits);
+  const saved = {
+    nRecords: log.nRecords,
+    levels: log.levels,
+    nMoved: log.nMoved,
+    nRw: log.nRw,
+    nNew: log.nNew,
+    nApp: log.nApp,
+  };
+  const first = log.nRecords;
+  let t = 0;
+  try {
+    for (; t < info.recordCount; t++) {
+      decodeRecord(ctx);
+      if (log.nRecords + 1 > log.ops.length) {
+        log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords, log.maxLevels);
+      }
+      log.ops[log.nRecords++] = ctx.lastOp;
+      log.pushLevel(st.nv, st.nf);
+    }
+    for (const s of streams) {
+      if (s.remaining() !== 0) {
+        t = -1;
+        throw `${s.remaining()} unused bytes in stream ${s.name}`;
+      }
+    }
+    if (st.nv !== info.vertexCount || st.nf !== info.faceCount) {
+      t = -1;
+      throw `records reach ${st.nv} vertices and ${st.nf} faces, the chunk table says ${info.vertexCount} and ${info.faceCount}`;
+    }
+  } catch (e) {
+    Object.assign(log, saved);
+    if (typeof e !== 'string') throw e;
+    if (t < 0) throw invalid(section, e);
+    throw badRecord(index, first + t, e);
+  }
+}
+
+/** Decodes one record and applies it to the frontier, logging undo data. */
+function decodeRecord(ctx) {
+  const sym = ctx.ops.byte();
+  const op = sym & 3;
+  const form = (sym >> 2) & 3;
+  ctx.lastOp = op;
+  if (form === 0) {
+    if (sym >> 4) throw `general-form symbol 0x${sym.toString(16)} has bits 4-7 set`;
+    decodeGeneral(ctx);
+  } else if (form === 1) {
+    decodeSplit(ctx, sym);
+  } else {
+    throw `record form ${form} is invalid (symbol 0x${sym.toString(16)})`;
+  }
+}
+
+/** Reads three residuals and adds them to `(px, py, pz)`; checks the range. */
+function readCode(ctx, px, py, pz, what) {
+  const p = ctx.pos;
+  const x = px + p.s();
+  const y = py + p.s();
+  const z = pz + p.s();
+  const qmax = ctx.qmax;
+  if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
+    throw `${what} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+  }
+  ctx.cx = x;
+  ctx.cy = y;
+  ctx.cz = z;
+}
+
+const clamp = (x, qmax) => (x < 0 ? 0 : x > qmax ? qmax : x);
+
+/** Logs a move of `v` to the code in ctx.cx/cy/cz and applies it. */
+function logMove(ctx, v) {
+  const log = ctx.log;
+  const q = ctx.st.q;
+  const n = log.nMoved;
+  if (7 * (n + 1) > log.moved.length) log.moved = ensure(log.moved, 7 * (n + 1), 7 * n);
+  const m = log.moved;
+  const o = 7 * n;
+  m[o] = v;
+  m[o + 1] = ctx.cx;
+  m[o + 2] = ctx.cy;
+  m[o + 3] = ctx.cz;
+  m[o + 4] = q[3 * v];
+  m[o + 5] = q[3 * v + 1];
+  m[o + 6] = q[3 * v + 2];
+  log.nMoved = n + 1;
+  q[3 * v] = ctx.cx;
+  q[3 * v + 1] = ctx.cy;
+  q[3 * v + 2] = ctx.cz;
+}
+
+/** Logs that `slot` becomes quad `a b c d`, updating quads and adjacency. */
+function rewriteSlot(ctx, slot, a, b, c, d) {
+  const st = ctx.st;
+  const log = ctx.log;
+  const f = st.f;
+  const n = log.nRw;
+  if (9 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 9 * (n + 1), 9 * n);
+  const r = log.rw;
+  const o = 9 * n;
+  const s4 = 4 * slot;
+  r[o] = slot;
+  r[o + 1] = a;
+  r[o + 2] = b;
+  r[o + 3] = c;
+  r[o + 4] = d;
+  r[o + 5] = f[s4];
+  r[o + 6] = f[s4 + 1];
+  r[o + 7] = f[s4 + 2];
+  r[o + 8] = f[s4 + 3];
+  log.nRw = n + 1;
+  relink(st, s4, a);
+  relink(st, s4 + 1, b);
+  relink(st, s4 + 2, c);
+  relink(st, s4 + 3, d);
+}
+
+/** Sets corner `c` to vertex `v`, moving it between adjacency lists. */
+function relink(st, c, v) {
+  const old = st.f[c];
+  if (old === v) return;
+  st.unlink(c, old);
+  st.f[c] = v;
+  st.link(c, v);
+}
+
+/** Appends quad `a b c d` at the next slot. */
+function appendQuad(ctx, a, b, c, d) {
+  const st = ctx.st;
+  const log = ctx.log;
+  const slot = st.nf;
+  st.reserve(st.nv, slot + 1);
+  const f = st.f;
+  f[4 * slot] = a;
+  f[4 * slot + 1] = b;
+  f[4 * slot + 2] = c;
+  f[4 * slot + 3] = d;
+  st.nf = slot + 1;
+  const n = log.nApp;
+  if (4 * (n + 1) > log.app.length) log.app = ensure(log.app, 4 * (n + 1), 4 * n, 4 * st.maxF);
+  const ap = log.app;
+  ap[4 * n] = a;
+  ap[4 * n + 1] = b;
+  ap[4 * n + 2] = c;
+  ap[4 * n + 3] = d;
+  log.nApp = n + 1;
+  const c0 = 4 * slot;
+  st.link(c0, a);
+  st.link(c0 + 1, b);
+  st.link(c0 + 2, c);
+  st.link(c0 + 3, d);
+}
+
+/** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
+function appendVertex(ctx) {
+  const st = ctx.st;
+  const log = ctx.log;
+  const v = st.nv;
+  st.reserve(v + 1, st.nf);
+  st.q[3 * v] = ctx.cx;
+  st.q[3 * v + 1] = ctx.cy;
+  st.q[3 * v + 2] = ctx.cz;
+  st.head[v] = -1;
+  st.nv = v + 1;
+  const n = log.nNew;
+  if (3 * (n + 1) > log.newCodes.length) {
+    log.newCodes = ensure(log.newCodes, 3 * (n + 1), 3 * n, 3 * st.maxV);
+  }
+  log.newCodes[3 * n] = ctx.cx;
+  log.newCodes[3 * n + 1] = ctx.cy;
+  log.newCodes[3 * n + 2] = ctx.cz;
+  log.nNew = n + 1;
+}
+
+// General-form scratch, grown on demand (sizes are bounded by the streams).
+let gSlots = new Int32Array(64);
+let gRw = new Int32Array(256);
+let gApp = new Int32Array(256);
+let gExtra = new Int32Array(64);
+let gFirst = new Int32Array(64);
+
+/** Resolves a corner code (spec §7.4) of the record being decoded. */
+function cornerCode(ctx, V, nNew, nRw, f) {
+  const x = ctx.conn.u();
+  if (x === 0) {
+    const v = ctx.vcur + ctx.refs.s();
+    const limit = V + nNew;
+    if (v < 0 || v >= limit) throw `explicit vertex ${v} outside 0..${limit}`;
+    ctx.vcur = v;
+    if (ctx.nExtra === gExtra.length) gExtra = ensure(gExtra, ctx.nExtra + 1);
+    gExtra[ctx.nExtra++] = v;
+    return v;
+  }
+  if (x <= nNew) return V + x - 1;
+  if (x <= nNew + 4 * nRw) {
+    const i = x - 1 - nNew;
+    return f[4 * gSlots[i >> 2] + (i & 3)];
+  }
+  const e = x - 1 - nNew - 4 * nRw;
+  if (e >= ctx.nExtra) throw `corner code ${x} names extra entry ${e}, only ${ctx.nExtra} exist`;
+  return gExtra[e];
+}
+
+/** General form (spec §7.4). */
+function decodeGeneral(ctx) {
+  const st = ctx.st;
+  const conn = ctx.conn;
+  const V = st.nv;
+  const NF = st.nf;
+  const nNew = conn.u();
+  if (nNew > ctx.VF - V) throw `${nNew} new vertices exceed the final count ${ctx.VF} (now ${V})`;
+  const nMoved = conn.u();
+  if (nMoved > V) throw `${nMoved} moved vertices, only ${V} exist`;
+  const nRw = conn.u();
+  if (nRw > NF) throw `${nRw} rewritten faces, only ${NF} exist`;
+  const nApp = conn.u();
+  if (nApp > ctx.FF - NF) throw `${nApp} appended faces exceed the final count ${ctx.FF} (now ${NF})`;
+  // Each element takes at least one byte of its streams: check before
+  // sizing any scratch buffer by these counts.
+  if (nRw > ctx.slots.remaining() || nRw + 4 * nApp > conn.remaining() || 3 * (nNew + nMoved) > ctx.pos.remaining()) {
+    throw `counts (${nNew} new, ${nMoved} moved, ${nRw} rewritten, ${nApp} appended) exceed what the streams hold`;
+  }
+
+  // 2. moved vertices: applied at once, so that predictions see them.
+  let prevMoved = -1;
+  for (let i = 0; i < nMoved; i++) {
+    const v = ctx.vcur + ctx.refs.s();
+    if (v < 0 || v >= V) throw `moved vertex ${v} outside 0..${V}`;
+    if (v <= prevMoved) throw `moved vertex ${v} does not follow ${prevMoved}`;
+    ctx.vcur = v;
+    prevMoved = v;
+    const q = st.q;
+    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], `moved vertex ${v}`);
+    logMove(ctx, v);
+  }
+
+  // 3. rewritten slots.
+  if (nRw > gSlots.length) gSlots = new Int32Array(2 * nRw);
+  const slots = gSlots;
+  if (nRw > 0) {
+    let s = ctx.scur + ctx.slots.s();
+    if (s < 0 || s >= NF) throw `rewritten slot ${s} outside 0..${NF}`;
+    slots[0] = s;
+    for (let i = 1; i < nRw; i++) {
+      const gap = ctx.slots.u();
+      if (gap > NF) throw `slot gap ${gap} exceeds the face count ${NF}`;
+      s = s + 1 + gap;
+      if (s >= NF) throw `rewritten slot ${s} outside 0..${NF}`;
+      slots[i] = s;
+    }
+    ctx.scur = s;
+  }
+
+  // 4.–5. quads. Old quads of rewritten slots stay in st.f until applied.
+  ctx.nExtra = 0;
+  const f = st.f;
+  if (4 * nRw > gRw.length) gRw = new Int32Array(8 * nRw);
+  if (4 * nApp > gApp.length) gApp = new Int32Array(8 * nApp);
+  const rwNew = gRw;
+  const app = gApp;
+  for (let i = 0; i < nRw; i++) {
+    const mask = conn.u();
+    if (mask > 15) throw `corner mask ${mask} of slot ${slots[i]} exceeds 15`;
+    const s4 = 4 * slots[i];
+    for (let c = 0; c < 4; c++) {
+      rwNew[4 * i + c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, f) : f[s4 + c];
+    }
+    checkDistinct(rwNew, 4 * i, `rewritten slot ${slots[i]}`);
+  }
+  for (let i = 0; i < nApp; i++) {
+    for (let c = 0; c < 4; c++) app[4 * i + c] = cornerCode(ctx, V, nNew, nRw, f);
+    checkDistinct(app, 4 * i, `appended quad ${i}`);
+  }
+
+  // 6. new vertex codes. First find, for each new vertex, the first quad
+  // containing it in the order "appended, then rewritten by slot" — one
+  // pass over the quads rather than one per vertex.
+  if (nNew > 0) {
+    if (nNew > gFirst.length) gFirst = new Int32Array(2 * nNew);
+    const firstHit = gFirst;
+    firstHit.fill(-1, 0, nNew);
+    // hit = index into the appended corners, or 4 nApp + index into the rewritten ones
+    for (let i = 0; i < 4 * nApp; i++) {
+      const v = app[i] - V;
+      if (v >= 0 && firstHit[v] < 0) firstHit[v] = i;
+    }
+    const base = 4 * nApp;
+    for (let i = 0; i < 4 * nRw; i++) {
+      const v = rwNew[i] - V;
+      if (v >= 0 && firstHit[v] < 0) firstHit[v] = base + i;
+    }
+    st.reserve(V + nNew, NF);
+    const qmax = ctx.qmax;
+    for (let k = 0; k < nNew; k++) {
+      const x = V + k;
+      const q = st.q;
+      let px, py, pz;
+      const hit = firstHit[k];
+      let found = false;
+      if (hit >= 0) {
+        const arr = hit < base ? app : rwNew;
+        const o = hit < base ? hit & ~3 : (hit - base) & ~3;
+        const c = hit & 3; // base is a multiple of 4
+        const n1 = arr[o + ((c + 1) & 3)];
+        const op = arr[o + ((c + 2) & 3)];
+        const n3 = arr[o + ((c + 3) & 3)];
+        const k1 = n1 < x;
+        const ko = op < x;
+        const k3 = n3 < x;
+        if (k1 && ko && k3) {
+          // parallelogram
+          px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
+          py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
+          pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
+          found = true;
+        } else if (k1 || ko || k3) {
+          // mean of the known ones (codes are ≥ 0: floor = truncation)
+          let sx = 0, sy = 0, sz = 0, n = 0;
+          if (k1) {
+            sx += q[3 * n1];
+            sy += q[3 * n1 + 1];
+            sz += q[3 * n1 + 2];
+            n++;
+          }
+          if (ko) {
+            sx += q[3 * op];
+            sy += q[3 * op + 1];
+            sz += q[3 * op + 2];
+            n++;
+          }
+          if (k3) {
+            sx += q[3 * n3];
+            sy += q[3 * n3 + 1];
+            sz += q[3 * n3 + 2];
+            n++;
+          }
+          px = Math.floor(sx / n);
+          py = Math.floor(sy / n);
+          pz = Math.floor(sz / n);
+          found = true;
+        }
+      }
+      if (!found) {
+        if (x > V) {
+          px = q[3 * (x - 1)];
+          py = q[3 * (x - 1) + 1];
+          pz = q[3 * (x - 1) + 2];
+        } else {
+          px = py = pz = ctx.half;
+        }
+      }
+      readCode(ctx, px, py, pz, `new vertex ${x}`);
+      appendVertex(ctx);
+    }
+  }
+
+  // Apply the connectivity.
+  for (let i = 0; i < nRw; i++) {
+    rewriteSlot(ctx, slots[i], rwNew[4 * i], rwNew[4 * i + 1], rwNew[4 * i + 2], rwNew[4 * i + 3]);
+  }
+  for (let i = 0; i < nApp; i++) {
+    appendQuad(ctx, app[4 * i], app[4 * i + 1], app[4 * i + 2], app[4 * i + 3]);
+  }
+}
+
+function checkDistinct(a, o, what) {
+  const x = a[o], y = a[o + 1], z = a[o + 2], w = a[o + 3];
+  if (x === y || x === z || x === w || y === z || y === w || z === w) {
+    throw `${what} repeats a vertex (${x} ${y} ${z} ${w})`;
+  }
+}
+
+// Split-form scratch (K ≤ 255).
+const sS = new Int32Array(256);
+const sK = new Int32Array(256);
+const sN = new Int32Array(256);
+const sP = new Int32Array(256);
+const sO = new Int32Array(256);
+const sList = new Int32Array(256);
+const sIn = new Uint8Array(256);
+const sLink = new Int32Array(257);
+const sSideC = new Int32Array(256);
+
+/** Split form (spec §7.5). */
+function decodeSplit(ctx, sym) {
+  const st = ctx.st;
+  const V = st.nv;
+  const NF = st.nf;
+  if (V >= ctx.VF || NF >= ctx.FF) {
+    throw `a vertex split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
+  }
+  const m = ctx.vcur + ctx.refs.s();
+  if (m < 0 || m >= V) throw `split vertex ${m} outside 0..${V}`;
+  ctx.vcur = m;
+
+  // 2. canonical star of m: S sorted by slot (insertion sort: K is small).
+  const f = st.f;
+  const S = sS;
+  let K = 0;
+  for (let c = st.head[m]; c >= 0; c = st.next[c]) {
+    if (K === 255) throw `vertex ${m} is in more than 255 faces`;
+    const slot = c >> 2;
+    const k = c & 3;
+    let i = K++;
+    while (i > 0 && S[i - 1] > slot) {
+      S[i] = S[i - 1];
+      sK[i] = sK[i - 1];
+      i--;
+    }
+    S[i] = slot;
+    sK[i] = k;
+  }
+  if (K < 1) throw `vertex ${m} is in no face`;
+  for (let i = 0; i < K; i++) {
+    const s4 = 4 * S[i];
+    const k = sK[i];
+    sN[i] = f[s4 + ((k + 1) & 3)];
+    sO[i] = f[s4 + ((k + 2) & 3)];
+    sP[i] = f[s4 + ((k + 3) & 3)];
+  }
+  // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
+  // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
+  // first index found.
+  // Rewind.
+  let start = -1;
+  let boundary = false;
+  for (let it = 0, g = 0; it < K; it++) {
+    const n = sN[g];
+    let pr = -1;
+    for (let j = 0; j < K; j++) {
+      if (j !== g && sP[j] === n) {
+        pr = j;
+        break;
+      }
+    }
+    if (pr < 0) {
+      start = g;
+      boundary = true;
+      break;
+    }
+    if (pr === 0) {
+      start = 0;
+      break;
+    }
+    g = pr;
+  }
+  if (start < 0) throw `the faces around vertex ${m} do not form a fan`;
+  // Walk.
+  sIn.fill(0, 0, K);
+  let len = 0;
+  sList[len++] = start;
+  sIn[start] = 1;
+  for (;;) {
+    const last = sList[len - 1];
+    const p = sP[last];
+    let g = -1;
+    for (let j = 0; j < K; j++) {
+      if (j !== last && sN[j] === p) {
+        g = j;
+        break;
+      }
+    }
+    if (boundary ? g < 0 : g === start) break;
+    if (g < 0 || sIn[g] || len >= K) {
+      throw `the faces around vertex ${m} do not form a single fan`;
+    }
+    sList[len++] = g;
+    sIn[g] = 1;
+  }
+  if (len !== K) throw `the fan around vertex ${m} holds ${len} of its ${K} faces`;
+  // Link.
+  for (let t = 0; t < K; t++) sLink[t] = sN[sList[t]];
+  let L = K;
+  if (boundary) sLink[L++] = sP[sList[K - 1]];
+  if (L < 2) throw `vertex ${m} has a link of ${L} vertex`;
+
+  // 3. wings.
+  const i = ctx.conn.u();
+  if (i > L - 1) throw `wing index ${i} exceeds ${L - 1}`;
+  const e = ctx.conn.u();
+  if (e > L - 2) throw `wing offset ${e} exceeds ${L - 2}`;
+  const j = (i + 1 + e) % L;
+  const b = sLink[i];
+  const d = sLink[j];
+  if (b === d) throw `wings ${i} and ${j} of vertex ${m} are the same vertex ${b}`;
+
+  // 4. sides.
+  let nC = 0;
+  let sax = 0, say = 0, saz = 0, nA = 0;
+  let scx = 0, scy = 0, scz = 0;
+  const q = st.q;
+  for (let t = 0; t < K; t++) {
+    const sideA = i < j ? i <= t && t < j : t >= i || t < j;
+    const idx = sList[t];
+    const o = 3 * sO[idx];
+    if (sideA) {
+      sax += q[o];
+      say += q[o + 1];
+      saz += q[o + 2];
+      nA++;
+    } else {
+      scx += q[o];
+      scy += q[o + 1];
+      scz += q[o + 2];
+      sSideC[nC++] = S[idx];
+    }
+  }
+
+  // 6. positions. a (moved m) first, then c.
+  const qmax = ctx.qmax;
+  const mx = q[3 * m], my = q[3 * m + 1], mz = q[3 * m + 2];
+  let ax = mx, ay = my, az = mz;
+  if (sym & 0x40) {
+    const mean = (s, n, own) => (n === 0 ? own : Math.floor(s / n));
+    const ma = [mean(sax, nA, mx), mean(say, nA, my), mean(saz, nA, mz)];
+    const mc = [mean(scx, nC, mx), mean(scy, nC, my), mean(scz, nC, mz)];
+    readCode(
+      ctx,
+      clamp(mx + Math.floor((ma[0] - mc[0]) / 4), qmax),
+      clamp(my + Math.floor((ma[1] - mc[1]) / 4), qmax),
+      clamp(mz + Math.floor((ma[2] - mc[2]) / 4), qmax),
+      `split vertex ${m} (a)`,
+    );
+    ax = ctx.cx;
+    ay = ctx.cy;
+    az = ctx.cz;
+    logMove(ctx, m);
+  }
+  const c = V;
+  let px, py, pz;
+  if (sym & 0x80) {
+    // reflection of a through the old position of m
+    px = clamp(2 * mx - ax, qmax);
+    py = clamp(2 * my - ay, qmax);
+    pz = clamp(2 * mz - az, qmax);
+  } else {
+    // §7.6: the appended quad (m, d, c, b) rotated is the first quad holding
+    // c; its neighbours there are b and d, its opposite corner m (code a).
+    px = clamp(q[3 * b] + q[3 * d] - ax, qmax);
+    py = clamp(q[3 * b + 1] + q[3 * d + 1] - ay, qmax);
+    pz = clamp(q[3 * b + 2] + q[3 * d + 2] - az, qmax);
+  }
+  readCode(ctx, px, py, pz, `split vertex ${m} (c)`);
+  appendVertex(ctx);
+
+  // 5. the explicit record: side-C slots by ascending slot, m → c.
+  const sideC = sSideC;
+  for (let t = 1; t < nC; t++) {
+    const x = sideC[t];
+    let u = t;
+    while (u > 0 && sideC[u - 1] > x) {
+      sideC[u] = sideC[u - 1];
+      u--;
+    }
+    sideC[u] = x;
+  }
+  for (let t = 0; t < nC; t++) {
+    const s = sideC[t];
+    const s4 = 4 * s;
+    const fq = st.f;
+    rewriteSlot(
+      ctx,
+      s,
+      fq[s4] === m ? c : fq[s4],
+      fq[s4 + 1] === m ? c : fq[s4 + 1],
+      fq[s4 + 2] === m ? c : fq[s4 + 2],
+      fq[s4 + 3] === m ? c : fq[s4 + 3],
+    );
+  }
+  // Q'[t] = B[(t + rot) mod 4] with B = (m, d, c, b)
+  const rot = (sym >> 4) & 3;
+  if (rot === 0) appendQuad(ctx, m, d, c, b);
+  else if (rot === 1) appendQuad(ctx, d, c, b, m);
+  else if (rot === 2) appendQuad(ctx, c, b, m, d);
+  else appendQuad(ctx, b, m, d, c);
+}

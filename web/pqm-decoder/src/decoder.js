@@ -1,0 +1,1031 @@
+/**
+ * The push (streaming) decoder of `.pqm` files, written from `spec/pqm.md`.
+ *
+ * Feed bytes as they arrive with `push(bytes)` — any number at a time; one
+ * byte at a time gives exactly the same result — and get events as sections
+ * complete (`headerReady`, `baseMeshReady`, `chunkReady`, `sectionReady`,
+ * `finished`). Then move between any two decoded levels with `refineTo`,
+ * `coarsenTo` or `setLevel`, each returning a `Change` that says which
+ * buffer ranges a renderer must update.
+ *
+ * Internally there are two meshes: the *frontier* (the deepest decoded
+ * level, with vertex→face adjacency, needed to decode the next record) and
+ * the *current* level the caller sees. Every decoded record is kept in
+ * explicit form with its undo data, so moving between levels never decodes
+ * anything again.
+ *
+ * Every byte is hostile: the header's counts and the chunk table's sizes are
+ * checked against `limits` before anything is allocated for them, every
+ * section's CRC-32 is checked, every count and index is checked before use;
+ * a fault is a `PqmError` naming the section, chunk and record.
+ */
+import { crc32 } from './crc32.js';
+import { decompressFrame } from './zstd.js';
+import { RecordLog, decodeBase, decodeChunk } from './codec.js';
+import { ByteQueue } from './queue.js';
+import { ensure } from './grow.js';
+import { Reader } from './reader.js';
+import { PqmError, crcMismatch, invalid, limitsExceeded } from './errors.js';
+
+const MAGIC = [0x89, 0x50, 0x51, 0x4d, 0x0d, 0x0a, 0x1a, 0x0a];
+const VERSION_MAJOR = 1;
+const HEADER_PREFIX = 16;
+const HEADER_LEN = 120;
+const MAX_HEADER_LEN = 65536;
+const CHUNK_ENTRY_LEN = 36;
+const MAX_CHUNK_ENTRY_LEN = 4096;
+const SECTION_HEADER_LEN = 16;
+
+/**
+ * Default resource budget: 2^26 vertices, 2^26 faces, 4 GiB (the Rust
+ * decoder's defaults).
+ */
+export const DEFAULT_LIMITS = Object.freeze({
+  maxVertices: 2 ** 26,
+  maxFaces: 2 ** 26,
+  maxMemoryBytes: 4 * 2 ** 30,
+});
+
+/**
+ * Conservative memory estimate of a decoder for a file with `v` final
+ * vertices, `f` final faces, `r` records and `payload` uncompressed payload
+ * bytes in all (the same formula as the Rust decoder's `Limits::estimate`).
+ */
+export function estimateMemory(v, f, r, payload) {
+  return v * 96 + f * 80 + r * 40 + payload * 20;
+}
+
+/**
+ * What changed between two levels, in buffer terms. Quad slot `f` is
+ * triangles `2f = (v0, v1, v2)` and `2f + 1 = (v0, v2, v3)`, i.e. indices
+ * `6f .. 6f + 6` of `triangleIndices`. Ranges are `{start, end}`, end
+ * exclusive.
+ */
+export class Change {
+  constructor(fields) {
+    /** Level before. */
+    this.fromLevel = fields.fromLevel;
+    /** Level after. */
+    this.toLevel = fields.toLevel;
+    /** New vertex ids (refining): upload these positions. */
+    this.verticesAppended = fields.verticesAppended;
+    /** Removed vertex ids (coarsening): the vertex count drops to `start`. */
+    this.verticesRemoved = fields.verticesRemoved;
+    /** Vertices that exist before and after and moved (sorted, distinct). */
+    this.verticesMoved = fields.verticesMoved;
+    /** Face slots that exist before and after and changed (sorted, distinct). */
+    this.facesRewritten = fields.facesRewritten;
+    /** New face slots (refining). */
+    this.facesAppended = fields.facesAppended;
+    /** Removed face slots (coarsening): the face count drops to `start`. */
+    this.facesTruncated = fields.facesTruncated;
+  }
+
+  /** True when no buffer range changed. */
+  isEmpty() {
+    return (
+      this.verticesAppended.start === this.verticesAppended.end &&
+      this.verticesRemoved.start === this.verticesRemoved.end &&
+      this.verticesMoved.length === 0 &&
+      this.facesRewritten.length === 0 &&
+      this.facesAppended.start === this.facesAppended.end &&
+      this.facesTruncated.start === this.facesTruncated.end
+    );
+  }
+
+  /** `verticesMoved` as maximal runs of consecutive ids. */
+  movedRanges() {
+    return runs(this.verticesMoved);
+  }
+
+  /** `facesRewritten` as maximal runs of consecutive slots. */
+  rewrittenRanges() {
+    return runs(this.facesRewritten);
+  }
+}
+
+/**
+ * Maximal runs of consecutive values of a sorted list.
+ * @param {ArrayLike<number>} sorted
+ * @returns {{start:number, end:number}[]}
+ */
+export function runs(sorted) {
+  const out = [];
+  for (let i = 0; i < sorted.length; i++) {
+    const x = sorted[i];
+    const last = out[out.length - 1];
+    if (last && last.end === x) last.end = x + 1;
+    else out.push({ start: x, end: x + 1 });
+  }
+  return out;
+}
+
+const range = (start, end) => ({ start, end });
+
+/** Sorted distinct values of `a[0..n)` (a typed array, sorted in place). */
+function sortedDistinct(a, n) {
+  const s = a.subarray(0, n).sort();
+  let k = 0;
+  for (let i = 0; i < n; i++) if (k === 0 || s[i] !== s[k - 1]) s[k++] = s[i];
+  return s.slice(0, k);
+}
+
+/**
+ * Streaming decoder. See the module documentation.
+ */
+export class PqmDecoder {
+  /**
+   * @param {{limits?: {maxVertices?: number, maxFaces?: number, maxMemoryBytes?: number}}} [options]
+   */
+  constructor(options = {}) {
+    const l = options.limits ?? {};
+    this.limits = {
+      maxVertices: l.maxVertices ?? DEFAULT_LIMITS.maxVertices,
+      maxFaces: l.maxFaces ?? DEFAULT_LIMITS.maxFaces,
+      maxMemoryBytes: l.maxMemoryBytes ?? DEFAULT_LIMITS.maxMemoryBytes,
+    };
+    this._queue = new ByteQueue();
+    this._consumed = 0;
+    this._stage = 'prefix';
+    this._stageArg = 0; // header length, chunk index or section index
+    this._section = null; // {tag, compressedLen, uncompressedLen, crc32} of the section being read
+    this._failed = null;
+    /** @type {object|null} */
+    this._header = null;
+    this._chunks = [];
+    this._chunksReady = 0;
+    this._frontier = null;
+    this._log = new RecordLog();
+    this._vertexOrder = null;
+    this._sectionsRead = [];
+    // quantization grid
+    this._min = [0, 0, 0];
+    this._step = [0, 0, 0];
+    // the current level
+    this._level = 0;
+    this._nv = 0;
+    this._nf = 0;
+    this._q = new Uint32Array(0);
+    this._pos = new Float32Array(0);
+    this._quads = new Uint32Array(0);
+    this._tris = new Uint32Array(0);
+  }
+
+  // ---- input ---------------------------------------------------------------
+
+  /**
+   * Feeds the next bytes of the file and returns the events they completed,
+   * in file order. The bytes are copied if kept, so the caller may reuse its
+   * buffer. On a fault throws a `PqmError` (its `events` holds what the call
+   * completed before the fault); the decoder is then failed and every
+   * further push throws, but every level decoded before stays usable.
+   * @param {Uint8Array} bytes
+   * @returns {object[]} events
+   */
+  push(bytes) {
+    if (this._failed) {
+      const e = new PqmError('failed', `the decoder failed earlier: ${this._failed.message}`);
+      e.cause = this._failed;
+      throw e;
+    }
+    if (!(bytes instanceof Uint8Array)) {
+      throw new PqmError('parameter', 'push() takes a Uint8Array');
+    }
+    const events = [];
+    this._queue.push(bytes);
+    try {
+      this._run(events);
+    } catch (err) {
+      const e =
+        err instanceof PqmError
+          ? err
+          : new PqmError('internal', `internal error: ${err && err.message ? err.message : err}`);
+      if (e !== err) e.cause = err;
+      e.events = events;
+      this._failed = e;
+      throw e;
+    } finally {
+      this._queue.own(bytes);
+    }
+    return events;
+  }
+
+  /**
+   * Reads a `ReadableStream` of bytes (e.g. `fetch(url).then(r => r.body)`)
+   * to its end, pushing every piece; `onEvents(events, decoder)` is called
+   * after each piece that completed something. Resolves to all events.
+   * @param {ReadableStream<Uint8Array>} stream
+   * @param {(events: object[], decoder: PqmDecoder) => void} [onEvents]
+   */
+  async pushStream(stream, onEvents) {
+    const reader = stream.getReader();
+    const all = [];
+    try {
+      for (;;) {
+        const { done, value } = await reader.read();
+        if (done) break;
+        const ev = this.push(value);
+        if (ev.length) {
+          all.push(...ev);
+          if (onEvents) onEvents(ev, this);
+        }
+      }
+    } finally {
+      reader.releaseLock();
+    }
+    return all;
+  }
+
+  /**
+   * Declares the input complete: throws a `truncated` error naming the
+   * section still missing unless the whole file was read (the levels
+   * decoded so far stay usable either way).
+   */
+  end() {
+    if (this._failed) throw this._failed;
+    const s = this.status();
+    if (!s.finished) {
+      throw new PqmError(
+        'truncated',
+        `input ends after ${this._consumed + this._queue.length} bytes while waiting for the ${s.waitingFor}`,
+        { section: s.waitingFor },
+      );
+    }
+  }
+
+  /** Bytes the current stage needs, or null when the file is complete. */
+  _need() {
+    const h = this._header;
+    switch (this._stage) {
+      case 'prefix':
+        return HEADER_PREFIX;
+      case 'header':
+        return this._stageArg;
+      case 'table':
+        return h.chunkCount * h.chunkEntryLen + 4;
+      case 'base':
+        return h.baseCompressedLen;
+      case 'chunk':
+        return this._chunks[this._stageArg].compressedLen;
+      case 'sectionHead':
+        return SECTION_HEADER_LEN;
+      case 'sectionBody':
+        return this._section.compressedLen;
+      default:
+        return null;
+    }
+  }
+
+  _take(n) {
+    this._consumed += n;
+    return this._queue.take(n);
+  }
+
+  _run(events) {
+    for (;;) {
+      const need = this._need();
+      if (need === null) {
+        if (this._queue.length > 0) {
+          throw invalid('trailer', `${this._queue.length} bytes after the end of the file`);
+        }
+        return;
+      }
+      if (this._queue.length < need) return;
+      switch (this._stage) {
+        case 'prefix':
+          this._onPrefix(this._queue.peek(HEADER_PREFIX));
+          break;
+        case 'header':
+          this._onHeader(this._take(need));
+          break;
+        case 'table':
+          this._onTable(this._take(need));
+          events.push({ type: 'headerReady' });
+          break;
+        case 'base':
+          this._onBase(this._take(need));
+          events.push({ type: 'baseMeshReady', level: 0 });
+          this._afterChunks(0, events);
+          break;
+        case 'chunk': {
+          const i = this._stageArg;
+          this._onChunk(i, this._take(need));
+          events.push({ type: 'chunkReady', chunk: i, level: this._chunks[i].level });
+          this._afterChunks(i + 1, events);
+          break;
+        }
+        case 'sectionHead': {
+          const b = this._take(need);
+          const dv = new DataView(b.buffer, b.byteOffset, b.byteLength);
+          this._section = {
+            tag: String.fromCharCode(b[0], b[1], b[2], b[3]),
+            compressedLen: dv.getUint32(4, true),
+            uncompressedLen: dv.getUint32(8, true),
+            crc32: dv.getUint32(12, true),
+          };
+          this._stage = 'sectionBody';
+          break;
+        }
+        case 'sectionBody': {
+          const i = this._stageArg;
+          this._onSection(i, this._section, this._take(need));
+          events.push({ type: 'sectionReady', section: i, tag: this._section.tag });
+          this._sectionsRead.push(this._section.tag);
+          if (i + 1 < this._header.sectionCount) {
+            this._stage = 'sectionHead';
+            this._stageArg = i + 1;
+          } else {
+            this._stage = 'done';
+            events.push({ type: 'finished' });
+          }
+          break;
+        }
+        default:
+          throw new PqmError('internal', `internal error: stage ${this._stage}`);
+      }
+    }
+  }
+
+  /** After the base (next = 0) or chunk next − 1: the next chunk, the sections or the end. */
+  _afterChunks(next, events) {
+    const h = this._header;
+    if (next < h.chunkCount) {
+      this._stage = 'chunk';
+      this._stageArg = next;
+    } else if (h.sectionCount > 0) {
+      this._stage = 'sectionHead';
+      this._stageArg = 0;
+    } else {
+      this._stage = 'done';
+      events.push({ type: 'finished' });
+    }
+  }
+
+  _onPrefix(b) {
+    for (let i = 0; i < 8; i++) {
+      if (b[i] !== MAGIC[i]) {
+        throw new PqmError('bad-magic', 'not a .pqm file (bad magic)', { section: 'header' });
+      }
+    }
+    const dv = new DataView(b.buffer, b.byteOffset, b.byteLength);
+    const major = dv.getUint16(8, true);
+    const minor = dv.getUint16(10, true);
+    if (major !== VERSION_MAJOR) {
+      throw new PqmError(
+        'unsupported-version',
+        `unsupported .pqm version ${major}.${minor} (this decoder reads ${VERSION_MAJOR}.x)`,
+        { section: 'header' },
+      );
+    }
+    const len = dv.getUint32(12, true);
+    if (len < HEADER_LEN || len > MAX_HEADER_LEN) {
+      throw invalid('header', `header_len ${len} outside ${HEADER_LEN}..=${MAX_HEADER_LEN}`);
+    }
+    this._stage = 'header';
+    this._stageArg = len;
+  }
+
+  _onHeader(b) {
+    const len = b.length;
+    const dv = new DataView(b.buffer, b.byteOffset, b.byteLength);
+    const stored = dv.getUint32(len - 4, true);
+    const computed = crc32(b, 0, len - 4);
+    if (stored !== computed) throw crcMismatch('header', stored, computed);
+    const u32 = (o) => dv.getUint32(o, true);
+    const h = {
+      versionMajor: dv.getUint16(8, true),
+      versionMinor: dv.getUint16(10, true),
+      headerLen: u32(12),
+      flags: u32(16),
+      quantBits: b[20],
+      chunkEntryLen: dv.getUint16(22, true),
+      baseVertexCount: u32(24),
+      baseFaceCount: u32(28),
+      finalVertexCount: u32(32),
+      finalFaceCount: u32(36),
+      recordCount: u32(40),
+      chunkCount: u32(44),
+      sectionCount: u32(48),
+      baseCompressedLen: u32(52),
+      baseUncompressedLen: u32(56),
+      baseCrc32: u32(60),
+      bboxMin: [dv.getFloat64(64, true), dv.getFloat64(72, true), dv.getFloat64(80, true)],
+      bboxMax: [dv.getFloat64(88, true), dv.getFloat64(96, true), dv.getFloat64(104, true)],
+      baseError: dv.getFloat32(112, true),
+    };
+    h.hasVertexOrder = (h.flags & 1) !== 0;
+    const bad = (m) => invalid('header', m);
+    if (h.quantBits < 8 || h.quantBits > 24) throw bad(`quantization bits ${h.quantBits} outside 8..=24`);
+    if (h.chunkEntryLen < CHUNK_ENTRY_LEN || h.chunkEntryLen > MAX_CHUNK_ENTRY_LEN) {
+      throw bad(`chunk entry length ${h.chunkEntryLen} outside ${CHUNK_ENTRY_LEN}..=${MAX_CHUNK_ENTRY_LEN}`);
+    }
+    for (let k = 0; k < 3; k++) {
+      const lo = h.bboxMin[k];
+      const hi = h.bboxMax[k];
+      if (!Number.isFinite(lo) || !Number.isFinite(hi) || lo > hi || !Number.isFinite(hi - lo)) {
+        throw bad(`bounding box axis ${k} is [${lo}, ${hi}]`);
+      }
+    }
+    if (h.baseVertexCount > h.finalVertexCount || h.baseFaceCount > h.finalFaceCount) {
+      throw bad(
+        `base counts (${h.baseVertexCount} vertices, ${h.baseFaceCount} faces) exceed the final counts (${h.finalVertexCount}, ${h.finalFaceCount})`,
+      );
+    }
+    if (h.chunkCount > h.recordCount || (h.recordCount > 0 && h.chunkCount === 0)) {
+      throw bad(`${h.chunkCount} chunks cannot hold ${h.recordCount} records`);
+    }
+    if (Number.isNaN(h.baseError) || h.baseError < 0) {
+      throw bad(`base error ${h.baseError} is not a non-negative number`);
+    }
+    const lim = this.limits;
+    if (h.finalVertexCount > lim.maxVertices) {
+      throw limitsExceeded(`${h.finalVertexCount} vertices > maxVertices ${lim.maxVertices}`);
+    }
+    if (h.finalFaceCount > lim.maxFaces) {
+      throw limitsExceeded(`${h.finalFaceCount} faces > maxFaces ${lim.maxFaces}`);
+    }
+    const est = estimateMemory(h.finalVertexCount, h.finalFaceCount, h.recordCount, h.baseUncompressedLen);
+    if (est > lim.maxMemoryBytes) {
+      throw limitsExceeded(`estimated memory ${est} bytes > maxMemoryBytes ${lim.maxMemoryBytes}`);
+    }
+    const qmax = 2 ** h.quantBits - 1;
+    for (let k = 0; k < 3; k++) {
+      this._min[k] = h.bboxMin[k];
+      // spec §5: step = (max − min) / qmax, in f64
+      this._step[k] = (h.bboxMax[k] - h.bboxMin[k]) / qmax;
+    }
+    this._header = Object.freeze(h);
+    this._stage = 'table';
+  }
+
+  _onTable(b) {
+    const h = this._header;
+    const n = b.length - 4;
+    const dv = new DataView(b.buffer, b.byteOffset, b.byteLength);
+    const stored = dv.getUint32(n, true);
+    const computed = crc32(b, 0, n);
+    if (stored !== computed) throw crcMismatch('chunk table', stored, computed);
+    const bad = (m) => invalid('chunk table', m);
+    let offset = BigInt(h.headerLen) + BigInt(n) + 4n + BigInt(h.baseCompressedLen);
+    let records = 0;
+    let v = h.baseVertexCount;
+    let f = h.baseFaceCount;
+    let err = h.baseError;
+    let payload = h.baseUncompressedLen;
+    const chunks = [];
+    for (let i = 0; i < h.chunkCount; i++) {
+      const o = i * h.chunkEntryLen;
+      const e = {
+        offset: dv.getBigUint64(o, true),
+        compressedLen: dv.getUint32(o + 8, true),
+        uncompressedLen: dv.getUint32(o + 12, true),
+        recordCount: dv.getUint32(o + 16, true),
+        vertexCount: dv.getUint32(o + 20, true),
+        faceCount: dv.getUint32(o + 24, true),
+        error: dv.getFloat32(o + 28, true),
+        crc32: dv.getUint32(o + 32, true),
+      };
+      if (e.offset !== offset) throw bad(`chunk ${i} offset ${e.offset} != expected ${offset}`);
+      if (e.recordCount === 0) throw bad(`chunk ${i} has no records`);
+      if (e.vertexCount < v || e.faceCount < f) {
+        throw bad(`chunk ${i} vertex/face counts decrease (${v} → ${e.vertexCount}, ${f} → ${e.faceCount})`);
+      }
+      if (Number.isNaN(e.error) || e.error < 0 || e.error > err) {
+        throw bad(`chunk ${i} error ${e.error} is not in [0, ${err}]`);
+      }
+      records += e.recordCount;
+      offset += BigInt(e.compressedLen);
+      payload += e.uncompressedLen;
+      v = e.vertexCount;
+      f = e.faceCount;
+      err = e.error;
+      chunks.push(
+        Object.freeze({
+          index: i,
+          offset: Number(e.offset),
+          end: Number(offset),
+          compressedLen: e.compressedLen,
+          uncompressedLen: e.uncompressedLen,
+          recordCount: e.recordCount,
+          vertexCount: e.vertexCount,
+          faceCount: e.faceCount,
+          error: e.error,
+          crc32: e.crc32,
+          level: records, // level reached after this chunk
+        }),
+      );
+    }
+    if (records !== h.recordCount) {
+      throw bad(`chunks hold ${records} records, the header says ${h.recordCount}`);
+    }
+    if (v !== h.finalVertexCount || f !== h.finalFaceCount) {
+      throw bad(
+        `chunks end at ${v} vertices and ${f} faces, the header says ${h.finalVertexCount} and ${h.finalFaceCount}`,
+      );
+    }
+    const est = estimateMemory(h.finalVertexCount, h.finalFaceCount, h.recordCount, payload);
+    if (est > this.limits.maxMemoryBytes) {
+      throw limitsExceeded(`estimated memory ${est} bytes > maxMemoryBytes ${this.limits.maxMemoryBytes}`);
+    }
+    this._chunks = chunks;
+    this._stage = 'base';
+  }
+
+  _onBase(b) {
+    const h = this._header;
+    const computed = crc32(b);
+    if (computed !== h.baseCrc32) throw crcMismatch('base mesh', h.baseCrc32, computed);
+    const nv = h.baseVertexCount;
+    const nf = h.baseFaceCount;
+    if (4 * nf + 3 * nv > h.baseUncompressedLen) {
+      throw invalid(
+        'base mesh',
+        `${nf} faces and ${nv} vertices need at least ${4 * nf + 3 * nv} bytes, base_uncompressed_len is ${h.baseUncompressedLen}`,
+      );
+    }
+    let payload;
+    try {
+      payload = decompressFrame(b, h.baseUncompressedLen);
+    } catch (e) {
+      if (typeof e === 'string') throw invalid('base mesh', e);
+      throw e;
+    }
+    const st = decodeBase(payload, nv, nf, 2 ** h.quantBits - 1);
+    st.maxV = h.finalVertexCount;
+    st.maxF = h.finalFaceCount;
+    this._log.maxLevels = h.recordCount + 1;
+    this._frontier = st;
+    this._log.pushLevel(nv, nf);
+    // level 0 becomes the current level
+    this._nv = nv;
+    this._nf = nf;
+    this._q = st.q.slice(0, 3 * nv);
+    this._pos = new Float32Array(3 * nv);
+    this._dequantizeInto(this._pos, this._q, 0, nv);
+    this._quads = st.f.slice(0, 4 * nf);
+    this._tris = new Uint32Array(6 * nf);
+    for (let s = 0; s < nf; s++) this._writeTris(s);
+    this._level = 0;
+  }
+
+  _onChunk(i, b) {
+    const info = this._chunks[i];
+    const section = `chunk ${i}`;
+    const computed = crc32(b);
+    if (computed !== info.crc32) throw crcMismatch(section, info.crc32, computed, i);
+    let payload;
+    try {
+      payload = decompressFrame(b, info.uncompressedLen);
+    } catch (e) {
+      if (typeof e === 'string') throw invalid(section, e);
+      throw e;
+    }
+    decodeChunk(payload, i, info, this._frontier, this._log, this._header);
+    this._chunksReady = i + 1;
+  }
+
+  _onSection(i, sec, b) {
+    const section = `optional section ${i} (${JSON.stringify(sec.tag)})`;
+    const computed = crc32(b);
+    if (computed !== sec.crc32) throw crcMismatch(section, sec.crc32, computed);
+    if (sec.tag !== 'VORD') return; // unknown optional section: skipped (spec §8)
+    const n = this._header.finalVertexCount;
+    // Each entry is one varint of 1 to 10 bytes (spec §1): bound the payload
+    // before allocating for it.
+    if (sec.uncompressedLen < n || sec.uncompressedLen > 10 * n) {
+      throw invalid(section, `VORD payload of ${sec.uncompressedLen} bytes cannot hold ${n} entries`);
+    }
+    try {
+      const payload = decompressFrame(b, sec.uncompressedLen);
+      const r = new Reader(payload, 0, payload.length, 'VORD');
+      const order = new Uint32Array(n);
+      const seen = new Uint8Array(n);
+      let prev = 0;
+      for (let k = 0; k < n; k++) {
+        const v = prev + r.s();
+        if (v < 0 || v >= n || seen[v]) throw `VORD entry ${k} = ${v} is out of range or repeated`;
+        seen[v] = 1;
+        order[k] = v;
+        prev = v;
+      }
+      if (r.remaining() !== 0) throw `${r.remaining()} unused bytes in VORD`;
+      this._vertexOrder = order;
+    } catch (e) {
+      if (typeof e === 'string') throw invalid(section, e);
+      throw e;
+    }
+  }
+
+  // ---- navigation ------------------------------------------------------------
+
+  /** The current level. */
+  get level() {
+    return this._level;
+  }
+
+  /** Deepest level reachable now (null before the base mesh). */
+  get deepestLevel() {
+    return this._log.levels > 0 ? this._log.levels - 1 : null;
+  }
+
+  /** The finest level of the file (null before the header). */
+  get finalLevel() {
+    return this._header ? this._header.recordCount : null;
+  }
+
+  /**
+   * Resolves a target among the decoded levels:
+   * - `{level: k}` (or a number): level `k`, clamped to the deepest decoded;
+   * - `{faces: n}`: the finest decoded level with at most `n` faces (level 0
+   *   if none);
+   * - `{error: e}`: the coarsest chunk boundary (or level 0) whose geometric
+   *   error is ≤ `e`; the deepest decoded level if none is.
+   * @returns {number} a level
+   */
+  resolve(target) {
+    const deepest = this.deepestLevel;
+    if (deepest === null) {
+      throw new PqmError('parameter', 'no level is available before the base mesh is decoded');
+    }
+    const t = typeof target === 'number' ? { level: target } : target;
+    const keys = t && typeof t === 'object' ? Object.keys(t).filter((k) => t[k] !== undefined) : [];
+    if (keys.length !== 1 || !['level', 'faces', 'error'].includes(keys[0])) {
+      throw new PqmError('parameter', 'a target is {level}, {faces} or {error}');
+    }
+    const x = t[keys[0]];
+    if (typeof x !== 'number' || Number.isNaN(x) || x < 0) {
+      throw new PqmError('parameter', `target ${keys[0]} must be a non-negative number, got ${x}`);
+    }
+    if (keys[0] === 'level') return Math.min(Math.floor(x), deepest);
+    if (keys[0] === 'faces') {
+      // face counts never decrease with the level: binary search
+      const fAt = this._log.fAt;
+      let lo = 0;
+      let hi = deepest + 1; // first level with more than x faces
+      while (lo < hi) {
+        const mid = (lo + hi) >> 1;
+        if (fAt[mid] <= x) lo = mid + 1;
+        else hi = mid;
+      }
+      return Math.max(lo - 1, 0);
+    }
+    if (this._header.baseError <= x) return 0;
+    for (let c = 0; c < this._chunksReady; c++) {
+      if (this._chunks[c].error <= x) return this._chunks[c].level;
+    }
+    return deepest;
+  }
+
+  /** Goes to `target` if that is finer than the current level (else no change). */
+  refineTo(target) {
+    return this._goTo(Math.max(this.resolve(target), this._level));
+  }
+
+  /** Goes to `target` if that is coarser than the current level (else no change). */
+  coarsenTo(target) {
+    return this._goTo(Math.min(this.resolve(target), this._level));
+  }
+
+  /** Goes to `target`, refining or coarsening. */
+  setLevel(target) {
+    return this._goTo(this.resolve(target));
+  }
+
+  /**
+   * A change that uploads the whole current level into empty buffers: what a
+   * renderer applies once, when `baseMeshReady` arrives or after it recreates
+   * its buffers.
+   */
+  fullUpload() {
+    return new Change({
+      fromLevel: this._level,
+      toLevel: this._level,
+      verticesAppended: range(0, this._nv),
+      verticesRemoved: range(this._nv, this._nv),
+      verticesMoved: new Uint32Array(0),
+      facesRewritten: new Uint32Array(0),
+      facesAppended: range(0, this._nf),
+      facesTruncated: range(this._nf, this._nf),
+    });
+  }
+
+  _goTo(to) {
+    const from = this._level;
+    const log = this._log;
+    const vFrom = log.vAt[from];
+    const vTo = log.vAt[to];
+    const fFrom = log.fAt[from];
+    const fTo = log.fAt[to];
+    const bv = log.vAt[0];
+    const bf = log.fAt[0];
+    // Only ids below the smaller count are reported as moved / rewritten.
+    const vMin = Math.min(vFrom, vTo);
+    const fMin = Math.min(fFrom, fTo);
+    // at most every logged entry between the two levels
+    const lo = Math.min(from, to);
+    const hi = Math.max(from, to);
+    const moved = new Uint32Array(log.movedAt[hi] - log.movedAt[lo]);
+    let nMoved = 0;
+    const rewritten = new Uint32Array(log.rwAt[hi] - log.rwAt[lo]);
+    let nRw = 0;
+    const M = log.moved;
+    const R = log.rw;
+    if (to > from) {
+      this._reserve(vTo, fTo);
+      const q = this._q;
+      q.set(log.newCodes.subarray(3 * (vFrom - bv), 3 * (vTo - bv)), 3 * vFrom);
+      this._dequantizeInto(this._pos, q, vFrom, vTo);
+      const quads = this._quads;
+      for (let k = from; k < to; k++) {
+        for (let e = log.movedAt[k]; e < log.movedAt[k + 1]; e++) {
+          const v = M[7 * e];
+          q[3 * v] = M[7 * e + 1];
+          q[3 * v + 1] = M[7 * e + 2];
+          q[3 * v + 2] = M[7 * e + 3];
+          this._dequantizeInto(this._pos, q, v, v + 1);
+          if (v < vMin) moved[nMoved++] = v;
+        }
+        for (let e = log.rwAt[k]; e < log.rwAt[k + 1]; e++) {
+          const s = R[9 * e];
+          quads[4 * s] = R[9 * e + 1];
+          quads[4 * s + 1] = R[9 * e + 2];
+          quads[4 * s + 2] = R[9 * e + 3];
+          quads[4 * s + 3] = R[9 * e + 4];
+          this._writeTris(s);
+          if (s < fMin) rewritten[nRw++] = s;
+        }
+        const a = log.fAt[k];
+        const b = log.fAt[k + 1];
+        if (b > a) {
+          quads.set(log.app.subarray(4 * (a - bf), 4 * (b - bf)), 4 * a);
+          for (let s = a; s < b; s++) this._writeTris(s);
+        }
+      }
+    } else if (to < from) {
+      const q = this._q;
+      const quads = this._quads;
+      for (let k = from - 1; k >= to; k--) {
+        // truncation is implicit: ids ≥ vAt[k] / slots ≥ fAt[k] are never read
+        for (let e = log.movedAt[k + 1] - 1; e >= log.movedAt[k]; e--) {
+          const v = M[7 * e];
+          q[3 * v] = M[7 * e + 4];
+          q[3 * v + 1] = M[7 * e + 5];
+          q[3 * v + 2] = M[7 * e + 6];
+          if (v < vMin) moved[nMoved++] = v;
+        }
+        for (let e = log.rwAt[k + 1] - 1; e >= log.rwAt[k]; e--) {
+          const s = R[9 * e];
+          quads[4 * s] = R[9 * e + 5];
+          quads[4 * s + 1] = R[9 * e + 6];
+          quads[4 * s + 2] = R[9 * e + 7];
+          quads[4 * s + 3] = R[9 * e + 8];
+          if (s < fMin) rewritten[nRw++] = s;
+        }
+      }
+    }
+    const movedSorted = sortedDistinct(moved, nMoved);
+    const rwSorted = sortedDistinct(rewritten, nRw);
+    if (to < from) {
+      // positions and triangles of what remains and changed
+      for (const v of movedSorted) this._dequantizeInto(this._pos, this._q, v, v + 1);
+      for (const s of rwSorted) this._writeTris(s);
+    }
+    this._level = to;
+    this._nv = vTo;
+    this._nf = fTo;
+    return new Change({
+      fromLevel: from,
+      toLevel: to,
+      verticesAppended: range(vMin, vTo),
+      verticesRemoved: range(vTo, Math.max(vFrom, vTo)),
+      verticesMoved: movedSorted,
+      facesRewritten: rwSorted,
+      facesAppended: range(fMin, fTo),
+      facesTruncated: range(fTo, Math.max(fFrom, fTo)),
+    });
+  }
+
+  /** Grows the current-level buffers to hold `nv` vertices and `nf` faces. */
+  _reserve(nv, nf) {
+    const v = this._nv;
+    const f = this._nf;
+    const mv = this._header.finalVertexCount;
+    const mf = this._header.finalFaceCount;
+    this._q = ensure(this._q, 3 * nv, 3 * v, 3 * mv);
+    this._pos = ensure(this._pos, 3 * nv, 3 * v, 3 * mv);
+    this._quads = ensure(this._quads, 4 * nf, 4 * f, 4 * mf);
+    this._tris = ensure(this._tris, 6 * nf, 6 * f, 6 * mf);
+  }
+
+  /** f32 positions of vertices `a .. b` from their codes (spec §5). */
+  _dequantizeInto(out, q, a, b) {
+    const [x0, y0, z0] = this._min;
+    const [sx, sy, sz] = this._step;
+    for (let v = a; v < b; v++) {
+      const o = 3 * v;
+      out[o] = x0 + q[o] * sx;
+      out[o + 1] = y0 + q[o + 1] * sy;
+      out[o + 2] = z0 + q[o + 2] * sz;
+    }
+  }
+
+  /** Triangles 2s, 2s + 1 of slot s from its quad. */
+  _writeTris(s) {
+    const q = this._quads;
+    const t = this._tris;
+    const a = q[4 * s];
+    const c = q[4 * s + 2];
+    t[6 * s] = a;
+    t[6 * s + 1] = q[4 * s + 1];
+    t[6 * s + 2] = c;
+    t[6 * s + 3] = a;
+    t[6 * s + 4] = c;
+    t[6 * s + 5] = q[4 * s + 3];
+  }
+
+  // ---- access ----------------------------------------------------------------
+
+  /** The header (after `headerReady`), or null. Field names are the spec's, in camelCase. */
+  get header() {
+    return this._header;
+  }
+
+  /**
+   * The chunk table (empty before `headerReady`): per chunk `offset`, `end`
+   * (file offset one past it), `compressedLen`, `uncompressedLen`,
+   * `recordCount`, `vertexCount`, `faceCount`, `error`, `crc32` and `level`
+   * (the level reached after it).
+   */
+  get chunks() {
+    return this._chunks;
+  }
+
+  /**
+   * Bytes of the file needed to reach a target — `{level}`, `{faces}` (the
+   * finest level with at most that many faces) or `{error}` (the first
+   * chunk boundary with error ≤ e): the end offset of the chunk that gets
+   * there (the end of the base section for level 0), for an HTTP Range
+   * request. Needs only the header and chunk table.
+   */
+  bytesFor(target) {
+    const h = this._header;
+    if (!h) throw new PqmError('parameter', 'bytesFor() needs the header and chunk table');
+    const baseEnd = h.headerLen + h.chunkCount * h.chunkEntryLen + 4 + h.baseCompressedLen;
+    const t = typeof target === 'number' ? { level: target } : target;
+    const cs = this._chunks;
+    const lastEnd = cs.length ? cs[cs.length - 1].end : baseEnd;
+    const endOf = (c) => (c ? c.end : lastEnd);
+    if (t && t.level !== undefined) {
+      return t.level <= 0 ? baseEnd : endOf(cs.find((c) => c.level >= t.level));
+    }
+    if (t && t.faces !== undefined) {
+      // The finest level with at most n faces lies before the first chunk
+      // that ends above n, or inside it: that chunk is needed.
+      if (h.baseFaceCount > t.faces) return baseEnd;
+      return endOf(cs.find((c) => c.faceCount > t.faces));
+    }
+    if (t && t.error !== undefined) {
+      if (h.baseError <= t.error) return baseEnd;
+      return endOf(cs.find((c) => c.error <= t.error));
+    }
+    throw new PqmError('parameter', 'a target is {level}, {faces} or {error}');
+  }
+
+  /** Vertex count of the current level. */
+  get vertexCount() {
+    return this._nv;
+  }
+
+  /** Face (quad) count of the current level. */
+  get faceCount() {
+    return this._nf;
+  }
+
+  /**
+   * Positions of the current level, x y z per vertex, as f32 (the f64 of
+   * spec §5 rounded to nearest). A view: read it again after each change.
+   * @returns {Float32Array}
+   */
+  get positions() {
+    return this._pos.subarray(0, 3 * this._nv);
+  }
+
+  /**
+   * Positions of the current level in f64, exactly as spec §5 dequantizes
+   * (bit-identical to every conforming decoder). A new array.
+   * @returns {Float64Array}
+   */
+  positionsF64() {
+    const n = this._nv;
+    const out = new Float64Array(3 * n);
+    const q = this._q;
+    const [x0, y0, z0] = this._min;
+    const [sx, sy, sz] = this._step;
+    for (let o = 0; o < 3 * n; o += 3) {
+      out[o] = x0 + q[o] * sx;
+      out[o + 1] = y0 + q[o + 1] * sy;
+      out[o + 2] = z0 + q[o + 2] * sz;
+    }
+    return out;
+  }
+
+  /** Quantization codes of the current level, 3 per vertex (a view). */
+  get positionCodes() {
+    return this._q.subarray(0, 3 * this._nv);
+  }
+
+  /** Quads of the current level, 4 vertex ids per slot, counter-clockwise (a view). */
+  get quads() {
+    return this._quads.subarray(0, 4 * this._nf);
+  }
+
+  /**
+   * Triangle index buffer of the current level: quad slot `f` is triangles
+   * `2f = (v0, v1, v2)` and `2f + 1 = (v0, v2, v3)` (a view).
+   */
+  get triangleIndices() {
+    return this._tris.subarray(0, 6 * this._nf);
+  }
+
+  /** `[vertexCount, faceCount]` of level `k`, or null if not decoded. */
+  levelCounts(k) {
+    if (!(k >= 0 && k < this._log.levels)) return null;
+    return [this._log.vAt[k], this._log.fAt[k]];
+  }
+
+  /** The `VORD` permutation (canonical id → input vertex index), once read. */
+  get vertexOrder() {
+    return this._vertexOrder;
+  }
+
+  /** The quantization grid: `{bits, qmax, min, step}` (after the header). */
+  get grid() {
+    const h = this._header;
+    if (!h) return null;
+    return { bits: h.quantBits, qmax: 2 ** h.quantBits - 1, min: [...this._min], step: [...this._step] };
+  }
+
+  /**
+   * Progress: bytes consumed and buffered, what is decoded, the section being
+   * waited for and the bytes it still needs.
+   */
+  status() {
+    const h = this._header;
+    let waitingFor = null;
+    if (!this._failed) {
+      switch (this._stage) {
+        case 'prefix':
+        case 'header':
+          waitingFor = 'header';
+          break;
+        case 'table':
+          waitingFor = 'chunk table';
+          break;
+        case 'base':
+          waitingFor = 'base mesh';
+          break;
+        case 'chunk':
+          waitingFor = `chunk ${this._stageArg}`;
+          break;
+        case 'sectionHead':
+        case 'sectionBody':
+          waitingFor = `optional section ${this._stageArg}`;
+          break;
+        default:
+          waitingFor = null;
+      }
+    }
+    const need = this._need();
+    return {
+      bytesConsumed: this._consumed,
+      bytesBuffered: this._queue.length,
+      headerReady: this._chunks.length > 0 || !['prefix', 'header', 'table'].includes(this._stage),
+      baseReady: this._log.levels > 0,
+      chunksReady: this._chunksReady,
+      chunkCount: h ? h.chunkCount : null,
+      deepestLevel: this.deepestLevel,
+      finalLevel: this.finalLevel,
+      waitingFor,
+      bytesNeeded:
+        waitingFor !== null && this._stage !== 'prefix' && need !== null
+          ? Math.max(0, need - this._queue.length)
+          : null,
+      finished: this._stage === 'done' && !this._failed,
+      failed: this._failed !== null,
+      error: this._failed,
+    };
+  }
+}
+
+/**
+ * Decodes a complete file held in memory: every level is available, the
+ * current level is 0. A file that ends early throws a `truncated` error.
+ * @param {Uint8Array} bytes
+ * @param {{limits?: object}} [options]
+ */
+export function decodeAll(bytes, options) {
+  const d = new PqmDecoder(options);
+  d.push(bytes);
+  d.end();
+  return d;
+}

@@ -1,0 +1,14 @@
+/**
+ * `pqm-decoder`: a streaming decoder of `.pqm` progressive quad meshes,
+ * written from `spec/pqm.md` (pure JavaScript; zstd by `fzstd`).
+ *
+ * ```js
+ * import { PqmDecoder } from 'pqm-decoder';
+ * const dec = new PqmDecoder();
+ * for (const ev of dec.push(bytes)) if (ev.type === 'chunkReady') dec.refineTo({ level: ev.level });
+ * dec.positions; dec.triangleIndices; // current level
+ * ```
+ */
+export { PqmDecoder, Change, decodeAll, runs, estimateMemory, DEFAULT_LIMITS } from './decoder.js';
+export { PqmError } from './errors.js';
+export { crc32 } from './crc32.js';

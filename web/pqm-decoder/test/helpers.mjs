@@ -1,0 +1,118 @@
+// Test helpers: the spec §11 digests, OBJ parsing, the test files, random
+// byte splits.
+import { readFileSync, readdirSync, existsSync } from 'node:fs';
+import { endianness } from 'node:os';
+import { fileURLToPath } from 'node:url';
+import path from 'node:path';
+
+if (endianness() !== 'LE') throw new Error('these tests read typed arrays as little-endian bytes');
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+export const VECTORS_DIR = path.resolve(here, '../../../spec/vectors');
+export const DATA_DIR = path.resolve(here, 'data');
+export const BENCH_DATA_DIR = path.resolve(here, '../../bench/data');
+
+/**
+ * FNV-1a 64 (offset basis 0xcbf29ce484222325, prime 0x100000001b3) of a
+ * byte array, as 16 lowercase hex digits. Computed on four 16-bit limbs so
+ * it stays exact in doubles: h * prime = h * 0x1b3 + (h << 40) mod 2^64.
+ */
+export function fnv1a64(bytes) {
+  let h0 = 0x2325, h1 = 0x8422, h2 = 0x9ce4, h3 = 0xcbf2;
+  for (let i = 0; i < bytes.length; i++) {
+    h0 ^= bytes[i];
+    const add2 = (h0 & 0xff) << 8;
+    const add3 = (h0 >> 8) | ((h1 & 0xff) << 8);
+    let r0 = h0 * 0x1b3;
+    let r1 = h1 * 0x1b3 + (r0 >>> 16);
+    let r2 = h2 * 0x1b3 + add2 + (r1 >>> 16);
+    let r3 = h3 * 0x1b3 + add3 + (r2 >>> 16);
+    h0 = r0 & 0xffff;
+    h1 = r1 & 0xffff;
+    h2 = r2 & 0xffff;
+    h3 = r3 & 0xffff;
+  }
+  const hex = (x) => x.toString(16).padStart(4, '0');
+  return hex(h3) + hex(h2) + hex(h1) + hex(h0);
+}
+
+const bytesOf = (ta) => new Uint8Array(ta.buffer, ta.byteOffset, ta.byteLength);
+
+/** `{positions, quads}` digests of the decoder's current level (spec §11). */
+export function levelDigests(dec) {
+  return {
+    positions: fnv1a64(bytesOf(dec.positionsF64())),
+    quads: fnv1a64(bytesOf(dec.quads)),
+  };
+}
+
+/** A copy of the decoder's current level: f64 positions and quads. */
+export function meshOf(dec) {
+  return { positions: dec.positionsF64(), quads: dec.quads.slice() };
+}
+
+/** Parses the OBJ files of spec/vectors: `v x y z` and `f a b c d` (1-based). */
+export function parseObj(text) {
+  const pos = [];
+  const quads = [];
+  for (const line of text.split('\n')) {
+    const t = line.trim().split(/\s+/);
+    if (t[0] === 'v') pos.push(Number(t[1]), Number(t[2]), Number(t[3]));
+    else if (t[0] === 'f') {
+      if (t.length !== 5) throw new Error(`not a quad: ${line}`);
+      for (let k = 1; k < 5; k++) quads.push(Number(t[k]) - 1);
+    }
+  }
+  return { positions: Float64Array.from(pos), quads: Uint32Array.from(quads) };
+}
+
+/**
+ * Every test file: the spec vectors, the committed real-mesh file in
+ * test/data and (if present) the bench files. Each has `name`, `bytes` and
+ * `digest` (the JSON of spec §11) and `obj` (level → OBJ text) for vectors.
+ */
+export function testFiles({ includeBench = false } = {}) {
+  const out = [];
+  const dirs = [VECTORS_DIR, DATA_DIR];
+  if (includeBench && existsSync(BENCH_DATA_DIR)) dirs.push(BENCH_DATA_DIR);
+  for (const dir of dirs) {
+    if (!existsSync(dir)) continue;
+    for (const f of readdirSync(dir).sort()) {
+      if (!f.endsWith('.pqm')) continue;
+      const name = f.slice(0, -4);
+      const jsonPath = path.join(dir, `${name}.json`);
+      if (!existsSync(jsonPath)) continue;
+      const digest = JSON.parse(readFileSync(jsonPath, 'utf8'));
+      const obj = {};
+      for (const l of digest.levels) {
+        const p = path.join(dir, `${name}.level${l.level}.obj`);
+        if (existsSync(p)) obj[l.level] = readFileSync(p, 'utf8');
+      }
+      out.push({ name, dir, bytes: new Uint8Array(readFileSync(path.join(dir, f))), digest, obj });
+    }
+  }
+  return out;
+}
+
+/** Deterministic PRNG (mulberry32) returning floats in [0, 1). */
+export function rng(seed) {
+  let a = seed >>> 0;
+  return () => {
+    a = (a + 0x6d2b79f5) >>> 0;
+    let t = a;
+    t = Math.imul(t ^ (t >>> 15), t | 1);
+    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
+    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
+  };
+}
+
+/** Splits `bytes` into pieces of random lengths 1..maxLen (copies, as from a socket). */
+export function randomPieces(bytes, rand, maxLen) {
+  const out = [];
+  for (let i = 0; i < bytes.length; ) {
+    const n = 1 + Math.floor(rand() * maxLen);
+    out.push(bytes.slice(i, i + n));
+    i += n;
+  }
+  return out;
+}

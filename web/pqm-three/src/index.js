@@ -1,0 +1,330 @@
+/**
+ * three.js integration of `pqm-decoder`.
+ *
+ * - `PQMProgressiveMesh`: a `BufferGeometry` (positions + a triangle index,
+ *   quad slot `f` = triangles `2f`, `2f + 1`) and a line geometry of the quad
+ *   edges (a wireframe without the diagonals, sharing the position
+ *   attribute), kept equal to a `PqmDecoder`'s current level. Moving between
+ *   levels touches only the changed ranges: each `Change` becomes
+ *   `BufferAttribute.addUpdateRange` calls (in array elements), so the
+ *   renderer uploads just those bytes with `bufferSubData`. Buffers are
+ *   allocated once at the file's final counts (from the header, checked
+ *   against the decoder's limits), so GPU buffers are never reallocated.
+ * - `PQMLoader`: a three.js `Loader` that streams a URL with `fetch()`,
+ *   calls `onLoad` as soon as the base mesh is decoded and keeps refining as
+ *   chunks arrive (or stops reading once a target face count / error is
+ *   reached).
+ *
+ * Materials: the geometry has no normals (they would change with every
+ * level); use `flatShading: true` or compute normals in the shader.
+ */
+import { Box3, BufferAttribute, BufferGeometry, DynamicDrawUsage, Loader, Sphere, Vector3 } from 'three';
+import { PqmDecoder, PqmError } from 'pqm-decoder';
+
+/**
+ * Merges sorted runs `{start, end}` whose gap is at most `maxGap` (fewer
+ * `bufferSubData` calls for a few re-sent unchanged elements).
+ */
+export function coalesce(runs, maxGap) {
+  const out = [];
+  for (const r of runs) {
+    const last = out[out.length - 1];
+    if (last && r.start - last.end <= maxGap) last.end = Math.max(last.end, r.end);
+    else out.push({ start: r.start, end: r.end });
+  }
+  return out;
+}
+
+/**
+ * A progressive mesh bound to a decoder (see the module docs).
+ */
+export class PQMProgressiveMesh {
+  /**
+   * @param {PqmDecoder} [decoder] a decoder (a new one if omitted); its
+   *   header may arrive later through `push`
+   * @param {object} [options]
+   * @param {boolean} [options.autoRefine=true] go to the deepest level each
+   *   time a chunk completes (within `maxFaces`)
+   * @param {number} [options.maxFaces=Infinity] auto-refinement stops at the
+   *   finest level with at most this many faces
+   * @param {number} [options.maxGap=32] merge update ranges closer than this
+   *   many vertices / slots
+   */
+  constructor(decoder = new PqmDecoder(), options = {}) {
+    this.decoder = decoder;
+    this.autoRefine = options.autoRefine ?? true;
+    this.maxFaces = options.maxFaces ?? Infinity;
+    this.maxGap = options.maxGap ?? 32;
+    /** Triangle geometry: `position` and an index, 6 indices per quad slot. */
+    this.geometry = null;
+    /** Quad-edge geometry: the same `position`, 8 line indices per quad slot. */
+    this.wireframeGeometry = null;
+    /** Elements written through update ranges since creation, per attribute. */
+    this.uploaded = { position: 0, index: 0, lines: 0 };
+    /** The last `Change` applied. */
+    this.lastChange = null;
+    if (decoder.header) this._allocate();
+    if (decoder.deepestLevel !== null) this.apply(decoder.fullUpload());
+  }
+
+  /** Faces of the current level. */
+  get faceCount() {
+    return this.decoder.faceCount;
+  }
+
+  /** The current level. */
+  get level() {
+    return this.decoder.level;
+  }
+
+  /**
+   * Pushes bytes into the decoder; allocates the buffers when the header is
+   * complete, uploads the base mesh, and (with `autoRefine`) refines as
+   * chunks complete. Returns the decoder's events.
+   * @param {Uint8Array} bytes
+   */
+  push(bytes) {
+    const events = this.decoder.push(bytes);
+    for (const ev of events) {
+      if (ev.type === 'headerReady') this._allocate();
+      else if (ev.type === 'baseMeshReady') this.apply(this.decoder.fullUpload());
+    }
+    if (this.autoRefine && events.some((e) => e.type === 'chunkReady')) {
+      this.refineTo({ faces: this.maxFaces === Infinity ? Number.MAX_SAFE_INTEGER : this.maxFaces });
+    }
+    return events;
+  }
+
+  /** Goes to a target (`{level}`, `{faces}`, `{error}` or a level number). */
+  setLevel(target) {
+    return this.apply(this.decoder.setLevel(target));
+  }
+
+  /** Refines to a target (never coarsens). */
+  refineTo(target) {
+    return this.apply(this.decoder.refineTo(target));
+  }
+
+  /** Coarsens to a target (never refines). */
+  coarsenTo(target) {
+    return this.apply(this.decoder.coarsenTo(target));
+  }
+
+  _allocate() {
+    if (this.geometry) return;
+    const h = this.decoder.header;
+    const pos = new BufferAttribute(new Float32Array(3 * h.finalVertexCount), 3);
+    pos.setUsage(DynamicDrawUsage);
+    const index = new BufferAttribute(new Uint32Array(6 * h.finalFaceCount), 1);
+    index.setUsage(DynamicDrawUsage);
+    const lines = new BufferAttribute(new Uint32Array(8 * h.finalFaceCount), 1);
+    lines.setUsage(DynamicDrawUsage);
+    // The quantization grid is the exact bounding box of every level.
+    const box = new Box3(new Vector3(...h.bboxMin), new Vector3(...h.bboxMax));
+    const sphere = box.getBoundingSphere(new Sphere());
+    const g = new BufferGeometry();
+    g.setAttribute('position', pos);
+    g.setIndex(index);
+    g.setDrawRange(0, 0);
+    g.boundingBox = box;
+    g.boundingSphere = sphere;
+    const w = new BufferGeometry();
+    w.setAttribute('position', pos);
+    w.setIndex(lines);
+    w.setDrawRange(0, 0);
+    w.boundingBox = box.clone();
+    w.boundingSphere = sphere.clone();
+    this.geometry = g;
+    this.wireframeGeometry = w;
+  }
+
+  /**
+   * Applies a decoder `Change` to the buffers: copies the changed ranges,
+   * registers them as update ranges and sets the draw ranges. Returns it.
+   */
+  apply(change) {
+    const dec = this.decoder;
+    this._allocate();
+    const posAttr = this.geometry.attributes.position;
+    const idxAttr = this.geometry.index;
+    const lineAttr = this.wireframeGeometry.index;
+    const gap = this.maxGap;
+
+    // vertices: moved runs and the appended range
+    const vRuns = change.movedRanges();
+    const va = change.verticesAppended;
+    if (va.end > va.start) vRuns.push({ start: va.start, end: va.end });
+    const pos = dec.positions;
+    for (const r of coalesce(vRuns, gap)) {
+      posAttr.array.set(pos.subarray(3 * r.start, 3 * r.end), 3 * r.start);
+      posAttr.addUpdateRange(3 * r.start, 3 * (r.end - r.start));
+      this.uploaded.position += 3 * (r.end - r.start);
+    }
+    if (vRuns.length) posAttr.needsUpdate = true;
+
+    // faces: rewritten runs and the appended range
+    const fRuns = change.rewrittenRanges();
+    const fa = change.facesAppended;
+    if (fa.end > fa.start) fRuns.push({ start: fa.start, end: fa.end });
+    const tris = dec.triangleIndices;
+    const quads = dec.quads;
+    const L = lineAttr.array;
+    for (const r of coalesce(fRuns, gap)) {
+      idxAttr.array.set(tris.subarray(6 * r.start, 6 * r.end), 6 * r.start);
+      idxAttr.addUpdateRange(6 * r.start, 6 * (r.end - r.start));
+      for (let f = r.start; f < r.end; f++) {
+        const a = quads[4 * f];
+        const b = quads[4 * f + 1];
+        const c = quads[4 * f + 2];
+        const d = quads[4 * f + 3];
+        const o = 8 * f;
+        L[o] = a;
+        L[o + 1] = b;
+        L[o + 2] = b;
+        L[o + 3] = c;
+        L[o + 4] = c;
+        L[o + 5] = d;
+        L[o + 6] = d;
+        L[o + 7] = a;
+      }
+      lineAttr.addUpdateRange(8 * r.start, 8 * (r.end - r.start));
+      this.uploaded.index += 6 * (r.end - r.start);
+      this.uploaded.lines += 8 * (r.end - r.start);
+    }
+    if (fRuns.length) {
+      idxAttr.needsUpdate = true;
+      lineAttr.needsUpdate = true;
+    }
+    this.geometry.setDrawRange(0, 6 * dec.faceCount);
+    this.wireframeGeometry.setDrawRange(0, 8 * dec.faceCount);
+    this.lastChange = change;
+    return change;
+  }
+
+  /** Frees the geometries' GPU resources. */
+  dispose() {
+    this.geometry?.dispose();
+    this.wireframeGeometry?.dispose();
+  }
+}
+
+/**
+ * three.js loader of `.pqm` files, streaming.
+ *
+ * ```js
+ * const loader = new PQMLoader();
+ * loader.load('bunny.pqm', (pm) => {
+ *   scene.add(new THREE.Mesh(pm.geometry, new THREE.MeshStandardMaterial({ flatShading: true })));
+ *   scene.add(new THREE.LineSegments(pm.wireframeGeometry, new THREE.LineBasicMaterial()));
+ * }, (p) => console.log(p.faces, p.loaded));
+ * ```
+ *
+ * `onLoad(progressiveMesh)` runs once the base mesh is decoded; the mesh
+ * keeps refining while the rest streams in. `onProgress({loaded, total,
+ * level, faces, events, mesh})` runs after every network read that completed
+ * something; `onError(error)` on a network or format error (a `PqmError`
+ * after `onLoad` leaves the mesh at the deepest level decoded before it).
+ */
+export class PQMLoader extends Loader {
+  constructor(manager) {
+    super(manager);
+    this.limits = undefined;
+    this.target = null;
+    this.maxGap = 32;
+  }
+
+  /** Decoder limits (`{maxVertices, maxFaces, maxMemoryBytes}`). */
+  setLimits(limits) {
+    this.limits = limits;
+    return this;
+  }
+
+  /**
+   * Stop reading once this target is reachable: `{faces: n}` (the finest
+   * level with at most n faces) or `{error: e}`; `null` reads everything.
+   */
+  setTarget(target) {
+    this.target = target;
+    return this;
+  }
+
+  load(url, onLoad, onProgress, onError) {
+    const fullUrl = this.manager.resolveURL((this.path ?? '') + url);
+    this.manager.itemStart(fullUrl);
+    this._stream(fullUrl, onLoad, onProgress).then(
+      () => this.manager.itemEnd(fullUrl),
+      (e) => {
+        if (onError) onError(e);
+        else console.error(e);
+        this.manager.itemError(fullUrl);
+        this.manager.itemEnd(fullUrl);
+      },
+    );
+  }
+
+  async _stream(url, onLoad, onProgress) {
+    const res = await fetch(url, {
+      headers: new Headers(this.requestHeader ?? {}),
+      credentials: this.withCredentials ? 'include' : 'same-origin',
+    });
+    if (!res.ok || !res.body) throw new Error(`PQMLoader: ${url}: HTTP ${res.status}`);
+    const total = Number(res.headers.get('Content-Length')) || 0;
+    const pm = this._newMesh();
+    const reader = res.body.getReader();
+    let loaded = 0;
+    let stopAt = Infinity;
+    let delivered = false;
+    try {
+      for (;;) {
+        const { done, value } = await reader.read();
+        if (done) break;
+        loaded += value.length;
+        const piece = loaded > stopAt ? value.subarray(0, value.length - (loaded - stopAt)) : value;
+        const events = pm.push(piece);
+        if (events.some((e) => e.type === 'headerReady') && this.target) {
+          stopAt = pm.decoder.bytesFor(this.target);
+        }
+        if (!delivered && pm.decoder.deepestLevel !== null) {
+          delivered = true;
+          onLoad(pm);
+        }
+        if (events.length && onProgress) {
+          onProgress({ loaded: Math.min(loaded, stopAt), total, level: pm.level, faces: pm.faceCount, events, mesh: pm });
+        }
+        if (loaded >= stopAt) {
+          await reader.cancel();
+          break;
+        }
+      }
+    } finally {
+      reader.releaseLock?.();
+    }
+    if (!delivered) {
+      throw new PqmError('truncated', `PQMLoader: ${url} ended before its base mesh (${loaded} bytes)`);
+    }
+    if (stopAt === Infinity) pm.decoder.end();
+    return pm;
+  }
+
+  _newMesh() {
+    const pm = new PQMProgressiveMesh(new PqmDecoder({ limits: this.limits }), {
+      maxGap: this.maxGap,
+      maxFaces: this.target && this.target.faces !== undefined ? this.target.faces : Infinity,
+    });
+    return pm;
+  }
+
+  /**
+   * Decodes a whole file held in memory; the mesh is at the finest level
+   * (or at the target's level).
+   * @param {ArrayBuffer|Uint8Array} data
+   */
+  parse(data) {
+    const bytes = data instanceof Uint8Array ? data : new Uint8Array(data);
+    const pm = this._newMesh();
+    pm.push(bytes);
+    pm.decoder.end();
+    if (this.target && this.target.error !== undefined) pm.setLevel(this.target);
+    return pm;
+  }
+}

@@ -1,0 +1,248 @@
+// PQMProgressiveMesh and PQMLoader in node (three.js works headless for
+// BufferGeometry): a simulated GPU that uploads only `updateRanges` (as
+// three's WebGLAttributes does) always ends up equal to the decoder's level;
+// the wireframe holds the quad edges and no diagonal; uploads stay within
+// the changed ranges; the loader streams over HTTP and stops at a target.
+import { test } from 'node:test';
+import assert from 'node:assert/strict';
+import http from 'node:http';
+import { PQMProgressiveMesh, PQMLoader, coalesce } from '../src/index.js';
+import { PqmDecoder, decodeAll } from 'pqm-decoder';
+import { testFiles, rng, randomPieces } from '../../pqm-decoder/test/helpers.mjs';
+
+const files = testFiles();
+
+/** A GPU stand-in: per attribute a copy updated like WebGLAttributes.update. */
+class FakeGpu {
+  constructor() {
+    this.buffers = new Map();
+    this.elementsUploaded = 0;
+  }
+
+  upload(attr) {
+    let b = this.buffers.get(attr);
+    if (!b) {
+      b = { data: attr.array.slice(), version: attr.version };
+      this.buffers.set(attr, b);
+      attr.clearUpdateRanges();
+      return;
+    }
+    if (b.version === attr.version) return;
+    if (attr.updateRanges.length === 0) {
+      b.data.set(attr.array);
+      this.elementsUploaded += attr.array.length;
+    } else {
+      for (const r of attr.updateRanges) {
+        b.data.set(attr.array.subarray(r.start, r.start + r.count), r.start);
+        this.elementsUploaded += r.count;
+      }
+      attr.clearUpdateRanges();
+    }
+    b.version = attr.version;
+  }
+
+  render(pm) {
+    this.upload(pm.geometry.attributes.position);
+    this.upload(pm.geometry.index);
+    this.upload(pm.wireframeGeometry.index);
+  }
+
+  /** Asserts that what the GPU holds within the draw ranges is the decoder's level. */
+  check(pm, where) {
+    const dec = pm.decoder;
+    const pos = this.buffers.get(pm.geometry.attributes.position).data;
+    const idx = this.buffers.get(pm.geometry.index).data;
+    const lines = this.buffers.get(pm.wireframeGeometry.index).data;
+    assert.equal(pm.geometry.drawRange.count, 6 * dec.faceCount, where);
+    assert.equal(pm.wireframeGeometry.drawRange.count, 8 * dec.faceCount, where);
+    assert.deepEqual(pos.subarray(0, 3 * dec.vertexCount), dec.positions, `${where}: positions`);
+    assert.deepEqual(idx.subarray(0, 6 * dec.faceCount), dec.triangleIndices, `${where}: triangles`);
+    const q = dec.quads;
+    for (let f = 0; f < dec.faceCount; f++) {
+      const [a, b, c, d] = q.subarray(4 * f, 4 * f + 4);
+      const l = lines.subarray(8 * f, 8 * f + 8);
+      // the four quad edges, no diagonal (a–c or b–d)
+      if (l.join() !== [a, b, b, c, c, d, d, a].join()) assert.fail(`${where}: slot ${f} lines ${l}`);
+    }
+  }
+}
+
+test('coalesce merges runs with small gaps', () => {
+  assert.deepEqual(coalesce([{ start: 0, end: 2 }, { start: 5, end: 6 }, { start: 50, end: 51 }], 3), [
+    { start: 0, end: 6 },
+    { start: 50, end: 51 },
+  ]);
+  assert.deepEqual(coalesce([], 3), []);
+});
+
+for (const file of files) {
+  test(`${file.name}: streamed, then walked: the GPU copy equals the level, uploads stay in the changed ranges`, () => {
+    const pm = new PQMProgressiveMesh(new PqmDecoder(), { maxGap: 0 });
+    const gpu = new FakeGpu();
+    // stream with auto-refinement, rendering after every piece
+    for (const piece of randomPieces(file.bytes, rng(3), 997)) {
+      pm.push(piece);
+      if (pm.geometry && pm.decoder.deepestLevel !== null) {
+        gpu.render(pm);
+        gpu.check(pm, `${file.name} streaming`);
+        assert.equal(pm.level, pm.decoder.deepestLevel, 'auto-refined to the deepest level');
+      }
+    }
+    pm.decoder.end();
+    const final = pm.decoder.deepestLevel;
+    assert.equal(pm.level, final);
+    // the bounding box of the header contains every level
+    const box = pm.geometry.boundingBox;
+    const rand = rng(final + 1);
+    for (let s = 0; s < 30; s++) {
+      const before = gpu.elementsUploaded;
+      const k = Math.floor(rand() * (final + 1));
+      const c = rand() < 0.5 ? pm.setLevel({ level: k }) : k > pm.level ? pm.refineTo(k) : pm.coarsenTo(k);
+      // with maxGap 0, exactly the Change's ranges are uploaded
+      const expect =
+        3 * (c.verticesMoved.length + c.verticesAppended.end - c.verticesAppended.start) +
+        14 * (c.facesRewritten.length + c.facesAppended.end - c.facesAppended.start);
+      gpu.render(pm);
+      assert.equal(gpu.elementsUploaded - before, expect, `${file.name}: level ${c.fromLevel} → ${c.toLevel}`);
+      gpu.check(pm, `${file.name} level ${pm.level}`);
+      // the header's box (the quantization grid) holds every level, up to f32 rounding
+      const p = pm.decoder.positions;
+      const tol = 1e-6 * (box.max.distanceTo(box.min) + 1);
+      const lo = [box.min.x - tol, box.min.y - tol, box.min.z - tol];
+      const hi = [box.max.x + tol, box.max.y + tol, box.max.z + tol];
+      for (let i = 0; i < p.length; i++) {
+        if (!(p[i] >= lo[i % 3] && p[i] <= hi[i % 3])) assert.fail(`coordinate ${i} = ${p[i]} outside the box`);
+      }
+    }
+    // several moves between two renders accumulate their ranges
+    pm.setLevel(0);
+    pm.setLevel(Math.floor(final / 2));
+    pm.refineTo(final);
+    gpu.render(pm);
+    gpu.check(pm, `${file.name} accumulated`);
+  });
+}
+
+test('maxGap merges nearby ranges but never misses one', () => {
+  const file = files.find((f) => f.name === 'spot');
+  const pm = new PQMProgressiveMesh(decodeAll(file.bytes), { maxGap: 64, autoRefine: false });
+  const gpu = new FakeGpu();
+  gpu.render(pm);
+  for (const k of [300, 20, 1152, 0, 700, 701, 699]) {
+    pm.setLevel(k);
+    gpu.render(pm);
+    gpu.check(pm, `level ${k}`);
+  }
+});
+
+test('a mesh created on a decoded decoder starts at its level; maxFaces caps auto-refinement', () => {
+  const file = files.find((f) => f.name === 'spot');
+  const dec = decodeAll(file.bytes);
+  dec.setLevel(100);
+  const pm = new PQMProgressiveMesh(dec);
+  assert.equal(pm.level, 100);
+  assert.equal(pm.geometry.drawRange.count, 6 * pm.faceCount);
+  const capped = new PQMProgressiveMesh(new PqmDecoder(), { maxFaces: 1500 });
+  capped.push(file.bytes);
+  assert.ok(capped.faceCount <= 1500);
+  assert.equal(capped.level, capped.decoder.resolve({ faces: 1500 }));
+});
+
+/** Serves `bytes` in small delayed writes; returns {url, close, served()}. */
+function serve(bytes, pieceSize = 512) {
+  let served = 0;
+  const server = http.createServer(async (req, res) => {
+    res.writeHead(200, { 'Content-Type': 'application/octet-stream', 'Content-Length': bytes.length });
+    for (let o = 0; o < bytes.length; o += pieceSize) {
+      if (res.destroyed) return;
+      const ok = res.write(bytes.subarray(o, o + pieceSize));
+      served = o + pieceSize;
+      if (!ok) await new Promise((r) => res.once('drain', r));
+      await new Promise((r) => setImmediate(r));
+    }
+    res.end();
+  });
+  return new Promise((resolve) => {
+    server.listen(0, '127.0.0.1', () => {
+      resolve({
+        url: `http://127.0.0.1:${server.address().port}/file.pqm`,
+        close: () => new Promise((r) => server.close(r)),
+        served: () => served,
+      });
+    });
+  });
+}
+
+test('PQMLoader streams over HTTP: onLoad at the base mesh, refinement as chunks arrive', async () => {
+  const file = files.find((f) => f.name === 'spot');
+  const srv = await serve(file.bytes);
+  try {
+    const progress = [];
+    const pm = await new Promise((resolve, reject) => {
+      let mesh = null;
+      new PQMLoader().load(
+        srv.url,
+        (m) => {
+          mesh = m;
+          assert.equal(m.level, 0, 'delivered at the base mesh');
+          assert.equal(m.faceCount, m.decoder.header.baseFaceCount);
+        },
+        (p) => {
+          progress.push(p);
+          if (p.events.some((e) => e.type === 'finished')) resolve(mesh);
+        },
+        reject,
+      );
+    });
+    assert.equal(pm.level, pm.decoder.finalLevel);
+    assert.equal(pm.faceCount, pm.decoder.header.finalFaceCount);
+    const levels = progress.map((p) => p.level);
+    assert.ok(new Set(levels).size > 3, `refined in steps: ${[...new Set(levels)]}`);
+    for (let i = 1; i < levels.length; i++) assert.ok(levels[i] >= levels[i - 1]);
+    assert.equal(progress.at(-1).loaded, file.bytes.length);
+    const gpu = new FakeGpu();
+    gpu.render(pm);
+    gpu.check(pm, 'loaded');
+  } finally {
+    await srv.close();
+  }
+});
+
+test('PQMLoader with a face target stops reading early', async () => {
+  const file = files.find((f) => f.name === 'spot');
+  const whole = decodeAll(file.bytes);
+  const n = whole.levelCounts(300)[1];
+  const srv = await serve(file.bytes);
+  try {
+    const loader = new PQMLoader().setTarget({ faces: n });
+    let last = null;
+    const pm = await new Promise((resolve, reject) => {
+      loader.load(srv.url, resolve, (p) => (last = p), reject);
+    });
+    // wait until the loader has stopped (the stream is cancelled)
+    for (let i = 0; i < 200 && !(last && last.loaded >= whole.bytesFor({ faces: n })); i++) {
+      await new Promise((r) => setTimeout(r, 5));
+    }
+    assert.equal(last.loaded, whole.bytesFor({ faces: n }));
+    assert.ok(last.loaded < file.bytes.length, 'did not read the whole file');
+    assert.equal(pm.level, whole.resolve({ faces: n }));
+    assert.ok(pm.faceCount <= n);
+  } finally {
+    await srv.close();
+  }
+});
+
+test('PQMLoader.parse decodes a buffer; errors reach onError', async () => {
+  const file = files.find((f) => f.name === 'box_vord');
+  const pm = new PQMLoader().parse(file.bytes.buffer.slice(file.bytes.byteOffset, file.bytes.byteOffset + file.bytes.length));
+  assert.equal(pm.level, pm.decoder.finalLevel);
+  const bad = file.bytes.slice();
+  bad[200] ^= 1;
+  const srv = await serve(bad);
+  try {
+    const err = await new Promise((resolve) => new PQMLoader().load(srv.url, () => {}, undefined, resolve));
+    assert.equal(err.kind, 'crc');
+  } finally {
+    await srv.close();
+  }
+});

@@ -1,0 +1,124 @@
+// Differential fuzzing of the JavaScript decoder against the Rust reference
+// decoder: mutates the decompressed payloads, header fields and chunk table
+// entries of the test files, repacks them (raw zstd frames, CRCs recomputed,
+// so the mutations reach the structural checks), decodes each with both
+// decoders and reports every file where they disagree (one accepts, the
+// other rejects, or both accept with different finest meshes).
+//
+//   cargo build --release --manifest-path tools/make-pqm/Cargo.toml
+//   node tools/diff-fuzz.mjs [COUNT] [SEED]          (from web/)
+import { mkdtempSync, writeFileSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { execFileSync } from 'node:child_process';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { decodeAll, PqmError } from '../pqm-decoder/src/index.js';
+import { testFiles, levelDigests, rng } from '../pqm-decoder/test/helpers.mjs';
+import { unpack, pack } from '../pqm-decoder/test/repack.mjs';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const tool = path.join(here, 'make-pqm/target/release/make-pqm');
+const count = Number(process.argv[2] ?? 2000);
+const rand = rng(Number(process.argv[3] ?? 7));
+const pick = (n) => Math.floor(rand() * n);
+
+function mutate(parts) {
+  const what = pick(10);
+  const bytesOf = (arr) => arr;
+  if (what < 7) {
+    // a payload: base or a chunk
+    const all = [parts.base, ...parts.chunks];
+    const i = pick(all.length);
+    let p = bytesOf(all[i]);
+    if (p.length === 0) return 'nothing';
+    const k = pick(p.length);
+    const how = pick(4);
+    if (how === 0) p[k] = pick(256);
+    else if (how === 1) p[k] = (p[k] + 1) & 0xff;
+    else if (how === 2) p[k] = (p[k] + 255) & 0xff;
+    else {
+      // delete a byte
+      const q = new Uint8Array(p.length - 1);
+      q.set(p.subarray(0, k));
+      q.set(p.subarray(k + 1), k);
+      p = q;
+    }
+    if (i === 0) parts.base = p;
+    else parts.chunks[i - 1] = p;
+    return `payload ${i === 0 ? 'base' : `chunk ${i - 1}`} byte ${k} how ${how}`;
+  }
+  if (what < 9 && parts.entries.length) {
+    // a chunk table field: record, vertex, face count or error (offsets,
+    // lengths and CRCs are recomputed by pack)
+    const i = pick(parts.entries.length);
+    const off = [16, 20, 24, 28][pick(4)];
+    const dv = new DataView(parts.entries[i].buffer);
+    const delta = [1, -1, 2][pick(3)];
+    dv.setUint32(off, (dv.getUint32(off, true) + delta) >>> 0, true);
+    return `entry ${i} field ${off} ${delta}`;
+  }
+  // a header field
+  const off = [20, 24, 28, 32, 36, 40, 112][pick(7)];
+  const dv = new DataView(parts.header.buffer);
+  if (off === 20) dv.setUint8(20, dv.getUint8(20) + [1, -1][pick(2)]);
+  else dv.setUint32(off, (dv.getUint32(off, true) + [1, -1][pick(2)]) >>> 0, true);
+  return `header field ${off}`;
+}
+
+function jsOutcome(bytes) {
+  try {
+    const d = decodeAll(bytes);
+    d.setLevel({ level: d.deepestLevel });
+    const g = levelDigests(d);
+    return `ok ${d.deepestLevel} ${g.positions} ${g.quads}`;
+  } catch (e) {
+    if (!(e instanceof PqmError)) return `CRASH ${e && e.stack}`;
+    return `err ${e.message}`;
+  }
+}
+
+const dir = mkdtempSync(path.join(tmpdir(), 'pqm-fuzz-'));
+const files = testFiles();
+const cases = [];
+for (let n = 0; n < count; n++) {
+  const f = files[pick(files.length)];
+  const parts = unpack(f.bytes);
+  const what = mutate(parts);
+  const bytes = pack(parts);
+  const file = path.join(dir, `${n}.pqm`);
+  writeFileSync(file, bytes);
+  cases.push({ n, name: f.name, what, file, js: jsOutcome(bytes) });
+}
+// The unmodified files, repacked, must decode identically too.
+for (const f of files) {
+  const file = path.join(dir, `${f.name}.repacked.pqm`);
+  const bytes = pack(unpack(f.bytes));
+  writeFileSync(file, bytes);
+  cases.push({ n: f.name, name: f.name, what: 'repacked', file, js: jsOutcome(bytes) });
+}
+const out = execFileSync(tool, ['check', ...cases.map((c) => c.file)], { maxBuffer: 1 << 28 }).toString();
+const rust = new Map();
+for (const line of out.split('\n')) {
+  if (!line) continue;
+  const sp = line.indexOf(' ');
+  rust.set(line.slice(0, sp), line.slice(sp + 1));
+}
+let agree = 0;
+let bothErr = 0;
+const mismatches = [];
+for (const c of cases) {
+  const r = rust.get(c.file);
+  const jsOk = c.js.startsWith('ok');
+  const rOk = r.startsWith('ok');
+  if (c.js.startsWith('CRASH') || jsOk !== rOk || (jsOk && c.js !== r)) mismatches.push({ ...c, rust: r });
+  else {
+    agree++;
+    if (!jsOk) bothErr++;
+  }
+}
+console.log(`${cases.length} files: ${agree} agree (${bothErr} rejected by both), ${mismatches.length} disagree`);
+for (const m of mismatches.slice(0, 30)) {
+  console.log(`- ${m.name} #${m.n} (${m.what})\n    js:   ${m.js}\n    rust: ${m.rust}`);
+}
+rmSync(dir, { recursive: true, force: true });
+process.exitCode = mismatches.length ? 1 : 0;
