@@ -615,6 +615,22 @@ fn encode_info_decode_levels_prefixes_and_full_equality() {
         assert!(im.is_quad_only());
         assert_eq!(m.genus(), 0);
     }
+    // glTF options: smooth normals and KHR_mesh_quantization; quads survive
+    let out = d.path().join("q.glb");
+    json_ok(&[
+        "decode",
+        s(&file),
+        "-o",
+        s(&out),
+        "--level",
+        "0",
+        "--normals",
+        "smooth",
+        "--quantize",
+    ]);
+    let (im, _) = load_valid(&out);
+    assert!(im.is_quad_only());
+    assert_eq!(im.face_count() as u64, levels[0]["faces"].as_u64().unwrap());
     // --faces: the finest level with at most N faces
     let out = d.path().join("f.obj");
     let v = json_ok(&["decode", s(&file), "-o", s(&out), "--faces", "2000"]);
