@@ -49,13 +49,23 @@ if [ "$status" -ne 0 ]; then
     exit "$status"
 fi
 
+webout=$(mktemp)
+trap 'rm -f "$out" "$webout"' EXIT
 if [ -f web/package.json ]; then
     log "npm test --prefix web"
-    npm test --prefix web
+    set +e
+    npm test --prefix web 2>&1 | tee "$webout"
+    status=${PIPESTATUS[0]}
+    set -e
+    if [ "$status" -ne 0 ]; then
+        echo "web tests failed (exit $status)" >&2
+        exit "$status"
+    fi
 else
     log "web/ has no package.json yet: skipping the web tests"
 fi
 
 # --- summary (as cargo prints it) -------------------------------------------
 log "summary"
+grep -E '^# (tests|pass|fail|skipped) ' "$webout" || true
 grep -E '^test result:' "$out" || true

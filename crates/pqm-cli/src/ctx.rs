@@ -87,6 +87,8 @@ impl Ctx {
         let pb = self.multi.add(ProgressBar::new(len));
         pb.set_style(style);
         pb.set_prefix(prefix.into());
+        // Keeps the elapsed time moving while the work reports rarely.
+        pb.enable_steady_tick(Duration::from_millis(250));
         pb
     }
 

@@ -198,7 +198,8 @@ pub fn prepare(
         polylines = polylines
             .iter()
             .map(|p| split_polyline(&mesh, p, input.vertex_count()))
-            .collect::<anyhow::Result<_>>()?;
+            .collect::<anyhow::Result<_>>()
+            .with_context(|| format!("{}", args.features.as_deref().unwrap_or(path).display()))?;
     }
 
     // Attributes: curvature by default, the user's where given.

@@ -463,6 +463,64 @@ fn coarsen_with_user_attributes_and_features() {
 }
 
 #[test]
+fn user_attributes_follow_the_quad_split() {
+    // The control cage has triangles and pentagons: attributes given per
+    // input vertex must be carried onto the split mesh.
+    let d = TempDir::new().unwrap();
+    let cage = fixtures().join("spot_control_mesh.obj");
+    let im = io::read_mesh(&cage).unwrap();
+    let field = d.path().join("field.txt");
+    let text: String = im
+        .positions
+        .iter()
+        .map(|p| format!("{} {} 0\n", -p.y, p.x))
+        .collect();
+    std::fs::write(&field, text).unwrap();
+    let imp = d.path().join("imp.txt");
+    let text: String = (0..im.vertex_count())
+        .map(|i| format!("{}\n", i % 7))
+        .collect();
+    std::fs::write(&imp, text).unwrap();
+    let f0 = im.face(0);
+    let feat = d.path().join("feat.txt");
+    std::fs::write(&feat, format!("{} {}\n", f0[0], f0[1])).unwrap();
+    let out = d.path().join("cage.obj");
+    let v = json_ok(&[
+        "coarsen",
+        s(&cage),
+        "-o",
+        s(&out),
+        "--ratio",
+        "0.8",
+        "--field",
+        s(&field),
+        "--importance",
+        s(&imp),
+        "--features",
+        s(&feat),
+    ]);
+    assert_eq!(v["subdivided"], true);
+    let (im_out, m) = load_valid(&out);
+    assert!(im_out.is_quad_only());
+    assert_eq!(m.genus(), 0);
+    // a polyline step that is not a mesh edge names the feature file
+    let p0 = im.positions[f0[0] as usize];
+    let far = (0..im.vertex_count())
+        .max_by(|&a, &b| {
+            let (da, db) = (im.positions[a].distance(p0), im.positions[b].distance(p0));
+            da.total_cmp(&db)
+        })
+        .unwrap();
+    std::fs::write(&feat, format!("{} {far}\n", f0[0])).unwrap();
+    pqm()
+        .args(["coarsen", s(&cage), "-o", s(&out), "--features", s(&feat)])
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("feat.txt"))
+        .stderr(predicate::str::contains("not joined by a mesh edge"));
+}
+
+#[test]
 fn quiet_prints_nothing_and_pipes_get_no_progress_bars() {
     let d = TempDir::new().unwrap();
     let out = d.path().join("t.obj");
@@ -557,6 +615,22 @@ fn encode_info_decode_levels_prefixes_and_full_equality() {
         assert!(im.is_quad_only());
         assert_eq!(m.genus(), 0);
     }
+    // glTF options: smooth normals and KHR_mesh_quantization; quads survive
+    let out = d.path().join("q.glb");
+    json_ok(&[
+        "decode",
+        s(&file),
+        "-o",
+        s(&out),
+        "--level",
+        "0",
+        "--normals",
+        "smooth",
+        "--quantize",
+    ]);
+    let (im, _) = load_valid(&out);
+    assert!(im.is_quad_only());
+    assert_eq!(im.face_count() as u64, levels[0]["faces"].as_u64().unwrap());
     // --faces: the finest level with at most N faces
     let out = d.path().join("f.obj");
     let v = json_ok(&["decode", s(&file), "-o", s(&out), "--faces", "2000"]);

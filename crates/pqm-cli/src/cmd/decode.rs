@@ -1,10 +1,12 @@
 //! `pqm decode`: write any level of a `.pqm` file as a mesh.
 
 use crate::cmd::info::{level_error, level_rows, open};
+use crate::cmd::levels::{write_mesh_with, GltfArgs};
 use crate::ctx::Ctx;
 use crate::stats::{mesh_stats, MeshStats};
 use crate::util::{mesh_output_format, parse_nonneg};
 use anyhow::{anyhow, bail};
+use pqm_core::io::MeshFormat;
 use pqm_core::IndexedMesh;
 use pqm_format::Target;
 use serde::Serialize;
@@ -27,7 +29,8 @@ use std::path::PathBuf;
   pqm decode spot.pqm -o spot.glb
   pqm decode spot.pqm -o spot_base.obj --level 0
   pqm decode spot.pqm -o spot_1k.glb --faces 1000 --stats
-  pqm decode spot.pqm -o first_20k.glb --bytes 20000")]
+  pqm decode spot.pqm -o first_20k.glb --bytes 20000
+  pqm decode spot.pqm -o spot_q.glb --normals smooth --quantize")]
 #[command(group(clap::ArgGroup::new("target").args(["level", "faces", "error"])))]
 pub struct Args {
     /// The .pqm file.
@@ -51,6 +54,8 @@ pub struct Args {
     /// Print the statistics of the output mesh.
     #[arg(long)]
     pub stats: bool,
+    #[command(flatten)]
+    pub gltf: GltfArgs,
 }
 
 #[derive(Serialize)]
@@ -123,7 +128,14 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             }
         }
     }
-    crate::util::write_mesh(&args.output, &mesh)?;
+    let format = mesh_output_format(&args.output)?;
+    if args.gltf.any() && !matches!(format, MeshFormat::Gltf | MeshFormat::Glb) {
+        ctx.warn(format!(
+            "{}: --normals/--quantize apply to .gltf/.glb output only",
+            args.output.display()
+        ));
+    }
+    write_mesh_with(&args.output, &mesh, &args.gltf.options())?;
     let rows = level_rows(&dec);
     let report = Report {
         input: name,
