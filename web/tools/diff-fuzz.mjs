@@ -1,9 +1,12 @@
 // Differential fuzzing of the JavaScript decoder against the Rust reference
-// decoder: mutates the decompressed payloads, header fields and chunk table
-// entries of the test files, repacks them (raw zstd frames, CRCs recomputed,
-// so the mutations reach the structural checks), decodes each with both
-// decoders and reports every file where they disagree (one accepts, the
-// other rejects, or both accept with different finest meshes).
+// decoder: mutates the decompressed payloads, header fields (flag bit 0
+// included), chunk table entries, optional sections (dropped, duplicated,
+// renamed) and the zstd framing of one section (trailing bytes or frames,
+// skippable frames, no content size, a checksum) of the test files, repacks
+// them (raw zstd frames, CRCs recomputed, so the mutations reach the
+// structural checks), decodes each with both decoders and reports every file
+// where they disagree (one accepts, the other rejects, or both accept with
+// different finest meshes).
 //
 //   cargo build --release --manifest-path tools/make-pqm/Cargo.toml
 //   node tools/diff-fuzz.mjs [COUNT] [SEED]          (from web/)
@@ -14,7 +17,7 @@ import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { decodeAll, PqmError } from '../pqm-decoder/src/index.js';
 import { testFiles, levelDigests, rng } from '../pqm-decoder/test/helpers.mjs';
-import { unpack, pack } from '../pqm-decoder/test/repack.mjs';
+import { unpack, pack, rawZstdFrame, concat } from '../pqm-decoder/test/repack.mjs';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const tool = path.join(here, 'make-pqm/target/release/make-pqm');
@@ -22,8 +25,55 @@ const count = Number(process.argv[2] ?? 2000);
 const rand = rng(Number(process.argv[3] ?? 7));
 const pick = (n) => Math.floor(rand() * n);
 
+/** Framings of one payload that break or bend spec §1's one-frame rule. */
+const framings = [
+  ['trailing empty frame', (p) => concat([rawZstdFrame(p), rawZstdFrame(new Uint8Array(0))])],
+  ['trailing bytes', (p) => concat([rawZstdFrame(p), new Uint8Array(1 + pick(4))])],
+  ['two half frames', (p) => concat([rawZstdFrame(p.subarray(0, p.length >> 1)), rawZstdFrame(p.subarray(p.length >> 1))])],
+  ['leading skippable frame', (p) => concat([Uint8Array.of(0x50 + pick(16), 0x2a, 0x4d, 0x18, 2, 0, 0, 0, 0, 0), rawZstdFrame(p)])],
+  ['no content size', (p) => {
+    const f = rawZstdFrame(p, { windowDescriptor: 15 << 3 });
+    return concat([Uint8Array.of(0x28, 0xb5, 0x2f, 0xfd, 0x00, f[5]), f.subarray(10)]);
+  }],
+  ['content size + 1', (p) => rawZstdFrame(concat([p, Uint8Array.of(0)]))],
+  // windows of 1 KiB .. 2^25 (spec §1 lets readers refuse larger ones, so
+  // the decoders need not agree there)
+  ['window descriptor', (p) => {
+    const e = pick(16);
+    return rawZstdFrame(p, { windowDescriptor: (e << 3) | (e === 15 ? 0 : pick(8)) });
+  }],
+  ['cut short', (p) => rawZstdFrame(p).subarray(0, -1 - pick(3))],
+];
+
+/** Toggles a section list change and fixes section_count. */
+function mutateSections(parts) {
+  const how = pick(3);
+  const hv = new DataView(parts.header.buffer);
+  if (how === 0 && parts.sections.length) parts.sections.pop();
+  else if (how === 1 && parts.sections.length) parts.sections.push({ ...parts.sections[0] });
+  else if (parts.sections.length) parts.sections[0] = { ...parts.sections[0], tag: 'XORD' };
+  else parts.sections.push({ tag: 'XTRA', payload: Uint8Array.of(1, 2, 3) });
+  hv.setUint32(48, parts.sections.length, true);
+  return `sections ${['drop last', 'duplicate first', 'rename first / add unknown'][how]} → ${parts.sections.map((x) => x.tag).join(',')}`;
+}
+
 function mutate(parts) {
-  const what = pick(10);
+  const what = pick(13);
+  if (what === 10) {
+    const dv = new DataView(parts.header.buffer);
+    dv.setUint32(16, dv.getUint32(16, true) ^ 1, true);
+    return { what: 'header flag bit 0 toggled' };
+  }
+  if (what === 11) return { what: mutateSections(parts) };
+  if (what === 12) {
+    const all = [parts.base, ...parts.chunks, ...parts.sections.map((x) => x.payload)];
+    const target = all[pick(all.length)];
+    const [name, bad] = framings[pick(framings.length)];
+    return {
+      what: `framing of payload ${all.indexOf(target)}: ${name}`,
+      frame: (p) => (p === target ? bad(p) : rawZstdFrame(p)),
+    };
+  }
   const bytesOf = (arr) => arr;
   if (what < 7) {
     // a payload: base or a chunk
@@ -83,8 +133,9 @@ const cases = [];
 for (let n = 0; n < count; n++) {
   const f = files[pick(files.length)];
   const parts = unpack(f.bytes);
-  const what = mutate(parts);
-  const bytes = pack(parts);
+  const m = mutate(parts);
+  const what = typeof m === 'string' ? m : m.what;
+  const bytes = pack(parts, m.frame ? { frame: m.frame } : {});
   const file = path.join(dir, `${n}.pqm`);
   writeFileSync(file, bytes);
   cases.push({ n, name: f.name, what, file, js: jsOutcome(bytes) });
@@ -117,7 +168,7 @@ for (const c of cases) {
   }
 }
 console.log(`${cases.length} files: ${agree} agree (${bothErr} rejected by both), ${mismatches.length} disagree`);
-for (const m of mismatches.slice(0, 30)) {
+for (const m of mismatches.slice(0, Number(process.env.SHOW ?? 30))) {
   console.log(`- ${m.name} #${m.n} (${m.what})\n    js:   ${m.js}\n    rust: ${m.rust}`);
 }
 rmSync(dir, { recursive: true, force: true });

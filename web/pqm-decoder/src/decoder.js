@@ -335,8 +335,7 @@ export class PqmDecoder {
             this._stage = 'sectionHead';
             this._stageArg = i + 1;
           } else {
-            this._stage = 'done';
-            events.push({ type: 'finished' });
+            this._finish(events);
           }
           break;
         }
@@ -356,9 +355,21 @@ export class PqmDecoder {
       this._stage = 'sectionHead';
       this._stageArg = 0;
     } else {
-      this._stage = 'done';
-      events.push({ type: 'finished' });
+      this._finish(events);
     }
+  }
+
+  /**
+   * The end of the file: header flag bit 0 announces a `VORD` section, so
+   * one must have been read (spec §3, §8) — known only here, since the
+   * sections come last.
+   */
+  _finish(events) {
+    this._stage = 'done';
+    if (this._header.hasVertexOrder && this._vertexOrder === null) {
+      throw invalid('trailer', 'header flag bit 0 announces a VORD section but the file has none');
+    }
+    events.push({ type: 'finished' });
   }
 
   _onPrefix(b) {
@@ -589,6 +600,11 @@ export class PqmDecoder {
     const computed = crc32(b);
     if (computed !== sec.crc32) throw crcMismatch(section, sec.crc32, computed);
     if (sec.tag !== 'VORD') return; // unknown optional section: skipped (spec §8)
+    // Flag bit 0 is set if and only if the file holds exactly one VORD (spec §3, §8).
+    if (!this._header.hasVertexOrder) {
+      throw invalid(section, 'a VORD section is present but header flag bit 0 is clear');
+    }
+    if (this._vertexOrder !== null) throw invalid(section, 'a second VORD section');
     const n = this._header.finalVertexCount;
     // Each entry is one varint of 1 to 10 bytes (spec §1): bound the payload
     // before allocating for it.
