@@ -4,30 +4,13 @@
 mod common;
 use common::{grid, quad_sphere, torus};
 use pqm_core::coarsen::{CoarsenOptions, Coarsener, Smoothing, StopReason};
-use pqm_core::{IndexedMesh, Mesh, ProgressiveMesh};
+use pqm_core::{IndexedMesh, Mesh};
 
 fn run(src: &IndexedMesh, opts: CoarsenOptions) -> (Coarsener, pqm_core::coarsen::CoarsenReport) {
     let mesh = Mesh::from_indexed(src).unwrap();
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
     let r = c.run(&mut |_| {});
     (c, r)
-}
-
-/// Replays records on the base (a direct reading of the canonical rules).
-fn replay(pm: &ProgressiveMesh, k: usize) -> (Vec<glam::DVec3>, Vec<[u32; 4]>) {
-    let mut pos = pm.base.positions.clone();
-    let mut faces: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
-    for r in &pm.records[..k] {
-        pos.extend_from_slice(&r.new_vertices);
-        for &(v, p) in &r.moved {
-            pos[v as usize] = p;
-        }
-        for &(s, q) in &r.rewritten {
-            faces[s as usize] = q;
-        }
-        faces.extend_from_slice(&r.appended_faces);
-    }
-    (pos, faces)
 }
 
 fn canon_faces(pos: &[glam::DVec3], faces: &[[u32; 4]]) -> Vec<Vec<[i64; 3]>> {
@@ -65,7 +48,7 @@ fn torus_coarsens_validly_and_replays() {
     println!("{r:?} faces {}", m.face_count());
     let pm = c.to_progressive();
     // finest level = input (as geometry + connectivity)
-    let (pos, faces) = replay(&pm, pm.records.len());
+    let (pos, faces) = pm.level_quads(pm.records.len());
     let mut src_faces: Vec<[u32; 4]> = src.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
     let src_canon = canon_faces(&src.positions, &src_faces);
     assert_eq!(canon_faces(&pos, &faces), src_canon);

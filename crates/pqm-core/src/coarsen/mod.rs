@@ -840,43 +840,24 @@ impl Coarsener {
             .filter(|&&(v, before)| self.mesh.position(v) != before)
             .map(|&(v, before)| (v, before, self.mesh.position(v)))
             .collect();
-        self.logs.push(StepLog {
+        self.logs.push(StepLog::of_patch(
             op,
-            faces_before: patch
-                .remove
-                .iter()
-                .copied()
-                .zip(applied.old_faces.iter().cloned())
-                .collect(),
-            faces_after: applied
-                .faces
-                .iter()
-                .zip(&patch.add)
-                .map(|(&f, q)| (f, q.to_vec()))
-                .collect(),
-            removed_vertices: removed_positions,
+            &patch,
+            applied,
+            removed_positions,
             moved,
-        });
+        ));
         self.commit_drift(&drift, &composed);
         self.errors.push(self.error);
         for ((d, pos), a) in doublet_logs.iter().zip(&undo_stack[1..]) {
-            self.logs.push(StepLog {
-                op: OpKind::Doublet,
-                faces_before: d
-                    .remove
-                    .iter()
-                    .copied()
-                    .zip(a.old_faces.iter().cloned())
-                    .collect(),
-                faces_after: a
-                    .faces
-                    .iter()
-                    .zip(&d.add)
-                    .map(|(&f, q)| (f, q.to_vec()))
-                    .collect(),
-                removed_vertices: vec![(d.merged[0].0, *pos)],
-                moved: Vec::new(),
-            });
+            let removed = vec![(d.merged[0].0, *pos)];
+            self.logs.push(StepLog::of_patch(
+                OpKind::Doublet,
+                d,
+                a,
+                removed,
+                Vec::new(),
+            ));
             self.errors.push(self.error);
             self.report.doublets += 1;
         }
@@ -1060,23 +1041,14 @@ impl Coarsener {
             let Ok(a) = ops::apply_undoable(&mut self.mesh, &d) else {
                 continue;
             };
-            self.logs.push(StepLog {
-                op: OpKind::Doublet,
-                faces_before: d
-                    .remove
-                    .iter()
-                    .copied()
-                    .zip(a.old_faces.iter().cloned())
-                    .collect(),
-                faces_after: a
-                    .faces
-                    .iter()
-                    .zip(&d.add)
-                    .map(|(&f, q)| (f, q.to_vec()))
-                    .collect(),
-                removed_vertices: vec![(v, pos)],
-                moved: Vec::new(),
-            });
+            let removed = vec![(v, pos)];
+            self.logs.push(StepLog::of_patch(
+                OpKind::Doublet,
+                &d,
+                &a,
+                removed,
+                Vec::new(),
+            ));
             self.errors.push(self.error);
             self.report.doublets += 1;
             let more: Vec<VertexId> = d.add.iter().flatten().copied().collect();

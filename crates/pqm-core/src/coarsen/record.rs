@@ -9,6 +9,7 @@
 
 use crate::indexed::IndexedMesh;
 use crate::mesh::{FaceId, Mesh, VertexId};
+use crate::ops::{Applied, Patch};
 use crate::progressive::{OpKind, ProgressiveMesh, SplitRecord};
 use glam::DVec3;
 
@@ -26,6 +27,36 @@ pub struct StepLog {
     pub removed_vertices: Vec<(VertexId, DVec3)>,
     /// Vertices the step moved: `(vertex, before, after)`.
     pub moved: Vec<(VertexId, DVec3, DVec3)>,
+}
+
+impl StepLog {
+    /// The log of an applied patch: its removed faces with their old vertex
+    /// lists, its inserted quads with their ids.
+    pub fn of_patch(
+        op: OpKind,
+        patch: &Patch,
+        applied: &Applied,
+        removed_vertices: Vec<(VertexId, DVec3)>,
+        moved: Vec<(VertexId, DVec3, DVec3)>,
+    ) -> StepLog {
+        StepLog {
+            op,
+            faces_before: patch
+                .remove
+                .iter()
+                .copied()
+                .zip(applied.old_faces.iter().cloned())
+                .collect(),
+            faces_after: applied
+                .faces
+                .iter()
+                .zip(&patch.add)
+                .map(|(&f, q)| (f, q.to_vec()))
+                .collect(),
+            removed_vertices,
+            moved,
+        }
+    }
 }
 
 const NONE: u32 = u32::MAX;
