@@ -5,14 +5,13 @@ use crate::ctx::usage;
 use anyhow::Context;
 use pqm_core::io::{self, MeshFormat};
 use pqm_core::IndexedMesh;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Writes a file atomically: `body` writes into a temporary file in the
-/// target's directory (`.NAME.XXXX.tmp`), which is flushed, fsynced and
-/// renamed over `path`. On any error the temporary file is removed and
-/// `path` is untouched, so a failed command never leaves a truncated file.
-/// Errors name `path`.
+/// Writes a file atomically with [`pqm_core::io::write_atomic`] (temporary
+/// file in the target's directory, fsync, rename; nothing half-written is
+/// ever left), after checking that the directory exists so the error says
+/// so. Errors name `path`.
 pub fn write_atomic(
     path: &Path,
     body: impl FnOnce(&mut dyn Write) -> anyhow::Result<()>,
@@ -21,10 +20,6 @@ pub fn write_atomic(
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
     if !dir.is_dir() {
         anyhow::bail!(
             "{}: cannot write: the directory {} does not exist",
@@ -32,42 +27,7 @@ pub fn write_atomic(
             dir.display()
         );
     }
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .with_context(|| {
-            format!(
-                "{}: cannot create a file in {}",
-                path.display(),
-                dir.display()
-            )
-        })?;
-    // Temporary files are created private (0600); a finished output should
-    // have the usual permissions of a new file.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = tmp
-            .as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let mut w = BufWriter::with_capacity(1 << 20, tmp);
-    body(&mut w).with_context(|| format!("{}", path.display()))?;
-    let tmp = w
-        .into_inner()
-        .map_err(|e| e.into_error())
-        .with_context(|| format!("{}: write failed", path.display()))?;
-    tmp.as_file()
-        .sync_all()
-        .with_context(|| format!("{}: write failed", path.display()))?;
-    tmp.persist(path).map_err(|e| e.error).with_context(|| {
-        format!(
-            "{}: cannot rename the finished file into place",
-            path.display()
-        )
-    })?;
-    Ok(())
+    io::write_atomic::<anyhow::Error>(path, body).with_context(|| format!("{}", path.display()))
 }
 
 /// Writes `mesh` to `path` atomically in the format of its extension (see

@@ -258,14 +258,16 @@ fn unknown_extension(path: &Path) -> MeshIoError {
     .with_path(path)
 }
 
-/// Runs `body` on a buffered writer to a temporary file next to `path`, then
-/// fsyncs and renames it to `path`. The temporary file is deleted on error
-/// (`NamedTempFile` removes itself when dropped unpersisted). Public so that
-/// other writers (for example [`write_glb_lod`]) get the same guarantee.
-pub fn write_atomic(
+/// Writes a file atomically: `body` writes into a temporary file in the
+/// target's directory (`.NAME.XXXX.tmp`), which is flushed, fsynced, given
+/// the usual permissions of a new file (0644 on Unix; temporary files start
+/// private) and renamed over `path`. On any error the temporary file is
+/// removed and `path` is untouched, so nothing half-written is ever left.
+/// Generic over the caller's error type (the CLI passes `anyhow::Error`).
+pub fn write_atomic<E: From<io::Error>>(
     path: &Path,
-    body: impl FnOnce(&mut dyn Write) -> Result<(), MeshIoError>,
-) -> Result<(), MeshIoError> {
+    body: impl FnOnce(&mut dyn Write) -> Result<(), E>,
+) -> Result<(), E> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -278,13 +280,18 @@ pub fn write_atomic(
         .prefix(&format!(".{name}."))
         .suffix(".tmp")
         .tempfile_in(dir)?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = tmp
+            .as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644));
+    }
     let mut w = io::BufWriter::with_capacity(1 << 20, tmp);
     body(&mut w)?;
-    let tmp = w
-        .into_inner()
-        .map_err(|e| MeshIoError::from(e.into_error()))?;
+    let tmp = w.into_inner().map_err(|e| E::from(e.into_error()))?;
     tmp.as_file().sync_all()?;
-    tmp.persist(path).map_err(|e| MeshIoError::from(e.error))?;
+    tmp.persist(path).map_err(|e| E::from(e.error))?;
     // Make the rename itself durable; not all platforms can open directories.
     if let Ok(d) = std::fs::File::open(dir) {
         let _ = d.sync_all();
