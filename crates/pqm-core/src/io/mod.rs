@@ -299,6 +299,45 @@ pub fn write_atomic<E: From<io::Error>>(
     Ok(())
 }
 
+/// The text body OFF and ASCII PLY share: one row per vertex (`x y z`, then
+/// that vertex's value of each of `scalars`), one row per face (`n i j k …`),
+/// written through `buf` in 64 KiB pieces, then flushed.
+pub(crate) fn write_ascii_rows(
+    mut w: impl Write,
+    mut buf: Vec<u8>,
+    mesh: &IndexedMesh,
+    scalars: &[&Vec<f64>],
+) -> Result<(), MeshIoError> {
+    for (v, p) in mesh.positions.iter().enumerate() {
+        let vals = p.to_array().into_iter().chain(scalars.iter().map(|s| s[v]));
+        for (k, x) in vals.enumerate() {
+            if k > 0 {
+                buf.push(b' ');
+            }
+            fmt_f64(&mut buf, x);
+        }
+        buf.push(b'\n');
+        if buf.len() >= 1 << 16 {
+            w.write_all(&buf)?;
+            buf.clear();
+        }
+    }
+    for f in mesh.faces() {
+        write!(buf, "{}", f.len())?;
+        for &i in f {
+            write!(buf, " {i}")?;
+        }
+        buf.push(b'\n');
+        if buf.len() >= 1 << 16 {
+            w.write_all(&buf)?;
+            buf.clear();
+        }
+    }
+    w.write_all(&buf)?;
+    w.flush()?;
+    Ok(())
+}
+
 /// Formats `x` like C's `%g` but with the shortest digits that read back to
 /// exactly `x` (so f64 positions round-trip): `1`, `0.5`, `-2.25e-7`, `1e300`.
 pub(crate) fn fmt_f64(out: &mut Vec<u8>, x: f64) {

@@ -19,7 +19,7 @@
 //! Writing produces ASCII OFF with shortest round-trip decimals.
 
 use super::obj::parse_f64;
-use super::{fmt_f64, read_all, Element, MeshIoError};
+use super::{read_all, Element, MeshIoError};
 use crate::IndexedMesh;
 use glam::DVec3;
 use std::io::{Read, Write};
@@ -309,35 +309,9 @@ fn read_binary(data: &[u8], start: usize) -> Result<IndexedMesh, MeshIoError> {
 /// Writes `mesh` as ASCII OFF (`OFF`, `nV nF 0`, vertices with shortest
 /// round-trip decimals, faces as `k i1 .. ik`). Only positions and faces are
 /// written.
-pub fn write_off(mut w: impl Write, mesh: &IndexedMesh) -> Result<(), MeshIoError> {
+pub fn write_off(w: impl Write, mesh: &IndexedMesh) -> Result<(), MeshIoError> {
     super::check_writable(mesh)?;
     let mut buf: Vec<u8> = Vec::with_capacity(1 << 16);
     writeln!(buf, "OFF\n{} {} 0", mesh.vertex_count(), mesh.face_count())?;
-    for p in &mesh.positions {
-        for (k, x) in p.to_array().into_iter().enumerate() {
-            if k > 0 {
-                buf.push(b' ');
-            }
-            fmt_f64(&mut buf, x);
-        }
-        buf.push(b'\n');
-        if buf.len() >= 1 << 16 {
-            w.write_all(&buf)?;
-            buf.clear();
-        }
-    }
-    for f in mesh.faces() {
-        write!(buf, "{}", f.len())?;
-        for &i in f {
-            write!(buf, " {i}")?;
-        }
-        buf.push(b'\n');
-        if buf.len() >= 1 << 16 {
-            w.write_all(&buf)?;
-            buf.clear();
-        }
-    }
-    w.write_all(&buf)?;
-    w.flush()?;
-    Ok(())
+    super::write_ascii_rows(w, buf, mesh, &[])
 }

@@ -25,7 +25,7 @@
 //! [`write_ply_ascii`] writes the same layout as ASCII with shortest
 //! round-trip decimals. Texture coordinates and normals are not written.
 
-use super::{fmt_f64, read_all, Element, MeshIoError};
+use super::{read_all, Element, MeshIoError};
 use crate::IndexedMesh;
 use glam::DVec3;
 use ply_rs_bw::parser::Parser;
@@ -394,37 +394,10 @@ pub fn write_ply(mut w: impl Write, mesh: &IndexedMesh) -> Result<(), MeshIoErro
 }
 
 /// Writes `mesh` as ASCII PLY (same layout as [`write_ply`]).
-pub fn write_ply_ascii(mut w: impl Write, mesh: &IndexedMesh) -> Result<(), MeshIoError> {
+pub fn write_ply_ascii(w: impl Write, mesh: &IndexedMesh) -> Result<(), MeshIoError> {
     super::check_writable(mesh)?;
     let mut buf = Vec::with_capacity(1 << 16);
     write_header(&mut buf, mesh, "ascii")?;
     let scalars: Vec<&Vec<f64>> = mesh.vertex_scalars.values().collect();
-    for (v, p) in mesh.positions.iter().enumerate() {
-        let vals = p.to_array().into_iter().chain(scalars.iter().map(|s| s[v]));
-        for (k, x) in vals.enumerate() {
-            if k > 0 {
-                buf.push(b' ');
-            }
-            fmt_f64(&mut buf, x);
-        }
-        buf.push(b'\n');
-        if buf.len() >= 1 << 16 {
-            w.write_all(&buf)?;
-            buf.clear();
-        }
-    }
-    for f in mesh.faces() {
-        write!(buf, "{}", f.len())?;
-        for &i in f {
-            write!(buf, " {i}")?;
-        }
-        buf.push(b'\n');
-        if buf.len() >= 1 << 16 {
-            w.write_all(&buf)?;
-            buf.clear();
-        }
-    }
-    w.write_all(&buf)?;
-    w.flush()?;
-    Ok(())
+    super::write_ascii_rows(w, buf, mesh, &scalars)
 }
