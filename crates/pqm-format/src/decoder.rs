@@ -1267,6 +1267,12 @@ fn check_single_frame(data: &[u8], ulen: u32) -> Result<(), String> {
     if data.len() < 4 || LE::read_u32(data) != ZSTD_MAGIC {
         return Err("not a Zstandard frame (bad frame magic)".into());
     }
+    // Frame_Header_Descriptor bit 2: Content_Checksum_flag (spec §1 forbids it)
+    if data.get(4).is_some_and(|fhd| fhd & 0x04 != 0) {
+        return Err(
+            "zstd frame carries a content checksum (not allowed: the section CRC covers it)".into(),
+        );
+    }
     let len = zstd::zstd_safe::find_frame_compressed_size(data)
         .map_err(|_| "zstd: cannot find the end of the frame".to_string())?;
     if len != data.len() {

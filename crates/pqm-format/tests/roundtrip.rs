@@ -850,7 +850,16 @@ fn a_compressed_section_is_exactly_one_frame_with_its_size() {
     )
     .unwrap();
     type Compress = Box<dyn Fn(&[u8]) -> Vec<u8>>;
-    let cases: [(&str, Compress); 5] = [
+    let cases: [(&str, Compress); 6] = [
+        (
+            "content checksum",
+            Box::new(|p| {
+                use zstd::zstd_safe::CParameter;
+                let mut c = zstd::bulk::Compressor::new(3).unwrap();
+                c.set_parameter(CParameter::ChecksumFlag(true)).unwrap();
+                c.compress(p).unwrap()
+            }),
+        ),
         (
             "after the zstd frame",
             Box::new(|p| [frame(p, true), frame(&[], true)].concat()),

@@ -80,6 +80,7 @@ export function checkFrameHeader(data, expectedLen) {
   const single = (fhd >> 5) & 1;
   const checksum = (fhd & 0x04) !== 0;
   if (fhd & 0x08) throw 'zstd frame header has the reserved bit set';
+  if (checksum) throw 'zstd frame carries a content checksum (not allowed: the section CRC covers it)';
   const didFlag = fhd & 3;
   let p = 5;
   let window = 0;
