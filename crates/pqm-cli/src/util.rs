@@ -34,17 +34,7 @@ pub fn write_atomic(
 /// [`write_atomic`]): OBJ, OFF (ASCII), PLY (binary little endian), glTF
 /// (embedded buffer) or GLB. Errors name `path`.
 pub fn write_mesh(path: &Path, mesh: &IndexedMesh) -> anyhow::Result<()> {
-    let format = mesh_output_format(path)?;
-    write_atomic(path, |w| {
-        match format {
-            MeshFormat::Obj => io::write_obj(w, mesh),
-            MeshFormat::Off => io::write_off(w, mesh),
-            MeshFormat::Ply => io::write_ply(w, mesh),
-            MeshFormat::Gltf => io::write_gltf(w, mesh),
-            MeshFormat::Glb => io::write_glb(w, mesh),
-        }
-        .map_err(|e| anyhow::anyhow!("{e}"))
-    })
+    crate::cmd::levels::write_mesh_with(path, mesh, &io::GltfWriteOptions::default())
 }
 
 /// Checks that `path` names a mesh format pqm writes (by extension); a
