@@ -2,7 +2,7 @@
 // a real shared mesh is encoded, served, streamed into the page and drawn.
 // Fails (never skips) when chromium or the pqm binary is missing, with a
 // message saying how to get them.
-import { test } from 'node:test';
+import { after, before, test } from 'node:test';
 import assert from 'node:assert/strict';
 import { existsSync, mkdirSync, writeFileSync } from 'node:fs';
 import path from 'node:path';
@@ -25,40 +25,55 @@ const MIN_DRAWN = 0.03;
 
 const number = (text) => Number(text.replace(/[^0-9]/g, ''));
 
-test('pqm view streams a real mesh to its full level, draws it, and the slider coarsens to the base', { timeout: 240_000 }, async (t) => {
+// One encoded file and one browser for both tests.
+let pqm;
+let info;
+let file;
+let browser;
+let tmp;
+after(async () => {
+  await browser?.close();
+  tmp?.remove();
+});
+before(async () => {
   findChromium(); // fail first, and clearly, when the browser is missing
-  const pqm = findPqm();
+  pqm = findPqm();
   const mesh = path.join(SHARED_MESHES, 'quad', 'spot_quadrangulated.obj');
   assert.ok(existsSync(mesh), `shared mesh missing: ${mesh} (set PQM_SHARED_MESHES)`);
-
-  const tmp = tempDir('pqm-view-test-');
-  t.after(tmp.remove);
-  const file = path.join(tmp.dir, 'spot.pqm');
+  tmp = tempDir('pqm-view-test-');
+  file = path.join(tmp.dir, 'spot.pqm');
   runPqm(pqm, ['-q', 'encode', mesh, '-o', file]);
-  const info = JSON.parse(runPqm(pqm, ['--json', 'info', file]));
+  info = JSON.parse(runPqm(pqm, ['--json', 'info', file]));
   assert.ok(info.final_faces > info.base_faces, 'the file refines');
+  browser = await launchChromium();
+});
 
-  const server = await startView(pqm, file);
-  t.after(server.stop);
-  const browser = await launchChromium();
-  t.after(() => browser.close());
+/** Opens the viewer on a fresh page; collects page errors and any request outside the server. */
+async function openViewer(t, server) {
   const page = await browser.newPage({ viewport: { width: 800, height: 600 } });
-  const pageErrors = [];
-  page.on('pageerror', (e) => pageErrors.push(e.message));
-  page.on('requestfailed', (r) => pageErrors.push(`request failed: ${r.url()}`));
+  t.after(() => page.close());
+  const problems = [];
+  page.on('pageerror', (e) => problems.push(e.message));
+  page.on('requestfailed', (r) => problems.push(`request failed: ${r.url()}: ${r.failure()?.errorText}`));
   // Offline: nothing but the local server may be asked for anything.
   const origin = new URL(server.url).origin;
   page.on('request', (r) => {
-    if (!r.url().startsWith(origin) && !r.url().startsWith('data:')) pageErrors.push(`external request: ${r.url()}`);
+    if (!r.url().startsWith(origin) && !r.url().startsWith('data:')) problems.push(`external request: ${r.url()}`);
   });
-
   await page.goto(server.url);
   await page.waitForFunction(() => window.pqmViewer && (window.pqmViewer.failed || window.pqmViewer.fullMs !== null), null, {
     timeout: 120_000,
   });
-  const s = await page.evaluate(() => ({ ...window.pqmViewer }));
-  assert.equal(s.failed, null, `the page failed: ${s.failed}`);
-  assert.deepEqual(pageErrors, []);
+  const state = await page.evaluate(() => ({ ...window.pqmViewer }));
+  assert.equal(state.failed, null, `the page failed: ${state.failed}`);
+  assert.deepEqual(problems, []);
+  return { page, state, problems };
+}
+
+test('pqm view streams a real mesh to its full level, draws it, and the slider coarsens to the base', { timeout: 240_000 }, async (t) => {
+  const server = await startView(pqm, file);
+  t.after(server.stop);
+  const { page, state: s, problems: pageErrors } = await openViewer(t, server);
 
   // full level reached: the figures shown agree with `pqm info`
   assert.equal(s.level, s.levels);
@@ -109,4 +124,26 @@ test('pqm view streams a real mesh to its full level, draws it, and the slider c
   await page.keyboard.press('End');
   await page.waitForFunction((n) => window.pqmViewer.faces === n, info.final_faces);
   assert.deepEqual(pageErrors, []);
+});
+
+test('over a slow link the page refines while the file streams', { timeout: 240_000 }, async (t) => {
+  // 80 kB at 48 KiB/s: about 1.6 s of streaming, many reads
+  const server = await startView(pqm, file, ['--throttle', '48']);
+  t.after(server.stop);
+  const { state } = await openViewer(t, server);
+  const tl = state.timeline;
+  assert.ok(tl.length >= 3, `only ${tl.length} level changes while streaming`);
+  assert.equal(tl[0].faces, info.base_faces, 'the base mesh is shown first');
+  assert.equal(tl[0].level, 0);
+  assert.ok(tl[0].bytes < info.file_bytes / 2, `the base mesh waited for ${tl[0].bytes} bytes`);
+  for (let i = 1; i < tl.length; i++) {
+    assert.ok(tl[i].level > tl[i - 1].level, 'levels only go up while following the stream');
+    assert.ok(tl[i].faces >= tl[i - 1].faces);
+  }
+  assert.ok(
+    tl.some((e) => e.faces > info.base_faces && e.faces < info.final_faces && e.bytes < info.file_bytes),
+    'an intermediate level was shown before the file ended',
+  );
+  assert.equal(tl[tl.length - 1].faces, info.final_faces);
+  assert.ok(state.firstPixelsMs < state.fullMs, 'first pixels came before the full mesh');
 });

@@ -54,6 +54,8 @@ const state = {
   firstPixelsMs: null,
   fullMs: null,
   frames: 0,
+  /** While streaming: `{ms, bytes, level, faces}` after each read that changed the level. */
+  timeline: [],
 };
 window.pqmViewer = state;
 
@@ -204,7 +206,11 @@ async function streamPqm() {
       }
     }
     if (follow && events.some((e) => e.type === 'chunkReady')) pm.refineTo({ level: dec.deepestLevel });
+    const before = state.level;
     updatePanel();
+    if (state.level !== before) {
+      state.timeline.push({ ms: performance.now(), bytes: state.bytes, level: state.level, faces: state.faces });
+    }
     requestRender();
   }
   dec.end(); // throws 'truncated' naming the missing section if the file ended early

@@ -30,8 +30,11 @@
 //! HTTP: `GET` and `HEAD` (anything else: 405). One request per connection
 //! (`Connection: close`), one thread per connection. `Range` on the mesh
 //! files follows RFC 9110 §14: see [`parse_range`] for the accepted forms;
-//! every response carries `Accept-Ranges: bytes` and `Cache-Control:
-//! no-store` (so a reload measures the transfer again).
+//! the mesh responses carry `Accept-Ranges: bytes`, and every response
+//! `Cache-Control: no-cache` (a reload fetches again, since there are no
+//! validators, so benchmarks measure the transfer each time; `no-store`
+//! would do the same but makes chromium report the streamed fetch as
+//! aborted once it completes).
 //!
 //! `--throttle KIB_PER_S` is a **testing aid** that simulates a slow link:
 //! each mesh response (`/mesh.pqm`, `/compare.glb`) is written in small
@@ -451,7 +454,7 @@ fn serve(stream: TcpStream, site: &Site, verbose: bool) -> std::io::Result<()> {
         }
     };
     let mut head = format!(
-        "HTTP/1.1 {status}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nConnection: close\r\n",
+        "HTTP/1.1 {status}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-cache\r\nConnection: close\r\n",
         res.content_type,
         slice.len()
     );
