@@ -330,3 +330,25 @@ fn refuses_what_is_not_a_pqm_file() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+#[test]
+fn help_has_examples_and_documents_the_throttle() {
+    let out = Command::new(pqm_bin())
+        .args(["view", "--help"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let help = String::from_utf8_lossy(&out.stdout);
+    for want in [
+        "Examples:",
+        "--port",
+        "--throttle",
+        "Testing aid",
+        "127.0.0.1",
+    ] {
+        assert!(
+            help.contains(want),
+            "`pqm view --help` lacks {want:?}:\n{help}"
+        );
+    }
+}
