@@ -352,3 +352,34 @@ fn help_has_examples_and_documents_the_throttle() {
         );
     }
 }
+
+/// Sends raw bytes, returns the status line of the answer.
+fn raw_status(server: &Server, raw: &[u8]) -> String {
+    let mut s = TcpStream::connect(&server.addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    // The server may answer before it has read everything.
+    let _ = s.write_all(raw);
+    // End of the request: an incomplete head is then an error, not a wait.
+    let _ = s.shutdown(std::net::Shutdown::Write);
+    let mut out = Vec::new();
+    let _ = s.read_to_end(&mut out);
+    let text = String::from_utf8_lossy(&out);
+    text.lines().next().unwrap_or("").to_string()
+}
+
+#[test]
+fn malformed_requests_get_400_and_the_server_keeps_serving() {
+    let dir = TempDir::new().unwrap();
+    let (file, bytes) = encode_torus(dir.path());
+    let srv = start(&file, &[]);
+    assert!(raw_status(&srv, b"GARBAGE\r\n\r\n").starts_with("HTTP/1.1 400"));
+    assert!(raw_status(&srv, b"GET / SPDY/3\r\n\r\n").starts_with("HTTP/1.1 400"));
+    let mut long = b"GET / HTTP/1.1\r\nX-Long: ".to_vec();
+    long.extend(std::iter::repeat_n(b'a', 20_000));
+    long.extend(b"\r\n\r\n");
+    assert!(raw_status(&srv, &long).starts_with("HTTP/1.1 400"));
+    assert!(raw_status(&srv, b"GET / HTTP/1.1\r\nHost: x\r\n").starts_with("HTTP/1.1 400"));
+    // a client that connects and leaves
+    drop(TcpStream::connect(&srv.addr).unwrap());
+    assert_eq!(request(&srv, "GET", "/mesh.pqm", &[]).body, bytes);
+}

@@ -405,7 +405,10 @@ fn serve(stream: TcpStream, site: &Site, verbose: bool) -> std::io::Result<()> {
     let mut out = stream;
     let req = match read_head(&mut reader)? {
         None => return Ok(()),
-        Some(Err(msg)) => return write_simple(&mut out, 400, "Bad Request", &format!("{msg}\n")),
+        Some(Err(msg)) => {
+            write_simple(&mut out, 400, "Bad Request", &format!("{msg}\n"))?;
+            return linger_close(out, reader);
+        }
         Some(Ok(r)) => r,
     };
     if verbose {
@@ -427,7 +430,9 @@ fn serve(stream: TcpStream, site: &Site, verbose: bool) -> std::io::Result<()> {
                 "HTTP/1.1 405 Method Not Allowed\r\nAllow: GET, HEAD\r\nContent-Type: text/plain; charset=utf-8\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
                 body.len()
             );
-            return out.write_all(head.as_bytes());
+            // a body may follow that was not read
+            out.write_all(head.as_bytes())?;
+            return linger_close(out, reader);
         }
     };
     let Some(res) = site.resource(&req.path) else {
@@ -499,6 +504,24 @@ fn write_throttled(out: &mut impl Write, data: &[u8], rate: f64) -> std::io::Res
     let elapsed = start.elapsed();
     if due > elapsed {
         std::thread::sleep(due - elapsed);
+    }
+    Ok(())
+}
+
+/// Closes after an error answer sent before the whole request was read:
+/// half-close, then discard what the client still sends (a bounded amount,
+/// briefly), so the kernel does not reset the connection — a reset can
+/// destroy the answer before the client reads it.
+fn linger_close(out: TcpStream, mut reader: impl Read) -> std::io::Result<()> {
+    out.shutdown(std::net::Shutdown::Write)?;
+    out.set_read_timeout(Some(Duration::from_secs(1)))?;
+    let mut sink = [0u8; 4096];
+    let mut left = 256 * 1024usize;
+    while left > 0 {
+        match reader.read(&mut sink) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => left = left.saturating_sub(n),
+        }
     }
     Ok(())
 }
