@@ -311,6 +311,8 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             Ok(s) => s,
             Err(e) => {
                 ctx.verbose(format!("accept failed: {e}"));
+                // e.g. out of file descriptors: give the open connections time to finish
+                std::thread::sleep(Duration::from_millis(50));
                 continue;
             }
         };
