@@ -27,6 +27,12 @@ if [ -f web/package.json ] && [ ! -d web/node_modules ]; then
     fi
 fi
 
+if [ -f web/package.json ]; then
+    # Debian chromium + playwright-core for web/browser-test (pqm view in a real browser)
+    log "scripts/install-browser.sh"
+    scripts/install-browser.sh
+fi
+
 # --- static checks --------------------------------------------------------
 log "cargo fmt --check"
 cargo fmt --all --check
@@ -52,6 +58,8 @@ fi
 webout=$(mktemp)
 trap 'rm -f "$out" "$webout"' EXIT
 if [ -f web/package.json ]; then
+    # web/browser-test serves with target/debug/pqm (`pqm view`): the
+    # `cargo test --workspace` above built it (test profile, optimized).
     log "npm test --prefix web"
     set +e
     npm test --prefix web 2>&1 | tee "$webout"

@@ -27,6 +27,7 @@ Examples:
   pqm encode spot.obj -o spot.pqm            progressive file, as coarse as the rules allow
   pqm info spot.pqm                          header and chunk table
   pqm decode spot.pqm -o spot_1k.glb --faces 1000
+  pqm view spot.pqm                          stream it into a browser viewer (prints the URL)
 
 Exit codes: 0 ok, 1 failed, 2 bad usage. `pqm` alone prints this help and exits 2.";
 
@@ -65,6 +66,7 @@ enum Command {
     Info(cmd::info::Args),
     Levels(cmd::levels::Args),
     Remesh(cmd::remesh::Args),
+    View(cmd::view::Args),
     Demo(cmd::demo::Args),
     #[command(hide = true)]
     Fixtures(cmd::fixtures::Args),
@@ -89,6 +91,7 @@ fn main() -> ExitCode {
         Command::Info(a) => cmd::info::run(a, &ctx),
         Command::Levels(a) => cmd::levels::run(a, &ctx),
         Command::Remesh(a) => cmd::remesh::run(a, &ctx),
+        Command::View(a) => cmd::view::run(a, &ctx),
         Command::Demo(a) => cmd::demo::run(a, &ctx),
         Command::Fixtures(a) => cmd::fixtures::run(a, &ctx),
     };

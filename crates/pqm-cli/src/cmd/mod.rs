@@ -10,3 +10,4 @@ pub mod info;
 pub mod levels;
 pub mod remesh;
 pub mod stats;
+pub mod view;

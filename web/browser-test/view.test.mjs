@@ -1,0 +1,149 @@
+// `pqm view` in a real browser (Debian chromium driven by playwright-core):
+// a real shared mesh is encoded, served, streamed into the page and drawn.
+// Fails (never skips) when chromium or the pqm binary is missing, with a
+// message saying how to get them.
+import { after, before, test } from 'node:test';
+import assert from 'node:assert/strict';
+import { existsSync, mkdirSync, writeFileSync } from 'node:fs';
+import path from 'node:path';
+import {
+  ARTIFACTS,
+  SHARED_MESHES,
+  countDrawnPixels,
+  findChromium,
+  findPqm,
+  launchChromium,
+  runPqm,
+  startView,
+  tempDir,
+} from './harness.mjs';
+
+/** The page's background (viewer.js BACKGROUND = 0x1d2026). */
+const BACKGROUND = [0x1d, 0x20, 0x26];
+/** The mesh must cover at least this fraction of the canvas (the cow covers ~15 %). */
+const MIN_DRAWN = 0.03;
+
+const number = (text) => Number(text.replace(/[^0-9]/g, ''));
+
+// One encoded file and one browser for both tests.
+let pqm;
+let info;
+let file;
+let browser;
+let tmp;
+after(async () => {
+  await browser?.close();
+  tmp?.remove();
+});
+before(async () => {
+  findChromium(); // fail first, and clearly, when the browser is missing
+  pqm = findPqm();
+  const mesh = path.join(SHARED_MESHES, 'quad', 'spot_quadrangulated.obj');
+  assert.ok(existsSync(mesh), `shared mesh missing: ${mesh} (set PQM_SHARED_MESHES)`);
+  tmp = tempDir('pqm-view-test-');
+  file = path.join(tmp.dir, 'spot.pqm');
+  runPqm(pqm, ['-q', 'encode', mesh, '-o', file]);
+  info = JSON.parse(runPqm(pqm, ['--json', 'info', file]));
+  assert.ok(info.final_faces > info.base_faces, 'the file refines');
+  browser = await launchChromium();
+});
+
+/** Opens the viewer on a fresh page; collects page errors and any request outside the server. */
+async function openViewer(t, server) {
+  const page = await browser.newPage({ viewport: { width: 800, height: 600 } });
+  t.after(() => page.close());
+  const problems = [];
+  page.on('pageerror', (e) => problems.push(e.message));
+  page.on('requestfailed', (r) => problems.push(`request failed: ${r.url()}: ${r.failure()?.errorText}`));
+  // Offline: nothing but the local server may be asked for anything.
+  const origin = new URL(server.url).origin;
+  page.on('request', (r) => {
+    if (!r.url().startsWith(origin) && !r.url().startsWith('data:')) problems.push(`external request: ${r.url()}`);
+  });
+  await page.goto(server.url);
+  await page.waitForFunction(() => window.pqmViewer && (window.pqmViewer.failed || window.pqmViewer.fullMs !== null), null, {
+    timeout: 120_000,
+  });
+  const state = await page.evaluate(() => ({ ...window.pqmViewer }));
+  assert.equal(state.failed, null, `the page failed: ${state.failed}`);
+  assert.deepEqual(problems, []);
+  return { page, state, problems };
+}
+
+test('pqm view streams a real mesh to its full level, draws it, and the slider coarsens to the base', { timeout: 240_000 }, async (t) => {
+  const server = await startView(pqm, file);
+  t.after(server.stop);
+  const { page, state: s, problems: pageErrors } = await openViewer(t, server);
+
+  // full level reached: the figures shown agree with `pqm info`
+  assert.equal(s.level, s.levels);
+  assert.equal(s.levels, info.records);
+  assert.equal(s.faces, info.final_faces);
+  assert.equal(number(await page.textContent('#faces')), info.final_faces);
+  assert.equal(s.bytes, info.file_bytes);
+  assert.match(await page.textContent('#bytes'), new RegExp(info.file_bytes.toLocaleString('en-US')));
+  assert.equal(await page.textContent('#error'), '0'); // the full level is exact (up to quantization)
+
+  mkdirSync(ARTIFACTS, { recursive: true });
+  writeFileSync(path.join(ARTIFACTS, 'view.png'), await page.screenshot());
+  const drawn = async (name) => {
+    // count on a screenshot without the panel, so only the mesh differs from the background
+    await page.evaluate(() => (document.getElementById('panel').style.visibility = 'hidden'));
+    const png = await page.screenshot();
+    await page.evaluate(() => (document.getElementById('panel').style.visibility = ''));
+    writeFileSync(path.join(ARTIFACTS, name), png);
+    return countDrawnPixels(page, png, BACKGROUND);
+  };
+  const full = await drawn('view-full-mesh.png');
+  assert.ok(full.differ / full.total > MIN_DRAWN, `canvas looks blank: ${full.differ} of ${full.total} pixels drawn`);
+
+  // the wireframe toggle shows the quad edges
+  const frames = await page.evaluate(() => window.pqmViewer.frames);
+  await page.click('#wireframe');
+  assert.equal(await page.evaluate(() => window.pqmViewer.wireframe), true);
+  await page.waitForFunction((f) => window.pqmViewer.frames > f, frames);
+  writeFileSync(path.join(ARTIFACTS, 'view-wireframe.png'), await page.screenshot());
+  await page.click('#wireframe');
+
+  // slider to the start (keyboard Home, as a user would): the base mesh
+  const frames2 = await page.evaluate(() => window.pqmViewer.frames);
+  await page.focus('#level-slider');
+  await page.keyboard.press('Home');
+  await page.waitForFunction(() => window.pqmViewer.level === 0);
+  assert.equal(number(await page.textContent('#faces')), info.base_faces);
+  assert.equal(await page.evaluate(() => window.pqmViewer.faces), info.base_faces);
+  const baseError = Number((await page.textContent('#error')).split(' ')[0]);
+  assert.ok(baseError > 0, 'the base level has a positive error bound');
+  await page.waitForFunction((f) => window.pqmViewer.frames > f, frames2);
+  const base = await drawn('view-base.png');
+  assert.ok(base.differ / base.total > MIN_DRAWN, `base mesh canvas looks blank: ${base.differ} of ${base.total}`);
+
+  // and back to the end refines again (hiding the panel for the screenshot
+  // took the focus away)
+  await page.focus('#level-slider');
+  await page.keyboard.press('End');
+  await page.waitForFunction((n) => window.pqmViewer.faces === n, info.final_faces);
+  assert.deepEqual(pageErrors, []);
+});
+
+test('over a slow link the page refines while the file streams', { timeout: 240_000 }, async (t) => {
+  // 80 kB at 48 KiB/s: about 1.6 s of streaming, many reads
+  const server = await startView(pqm, file, ['--throttle', '48']);
+  t.after(server.stop);
+  const { state } = await openViewer(t, server);
+  const tl = state.timeline;
+  assert.ok(tl.length >= 3, `only ${tl.length} level changes while streaming`);
+  assert.equal(tl[0].faces, info.base_faces, 'the base mesh is shown first');
+  assert.equal(tl[0].level, 0);
+  assert.ok(tl[0].bytes < info.file_bytes / 2, `the base mesh waited for ${tl[0].bytes} bytes`);
+  for (let i = 1; i < tl.length; i++) {
+    assert.ok(tl[i].level > tl[i - 1].level, 'levels only go up while following the stream');
+    assert.ok(tl[i].faces >= tl[i - 1].faces);
+  }
+  assert.ok(
+    tl.some((e) => e.faces > info.base_faces && e.faces < info.final_faces && e.bytes < info.file_bytes),
+    'an intermediate level was shown before the file ended',
+  );
+  assert.equal(tl[tl.length - 1].faces, info.final_faces);
+  assert.ok(state.firstPixelsMs < state.fullMs, 'first pixels came before the full mesh');
+});

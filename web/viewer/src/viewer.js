@@ -1,0 +1,271 @@
+/**
+ * The page `pqm view` serves: streams `mesh.pqm` with `fetch()` and a
+ * `ReadableStream` reader into a `PQMProgressiveMesh`, refining as chunks
+ * complete, and draws it with three.js.
+ *
+ * Controls: a level slider (moving it left coarsens; while it sits at the
+ * right end the mesh follows the stream), orbit controls (drag / wheel), a
+ * wireframe toggle (the quad edges from `pqm-three`, no diagonals). Live
+ * figures: faces, level, bytes received, error bound of the current level
+ * (a fraction of the bounding-box diagonal, from the chunk table).
+ *
+ * Opened as `/?glb`, the page instead loads `/compare.glb` (served with
+ * `pqm view --compare`) with three's `GLTFLoader` — the baseline of the
+ * slow-link benchmark, drawn with the same camera, lights and material.
+ *
+ * State for tests and benchmarks is `window.pqmViewer` (see `state` below);
+ * times are `performance.now()` milliseconds since navigation start.
+ *
+ * Built into `../dist/viewer.js` by `npm run build:viewer` (esbuild, see
+ * `../build.mjs`); the Rust binary embeds that file.
+ */
+import * as THREE from 'three';
+import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
+import { PqmDecoder } from 'pqm-decoder';
+import { PQMProgressiveMesh } from 'pqm-three';
+
+/** Background colour; the browser test counts pixels that differ from it. */
+const BACKGROUND = 0x1d2026;
+
+const state = {
+  /** 'pqm' (streaming) or 'glb' (baseline). */
+  mode: new URLSearchParams(location.search).has('glb') ? 'glb' : 'pqm',
+  /** Faces drawn now (quads; triangles in glb mode). */
+  faces: 0,
+  baseFaces: null,
+  finalFaces: null,
+  /** Current level and the file's finest level (records). */
+  level: null,
+  levels: null,
+  /** Deepest level decoded so far. */
+  deepestLevel: null,
+  /** Bytes received so far and the Content-Length. */
+  bytes: 0,
+  totalBytes: null,
+  /** Error bound of the current level (fraction of the bbox diagonal). */
+  error: null,
+  wireframe: false,
+  /** The whole file arrived and was decoded. */
+  done: false,
+  /** An error message if loading failed. */
+  failed: null,
+  /** When the first frame with the mesh was drawn, and the first at the finest level. */
+  firstPixelsMs: null,
+  fullMs: null,
+  frames: 0,
+  /** While streaming: `{ms, bytes, level, faces}` after each read that changed the level. */
+  timeline: [],
+};
+window.pqmViewer = state;
+
+const $ = (id) => document.getElementById(id);
+const fmt = (n) => n.toLocaleString('en-US');
+
+// ---- scene -------------------------------------------------------------------
+
+const container = $('view');
+const renderer = new THREE.WebGLRenderer({ antialias: true });
+renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
+renderer.setSize(container.clientWidth, container.clientHeight);
+container.appendChild(renderer.domElement);
+
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(BACKGROUND);
+const camera = new THREE.PerspectiveCamera(40, container.clientWidth / container.clientHeight, 0.001, 1000);
+scene.add(camera);
+scene.add(new THREE.HemisphereLight(0xffffff, 0x404050, 1.2));
+const key = new THREE.DirectionalLight(0xffffff, 1.6);
+key.position.set(1, 2, 3);
+camera.add(key); // the light follows the view, so every side is lit when orbiting
+
+const controls = new OrbitControls(camera, renderer.domElement);
+controls.addEventListener('change', () => requestRender());
+
+const surfaceMaterial = new THREE.MeshStandardMaterial({
+  color: 0xd8c7a8,
+  roughness: 0.75,
+  metalness: 0.0,
+  flatShading: true, // the progressive geometry has no normals (they change per level)
+  side: THREE.DoubleSide,
+  polygonOffset: true, // keeps the wireframe in front of the faces it outlines
+  polygonOffsetFactor: 1,
+  polygonOffsetUnits: 1,
+});
+const wireMaterial = new THREE.LineBasicMaterial({ color: 0x10131a });
+
+/** Points the camera at a box (the header's, which holds every level). */
+function frame(box) {
+  const sphere = box.getBoundingSphere(new THREE.Sphere());
+  const r = sphere.radius || 1;
+  const dist = (1.15 * r) / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2));
+  camera.position.copy(sphere.center).add(new THREE.Vector3(-0.6, 0.3, -1).normalize().multiplyScalar(dist));
+  camera.near = dist / 100;
+  camera.far = dist * 100;
+  camera.updateProjectionMatrix();
+  controls.target.copy(sphere.center);
+  controls.update();
+}
+
+let renderQueued = false;
+/** Draws one frame on the next animation frame (rendering is on demand). */
+function requestRender() {
+  if (renderQueued) return;
+  renderQueued = true;
+  requestAnimationFrame(() => {
+    renderQueued = false;
+    renderer.render(scene, camera);
+    state.frames++;
+    const now = performance.now();
+    if (state.faces > 0 && state.firstPixelsMs === null) state.firstPixelsMs = now;
+    if (state.done && state.fullMs === null && state.level === state.levels) state.fullMs = now;
+  });
+}
+
+window.addEventListener('resize', () => {
+  camera.aspect = container.clientWidth / container.clientHeight;
+  camera.updateProjectionMatrix();
+  renderer.setSize(container.clientWidth, container.clientHeight);
+  requestRender();
+});
+
+function setStatus(text, failed = false) {
+  const el = $('status');
+  el.textContent = text;
+  el.className = failed ? 'failed' : '';
+}
+
+function fail(e) {
+  state.failed = String(e && e.message ? e.message : e);
+  setStatus(`failed: ${state.failed}`, true);
+  console.error(e);
+}
+
+// ---- .pqm streaming ------------------------------------------------------------
+
+let pm = null;
+let lines = null;
+/** True while the slider sits at the deepest level: new chunks refine the mesh. */
+let follow = true;
+const slider = $('level-slider');
+const wireToggle = $('wireframe');
+
+/** Error bound of the current level: that of the last chunk boundary at or before it. */
+function levelError(dec) {
+  let e = dec.header.baseError;
+  for (const c of dec.chunks) {
+    if (c.level > dec.level) break;
+    e = c.error;
+  }
+  return e;
+}
+
+function updatePanel() {
+  const dec = pm && pm.decoder;
+  if (dec && dec.deepestLevel !== null) {
+    state.faces = dec.faceCount;
+    state.level = dec.level;
+    state.deepestLevel = dec.deepestLevel;
+    state.error = levelError(dec);
+    slider.max = String(dec.deepestLevel);
+    slider.value = String(dec.level);
+    slider.disabled = false;
+  }
+  $('faces').textContent = state.faces ? fmt(state.faces) : '–';
+  $('level').textContent = state.level === null ? '–' : `${fmt(state.level)} / ${fmt(state.levels ?? 0)}`;
+  const pct = state.totalBytes ? ` (${Math.round((100 * state.bytes) / state.totalBytes)}%)` : '';
+  $('bytes').textContent = `${fmt(state.bytes)}${state.totalBytes ? ` / ${fmt(state.totalBytes)}` : ''}${pct}`;
+  $('error').textContent = state.error === null ? '–' : state.error === 0 ? '0' : `${state.error.toExponential(2)} × diag`;
+}
+
+async function streamPqm() {
+  const res = await fetch('mesh.pqm');
+  if (!res.ok || !res.body) throw new Error(`mesh.pqm: HTTP ${res.status}`);
+  state.totalBytes = Number(res.headers.get('Content-Length')) || null;
+  pm = new PQMProgressiveMesh(new PqmDecoder(), { autoRefine: false });
+  const dec = pm.decoder;
+  const reader = res.body.getReader();
+  setStatus('streaming…');
+  for (;;) {
+    const { done, value } = await reader.read();
+    if (done) break;
+    state.bytes += value.length;
+    const events = pm.push(value);
+    for (const ev of events) {
+      if (ev.type === 'headerReady') {
+        const h = dec.header;
+        state.baseFaces = h.baseFaceCount;
+        state.finalFaces = h.finalFaceCount;
+        state.levels = dec.finalLevel;
+        frame(pm.geometry.boundingBox);
+      } else if (ev.type === 'baseMeshReady') {
+        scene.add(new THREE.Mesh(pm.geometry, surfaceMaterial));
+        lines = new THREE.LineSegments(pm.wireframeGeometry, wireMaterial);
+        lines.visible = wireToggle.checked;
+        scene.add(lines);
+      }
+    }
+    if (follow && events.some((e) => e.type === 'chunkReady')) pm.refineTo({ level: dec.deepestLevel });
+    const before = state.level;
+    updatePanel();
+    if (state.level !== before) {
+      state.timeline.push({ ms: performance.now(), bytes: state.bytes, level: state.level, faces: state.faces });
+    }
+    requestRender();
+  }
+  dec.end(); // throws 'truncated' naming the missing section if the file ended early
+  state.done = true;
+  updatePanel();
+  setStatus(`complete: ${fmt(state.finalFaces)} faces in ${fmt(state.bytes)} bytes`);
+  requestRender();
+}
+
+slider.addEventListener('input', () => {
+  if (!pm || pm.decoder.deepestLevel === null) return;
+  const v = Number(slider.value);
+  follow = v >= pm.decoder.deepestLevel;
+  pm.setLevel({ level: v });
+  updatePanel();
+  requestRender();
+});
+
+wireToggle.addEventListener('change', () => {
+  state.wireframe = wireToggle.checked;
+  if (lines) lines.visible = wireToggle.checked;
+  requestRender();
+});
+
+// ---- baseline: the finest level as a plain GLB --------------------------------
+
+async function loadGlb() {
+  slider.disabled = true;
+  wireToggle.disabled = true;
+  setStatus('loading compare.glb…');
+  const gltf = await new GLTFLoader().loadAsync('compare.glb', (p) => {
+    state.bytes = p.loaded;
+    if (p.total) state.totalBytes = p.total;
+    updatePanel();
+  });
+  let triangles = 0;
+  gltf.scene.traverse((o) => {
+    if (o.isMesh) {
+      o.material = surfaceMaterial;
+      const g = o.geometry;
+      triangles += (g.index ? g.index.count : g.attributes.position.count) / 3;
+    }
+  });
+  scene.add(gltf.scene);
+  frame(new THREE.Box3().setFromObject(gltf.scene));
+  state.faces = triangles;
+  state.finalFaces = triangles;
+  state.level = state.levels = 0;
+  state.done = true;
+  updatePanel();
+  $('level').textContent = 'GLB (triangles)';
+  setStatus(`compare.glb: ${fmt(triangles)} triangles in ${fmt(state.bytes)} bytes`);
+  requestRender();
+}
+
+updatePanel();
+requestRender();
+(state.mode === 'glb' ? loadGlb() : streamPqm()).catch(fail);
