@@ -295,15 +295,19 @@ function decodeRecord(ctx) {
   }
 }
 
-/** Reads three residuals and adds them to `(px, py, pz)`; checks the range. */
-function readCode(ctx, px, py, pz, what) {
+/**
+ * Reads three residuals and adds them to `(px, py, pz)`; checks the range.
+ * The message names `${what} ${id}${suffix}`, built only on failure (this
+ * runs once per new or moved vertex: no string work on the good path).
+ */
+function readCode(ctx, px, py, pz, what, id, suffix) {
   const p = ctx.pos;
   const x = px + p.s();
   const y = py + p.s();
   const z = pz + p.s();
   const qmax = ctx.qmax;
   if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
-    throw `${what} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+    throw `${what} ${id}${suffix} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
   }
   ctx.cx = x;
   ctx.cy = y;
@@ -474,7 +478,7 @@ function decodeGeneral(ctx) {
     ctx.vcur = v;
     prevMoved = v;
     const q = st.q;
-    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], `moved vertex ${v}`);
+    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], 'moved vertex', v, '');
     logMove(ctx, v);
   }
 
@@ -509,11 +513,11 @@ function decodeGeneral(ctx) {
     for (let c = 0; c < 4; c++) {
       rwNew[4 * i + c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, f) : f[s4 + c];
     }
-    checkDistinct(rwNew, 4 * i, `rewritten slot ${slots[i]}`);
+    checkDistinct(rwNew, 4 * i, 'rewritten slot', slots[i]);
   }
   for (let i = 0; i < nApp; i++) {
     for (let c = 0; c < 4; c++) app[4 * i + c] = cornerCode(ctx, V, nNew, nRw, f);
-    checkDistinct(app, 4 * i, `appended quad ${i}`);
+    checkDistinct(app, 4 * i, 'appended quad', i);
   }
 
   // 6. new vertex codes. First find, for each new vertex, the first quad
@@ -593,7 +597,7 @@ function decodeGeneral(ctx) {
           px = py = pz = ctx.half;
         }
       }
-      readCode(ctx, px, py, pz, `new vertex ${x}`);
+      readCode(ctx, px, py, pz, 'new vertex', x, '');
       appendVertex(ctx);
     }
   }
@@ -607,10 +611,11 @@ function decodeGeneral(ctx) {
   }
 }
 
-function checkDistinct(a, o, what) {
+/** Throws unless quad `a[o .. o+4)` has four distinct vertices (message: `${what} ${id}`). */
+function checkDistinct(a, o, what, id) {
   const x = a[o], y = a[o + 1], z = a[o + 2], w = a[o + 3];
   if (x === y || x === z || x === w || y === z || y === w || z === w) {
-    throw `${what} repeats a vertex (${x} ${y} ${z} ${w})`;
+    throw `${what} ${id} repeats a vertex (${x} ${y} ${z} ${w})`;
   }
 }
 
@@ -755,15 +760,21 @@ function decodeSplit(ctx, sym) {
   const mx = q[3 * m], my = q[3 * m + 1], mz = q[3 * m + 2];
   let ax = mx, ay = my, az = mz;
   if (sym & 0x40) {
-    const mean = (s, n, own) => (n === 0 ? own : Math.floor(s / n));
-    const ma = [mean(sax, nA, mx), mean(say, nA, my), mean(saz, nA, mz)];
-    const mc = [mean(scx, nC, mx), mean(scy, nC, my), mean(scz, nC, mz)];
+    // side means (m's own code for an empty side), without temporaries
+    const max = nA === 0 ? mx : Math.floor(sax / nA);
+    const may = nA === 0 ? my : Math.floor(say / nA);
+    const maz = nA === 0 ? mz : Math.floor(saz / nA);
+    const mcx = nC === 0 ? mx : Math.floor(scx / nC);
+    const mcy = nC === 0 ? my : Math.floor(scy / nC);
+    const mcz = nC === 0 ? mz : Math.floor(scz / nC);
     readCode(
       ctx,
-      clamp(mx + Math.floor((ma[0] - mc[0]) / 4), qmax),
-      clamp(my + Math.floor((ma[1] - mc[1]) / 4), qmax),
-      clamp(mz + Math.floor((ma[2] - mc[2]) / 4), qmax),
-      `split vertex ${m} (a)`,
+      clamp(mx + Math.floor((max - mcx) / 4), qmax),
+      clamp(my + Math.floor((may - mcy) / 4), qmax),
+      clamp(mz + Math.floor((maz - mcz) / 4), qmax),
+      'split vertex',
+      m,
+      ' (a)',
     );
     ax = ctx.cx;
     ay = ctx.cy;
@@ -784,7 +795,7 @@ function decodeSplit(ctx, sym) {
     py = clamp(q[3 * b + 1] + q[3 * d + 1] - ay, qmax);
     pz = clamp(q[3 * b + 2] + q[3 * d + 2] - az, qmax);
   }
-  readCode(ctx, px, py, pz, `split vertex ${m} (c)`);
+  readCode(ctx, px, py, pz, 'split vertex', m, ' (c)');
   appendVertex(ctx);
 
   // 5. the explicit record: side-C slots by ascending slot, m → c.
