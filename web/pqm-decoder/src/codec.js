@@ -13,11 +13,25 @@ import { badRecord, invalid } from './errors.js';
 
 /**
  * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
- * slot) and the vertex→face adjacency as doubly linked lists of *corners*
- * (corner `4 s + k` is corner `k` of slot `s`): `head[v]` is the first corner
- * at vertex `v`, `next` / `prev` link the corners of one vertex (−1 ends a
- * list). Flat typed arrays: no per-vertex objects for the garbage collector,
- * and rewriting a corner is O(1).
+ * slot) and the vertex→face adjacency that the split form's star walk
+ * needs (spec §7.5), as lists of *corners* (corner `4 s + k` is corner `k`
+ * of slot `s`) in a node pool: `head[v]` is the first node of vertex `v`,
+ * node `n` holds corner `nodeC[n]` and the next node `nodeN[n]` (−1 ends a
+ * list).
+ *
+ * The lists are append-only with lazy deletion: when a corner changes
+ * vertex, a node is added to the new vertex's list and the old vertex's
+ * node stays, stale, until a star walk of that vertex drops it (a node is
+ * live iff `f[nodeC[n]]` is still its vertex; a corner that returns to a
+ * vertex can be listed twice, the walk keeps one). Why: general-form
+ * records (nearly all records of real files) rewrite corners but never
+ * walk a star, so a rewrite costs one list push (one random access, the
+ * head) instead of an unlink and a link in doubly linked lists (four).
+ * When the pool is full and at least 3/4 of it would be stale-or-excess
+ * (over 1.5 × the live corners), it is rebuilt from `f` in place (O(corners),
+ * paid for by the pushes since the last rebuild), so it stays below
+ * 1.5 × 4 × final faces + 1024 nodes. Flat typed arrays: no per-vertex
+ * objects for the garbage collector.
  */
 export class Frontier {
   constructor() {
@@ -26,29 +40,62 @@ export class Frontier {
     this.f = new Uint32Array(0);
     this.nf = 0;
     this.head = new Int32Array(0);
-    this.next = new Int32Array(0);
-    this.prev = new Int32Array(0);
+    this.nodeC = new Int32Array(0);
+    this.nodeN = new Int32Array(0);
+    this.nNodes = 0;
     /** Final counts of the file: capacities never grow beyond them. */
     this.maxV = Infinity;
     this.maxF = Infinity;
   }
 
-  /** Adds corner `c` to the list of vertex `v`. */
+  /**
+   * Records that corner `c` now holds vertex `v`. The caller has already
+   * set `f[c] = v` with `c < 4 nf` (a rebuild reads `f`).
+   */
   link(c, v) {
-    const h = this.head[v];
-    this.next[c] = h;
-    this.prev[c] = -1;
-    if (h >= 0) this.prev[h] = c;
-    this.head[v] = c;
+    const n = this.nNodes;
+    if (n === this.nodeC.length && this._poolFull()) return; // rebuilt from f: c is listed
+    this.nodeC[n] = c;
+    this.nodeN[n] = this.head[v];
+    this.head[v] = n;
+    this.nNodes = n + 1;
   }
 
-  /** Removes corner `c` from the list of vertex `v`. */
-  unlink(c, v) {
-    const p = this.prev[c];
-    const n = this.next[c];
-    if (p >= 0) this.next[p] = n;
-    else this.head[v] = n;
-    if (n >= 0) this.prev[n] = p;
+  /**
+   * The pool is full: rebuilds it from `f` (returns true) when it holds
+   * more than 1.5 nodes per live corner, else grows it (returns false).
+   */
+  _poolFull() {
+    const live = 4 * this.nf;
+    if (this.nNodes >= live + (live >> 1) + 1024) {
+      this.rebuild();
+      return true;
+    }
+    const max = 6 * this.maxF + 1024;
+    this.nodeC = ensure(this.nodeC, this.nNodes + 1, this.nNodes, max);
+    this.nodeN = ensure(this.nodeN, this.nNodes + 1, this.nNodes, max);
+    return false;
+  }
+
+  /** Lists every corner of `f` afresh (no stale nodes). */
+  rebuild() {
+    const live = 4 * this.nf;
+    if (this.nodeC.length < live) {
+      this.nodeC = new Int32Array(live + (live >> 1) + 1024);
+      this.nodeN = new Int32Array(this.nodeC.length);
+    }
+    const head = this.head;
+    head.fill(-1, 0, this.nv);
+    const f = this.f;
+    const nodeC = this.nodeC;
+    const nodeN = this.nodeN;
+    for (let c = 0; c < live; c++) {
+      const v = f[c];
+      nodeC[c] = c;
+      nodeN[c] = head[v];
+      head[v] = c;
+    }
+    this.nNodes = live;
   }
 
   /** Room for `nv` vertices and `nf` slots. */
@@ -58,10 +105,6 @@ export class Frontier {
     if (3 * nv > this.q.length) this.q = ensure(this.q, 3 * nv, 3 * this.nv, 3 * mv);
     if (nv > this.head.length) this.head = ensure(this.head, nv, this.nv, mv);
     if (4 * nf > this.f.length) this.f = ensure(this.f, 4 * nf, 4 * this.nf, 4 * mf);
-    if (4 * nf > this.next.length) {
-      this.next = ensure(this.next, 4 * nf, 4 * this.nf, 4 * mf);
-      this.prev = ensure(this.prev, 4 * nf, 4 * this.nf, 4 * mf);
-    }
   }
 }
 
@@ -169,10 +212,8 @@ export function decodeBase(payload, nv, nf, qmax) {
   }
   st.nv = nv;
   st.nf = nf;
-  st.head = new Int32Array(nv).fill(-1);
-  st.next = new Int32Array(4 * nf);
-  st.prev = new Int32Array(4 * nf);
-  for (let c = 0; c < 4 * nf; c++) st.link(c, st.f[c]);
+  st.head = new Int32Array(nv);
+  st.rebuild();
   return st;
 }
 
@@ -363,11 +404,9 @@ function rewriteSlot(ctx, slot, a, b, c, d) {
   relink(st, s4 + 3, d);
 }
 
-/** Sets corner `c` to vertex `v`, moving it between adjacency lists. */
+/** Sets corner `c` to vertex `v`, listing it at `v` (the old node goes stale). */
 function relink(st, c, v) {
-  const old = st.f[c];
-  if (old === v) return;
-  st.unlink(c, old);
+  if (st.f[c] === v) return;
   st.f[c] = v;
   st.link(c, v);
 }
@@ -643,21 +682,36 @@ function decodeSplit(ctx, sym) {
   ctx.vcur = m;
 
   // 2. canonical star of m: S sorted by slot (insertion sort: K is small).
+  // The walk drops the stale and repeated nodes of m's list (see Frontier).
   const f = st.f;
   const S = sS;
+  const nodeC = st.nodeC;
+  const nodeN = st.nodeN;
   let K = 0;
-  for (let c = st.head[m]; c >= 0; c = st.next[c]) {
-    if (K === 255) throw `vertex ${m} is in more than 255 faces`;
+  let kept = -1; // last node kept
+  for (let n = st.head[m]; n >= 0; ) {
+    const c = nodeC[n];
+    const next = nodeN[n];
     const slot = c >> 2;
-    const k = c & 3;
-    let i = K++;
-    while (i > 0 && S[i - 1] > slot) {
-      S[i] = S[i - 1];
-      sK[i] = sK[i - 1];
-      i--;
+    let i = K;
+    while (i > 0 && S[i - 1] > slot) i--;
+    if (f[c] !== m || (i > 0 && S[i - 1] === slot)) {
+      // stale (the corner moved on) or a repeat of a kept corner: unlink
+      if (kept < 0) st.head[m] = next;
+      else nodeN[kept] = next;
+      n = next;
+      continue;
+    }
+    if (K === 255) throw `vertex ${m} is in more than 255 faces`;
+    for (let j = K; j > i; j--) {
+      S[j] = S[j - 1];
+      sK[j] = sK[j - 1];
     }
     S[i] = slot;
-    sK[i] = k;
+    sK[i] = c & 3;
+    K++;
+    kept = n;
+    n = next;
   }
   if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
