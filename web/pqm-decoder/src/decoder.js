@@ -162,8 +162,8 @@ export class PqmDecoder {
     this._quads = new Uint32Array(0);
     this._tris = new Uint32Array(0);
     // _goTo scratch: marks per vertex / slot, and the touched ids
-    this._vMark = null;
-    this._fMark = null;
+    this._vMark = new Uint32Array(0);
+    this._fMark = new Uint32Array(0);
     this._epoch = 0;
     this._movedScratch = new Uint32Array(64);
     this._rwScratch = new Uint32Array(64);
@@ -743,7 +743,7 @@ export class PqmDecoder {
     // Marks: a vertex / slot below vMin / fMin touched by a logged entry is
     // collected once (stamp = this move's epoch), so repeated entries cost
     // no sort or dedupe later.
-    const epoch = this._nextEpoch();
+    const epoch = this._nextEpoch(vMin, fMin);
     const vMark = this._vMark;
     const fMark = this._fMark;
     let moved = this._movedScratch;
@@ -844,16 +844,15 @@ export class PqmDecoder {
   }
 
   /**
-   * A fresh stamp for the vertex / slot marks, sized to the file's final
-   * counts on first use (the header is checked against the limits). When
-   * the counter wraps the marks are cleared.
+   * A fresh stamp for the vertex / slot marks, which grow to hold `nv`
+   * vertices and `nf` slots (like every buffer: with what was decoded, not
+   * with what the header claims; new marks are 0, never a live stamp).
+   * When the counter wraps the marks are cleared.
    */
-  _nextEpoch() {
+  _nextEpoch(nv, nf) {
     const h = this._header;
-    if (this._vMark === null) {
-      this._vMark = new Uint32Array(h.finalVertexCount);
-      this._fMark = new Uint32Array(h.finalFaceCount);
-    }
+    this._vMark = ensure(this._vMark, nv, this._vMark.length, h.finalVertexCount);
+    this._fMark = ensure(this._fMark, nf, this._fMark.length, h.finalFaceCount);
     if (this._epoch === 0xffffffff) {
       this._vMark.fill(0);
       this._fMark.fill(0);
