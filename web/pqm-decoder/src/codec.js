@@ -27,11 +27,12 @@ import { badRecord, invalid } from './errors.js';
  * records (nearly all records of real files) rewrite corners but never
  * walk a star, so a rewrite costs one list push (one random access, the
  * head) instead of an unlink and a link in doubly linked lists (four).
- * When the pool is full and at least 3/4 of it would be stale-or-excess
- * (over 1.5 × the live corners), it is rebuilt from `f` in place (O(corners),
- * paid for by the pushes since the last rebuild), so it stays below
- * 1.5 × 4 × final faces + 1024 nodes. Flat typed arrays: no per-vertex
- * objects for the garbage collector.
+ * When the pool is full and holds more than 1.5 nodes per live corner
+ * (+ 1024), it is rebuilt from `f` in place: O(live corners), paid for by
+ * the at least live / 2 pushes since the last rebuild. Its capacity grows
+ * geometrically up to 1.5 × 4 × final faces + 1024 nodes, where it is
+ * always rebuilt when full. Flat typed arrays: no per-vertex objects for
+ * the garbage collector.
  */
 export class Frontier {
   constructor() {
@@ -96,6 +97,49 @@ export class Frontier {
       head[v] = c;
     }
     this.nNodes = live;
+  }
+
+  /**
+   * The star of vertex `m`: the slots holding it, ascending, into `slots`,
+   * and the corner (0..3) of `m` in each into `corners`; returns their
+   * number. Drops the stale and repeated nodes of m's list on the way.
+   * Throws a message string past 255 faces (spec §7.5: K ≤ 255).
+   * @param {number} m
+   * @param {Int32Array} slots at least 255 entries
+   * @param {Int32Array} corners at least 255 entries
+   */
+  star(m, slots, corners) {
+    const f = this.f;
+    const nodeC = this.nodeC;
+    const nodeN = this.nodeN;
+    let K = 0;
+    let kept = -1; // last node kept
+    for (let n = this.head[m]; n >= 0; ) {
+      const c = nodeC[n];
+      const next = nodeN[n];
+      const slot = c >> 2;
+      // insertion sort by slot: K is small
+      let i = K;
+      while (i > 0 && slots[i - 1] > slot) i--;
+      if (f[c] !== m || (i > 0 && slots[i - 1] === slot)) {
+        // stale (the corner moved on) or a repeat of a kept corner: unlink
+        if (kept < 0) this.head[m] = next;
+        else nodeN[kept] = next;
+        n = next;
+        continue;
+      }
+      if (K === 255) throw `vertex ${m} is in more than 255 faces`;
+      for (let j = K; j > i; j--) {
+        slots[j] = slots[j - 1];
+        corners[j] = corners[j - 1];
+      }
+      slots[i] = slot;
+      corners[i] = c & 3;
+      K++;
+      kept = n;
+      n = next;
+    }
+    return K;
   }
 
   /** Room for `nv` vertices and `nf` slots. */
@@ -681,38 +725,10 @@ function decodeSplit(ctx, sym) {
   if (m < 0 || m >= V) throw `split vertex ${m} outside 0..${V}`;
   ctx.vcur = m;
 
-  // 2. canonical star of m: S sorted by slot (insertion sort: K is small).
-  // The walk drops the stale and repeated nodes of m's list (see Frontier).
+  // 2. canonical star of m: S sorted by slot.
   const f = st.f;
   const S = sS;
-  const nodeC = st.nodeC;
-  const nodeN = st.nodeN;
-  let K = 0;
-  let kept = -1; // last node kept
-  for (let n = st.head[m]; n >= 0; ) {
-    const c = nodeC[n];
-    const next = nodeN[n];
-    const slot = c >> 2;
-    let i = K;
-    while (i > 0 && S[i - 1] > slot) i--;
-    if (f[c] !== m || (i > 0 && S[i - 1] === slot)) {
-      // stale (the corner moved on) or a repeat of a kept corner: unlink
-      if (kept < 0) st.head[m] = next;
-      else nodeN[kept] = next;
-      n = next;
-      continue;
-    }
-    if (K === 255) throw `vertex ${m} is in more than 255 faces`;
-    for (let j = K; j > i; j--) {
-      S[j] = S[j - 1];
-      sK[j] = sK[j - 1];
-    }
-    S[i] = slot;
-    sK[i] = c & 3;
-    K++;
-    kept = n;
-    n = next;
-  }
+  const K = st.star(m, S, sK);
   if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
