@@ -69,6 +69,7 @@ export class PqmRangeLoader {
     this.rangeSupported = null;
     /** Every request made: `{range, status, bytes}` (`bytes` = body bytes read). */
     this.requests = [];
+    this._queue = Promise.resolve();
   }
 
   /** True once every byte of the file has been pushed. */
@@ -82,11 +83,19 @@ export class PqmRangeLoader {
    * — and resolves to the decoder. The decoder then holds every level up to
    * the target (call `refineTo(target)` or let a `PQMProgressiveMesh`
    * refine). Reaching the end of the file calls `decoder.end()`, so a
-   * truncated file rejects with a `truncated` error.
+   * truncated file rejects with a `truncated` error. Calls made while
+   * another is running wait for it (one request at a time, so no byte is
+   * pushed twice); a failed call does not stop later ones.
    * @param {object|number|null} [target]
    * @returns {Promise<PqmDecoder>}
    */
-  async load(target = null) {
+  load(target = null) {
+    const run = this._queue.then(() => this._load(target));
+    this._queue = run.catch(() => {});
+    return run;
+  }
+
+  async _load(target) {
     while (!this.decoder.status().headerReady) {
       if (this.complete) this.decoder.end(); // throws 'truncated'
       const n = this.loaded === 0 ? this.firstBytes : this._headerBytesWanted();

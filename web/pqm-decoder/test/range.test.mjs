@@ -151,3 +151,20 @@ test('HTTP errors and truncated files reject', async () => {
     await srv.close();
   }
 });
+
+test('loads started together run one after the other: every byte is sent and pushed once', async () => {
+  const srv = await serve(spot.bytes);
+  try {
+    const src = new PqmRangeLoader(srv.url);
+    const n = [100, 400, 900].map((k) => whole.levelCounts(k)[1]);
+    const decs = await Promise.all(n.map((x) => src.load({ faces: x })));
+    assert.ok(decs.every((d) => d === src.decoder));
+    assert.equal(srv.stats.served, whole.bytesFor({ faces: n[2] }));
+    assert.equal(src.loaded, srv.stats.served);
+    src.decoder.refineTo({ faces: n[2] });
+    whole.setLevel(src.decoder.level);
+    assert.deepEqual(levelDigests(src.decoder), levelDigests(whole));
+  } finally {
+    await srv.close();
+  }
+});
