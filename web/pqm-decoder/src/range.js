@@ -98,11 +98,23 @@ export class PqmRangeLoader {
   async _load(target) {
     while (!this.decoder.status().headerReady) {
       if (this.complete) this.decoder.end(); // throws 'truncated'
-      const n = this.loaded === 0 ? this.firstBytes : this._headerBytesWanted();
-      await this._get(this.loaded, this.loaded + n, target);
+      const before = this.loaded;
+      const n = before === 0 ? this.firstBytes : this._headerBytesWanted();
+      await this._get(before, before + n, target);
+      if (this.loaded === before && !this.complete) {
+        throw new Error(`${this.url}: no bytes at offset ${before} (reading the header)`);
+      }
     }
     const end = this.endFor(target);
-    if (end > this.loaded && !this.complete) await this._get(this.loaded, end, target);
+    // a server may answer a Range with fewer bytes than asked (206 with a
+    // shorter Content-Range): ask again for the rest
+    while (end > this.loaded && !this.complete) {
+      const before = this.loaded;
+      await this._get(this.loaded, end, target);
+      if (this.loaded === before && !this.complete) {
+        throw new Error(`${this.url}: no bytes at offset ${before} (wanted up to ${end})`);
+      }
+    }
     if (this.complete) this.decoder.end();
     return this.decoder;
   }

@@ -122,9 +122,10 @@ export function randomPieces(bytes, rand, maxLen) {
  * Serves `bytes` at /f.pqm: with `ranges`, `Range: bytes=a-b` / `bytes=a-`
  * gets a 206 with exactly those bytes (416 past the end); without, every
  * request gets the whole file with 200. Bodies go out in `piece`-byte
- * writes; `stats.served` counts the body bytes written.
+ * writes; `stats.served` counts the body bytes written. `maxRange` caps the
+ * bytes of one 206 (as some servers do: the client must ask again).
  */
-export async function serveBytes(bytes, { ranges = true, piece = 997 } = {}) {
+export async function serveBytes(bytes, { ranges = true, piece = 997, maxRange = Infinity } = {}) {
   const stats = { served: 0, requests: [] };
   const server = http.createServer((req, res) => {
     const m = /^bytes=(\d+)-(\d*)$/.exec(req.headers.range ?? '');
@@ -136,6 +137,7 @@ export async function serveBytes(bytes, { ranges = true, piece = 997 } = {}) {
     if (ranges && m) {
       a = Number(m[1]);
       b = m[2] === '' ? bytes.length : Math.min(Number(m[2]) + 1, bytes.length);
+      b = Math.min(b, a + maxRange);
       if (a >= bytes.length) {
         res.writeHead(416, { 'Content-Range': `bytes */${bytes.length}` });
         res.end();

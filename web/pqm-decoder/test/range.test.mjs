@@ -168,3 +168,19 @@ test('loads started together run one after the other: every byte is sent and pus
     await srv.close();
   }
 });
+
+test('a server that answers a Range with fewer bytes than asked is asked again for the rest', async () => {
+  const srv = await serve(spot.bytes, { maxRange: 5000 });
+  try {
+    const n = whole.levelCounts(600)[1];
+    const end = whole.bytesFor({ faces: n });
+    const src = new PqmRangeLoader(srv.url, { firstBytes: 100 });
+    const dec = await src.load({ faces: n });
+    assert.equal(srv.stats.served, end, 'every byte once, none past the target');
+    assert.ok(srv.stats.requests.length >= Math.ceil(end / 5000), `${srv.stats.requests.length} requests`);
+    dec.refineTo({ faces: n });
+    assert.equal(dec.level, whole.resolve({ faces: n }));
+  } finally {
+    await srv.close();
+  }
+});
