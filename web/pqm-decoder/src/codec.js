@@ -156,10 +156,14 @@ export class Frontier {
  * Explicit records with undo data, structure-of-arrays (spec §7.1). Level
  * `k` has `vAt[k]` vertices and `fAt[k]` faces; record `k` (from level `k`
  * to `k + 1`) moved the entries `movedAt[k] .. movedAt[k+1]` of `moved`
- * (stride 7: vertex, new code xyz, old code xyz) and rewrote the entries
- * `rwAt[k] .. rwAt[k+1]` of `rw` (stride 9: slot, new quad, old quad).
- * `newCodes` holds the first code of every vertex after the base ones and
- * `app` the first quad of every slot after the base ones.
+ * (stride 4: vertex, code change xyz = new − old) and rewrote the entries
+ * `rwAt[k] .. rwAt[k+1]` of `rw` (stride 5: slot, new XOR old of each
+ * corner). Entries are applied in record order when refining and in
+ * reverse when coarsening, so a change and its inverse are the same data
+ * (add / subtract, XOR): half the memory of storing both states, and
+ * memory traffic is what the decoder waits on. `newCodes` holds the first
+ * code of every vertex after the base ones and `app` the first quad of
+ * every slot after the base ones.
  */
 export class RecordLog {
   constructor() {
@@ -169,9 +173,9 @@ export class RecordLog {
     this.fAt = new Uint32Array(0);
     this.movedAt = new Uint32Array(0);
     this.rwAt = new Uint32Array(0);
-    this.moved = new Uint32Array(0);
+    this.moved = new Int32Array(0);
     this.nMoved = 0;
-    this.rw = new Uint32Array(0);
+    this.rw = new Int32Array(0);
     this.nRw = 0;
     this.newCodes = new Uint32Array(0);
     this.nNew = 0;
@@ -406,16 +410,13 @@ function logMove(ctx, v) {
   const log = ctx.log;
   const q = ctx.st.q;
   const n = log.nMoved;
-  if (7 * (n + 1) > log.moved.length) log.moved = ensure(log.moved, 7 * (n + 1), 7 * n);
+  if (4 * (n + 1) > log.moved.length) log.moved = ensure(log.moved, 4 * (n + 1), 4 * n);
   const m = log.moved;
-  const o = 7 * n;
+  const o = 4 * n;
   m[o] = v;
-  m[o + 1] = ctx.cx;
-  m[o + 2] = ctx.cy;
-  m[o + 3] = ctx.cz;
-  m[o + 4] = q[3 * v];
-  m[o + 5] = q[3 * v + 1];
-  m[o + 6] = q[3 * v + 2];
+  m[o + 1] = ctx.cx - q[3 * v];
+  m[o + 2] = ctx.cy - q[3 * v + 1];
+  m[o + 3] = ctx.cz - q[3 * v + 2];
   log.nMoved = n + 1;
   q[3 * v] = ctx.cx;
   q[3 * v + 1] = ctx.cy;
@@ -428,19 +429,15 @@ function rewriteSlot(ctx, slot, a, b, c, d) {
   const log = ctx.log;
   const f = st.f;
   const n = log.nRw;
-  if (9 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 9 * (n + 1), 9 * n);
+  if (5 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + 1), 5 * n);
   const r = log.rw;
-  const o = 9 * n;
+  const o = 5 * n;
   const s4 = 4 * slot;
   r[o] = slot;
-  r[o + 1] = a;
-  r[o + 2] = b;
-  r[o + 3] = c;
-  r[o + 4] = d;
-  r[o + 5] = f[s4];
-  r[o + 6] = f[s4 + 1];
-  r[o + 7] = f[s4 + 2];
-  r[o + 8] = f[s4 + 3];
+  r[o + 1] = a ^ f[s4];
+  r[o + 2] = b ^ f[s4 + 1];
+  r[o + 3] = c ^ f[s4 + 2];
+  r[o + 4] = d ^ f[s4 + 3];
   log.nRw = n + 1;
   relink(st, s4, a);
   relink(st, s4 + 1, b);

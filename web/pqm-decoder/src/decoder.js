@@ -760,10 +760,10 @@ export class PqmDecoder {
       qq.set(log.newCodes.subarray(3 * (vFrom - bv), 3 * (vTo - bv)), 3 * vFrom);
       quads.set(log.app.subarray(4 * (fFrom - bf), 4 * (fTo - bf)), 4 * fFrom);
       for (let e = log.movedAt[from], end = log.movedAt[to]; e < end; e++) {
-        const v = M[7 * e];
-        qq[3 * v] = M[7 * e + 1];
-        qq[3 * v + 1] = M[7 * e + 2];
-        qq[3 * v + 2] = M[7 * e + 3];
+        const v = M[4 * e];
+        qq[3 * v] += M[4 * e + 1];
+        qq[3 * v + 1] += M[4 * e + 2];
+        qq[3 * v + 2] += M[4 * e + 3];
         if (v < vMin && vMark[v] !== epoch) {
           vMark[v] = epoch;
           if (nMoved === moved.length) moved = this._movedScratch = ensure(moved, nMoved + 1);
@@ -771,11 +771,11 @@ export class PqmDecoder {
         }
       }
       for (let e = log.rwAt[from], end = log.rwAt[to]; e < end; e++) {
-        const s = R[9 * e];
-        quads[4 * s] = R[9 * e + 1];
-        quads[4 * s + 1] = R[9 * e + 2];
-        quads[4 * s + 2] = R[9 * e + 3];
-        quads[4 * s + 3] = R[9 * e + 4];
+        const s = R[5 * e];
+        quads[4 * s] ^= R[5 * e + 1];
+        quads[4 * s + 1] ^= R[5 * e + 2];
+        quads[4 * s + 2] ^= R[5 * e + 3];
+        quads[4 * s + 3] ^= R[5 * e + 4];
         if (s < fMin && fMark[s] !== epoch) {
           fMark[s] = epoch;
           if (nRw === rewritten.length) rewritten = this._rwScratch = ensure(rewritten, nRw + 1);
@@ -789,11 +789,11 @@ export class PqmDecoder {
       // Undo in reverse record order; truncation is implicit (ids ≥ vTo /
       // slots ≥ fTo are never read), so entries of those are skipped.
       for (let e = log.movedAt[from] - 1, end = log.movedAt[to]; e >= end; e--) {
-        const v = M[7 * e];
+        const v = M[4 * e];
         if (v >= vTo) continue;
-        q[3 * v] = M[7 * e + 4];
-        q[3 * v + 1] = M[7 * e + 5];
-        q[3 * v + 2] = M[7 * e + 6];
+        q[3 * v] -= M[4 * e + 1];
+        q[3 * v + 1] -= M[4 * e + 2];
+        q[3 * v + 2] -= M[4 * e + 3];
         if (vMark[v] !== epoch) {
           vMark[v] = epoch;
           if (nMoved === moved.length) moved = this._movedScratch = ensure(moved, nMoved + 1);
@@ -801,12 +801,12 @@ export class PqmDecoder {
         }
       }
       for (let e = log.rwAt[from] - 1, end = log.rwAt[to]; e >= end; e--) {
-        const s = R[9 * e];
+        const s = R[5 * e];
         if (s >= fTo) continue;
-        quads[4 * s] = R[9 * e + 5];
-        quads[4 * s + 1] = R[9 * e + 6];
-        quads[4 * s + 2] = R[9 * e + 7];
-        quads[4 * s + 3] = R[9 * e + 8];
+        quads[4 * s] ^= R[5 * e + 1];
+        quads[4 * s + 1] ^= R[5 * e + 2];
+        quads[4 * s + 2] ^= R[5 * e + 3];
+        quads[4 * s + 3] ^= R[5 * e + 4];
         if (fMark[s] !== epoch) {
           fMark[s] = epoch;
           if (nRw === rewritten.length) rewritten = this._rwScratch = ensure(rewritten, nRw + 1);
