@@ -1,13 +1,20 @@
 // Decode throughput of pqm-decoder in node: faces reconstructed per second,
-// zstd included (push the whole file, then go to the finest level), on the
-// biggest .pqm available — bench/data/*.pqm (written by tools/make-pqm, see
-// README) or else the test files.
+// zstd included (push the whole file into a new decoder, then go to the
+// finest level: positions and triangle indices ready), on the biggest .pqm
+// available — bench/data/*.pqm (written by `bash bench/make-data.sh` or
+// tools/make-pqm, see README) or else the test files — with where the time
+// goes: zstd (fzstd, every frame), CRC-32 (every section), the records
+// (the rest of the push) and the move to the finest level.
 //
 //   node bench/decode.mjs [FILE.pqm ...] [--runs N]
+//
+// Times are medians over --runs runs after a warm-up run, as CPU time
+// (process.cpuUsage: what this process used, so other processes on a busy
+// machine count less) and as wall time. faces = quads of the finest level.
 import { readFileSync, readdirSync, existsSync, statSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { PqmDecoder } from '../pqm-decoder/src/index.js';
+import { PqmDecoder, crc32 } from '../pqm-decoder/src/index.js';
 import { decompressFrame } from '../pqm-decoder/src/zstd.js';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
@@ -23,44 +30,75 @@ if (files.length === 0) {
 }
 
 const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
+const cpuMs = (c) => (c.user + c.system) / 1000;
+
+/** CPU and wall milliseconds of fn(). */
+function measure(fn) {
+  const c0 = process.cpuUsage();
+  const t0 = performance.now();
+  fn();
+  return { wall: performance.now() - t0, cpu: cpuMs(process.cpuUsage(c0)) };
+}
 
 for (const file of files) {
   const bytes = new Uint8Array(readFileSync(file));
+  const probe = new PqmDecoder();
+  probe.push(bytes);
+  const h = probe.header;
+  const sections = [[h.headerLen + h.chunkCount * h.chunkEntryLen + 4, h.baseCompressedLen, h.baseUncompressedLen]];
+  for (const c of probe.chunks) sections.push([c.offset, c.compressedLen, c.uncompressedLen]);
+  const uncompressed = sections.reduce((s, x) => s + x[2], 0);
   let faces = 0;
-  let info = '';
-  const wall = [];
-  const cpu = [];
-  const zstd = [];
-  const stream = [];
+  const m = { total: [], totalWall: [], push: [], level: [], zstd: [], crc: [], pieces: [] };
   for (let r = 0; r < runs + 1; r++) {
-    const c0 = process.cpuUsage();
-    const t0 = performance.now();
-    const d = new PqmDecoder();
-    d.push(bytes);
-    d.setLevel({ level: d.deepestLevel });
-    const t1 = performance.now();
-    const c1 = process.cpuUsage(c0);
+    let d = null;
+    const push = measure(() => {
+      d = new PqmDecoder();
+      d.push(bytes);
+    });
+    const level = measure(() => d.setLevel({ level: d.deepestLevel }));
     faces = d.faceCount;
-    info = `${d.header.baseFaceCount} → ${d.faceCount} faces, ${d.header.recordCount} records, ${d.header.chunkCount} chunks`;
-    // zstd alone: every chunk's frame
-    const t2 = performance.now();
-    for (const c of d.chunks) decompressFrame(bytes.subarray(c.offset, c.end), c.uncompressedLen);
-    const t3 = performance.now();
-    // streamed in 64 KiB pieces
-    const t4 = performance.now();
-    const s = new PqmDecoder();
-    for (let o = 0; o < bytes.length; o += 65536) s.push(bytes.subarray(o, o + 65536));
-    s.setLevel({ level: s.deepestLevel });
-    const t5 = performance.now();
+    d = null;
+    const zstd = measure(() => {
+      for (const [o, n, u] of sections) decompressFrame(bytes.subarray(o, o + n), u);
+    });
+    const crc = measure(() => {
+      for (const [o, n] of sections) crc32(bytes, o, o + n);
+    });
+    const pieces = measure(() => {
+      const s = new PqmDecoder();
+      for (let o = 0; o < bytes.length; o += 65536) s.push(bytes.subarray(o, o + 65536));
+      s.setLevel({ level: s.deepestLevel });
+    });
     if (r === 0) continue; // warm-up
-    wall.push(t1 - t0);
-    cpu.push((c1.user + c1.system) / 1000);
-    zstd.push(t3 - t2);
-    stream.push(t5 - t4);
+    m.total.push(push.cpu + level.cpu);
+    m.totalWall.push(push.wall + level.wall);
+    m.push.push(push.cpu);
+    m.level.push(level.cpu);
+    m.zstd.push(zstd.cpu);
+    m.crc.push(crc.cpu);
+    m.pieces.push(pieces.wall);
   }
-  const w = median(wall);
-  console.log(`${path.relative(process.cwd(), file)}: ${(bytes.length / 1024).toFixed(0)} KiB, ${info}`);
-  console.log(`  decode + refine to the finest level: ${w.toFixed(1)} ms (median of ${runs}; CPU ${median(cpu).toFixed(1)} ms)`);
-  console.log(`  ${((faces / w) * 1000 / 1e6).toFixed(2)} million faces/s wall (${((faces / median(cpu)) * 1000 / 1e6).toFixed(2)} million/s CPU), zstd alone ${median(zstd).toFixed(1)} ms`);
-  console.log(`  pushed in 64 KiB pieces: ${median(stream).toFixed(1)} ms`);
+  const cpu = median(m.total);
+  const wall = median(m.totalWall);
+  const zstd = median(m.zstd);
+  const crc = median(m.crc);
+  const push = median(m.push);
+  const pct = (x) => `${((100 * x) / cpu).toFixed(0)} %`;
+  const mfs = (ms) => ((faces / ms) * 1000) / 1e6;
+  console.log(
+    `${path.relative(process.cwd(), file)}: ${(bytes.length / 1024).toFixed(0)} KiB (${(uncompressed / 1024).toFixed(0)} KiB uncompressed), ` +
+      `${h.baseFaceCount} → ${faces} faces, ${h.recordCount} records, ${h.chunkCount} chunks`,
+  );
+  console.log(
+    `  decode + refine to the finest level: ${cpu.toFixed(1)} ms CPU = ${mfs(cpu).toFixed(2)} million faces/s ` +
+      `(wall ${wall.toFixed(1)} ms = ${mfs(wall).toFixed(2)} M/s; medians of ${runs})`,
+  );
+  console.log(
+    `  push ${push.toFixed(1)} ms: zstd ${zstd.toFixed(1)} ms (${pct(zstd)}, ${(uncompressed / 1e3 / zstd).toFixed(0)} MB/s out), ` +
+      `CRC ${crc.toFixed(1)} ms (${pct(crc)}), records ${(push - zstd - crc).toFixed(1)} ms (${pct(push - zstd - crc)}); ` +
+      `level move ${median(m.level).toFixed(1)} ms (${pct(median(m.level))})`,
+  );
+  console.log(`  without zstd: ${mfs(cpu - zstd).toFixed(2)} million faces/s CPU`);
+  console.log(`  pushed in 64 KiB pieces: ${median(m.pieces).toFixed(1)} ms wall`);
 }

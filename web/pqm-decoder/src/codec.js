@@ -13,11 +13,26 @@ import { badRecord, invalid } from './errors.js';
 
 /**
  * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
- * slot) and the vertex→face adjacency as doubly linked lists of *corners*
- * (corner `4 s + k` is corner `k` of slot `s`): `head[v]` is the first corner
- * at vertex `v`, `next` / `prev` link the corners of one vertex (−1 ends a
- * list). Flat typed arrays: no per-vertex objects for the garbage collector,
- * and rewriting a corner is O(1).
+ * slot) and the vertex→face adjacency that the split form's star walk
+ * needs (spec §7.5), as lists of *corners* (corner `4 s + k` is corner `k`
+ * of slot `s`) in a node pool: `head[v]` is the first node of vertex `v`,
+ * node `n` holds corner `nodeC[n]` and the next node `nodeN[n]` (−1 ends a
+ * list).
+ *
+ * The lists are append-only with lazy deletion: when a corner changes
+ * vertex, a node is added to the new vertex's list and the old vertex's
+ * node stays, stale, until a star walk of that vertex drops it (a node is
+ * live iff `f[nodeC[n]]` is still its vertex; a corner that returns to a
+ * vertex can be listed twice, the walk keeps one). Why: general-form
+ * records (nearly all records of real files) rewrite corners but never
+ * walk a star, so a rewrite costs one list push (one random access, the
+ * head) instead of an unlink and a link in doubly linked lists (four).
+ * When the pool is full and holds more than 1.5 nodes per live corner
+ * (+ 1024), it is rebuilt from `f` in place: O(live corners), paid for by
+ * the at least live / 2 pushes since the last rebuild. Its capacity grows
+ * geometrically up to 1.5 × 4 × final faces + 1024 nodes, where it is
+ * always rebuilt when full. Flat typed arrays: no per-vertex objects for
+ * the garbage collector.
  */
 export class Frontier {
   constructor() {
@@ -26,29 +41,105 @@ export class Frontier {
     this.f = new Uint32Array(0);
     this.nf = 0;
     this.head = new Int32Array(0);
-    this.next = new Int32Array(0);
-    this.prev = new Int32Array(0);
+    this.nodeC = new Int32Array(0);
+    this.nodeN = new Int32Array(0);
+    this.nNodes = 0;
     /** Final counts of the file: capacities never grow beyond them. */
     this.maxV = Infinity;
     this.maxF = Infinity;
   }
 
-  /** Adds corner `c` to the list of vertex `v`. */
+  /**
+   * Records that corner `c` now holds vertex `v`. The caller has already
+   * set `f[c] = v` with `c < 4 nf` (a rebuild reads `f`).
+   */
   link(c, v) {
-    const h = this.head[v];
-    this.next[c] = h;
-    this.prev[c] = -1;
-    if (h >= 0) this.prev[h] = c;
-    this.head[v] = c;
+    const n = this.nNodes;
+    if (n === this.nodeC.length && this._poolFull()) return; // rebuilt from f: c is listed
+    this.nodeC[n] = c;
+    this.nodeN[n] = this.head[v];
+    this.head[v] = n;
+    this.nNodes = n + 1;
   }
 
-  /** Removes corner `c` from the list of vertex `v`. */
-  unlink(c, v) {
-    const p = this.prev[c];
-    const n = this.next[c];
-    if (p >= 0) this.next[p] = n;
-    else this.head[v] = n;
-    if (n >= 0) this.prev[n] = p;
+  /**
+   * The pool is full: rebuilds it from `f` (returns true) when it holds
+   * more than 1.5 nodes per live corner, else grows it (returns false).
+   */
+  _poolFull() {
+    const live = 4 * this.nf;
+    if (this.nNodes >= live + (live >> 1) + 1024) {
+      this.rebuild();
+      return true;
+    }
+    const max = 6 * this.maxF + 1024;
+    this.nodeC = ensure(this.nodeC, this.nNodes + 1, this.nNodes, max);
+    this.nodeN = ensure(this.nodeN, this.nNodes + 1, this.nNodes, max);
+    return false;
+  }
+
+  /** Lists every corner of `f` afresh (no stale nodes). */
+  rebuild() {
+    const live = 4 * this.nf;
+    if (this.nodeC.length < live) {
+      this.nodeC = new Int32Array(live + (live >> 1) + 1024);
+      this.nodeN = new Int32Array(this.nodeC.length);
+    }
+    const head = this.head;
+    head.fill(-1, 0, this.nv);
+    const f = this.f;
+    const nodeC = this.nodeC;
+    const nodeN = this.nodeN;
+    for (let c = 0; c < live; c++) {
+      const v = f[c];
+      nodeC[c] = c;
+      nodeN[c] = head[v];
+      head[v] = c;
+    }
+    this.nNodes = live;
+  }
+
+  /**
+   * The star of vertex `m`: the slots holding it, ascending, into `slots`,
+   * and the corner (0..3) of `m` in each into `corners`; returns their
+   * number. Drops the stale and repeated nodes of m's list on the way.
+   * Throws a message string past 255 faces (spec §7.5: K ≤ 255).
+   * @param {number} m
+   * @param {Int32Array} slots at least 255 entries
+   * @param {Int32Array} corners at least 255 entries
+   */
+  star(m, slots, corners) {
+    const f = this.f;
+    const nodeC = this.nodeC;
+    const nodeN = this.nodeN;
+    let K = 0;
+    let kept = -1; // last node kept
+    for (let n = this.head[m]; n >= 0; ) {
+      const c = nodeC[n];
+      const next = nodeN[n];
+      const slot = c >> 2;
+      // insertion sort by slot: K is small
+      let i = K;
+      while (i > 0 && slots[i - 1] > slot) i--;
+      if (f[c] !== m || (i > 0 && slots[i - 1] === slot)) {
+        // stale (the corner moved on) or a repeat of a kept corner: unlink
+        if (kept < 0) this.head[m] = next;
+        else nodeN[kept] = next;
+        n = next;
+        continue;
+      }
+      if (K === 255) throw `vertex ${m} is in more than 255 faces`;
+      for (let j = K; j > i; j--) {
+        slots[j] = slots[j - 1];
+        corners[j] = corners[j - 1];
+      }
+      slots[i] = slot;
+      corners[i] = c & 3;
+      K++;
+      kept = n;
+      n = next;
+    }
+    return K;
   }
 
   /** Room for `nv` vertices and `nf` slots. */
@@ -58,10 +149,6 @@ export class Frontier {
     if (3 * nv > this.q.length) this.q = ensure(this.q, 3 * nv, 3 * this.nv, 3 * mv);
     if (nv > this.head.length) this.head = ensure(this.head, nv, this.nv, mv);
     if (4 * nf > this.f.length) this.f = ensure(this.f, 4 * nf, 4 * this.nf, 4 * mf);
-    if (4 * nf > this.next.length) {
-      this.next = ensure(this.next, 4 * nf, 4 * this.nf, 4 * mf);
-      this.prev = ensure(this.prev, 4 * nf, 4 * this.nf, 4 * mf);
-    }
   }
 }
 
@@ -69,10 +156,14 @@ export class Frontier {
  * Explicit records with undo data, structure-of-arrays (spec §7.1). Level
  * `k` has `vAt[k]` vertices and `fAt[k]` faces; record `k` (from level `k`
  * to `k + 1`) moved the entries `movedAt[k] .. movedAt[k+1]` of `moved`
- * (stride 7: vertex, new code xyz, old code xyz) and rewrote the entries
- * `rwAt[k] .. rwAt[k+1]` of `rw` (stride 9: slot, new quad, old quad).
- * `newCodes` holds the first code of every vertex after the base ones and
- * `app` the first quad of every slot after the base ones.
+ * (stride 4: vertex, code change xyz = new − old) and rewrote the entries
+ * `rwAt[k] .. rwAt[k+1]` of `rw` (stride 5: slot, new XOR old of each
+ * corner). Entries are applied in record order when refining and in
+ * reverse when coarsening, so a change and its inverse are the same data
+ * (add / subtract, XOR): half the memory of storing both states, and
+ * memory traffic is what the decoder waits on. `newCodes` holds the first
+ * code of every vertex after the base ones and `app` the first quad of
+ * every slot after the base ones.
  */
 export class RecordLog {
   constructor() {
@@ -82,9 +173,9 @@ export class RecordLog {
     this.fAt = new Uint32Array(0);
     this.movedAt = new Uint32Array(0);
     this.rwAt = new Uint32Array(0);
-    this.moved = new Uint32Array(0);
+    this.moved = new Int32Array(0);
     this.nMoved = 0;
-    this.rw = new Uint32Array(0);
+    this.rw = new Int32Array(0);
     this.nRw = 0;
     this.newCodes = new Uint32Array(0);
     this.nNew = 0;
@@ -169,10 +260,8 @@ export function decodeBase(payload, nv, nf, qmax) {
   }
   st.nv = nv;
   st.nf = nf;
-  st.head = new Int32Array(nv).fill(-1);
-  st.next = new Int32Array(4 * nf);
-  st.prev = new Int32Array(4 * nf);
-  for (let c = 0; c < 4 * nf; c++) st.link(c, st.f[c]);
+  st.head = new Int32Array(nv);
+  st.rebuild();
   return st;
 }
 
@@ -295,15 +384,19 @@ function decodeRecord(ctx) {
   }
 }
 
-/** Reads three residuals and adds them to `(px, py, pz)`; checks the range. */
-function readCode(ctx, px, py, pz, what) {
+/**
+ * Reads three residuals and adds them to `(px, py, pz)`; checks the range.
+ * The message names `${what} ${id}${suffix}`, built only on failure (this
+ * runs once per new or moved vertex: no string work on the good path).
+ */
+function readCode(ctx, px, py, pz, what, id, suffix) {
   const p = ctx.pos;
   const x = px + p.s();
   const y = py + p.s();
   const z = pz + p.s();
   const qmax = ctx.qmax;
   if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
-    throw `${what} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+    throw `${what} ${id}${suffix} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
   }
   ctx.cx = x;
   ctx.cy = y;
@@ -317,16 +410,13 @@ function logMove(ctx, v) {
   const log = ctx.log;
   const q = ctx.st.q;
   const n = log.nMoved;
-  if (7 * (n + 1) > log.moved.length) log.moved = ensure(log.moved, 7 * (n + 1), 7 * n);
+  if (4 * (n + 1) > log.moved.length) log.moved = ensure(log.moved, 4 * (n + 1), 4 * n);
   const m = log.moved;
-  const o = 7 * n;
+  const o = 4 * n;
   m[o] = v;
-  m[o + 1] = ctx.cx;
-  m[o + 2] = ctx.cy;
-  m[o + 3] = ctx.cz;
-  m[o + 4] = q[3 * v];
-  m[o + 5] = q[3 * v + 1];
-  m[o + 6] = q[3 * v + 2];
+  m[o + 1] = ctx.cx - q[3 * v];
+  m[o + 2] = ctx.cy - q[3 * v + 1];
+  m[o + 3] = ctx.cz - q[3 * v + 2];
   log.nMoved = n + 1;
   q[3 * v] = ctx.cx;
   q[3 * v + 1] = ctx.cy;
@@ -339,19 +429,15 @@ function rewriteSlot(ctx, slot, a, b, c, d) {
   const log = ctx.log;
   const f = st.f;
   const n = log.nRw;
-  if (9 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 9 * (n + 1), 9 * n);
+  if (5 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + 1), 5 * n);
   const r = log.rw;
-  const o = 9 * n;
+  const o = 5 * n;
   const s4 = 4 * slot;
   r[o] = slot;
-  r[o + 1] = a;
-  r[o + 2] = b;
-  r[o + 3] = c;
-  r[o + 4] = d;
-  r[o + 5] = f[s4];
-  r[o + 6] = f[s4 + 1];
-  r[o + 7] = f[s4 + 2];
-  r[o + 8] = f[s4 + 3];
+  r[o + 1] = a ^ f[s4];
+  r[o + 2] = b ^ f[s4 + 1];
+  r[o + 3] = c ^ f[s4 + 2];
+  r[o + 4] = d ^ f[s4 + 3];
   log.nRw = n + 1;
   relink(st, s4, a);
   relink(st, s4 + 1, b);
@@ -359,11 +445,9 @@ function rewriteSlot(ctx, slot, a, b, c, d) {
   relink(st, s4 + 3, d);
 }
 
-/** Sets corner `c` to vertex `v`, moving it between adjacency lists. */
+/** Sets corner `c` to vertex `v`, listing it at `v` (the old node goes stale). */
 function relink(st, c, v) {
-  const old = st.f[c];
-  if (old === v) return;
-  st.unlink(c, old);
+  if (st.f[c] === v) return;
   st.f[c] = v;
   st.link(c, v);
 }
@@ -474,7 +558,7 @@ function decodeGeneral(ctx) {
     ctx.vcur = v;
     prevMoved = v;
     const q = st.q;
-    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], `moved vertex ${v}`);
+    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], 'moved vertex', v, '');
     logMove(ctx, v);
   }
 
@@ -509,11 +593,11 @@ function decodeGeneral(ctx) {
     for (let c = 0; c < 4; c++) {
       rwNew[4 * i + c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, f) : f[s4 + c];
     }
-    checkDistinct(rwNew, 4 * i, `rewritten slot ${slots[i]}`);
+    checkDistinct(rwNew, 4 * i, 'rewritten slot', slots[i]);
   }
   for (let i = 0; i < nApp; i++) {
     for (let c = 0; c < 4; c++) app[4 * i + c] = cornerCode(ctx, V, nNew, nRw, f);
-    checkDistinct(app, 4 * i, `appended quad ${i}`);
+    checkDistinct(app, 4 * i, 'appended quad', i);
   }
 
   // 6. new vertex codes. First find, for each new vertex, the first quad
@@ -593,7 +677,7 @@ function decodeGeneral(ctx) {
           px = py = pz = ctx.half;
         }
       }
-      readCode(ctx, px, py, pz, `new vertex ${x}`);
+      readCode(ctx, px, py, pz, 'new vertex', x, '');
       appendVertex(ctx);
     }
   }
@@ -607,10 +691,11 @@ function decodeGeneral(ctx) {
   }
 }
 
-function checkDistinct(a, o, what) {
+/** Throws unless quad `a[o .. o+4)` has four distinct vertices (message: `${what} ${id}`). */
+function checkDistinct(a, o, what, id) {
   const x = a[o], y = a[o + 1], z = a[o + 2], w = a[o + 3];
   if (x === y || x === z || x === w || y === z || y === w || z === w) {
-    throw `${what} repeats a vertex (${x} ${y} ${z} ${w})`;
+    throw `${what} ${id} repeats a vertex (${x} ${y} ${z} ${w})`;
   }
 }
 
@@ -637,23 +722,10 @@ function decodeSplit(ctx, sym) {
   if (m < 0 || m >= V) throw `split vertex ${m} outside 0..${V}`;
   ctx.vcur = m;
 
-  // 2. canonical star of m: S sorted by slot (insertion sort: K is small).
+  // 2. canonical star of m: S sorted by slot.
   const f = st.f;
   const S = sS;
-  let K = 0;
-  for (let c = st.head[m]; c >= 0; c = st.next[c]) {
-    if (K === 255) throw `vertex ${m} is in more than 255 faces`;
-    const slot = c >> 2;
-    const k = c & 3;
-    let i = K++;
-    while (i > 0 && S[i - 1] > slot) {
-      S[i] = S[i - 1];
-      sK[i] = sK[i - 1];
-      i--;
-    }
-    S[i] = slot;
-    sK[i] = k;
-  }
+  const K = st.star(m, S, sK);
   if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
@@ -755,15 +827,21 @@ function decodeSplit(ctx, sym) {
   const mx = q[3 * m], my = q[3 * m + 1], mz = q[3 * m + 2];
   let ax = mx, ay = my, az = mz;
   if (sym & 0x40) {
-    const mean = (s, n, own) => (n === 0 ? own : Math.floor(s / n));
-    const ma = [mean(sax, nA, mx), mean(say, nA, my), mean(saz, nA, mz)];
-    const mc = [mean(scx, nC, mx), mean(scy, nC, my), mean(scz, nC, mz)];
+    // side means (m's own code for an empty side), without temporaries
+    const max = nA === 0 ? mx : Math.floor(sax / nA);
+    const may = nA === 0 ? my : Math.floor(say / nA);
+    const maz = nA === 0 ? mz : Math.floor(saz / nA);
+    const mcx = nC === 0 ? mx : Math.floor(scx / nC);
+    const mcy = nC === 0 ? my : Math.floor(scy / nC);
+    const mcz = nC === 0 ? mz : Math.floor(scz / nC);
     readCode(
       ctx,
-      clamp(mx + Math.floor((ma[0] - mc[0]) / 4), qmax),
-      clamp(my + Math.floor((ma[1] - mc[1]) / 4), qmax),
-      clamp(mz + Math.floor((ma[2] - mc[2]) / 4), qmax),
-      `split vertex ${m} (a)`,
+      clamp(mx + Math.floor((max - mcx) / 4), qmax),
+      clamp(my + Math.floor((may - mcy) / 4), qmax),
+      clamp(mz + Math.floor((maz - mcz) / 4), qmax),
+      'split vertex',
+      m,
+      ' (a)',
     );
     ax = ctx.cx;
     ay = ctx.cy;
@@ -784,7 +862,7 @@ function decodeSplit(ctx, sym) {
     py = clamp(q[3 * b + 1] + q[3 * d + 1] - ay, qmax);
     pz = clamp(q[3 * b + 2] + q[3 * d + 2] - az, qmax);
   }
-  readCode(ctx, px, py, pz, `split vertex ${m} (c)`);
+  readCode(ctx, px, py, pz, 'split vertex', m, ' (c)');
   appendVertex(ctx);
 
   // 5. the explicit record: side-C slots by ascending slot, m → c.

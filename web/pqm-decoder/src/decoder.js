@@ -122,14 +122,6 @@ export function runs(sorted) {
 
 const range = (start, end) => ({ start, end });
 
-/** Sorted distinct values of `a[0..n)` (a typed array, sorted in place). */
-function sortedDistinct(a, n) {
-  const s = a.subarray(0, n).sort();
-  let k = 0;
-  for (let i = 0; i < n; i++) if (k === 0 || s[i] !== s[k - 1]) s[k++] = s[i];
-  return s.slice(0, k);
-}
-
 /**
  * Streaming decoder. See the module documentation.
  */
@@ -169,6 +161,12 @@ export class PqmDecoder {
     this._pos = new Float32Array(0);
     this._quads = new Uint32Array(0);
     this._tris = new Uint32Array(0);
+    // _goTo scratch: marks per vertex / slot, and the touched ids
+    this._vMark = new Uint32Array(0);
+    this._fMark = new Uint32Array(0);
+    this._epoch = 0;
+    this._movedScratch = new Uint32Array(64);
+    this._rwScratch = new Uint32Array(64);
   }
 
   // ---- input ---------------------------------------------------------------
@@ -575,7 +573,7 @@ export class PqmDecoder {
     this._dequantizeInto(this._pos, this._q, 0, nv);
     this._quads = st.f.slice(0, 4 * nf);
     this._tris = new Uint32Array(6 * nf);
-    for (let s = 0; s < nf; s++) this._writeTris(s);
+    this._writeTrisRange(0, nf);
     this._level = 0;
   }
 
@@ -734,78 +732,102 @@ export class PqmDecoder {
     const fTo = log.fAt[to];
     const bv = log.vAt[0];
     const bf = log.fAt[0];
-    // Only ids below the smaller count are reported as moved / rewritten.
+    // Only ids below the smaller count are reported as moved / rewritten
+    // (and need their positions / triangles recomputed one by one): the
+    // appended range is recomputed in bulk, the removed one is never read.
     const vMin = Math.min(vFrom, vTo);
     const fMin = Math.min(fFrom, fTo);
-    // at most every logged entry between the two levels
-    const lo = Math.min(from, to);
-    const hi = Math.max(from, to);
-    const moved = new Uint32Array(log.movedAt[hi] - log.movedAt[lo]);
-    let nMoved = 0;
-    const rewritten = new Uint32Array(log.rwAt[hi] - log.rwAt[lo]);
-    let nRw = 0;
     const M = log.moved;
     const R = log.rw;
+    const q = this._q;
+    // Marks: a vertex / slot below vMin / fMin touched by a logged entry is
+    // collected once (stamp = this move's epoch), so repeated entries cost
+    // no sort or dedupe later.
+    const epoch = this._nextEpoch(vMin, fMin);
+    const vMark = this._vMark;
+    const fMark = this._fMark;
+    let moved = this._movedScratch;
+    let rewritten = this._rwScratch;
+    let nMoved = 0;
+    let nRw = 0;
     if (to > from) {
       this._reserve(vTo, fTo);
-      const q = this._q;
-      q.set(log.newCodes.subarray(3 * (vFrom - bv), 3 * (vTo - bv)), 3 * vFrom);
-      this._dequantizeInto(this._pos, q, vFrom, vTo);
+      const qq = this._q;
       const quads = this._quads;
-      for (let k = from; k < to; k++) {
-        for (let e = log.movedAt[k]; e < log.movedAt[k + 1]; e++) {
-          const v = M[7 * e];
-          q[3 * v] = M[7 * e + 1];
-          q[3 * v + 1] = M[7 * e + 2];
-          q[3 * v + 2] = M[7 * e + 3];
-          this._dequantizeInto(this._pos, q, v, v + 1);
-          if (v < vMin) moved[nMoved++] = v;
-        }
-        for (let e = log.rwAt[k]; e < log.rwAt[k + 1]; e++) {
-          const s = R[9 * e];
-          quads[4 * s] = R[9 * e + 1];
-          quads[4 * s + 1] = R[9 * e + 2];
-          quads[4 * s + 2] = R[9 * e + 3];
-          quads[4 * s + 3] = R[9 * e + 4];
-          this._writeTris(s);
-          if (s < fMin) rewritten[nRw++] = s;
-        }
-        const a = log.fAt[k];
-        const b = log.fAt[k + 1];
-        if (b > a) {
-          quads.set(log.app.subarray(4 * (a - bf), 4 * (b - bf)), 4 * a);
-          for (let s = a; s < b; s++) this._writeTris(s);
+      // Bulk: the first codes of the appended vertices and the first quads
+      // of the appended slots. A later record's move / rewrite of one of
+      // them is applied below, in record order, after this copy.
+      qq.set(log.newCodes.subarray(3 * (vFrom - bv), 3 * (vTo - bv)), 3 * vFrom);
+      quads.set(log.app.subarray(4 * (fFrom - bf), 4 * (fTo - bf)), 4 * fFrom);
+      for (let e = log.movedAt[from], end = log.movedAt[to]; e < end; e++) {
+        const v = M[4 * e];
+        qq[3 * v] += M[4 * e + 1];
+        qq[3 * v + 1] += M[4 * e + 2];
+        qq[3 * v + 2] += M[4 * e + 3];
+        if (v < vMin && vMark[v] !== epoch) {
+          vMark[v] = epoch;
+          if (nMoved === moved.length) moved = this._movedScratch = ensure(moved, nMoved + 1);
+          moved[nMoved++] = v;
         }
       }
+      for (let e = log.rwAt[from], end = log.rwAt[to]; e < end; e++) {
+        const s = R[5 * e];
+        quads[4 * s] ^= R[5 * e + 1];
+        quads[4 * s + 1] ^= R[5 * e + 2];
+        quads[4 * s + 2] ^= R[5 * e + 3];
+        quads[4 * s + 3] ^= R[5 * e + 4];
+        if (s < fMin && fMark[s] !== epoch) {
+          fMark[s] = epoch;
+          if (nRw === rewritten.length) rewritten = this._rwScratch = ensure(rewritten, nRw + 1);
+          rewritten[nRw++] = s;
+        }
+      }
+      this._dequantizeInto(this._pos, qq, vFrom, vTo);
+      this._writeTrisRange(fFrom, fTo);
     } else if (to < from) {
-      const q = this._q;
       const quads = this._quads;
-      for (let k = from - 1; k >= to; k--) {
-        // truncation is implicit: ids ≥ vAt[k] / slots ≥ fAt[k] are never read
-        for (let e = log.movedAt[k + 1] - 1; e >= log.movedAt[k]; e--) {
-          const v = M[7 * e];
-          q[3 * v] = M[7 * e + 4];
-          q[3 * v + 1] = M[7 * e + 5];
-          q[3 * v + 2] = M[7 * e + 6];
-          if (v < vMin) moved[nMoved++] = v;
+      // Undo in reverse record order; truncation is implicit (ids ≥ vTo /
+      // slots ≥ fTo are never read), so entries of those are skipped.
+      for (let e = log.movedAt[from] - 1, end = log.movedAt[to]; e >= end; e--) {
+        const v = M[4 * e];
+        if (v >= vTo) continue;
+        q[3 * v] -= M[4 * e + 1];
+        q[3 * v + 1] -= M[4 * e + 2];
+        q[3 * v + 2] -= M[4 * e + 3];
+        if (vMark[v] !== epoch) {
+          vMark[v] = epoch;
+          if (nMoved === moved.length) moved = this._movedScratch = ensure(moved, nMoved + 1);
+          moved[nMoved++] = v;
         }
-        for (let e = log.rwAt[k + 1] - 1; e >= log.rwAt[k]; e--) {
-          const s = R[9 * e];
-          quads[4 * s] = R[9 * e + 5];
-          quads[4 * s + 1] = R[9 * e + 6];
-          quads[4 * s + 2] = R[9 * e + 7];
-          quads[4 * s + 3] = R[9 * e + 8];
-          if (s < fMin) rewritten[nRw++] = s;
+      }
+      for (let e = log.rwAt[from] - 1, end = log.rwAt[to]; e >= end; e--) {
+        const s = R[5 * e];
+        if (s >= fTo) continue;
+        quads[4 * s] ^= R[5 * e + 1];
+        quads[4 * s + 1] ^= R[5 * e + 2];
+        quads[4 * s + 2] ^= R[5 * e + 3];
+        quads[4 * s + 3] ^= R[5 * e + 4];
+        if (fMark[s] !== epoch) {
+          fMark[s] = epoch;
+          if (nRw === rewritten.length) rewritten = this._rwScratch = ensure(rewritten, nRw + 1);
+          rewritten[nRw++] = s;
         }
       }
     }
-    const movedSorted = sortedDistinct(moved, nMoved);
-    const rwSorted = sortedDistinct(rewritten, nRw);
-    if (to < from) {
-      // positions and triangles of what remains and changed
-      for (const v of movedSorted) this._dequantizeInto(this._pos, this._q, v, v + 1);
-      for (const s of rwSorted) this._writeTris(s);
+    const movedSorted = moved.slice(0, nMoved).sort();
+    const rwSorted = rewritten.slice(0, nRw).sort();
+    // positions and triangles of what exists before and after and changed
+    const pos = this._pos;
+    const qq = this._q;
+    const [x0, y0, z0] = this._min;
+    const [sx, sy, sz] = this._step;
+    for (let i = 0; i < nMoved; i++) {
+      const o = 3 * movedSorted[i];
+      pos[o] = x0 + qq[o] * sx;
+      pos[o + 1] = y0 + qq[o + 1] * sy;
+      pos[o + 2] = z0 + qq[o + 2] * sz;
     }
+    for (let i = 0; i < nRw; i++) this._writeTrisRange(rwSorted[i], rwSorted[i] + 1);
     this._level = to;
     this._nv = vTo;
     this._nf = fTo;
@@ -819,6 +841,24 @@ export class PqmDecoder {
       facesAppended: range(fMin, fTo),
       facesTruncated: range(fTo, Math.max(fFrom, fTo)),
     });
+  }
+
+  /**
+   * A fresh stamp for the vertex / slot marks, which grow to hold `nv`
+   * vertices and `nf` slots (like every buffer: with what was decoded, not
+   * with what the header claims; new marks are 0, never a live stamp).
+   * When the counter wraps the marks are cleared.
+   */
+  _nextEpoch(nv, nf) {
+    const h = this._header;
+    this._vMark = ensure(this._vMark, nv, this._vMark.length, h.finalVertexCount);
+    this._fMark = ensure(this._fMark, nf, this._fMark.length, h.finalFaceCount);
+    if (this._epoch === 0xffffffff) {
+      this._vMark.fill(0);
+      this._fMark.fill(0);
+      this._epoch = 0;
+    }
+    return ++this._epoch;
   }
 
   /** Grows the current-level buffers to hold `nv` vertices and `nf` faces. */
@@ -845,18 +885,20 @@ export class PqmDecoder {
     }
   }
 
-  /** Triangles 2s, 2s + 1 of slot s from its quad. */
-  _writeTris(s) {
+  /** Triangles 2s, 2s + 1 of every slot s in `a .. b` from its quad. */
+  _writeTrisRange(a, b) {
     const q = this._quads;
     const t = this._tris;
-    const a = q[4 * s];
-    const c = q[4 * s + 2];
-    t[6 * s] = a;
-    t[6 * s + 1] = q[4 * s + 1];
-    t[6 * s + 2] = c;
-    t[6 * s + 3] = a;
-    t[6 * s + 4] = c;
-    t[6 * s + 5] = q[4 * s + 3];
+    for (let s = a; s < b; s++) {
+      const v0 = q[4 * s];
+      const v2 = q[4 * s + 2];
+      t[6 * s] = v0;
+      t[6 * s + 1] = q[4 * s + 1];
+      t[6 * s + 2] = v2;
+      t[6 * s + 3] = v0;
+      t[6 * s + 4] = v2;
+      t[6 * s + 5] = q[4 * s + 3];
+    }
   }
 
   // ---- access ----------------------------------------------------------------

@@ -12,3 +12,4 @@
 export { PqmDecoder, Change, decodeAll, runs, estimateMemory, DEFAULT_LIMITS } from './decoder.js';
 export { PqmError } from './errors.js';
 export { crc32 } from './crc32.js';
+export { PqmRangeLoader } from './range.js';

@@ -4,6 +4,7 @@ import { readFileSync, readdirSync, existsSync } from 'node:fs';
 import { endianness } from 'node:os';
 import { fileURLToPath } from 'node:url';
 import path from 'node:path';
+import http from 'node:http';
 
 if (endianness() !== 'LE') throw new Error('these tests read typed arrays as little-endian bytes');
 
@@ -115,4 +116,60 @@ export function randomPieces(bytes, rand, maxLen) {
     i += n;
   }
   return out;
+}
+
+/**
+ * Serves `bytes` at /f.pqm: with `ranges`, `Range: bytes=a-b` / `bytes=a-`
+ * gets a 206 with exactly those bytes (416 past the end); without, every
+ * request gets the whole file with 200. Bodies go out in `piece`-byte
+ * writes; `stats.served` counts the body bytes written. `maxRange` caps the
+ * bytes of one 206 (as some servers do: the client must ask again).
+ */
+export async function serveBytes(bytes, { ranges = true, piece = 997, maxRange = Infinity } = {}) {
+  const stats = { served: 0, requests: [] };
+  const server = http.createServer((req, res) => {
+    const m = /^bytes=(\d+)-(\d*)$/.exec(req.headers.range ?? '');
+    stats.requests.push(req.headers.range ?? null);
+    let a = 0;
+    let b = bytes.length;
+    let status = 200;
+    const headers = { 'Content-Type': 'application/octet-stream', 'Accept-Ranges': ranges ? 'bytes' : 'none' };
+    if (ranges && m) {
+      a = Number(m[1]);
+      b = m[2] === '' ? bytes.length : Math.min(Number(m[2]) + 1, bytes.length);
+      b = Math.min(b, a + maxRange);
+      if (a >= bytes.length) {
+        res.writeHead(416, { 'Content-Range': `bytes */${bytes.length}` });
+        res.end();
+        return;
+      }
+      status = 206;
+      headers['Content-Range'] = `bytes ${a}-${b - 1}/${bytes.length}`;
+    }
+    headers['Content-Length'] = String(b - a);
+    res.writeHead(status, headers);
+    let o = a;
+    let closed = false;
+    res.on('close', () => (closed = true));
+    const pump = () => {
+      while (o < b && !closed) {
+        const k = Math.min(piece, b - o);
+        stats.served += k;
+        const ok = res.write(bytes.subarray(o, o + k));
+        o += k;
+        if (!ok) {
+          res.once('drain', pump);
+          return;
+        }
+      }
+      res.end();
+    };
+    pump();
+  });
+  await new Promise((r) => server.listen(0, '127.0.0.1', r));
+  return {
+    url: `http://127.0.0.1:${server.address().port}/f.pqm`,
+    stats,
+    close: () => new Promise((r) => server.close(r)),
+  };
 }

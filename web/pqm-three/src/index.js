@@ -13,13 +13,15 @@
  * - `PQMLoader`: a three.js `Loader` that streams a URL with `fetch()`,
  *   calls `onLoad` as soon as the base mesh is decoded and keeps refining as
  *   chunks arrive (or stops reading once a target face count / error is
- *   reached).
+ *   reached); with `setRangeRequests(true)` it asks the server for only
+ *   the bytes the target needs (HTTP Range, via `PqmRangeLoader`) and the
+ *   mesh can `fetchMore(target)` later.
  *
  * Materials: the geometry has no normals (they would change with every
  * level); use `flatShading: true` or compute normals in the shader.
  */
 import { Box3, BufferAttribute, BufferGeometry, DynamicDrawUsage, Loader, Sphere, Vector3 } from 'three';
-import { PqmDecoder, PqmError } from 'pqm-decoder';
+import { PqmDecoder, PqmError, PqmRangeLoader } from 'pqm-decoder';
 
 /**
  * Merges sorted runs `{start, end}` whose gap is at most `maxGap` (fewer
@@ -63,6 +65,8 @@ export class PQMProgressiveMesh {
     this.uploaded = { position: 0, index: 0, lines: 0 };
     /** The last `Change` applied. */
     this.lastChange = null;
+    /** The `PqmRangeLoader` that feeds it (meshes from `PQMLoader` Range loads), else null. */
+    this.source = null;
     if (decoder.header) this._allocate();
     if (decoder.deepestLevel !== null) this.apply(decoder.fullUpload());
   }
@@ -93,6 +97,20 @@ export class PQMProgressiveMesh {
       this.refineTo({ faces: this.maxFaces === Infinity ? Number.MAX_SAFE_INTEGER : this.maxFaces });
     }
     return events;
+  }
+
+  /**
+   * Range-loaded meshes: downloads what `target` needs beyond the bytes
+   * already here (one more HTTP Range request; null = the rest of the file)
+   * and refines to it. Resolves to this mesh.
+   * @param {object|null} [target] `{faces}`, `{error}`, `{level}` or null
+   */
+  async fetchMore(target = null) {
+    if (!this.source) throw new PqmError('parameter', 'fetchMore() needs a mesh loaded with Range requests');
+    this.maxFaces = target && target.faces !== undefined ? Math.max(this.maxFaces, target.faces) : Infinity;
+    await this.source.load(target);
+    this.refineTo(target ?? { level: this.decoder.deepestLevel });
+    return this;
   }
 
   /** Goes to a target (`{level}`, `{faces}`, `{error}` or a level number). */
@@ -231,6 +249,8 @@ export class PQMLoader extends Loader {
     this.limits = undefined;
     this.target = null;
     this.maxGap = 32;
+    this.rangeRequests = false;
+    this.rangeOptions = {};
   }
 
   /** Decoder limits (`{maxVertices, maxFaces, maxMemoryBytes}`). */
@@ -248,10 +268,43 @@ export class PQMLoader extends Loader {
     return this;
   }
 
+  /**
+   * Use HTTP Range requests (default off): `load` first asks for the header
+   * and chunk table (`bytes=0-4095`, more if the table is longer), then for
+   * exactly the bytes up to the chunk that reaches the target
+   * (`decoder.bytesFor`), and the mesh can fetch more later with
+   * `mesh.fetchMore(target)`. A server that answers 200 is read as one
+   * stream cut at the target. Without a target the rest of the file is
+   * requested after the table. See `PqmRangeLoader` in `pqm-decoder`.
+   * @param {boolean} [on=true]
+   * @param {{firstBytes?: number}} [options]
+   */
+  setRangeRequests(on = true, options = {}) {
+    this.rangeRequests = on;
+    this.rangeOptions = options;
+    return this;
+  }
+
+  /**
+   * Promise form of a Range load: resolves to the mesh once the bytes for
+   * `target` (default: the loader's target) are decoded and the mesh has
+   * refined to it; `mesh.fetchMore(t)` continues later.
+   * @param {string} url
+   * @param {object|null} [target]
+   * @param {(p: object) => void} [onProgress]
+   */
+  async loadRange(url, target = this.target, onProgress) {
+    const fullUrl = this.manager.resolveURL((this.path ?? '') + url);
+    return this._rangeLoad(fullUrl, null, onProgress, target);
+  }
+
   load(url, onLoad, onProgress, onError) {
     const fullUrl = this.manager.resolveURL((this.path ?? '') + url);
     this.manager.itemStart(fullUrl);
-    this._stream(fullUrl, onLoad, onProgress).then(
+    const run = this.rangeRequests
+      ? this._rangeLoad(fullUrl, onLoad, onProgress, this.target)
+      : this._stream(fullUrl, onLoad, onProgress);
+    run.then(
       () => this.manager.itemEnd(fullUrl),
       (e) => {
         if (onError) onError(e);
@@ -306,10 +359,37 @@ export class PQMLoader extends Loader {
     return pm;
   }
 
-  _newMesh() {
+  async _rangeLoad(url, onLoad, onProgress, target) {
+    const pm = this._newMesh(target);
+    let delivered = false;
+    const src = new PqmRangeLoader(url, {
+      decoder: pm.decoder,
+      push: (bytes) => pm.push(bytes),
+      init: {
+        headers: this.requestHeader ?? {},
+        credentials: this.withCredentials ? 'include' : 'same-origin',
+      },
+      firstBytes: this.rangeOptions?.firstBytes,
+      onEvents: (events) => {
+        if (!delivered && pm.decoder.deepestLevel !== null) {
+          delivered = true;
+          if (onLoad) onLoad(pm);
+        }
+        if (onProgress) {
+          onProgress({ loaded: src.loaded, total: src.size ?? 0, level: pm.level, faces: pm.faceCount, events, mesh: pm });
+        }
+      },
+    });
+    pm.source = src;
+    await src.load(target ?? null);
+    pm.refineTo(target ?? { level: pm.decoder.deepestLevel });
+    return pm;
+  }
+
+  _newMesh(target = this.target) {
     const pm = new PQMProgressiveMesh(new PqmDecoder({ limits: this.limits }), {
       maxGap: this.maxGap,
-      maxFaces: this.target && this.target.faces !== undefined ? this.target.faces : Infinity,
+      maxFaces: target && target.faces !== undefined ? target.faces : Infinity,
     });
     return pm;
   }

@@ -8,7 +8,7 @@ import assert from 'node:assert/strict';
 import http from 'node:http';
 import { PQMProgressiveMesh, PQMLoader, coalesce } from '../src/index.js';
 import { PqmDecoder, decodeAll } from 'pqm-decoder';
-import { testFiles, rng, randomPieces } from '../../pqm-decoder/test/helpers.mjs';
+import { testFiles, rng, randomPieces, serveBytes } from '../../pqm-decoder/test/helpers.mjs';
 
 const files = testFiles();
 
@@ -242,6 +242,54 @@ test('PQMLoader.parse decodes a buffer; errors reach onError', async () => {
   try {
     const err = await new Promise((resolve) => new PQMLoader().load(srv.url, () => {}, undefined, resolve));
     assert.equal(err.kind, 'crc');
+  } finally {
+    await srv.close();
+  }
+});
+
+test('PQMLoader with Range requests: bytes up to the target only, fetchMore continues, buffers follow', async () => {
+  const file = files.find((f) => f.name === 'spot');
+  const whole = decodeAll(file.bytes);
+  const n1 = whole.levelCounts(200)[1];
+  const n2 = whole.levelCounts(800)[1];
+  const srv = await serveBytes(file.bytes);
+  try {
+    const loader = new PQMLoader().setTarget({ faces: n1 }).setRangeRequests(true);
+    let onLoads = 0;
+    const progress = [];
+    const pm = await new Promise((resolve, reject) => {
+      loader.load(
+        srv.url,
+        (m) => {
+          onLoads++;
+          assert.ok(m.decoder.deepestLevel !== null, 'onLoad once the base mesh is decoded');
+        },
+        (p) => {
+          progress.push(p);
+          if (p.loaded >= whole.bytesFor({ faces: n1 })) setImmediate(() => resolve(p.mesh));
+        },
+        reject,
+      );
+    });
+    assert.equal(onLoads, 1);
+    assert.ok(srv.stats.served <= whole.bytesFor({ faces: n1 }), `served ${srv.stats.served}`);
+    assert.equal(srv.stats.requests.length, 2, 'header + table, then the rest up to the target');
+    assert.equal(pm.level, whole.resolve({ faces: n1 }));
+    const gpu = new FakeGpu();
+    gpu.render(pm);
+    gpu.check(pm, 'first target');
+    await pm.fetchMore({ faces: n2 });
+    assert.equal(srv.stats.served, whole.bytesFor({ faces: n2 }), 'no byte twice');
+    assert.equal(pm.level, whole.resolve({ faces: n2 }));
+    gpu.render(pm);
+    gpu.check(pm, 'after fetchMore');
+    // promise form, error target, then the rest
+    const e = whole.chunks[1].error;
+    const pm2 = await new PQMLoader().loadRange(srv.url, { error: e });
+    assert.equal(pm2.level, whole.resolve({ error: e }));
+    await pm2.fetchMore();
+    assert.equal(pm2.level, whole.finalLevel);
+    assert.ok(pm2.decoder.status().finished);
   } finally {
     await srv.close();
   }

@@ -1,0 +1,177 @@
+// Size and decode speed of .pqm against Draco (npm `draco3d`, its WASM
+// encoder and decoder) on the same meshes, in node:
+//
+//   bash bench/make-data.sh        # once: bench/data/*.pqm from shared/meshes
+//   npm run bench:draco            # or: node bench/draco.mjs [FILE.pqm ...] [--runs N]
+//
+// For each .pqm file, the mesh compared is its finest level as pqm-decoder
+// decodes it (the input mesh with positions on the 14-bit grid), each quad
+// split into the two triangles the decoder draws (v0 v1 v2, v0 v2 v3).
+// Draco encodes those triangles with positions only: 14-bit position
+// quantization, edgebreaker, speed 3/3 (= `draco_encoder -cl 7`).
+//
+// Columns:
+// - V, quads: vertices and quads of the finest level (Draco gets 2 × quads
+//   triangles, and drops the few that are degenerate on its grid: printed);
+// - bits/vertex: 8 × bytes / V for the whole .pqm file (every level, the
+//   chunk table and the VORD section included), the Draco buffer, and a
+//   plain GLB's buffers computed as 12 bytes per vertex (float32 xyz) + 24
+//   per quad (6 uint32 indices), without the JSON chunk;
+// - decode: million faces per second, CPU time (process.cpuUsage, median of
+//   --runs after warm-up runs, so other processes on the machine count less).
+//   pqm: push the whole file into a new PqmDecoder (CRC, zstd, records) and
+//   go to the finest level (positions + triangle indices ready), faces =
+//   quads of the finest level. Draco: DecodeArrayToMesh, then the triangle
+//   indices and float positions copied out of the WASM heap (what three's
+//   DRACOLoader does); faces = triangles / 2, a quad-equivalent count (the
+//   same surface, the same triangles). Draco's triangles/s is twice that.
+// Ratios are pqm / Draco for size (below 1: pqm smaller) and for speed
+// (above 1: pqm faster).
+import { readFileSync, readdirSync, existsSync, statSync } from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { createRequire } from 'node:module';
+import { PqmDecoder } from '../pqm-decoder/src/index.js';
+
+const require = createRequire(import.meta.url);
+const draco3d = require('draco3d');
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const args = process.argv.slice(2);
+const runsAt = args.indexOf('--runs');
+const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
+let files = args;
+if (files.length === 0) {
+  const dir = path.join(here, 'data');
+  files = existsSync(dir)
+    ? readdirSync(dir)
+        .filter((f) => f.endsWith('.pqm'))
+        .map((f) => path.join(dir, f))
+    : [];
+  files.sort((a, b) => statSync(a).size - statSync(b).size);
+  if (files.length === 0) {
+    console.error('no .pqm files in bench/data: run `bash bench/make-data.sh` first (needs the pqm binary)');
+    process.exit(1);
+  }
+}
+
+const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
+const cpuMs = (c) => (c.user + c.system) / 1000;
+
+/** Median CPU milliseconds of `fn` over `runs` runs after warm-up runs (JIT tiers). */
+function timeCpu(fn) {
+  for (let w = 0, c0 = process.cpuUsage(); w < 3 || (w < 50 && cpuMs(process.cpuUsage(c0)) < 300); w++) fn();
+  const t = [];
+  for (let r = 0; r < runs; r++) {
+    const c0 = process.cpuUsage();
+    fn();
+    t.push(cpuMs(process.cpuUsage(c0)));
+  }
+  return median(t);
+}
+
+const encoderModule = await draco3d.createEncoderModule({});
+const decoderModule = await draco3d.createDecoderModule({});
+
+/** Draco bytes of the triangle mesh (positions only). */
+function dracoEncode(positions, triangles) {
+  const E = encoderModule;
+  const encoder = new E.Encoder();
+  const builder = new E.MeshBuilder();
+  const mesh = new E.Mesh();
+  builder.AddFacesToMesh(mesh, triangles.length / 3, triangles);
+  builder.AddFloatAttributeToMesh(mesh, E.POSITION, positions.length / 3, 3, positions);
+  encoder.SetAttributeQuantization(E.POSITION, 14);
+  encoder.SetSpeedOptions(3, 3); // compression level 7
+  encoder.SetEncodingMethod(E.MESH_EDGEBREAKER_ENCODING);
+  const out = new E.DracoInt8Array();
+  const n = encoder.EncodeMeshToDracoBuffer(mesh, out);
+  if (n <= 0) throw new Error('Draco encoding failed');
+  const bytes = new Uint8Array(n);
+  for (let i = 0; i < n; i++) bytes[i] = out.GetValue(i) & 0xff;
+  for (const o of [out, mesh, builder, encoder]) E.destroy(o);
+  return bytes;
+}
+
+/** Decodes Draco bytes to {positions, indices} as three's DRACOLoader does. */
+function dracoDecode(bytes) {
+  const D = decoderModule;
+  const decoder = new D.Decoder();
+  const mesh = new D.Mesh();
+  const status = decoder.DecodeArrayToMesh(bytes, bytes.byteLength, mesh);
+  if (!status.ok()) throw new Error(`Draco decoding failed: ${status.error_msg()}`);
+  const nIdx = mesh.num_faces() * 3;
+  const ip = D._malloc(nIdx * 4);
+  decoder.GetTrianglesUInt32Array(mesh, nIdx * 4, ip);
+  const indices = new Uint32Array(D.HEAPF32.buffer, ip, nIdx).slice();
+  D._free(ip);
+  const attr = decoder.GetAttribute(mesh, decoder.GetAttributeId(mesh, D.POSITION));
+  const nPos = mesh.num_points() * 3;
+  const pp = D._malloc(nPos * 4);
+  decoder.GetAttributeDataArrayForAllPoints(mesh, attr, D.DT_FLOAT32, nPos * 4, pp);
+  const positions = new Float32Array(D.HEAPF32.buffer, pp, nPos).slice();
+  D._free(pp);
+  D.destroy(mesh);
+  D.destroy(decoder);
+  return { positions, indices };
+}
+
+function pqmDecode(bytes) {
+  const d = new PqmDecoder();
+  d.push(bytes);
+  d.setLevel({ level: d.deepestLevel });
+  return d;
+}
+
+const rows = [];
+for (const file of files) {
+  const bytes = new Uint8Array(readFileSync(file));
+  const dec = pqmDecode(bytes);
+  const V = dec.vertexCount;
+  const F = dec.faceCount;
+  const positions = dec.positions.slice();
+  const triangles = dec.triangleIndices.slice();
+  const drc = dracoEncode(positions, triangles);
+  const check = dracoDecode(drc);
+  // Draco drops triangles that are degenerate on its grid (a handful on the
+  // split bunny); more than 0.1 % would mean the comparison is off.
+  const dracoTris = check.indices.length / 3;
+  if (Math.abs(dracoTris - 2 * F) > 0.001 * 2 * F) {
+    throw new Error(`${file}: Draco returned ${dracoTris} triangles, expected ${2 * F}`);
+  }
+  const glb = 12 * V + 24 * F;
+  const pqmMs = timeCpu(() => pqmDecode(bytes));
+  const drcMs = timeCpu(() => dracoDecode(drc));
+  rows.push({
+    mesh: path.basename(file, '.pqm'),
+    V,
+    F,
+    pqmBpv: (8 * bytes.length) / V,
+    drcBpv: (8 * drc.length) / V,
+    glbBpv: (8 * glb) / V,
+    pqmMfs: F / pqmMs / 1000,
+    drcMfs: dracoTris / 2 / drcMs / 1000, // quad-equivalent: triangles / 2
+    dropped: 2 * F - dracoTris,
+    pqmMs,
+    drcMs,
+  });
+}
+
+const f1 = (x) => x.toFixed(1);
+const f2 = (x) => x.toFixed(2);
+const header = [
+  'mesh', 'V', 'quads', 'pqm b/v', 'Draco b/v', 'GLB b/v', 'size pqm/Draco',
+  'pqm Mf/s', 'Draco Mf/s', 'speed pqm/Draco', 'pqm ms', 'Draco ms',
+];
+const table = rows.map((r) => [
+  r.mesh, String(r.V), String(r.F), f1(r.pqmBpv), f1(r.drcBpv), f1(r.glbBpv), f2(r.pqmBpv / r.drcBpv),
+  f2(r.pqmMfs), f2(r.drcMfs), f2(r.pqmMfs / r.drcMfs), f1(r.pqmMs), f1(r.drcMs),
+]);
+console.log(`node ${process.version}, CPU-time medians of ${runs} runs; Draco: draco3d ${require('draco3d/package.json').version} (WASM), qp 14, speed 3/3, edgebreaker`);
+console.log(`| ${header.join(' | ')} |`);
+console.log(`|${header.map(() => '---').join('|')}|`);
+for (const t of table) console.log(`| ${t.join(' | ')} |`);
+for (const r of rows) {
+  if (r.dropped) console.log(`${r.mesh}: Draco dropped ${r.dropped} degenerate triangles of ${2 * r.F}`);
+}
+console.log('Mf/s = million quad-equivalent faces per second (Draco: triangles / 2). b/v = bits per vertex.');
