@@ -91,6 +91,25 @@ pub struct Star {
     pub link: Vec<u32>,
 }
 
+/// Neighbourhood of a local-form anchor `m` (spec §7.7): `faces` = every
+/// slot whose quad has a corner in the closed star of `m` (the vertices of
+/// the faces at `m`), ascending; `verts` = the corners of those faces,
+/// ascending. Ascending ids make both lists cheap to build identically in
+/// any decoder (no walk), and the record names its faces and vertices by
+/// their small index here instead of by global slot / vertex deltas.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Local {
+    /// Slots of the 2-ring faces, ascending.
+    pub faces: Vec<u32>,
+    /// Vertices of those faces, ascending.
+    pub verts: Vec<u32>,
+}
+
+/// The local form is invalid when collecting its faces visits more than
+/// this many corners (bounds the decoder's work per record: a hostile file
+/// cannot make one record scan a huge fan).
+pub const MAX_LOCAL_CORNERS: usize = 4096;
+
 /// Running cursors of one chunk (reset to 0 at every chunk start).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Cursors {
@@ -238,6 +257,43 @@ impl MeshState {
         }
         self.q.truncate(v_before);
         self.head.truncate(v_before);
+    }
+
+    /// Local neighbourhood of anchor `m` (spec §7.7), or why it has none.
+    pub fn local(&self, m: u32) -> Result<Local, String> {
+        let mut star_verts: Vec<u32> = Vec::with_capacity(16);
+        let mut n = 0usize;
+        for (f, _) in self.corners(m) {
+            n += 1;
+            if n > MAX_SPLIT_STAR {
+                return Err(format!(
+                    "anchor {m} has more than {MAX_SPLIT_STAR} faces (local form needs 1..=255)"
+                ));
+            }
+            star_verts.extend_from_slice(&self.quads[f as usize]);
+        }
+        if n == 0 {
+            return Err(format!("anchor {m} has no face"));
+        }
+        star_verts.sort_unstable();
+        star_verts.dedup();
+        let mut faces: Vec<u32> = Vec::with_capacity(64);
+        for &u in &star_verts {
+            for (f, _) in self.corners(u) {
+                if faces.len() == MAX_LOCAL_CORNERS {
+                    return Err(format!(
+                        "the faces around anchor {m} have more than {MAX_LOCAL_CORNERS} corners"
+                    ));
+                }
+                faces.push(f);
+            }
+        }
+        faces.sort_unstable();
+        faces.dedup();
+        let mut verts: Vec<u32> = faces.iter().flat_map(|&f| self.quads[f as usize]).collect();
+        verts.sort_unstable();
+        verts.dedup();
+        Ok(Local { faces, verts })
     }
 
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
@@ -546,94 +602,20 @@ pub fn decode_record(
         appended: Vec::new(),
     };
     match form {
-        0 => {
+        0 | 2 => {
             if sym & 0xf0 != 0 {
                 return Err(format!(
-                    "general-form symbol {sym:#04x} has split-form bits set"
+                    "symbol {sym:#04x} of form {form} has split-form bits set"
                 ));
             }
-            let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
-            let n_moved = rd[CONN].u_max(v0 as u64, "moved vertex count")? as usize;
-            let n_rw = rd[CONN].u_max(f0 as u64, "rewritten face count")? as usize;
-            let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
-            let v1 = v0 + n_new as u32;
-            for _ in 0..n_moved {
-                let d = rd[REFS].s()?;
-                let v = vref(cur.vref, d, v0, "moved vertex")?;
-                if r.moved.last().is_some_and(|&(p, _)| p >= v) {
-                    return Err(format!(
-                        "moved vertex {v} is not in strictly ascending order"
-                    ));
-                }
-                cur.vref = v;
-                let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
-                r.moved.push((v, p));
-            }
-            let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
-            for t in 0..n_rw {
-                let s = if t == 0 {
-                    (cur.slot as i64).saturating_add(rd[SLOTS].s()?)
-                } else {
-                    let gap = rd[SLOTS].u_max(f0 as u64, "slot gap")? as i64;
-                    slots.last().map_or(0, |&p: &u32| p as i64) + 1 + gap
-                };
-                if s < 0 || s >= f0 as i64 {
-                    return Err(format!("rewrites slot {s} but only {f0} faces exist"));
-                }
-                slots.push(s as u32);
-            }
-            if let Some(&s) = slots.last() {
-                cur.slot = s;
-            }
-            let mut extra: Vec<u32> = Vec::new();
-            let mut corner = |rd: &mut [Reader; 5], cur: &mut Cursors| -> Result<u32, String> {
-                let x = rd[CONN].u()?;
-                if x == 0 {
-                    let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
-                    cur.vref = v;
-                    extra.push(v);
-                    return Ok(v);
-                }
-                let idx = x - 1;
-                if idx < n_new as u64 {
-                    return Ok(v0 + idx as u32);
-                }
-                let idx = idx - n_new as u64;
-                if idx < 4 * n_rw as u64 {
-                    let s = slots[(idx / 4) as usize];
-                    return Ok(st.quads[s as usize][(idx % 4) as usize]);
-                }
-                let idx = idx - 4 * n_rw as u64;
-                extra
-                    .get(idx as usize)
-                    .copied()
-                    .ok_or_else(|| format!("corner code {x} out of range"))
+            let local = if form == 2 {
+                let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
+                cur.vref = m;
+                Some(st.local(m)?)
+            } else {
+                None
             };
-            for &s in &slots {
-                let mask = rd[CONN].u_max(15, "corner mask")?;
-                let mut q = st.quads[s as usize];
-                for (c, qc) in q.iter_mut().enumerate() {
-                    if mask & (1 << c) != 0 {
-                        *qc = corner(rd, cur)?;
-                    }
-                }
-                check_distinct(&q, &format!("rewritten slot {s}"))?;
-                r.rewritten.push((s, q));
-            }
-            for a in 0..n_app {
-                let mut q = [0u32; 4];
-                for qc in q.iter_mut() {
-                    *qc = corner(rd, cur)?;
-                }
-                check_distinct(&q, &format!("appended face {a}"))?;
-                r.appended.push(q);
-            }
-            let first = first_faces(&r, v0, n_new);
-            for (t, f) in first.into_iter().enumerate() {
-                let pred = predict(st, &r, v0, v0 + t as u32, f);
-                let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-                r.new_pos.push(p);
-            }
+            decode_patch(st, rd, cur, max_v, max_f, local.as_ref(), &mut r)?;
         }
         1 => {
             if v0 >= max_v || f0 >= max_f {
@@ -668,6 +650,153 @@ pub fn decode_record(
         _ => return Err(format!("unknown record form {form} in symbol {sym:#04x}")),
     }
     Ok(r)
+}
+
+/// Decodes the body of a general-form (`local = None`, spec §7.4) or
+/// local-form (spec §7.7) record into `r`: the two differ only in how moved
+/// vertices, rewritten slots and explicit corners are named.
+fn decode_patch(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    local: Option<&Local>,
+    r: &mut QRecord,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
+    let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
+    let (max_moved, max_rw) = match local {
+        Some(l) => (l.verts.len() as u64, l.faces.len() as u64),
+        None => (v0 as u64, f0 as u64),
+    };
+    let n_moved = rd[CONN].u_max(max_moved, "moved vertex count")? as usize;
+    let n_rw = rd[CONN].u_max(max_rw, "rewritten face count")? as usize;
+    let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
+    let v1 = v0 + n_new as u32;
+    let mut li = 0u64; // next local index (local form)
+    for t in 0..n_moved {
+        let v = if let Some(l) = local {
+            let i = local_index(&mut rd[SLOTS], t, li, l.verts.len(), "moved vertex")?;
+            li = i + 1;
+            l.verts[i as usize]
+        } else {
+            let d = rd[REFS].s()?;
+            let v = vref(cur.vref, d, v0, "moved vertex")?;
+            if r.moved.last().is_some_and(|&(p, _)| p >= v) {
+                return Err(format!(
+                    "moved vertex {v} is not in strictly ascending order"
+                ));
+            }
+            cur.vref = v;
+            v
+        };
+        let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+        r.moved.push((v, p));
+    }
+    let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
+    li = 0;
+    for t in 0..n_rw {
+        if let Some(l) = local {
+            let i = local_index(&mut rd[SLOTS], t, li, l.faces.len(), "rewritten face")?;
+            li = i + 1;
+            slots.push(l.faces[i as usize]);
+            continue;
+        }
+        let s = if t == 0 {
+            (cur.slot as i64).saturating_add(rd[SLOTS].s()?)
+        } else {
+            let gap = rd[SLOTS].u_max(f0 as u64, "slot gap")? as i64;
+            slots.last().map_or(0, |&p: &u32| p as i64) + 1 + gap
+        };
+        if s < 0 || s >= f0 as i64 {
+            return Err(format!("rewrites slot {s} but only {f0} faces exist"));
+        }
+        slots.push(s as u32);
+    }
+    if let (None, Some(&s)) = (local, slots.last()) {
+        cur.slot = s;
+    }
+    let mut extra: Vec<u32> = Vec::new();
+    let mut corner = |rd: &mut [Reader; 5], cur: &mut Cursors| -> Result<u32, String> {
+        let x = rd[CONN].u()?;
+        if x == 0 {
+            let v = match local {
+                Some(l) => {
+                    let i = rd[SLOTS].u_max(l.verts.len() as u64 - 1, "local corner index")?;
+                    l.verts[i as usize]
+                }
+                None => {
+                    let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
+                    cur.vref = v;
+                    v
+                }
+            };
+            extra.push(v);
+            return Ok(v);
+        }
+        let idx = x - 1;
+        if idx < n_new as u64 {
+            return Ok(v0 + idx as u32);
+        }
+        let idx = idx - n_new as u64;
+        if idx < 4 * n_rw as u64 {
+            let s = slots[(idx / 4) as usize];
+            return Ok(st.quads[s as usize][(idx % 4) as usize]);
+        }
+        let idx = idx - 4 * n_rw as u64;
+        extra
+            .get(idx as usize)
+            .copied()
+            .ok_or_else(|| format!("corner code {x} out of range"))
+    };
+    for &s in &slots {
+        let mask = rd[CONN].u_max(15, "corner mask")?;
+        let mut q = st.quads[s as usize];
+        for (c, qc) in q.iter_mut().enumerate() {
+            if mask & (1 << c) != 0 {
+                *qc = corner(rd, cur)?;
+            }
+        }
+        check_distinct(&q, &format!("rewritten slot {s}"))?;
+        r.rewritten.push((s, q));
+    }
+    for a in 0..n_app {
+        let mut q = [0u32; 4];
+        for qc in q.iter_mut() {
+            *qc = corner(rd, cur)?;
+        }
+        check_distinct(&q, &format!("appended face {a}"))?;
+        r.appended.push(q);
+    }
+    let first = first_faces(r, v0, n_new);
+    for (t, f) in first.into_iter().enumerate() {
+        let pred = predict(st, r, v0, v0 + t as u32, f);
+        let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+        r.new_pos.push(p);
+    }
+    Ok(())
+}
+
+/// Reads the `t`-th ascending local index from `rd` (the first as is, the
+/// next ones as gaps after `next`), which must be `< len`.
+fn local_index(
+    rd: &mut Reader,
+    t: usize,
+    next: u64,
+    len: usize,
+    what: &str,
+) -> Result<u64, String> {
+    let i = if t == 0 {
+        rd.u()?
+    } else {
+        next.saturating_add(rd.u()?)
+    };
+    if i >= len as u64 {
+        return Err(format!("{what} local index {i} outside 0..{len}"));
+    }
+    Ok(i)
 }
 
 /// The split-form parameters `(m, i, e, rot, moved)` that reproduce `r`
@@ -707,14 +836,18 @@ fn split_params(st: &MeshState, r: &QRecord) -> Option<SplitParams> {
 
 /// Encodes `r` (normalized: moved ids and rewritten slots strictly
 /// ascending, indices valid against `st`) into `s`. Uses the split form when
-/// `allow_split` and it reproduces `r` exactly. Returns true for the split form.
+/// `allow_split` and it reproduces `r` exactly; else, when `allow_local`,
+/// the local form (spec §7.7) with the anchor that writes the fewest bytes,
+/// if that is no larger than the general form. Returns the form used (spec
+/// §7.3: 0 general, 1 split, 2 local).
 pub fn encode_record(
     st: &MeshState,
     r: &QRecord,
     cur: &mut Cursors,
     s: &mut [Vec<u8>; 5],
     allow_split: bool,
-) -> bool {
+    allow_local: bool,
+) -> u8 {
     let v0 = st.q.len() as u32;
     let op = r.op as u8;
     if allow_split {
@@ -751,29 +884,127 @@ pub fn encode_record(
                 },
                 c,
             );
-            return true;
+            return 1;
         }
     }
+    if allow_local {
+        let mut best: Option<([Vec<u8>; 5], Cursors)> = None;
+        let mut best_len = usize::MAX;
+        for m in local_candidates(st, r) {
+            let Ok(local) = st.local(m) else { continue };
+            let mut tmp: [Vec<u8>; 5] = Default::default();
+            let mut c2 = *cur;
+            tmp[OPS].push(op | (2 << 2));
+            put_s(&mut tmp[REFS], m as i64 - c2.vref as i64);
+            c2.vref = m;
+            if !encode_patch(st, r, &mut c2, &mut tmp, Some(&local)) {
+                continue;
+            }
+            let len: usize = tmp.iter().map(|x| x.len()).sum();
+            if len < best_len {
+                best_len = len;
+                best = Some((tmp, c2));
+            }
+        }
+        let mut tmp: [Vec<u8>; 5] = Default::default();
+        let mut c2 = *cur;
+        tmp[OPS].push(op);
+        encode_patch(st, r, &mut c2, &mut tmp, None);
+        let len: usize = tmp.iter().map(|x| x.len()).sum();
+        let (form, (tmp, c2)) = match best {
+            Some(b) if best_len <= len => (2, b),
+            _ => (0, (tmp, c2)),
+        };
+        for t in 0..5 {
+            s[t].extend_from_slice(&tmp[t]);
+        }
+        *cur = c2;
+        return form;
+    }
     s[OPS].push(op);
+    encode_patch(st, r, cur, s, None);
+    0
+}
+
+/// Anchors worth trying for the local form of `r`: the old corners of its
+/// rewritten slots, else its moved vertices, else the existing corners of
+/// its appended quads (at most 16, ascending).
+fn local_candidates(st: &MeshState, r: &QRecord) -> Vec<u32> {
+    let v0 = st.q.len() as u32;
+    let mut c: Vec<u32> = r
+        .rewritten
+        .iter()
+        .flat_map(|&(slot, _)| st.quads[slot as usize])
+        .collect();
+    if c.is_empty() {
+        c = r.moved.iter().map(|m| m.0).collect();
+    }
+    if c.is_empty() {
+        c = r
+            .appended
+            .iter()
+            .flatten()
+            .copied()
+            .filter(|&v| v < v0)
+            .collect();
+    }
+    c.sort_unstable();
+    c.dedup();
+    c.truncate(16);
+    c
+}
+
+/// Writes the body of a general-form (`local = None`, spec §7.4) or
+/// local-form (spec §7.7) record — everything after the symbol and, for the
+/// local form, the anchor. Returns false (having written partial data) when
+/// the local form cannot name one of the record's slots or vertices.
+fn encode_patch(
+    st: &MeshState,
+    r: &QRecord,
+    cur: &mut Cursors,
+    s: &mut [Vec<u8>; 5],
+    local: Option<&Local>,
+) -> bool {
+    let v0 = st.q.len() as u32;
     let n_new = r.new_pos.len();
     let n_rw = r.rewritten.len();
     for n in [n_new, r.moved.len(), n_rw, r.appended.len()] {
         put_u(&mut s[CONN], n as u64);
     }
-    for &(v, p) in &r.moved {
-        put_s(&mut s[REFS], v as i64 - cur.vref as i64);
-        cur.vref = v;
-        put_residual(&mut s[POS], st.q[v as usize], p);
-    }
-    for (t, &(slot, _)) in r.rewritten.iter().enumerate() {
-        if t == 0 {
-            put_s(&mut s[SLOTS], slot as i64 - cur.slot as i64);
-        } else {
-            put_u(&mut s[SLOTS], (slot - r.rewritten[t - 1].0 - 1) as u64);
+    if let Some(l) = local {
+        let mut next = 0;
+        for &(v, p) in &r.moved {
+            let Ok(i) = l.verts.binary_search(&v) else {
+                return false;
+            };
+            put_u(&mut s[SLOTS], (i - next) as u64);
+            next = i + 1;
+            put_residual(&mut s[POS], st.q[v as usize], p);
         }
-    }
-    if let Some(&(slot, _)) = r.rewritten.last() {
-        cur.slot = slot;
+        next = 0;
+        for &(slot, _) in &r.rewritten {
+            let Ok(i) = l.faces.binary_search(&slot) else {
+                return false;
+            };
+            put_u(&mut s[SLOTS], (i - next) as u64);
+            next = i + 1;
+        }
+    } else {
+        for &(v, p) in &r.moved {
+            put_s(&mut s[REFS], v as i64 - cur.vref as i64);
+            cur.vref = v;
+            put_residual(&mut s[POS], st.q[v as usize], p);
+        }
+        for (t, &(slot, _)) in r.rewritten.iter().enumerate() {
+            if t == 0 {
+                put_s(&mut s[SLOTS], slot as i64 - cur.slot as i64);
+            } else {
+                put_u(&mut s[SLOTS], (slot - r.rewritten[t - 1].0 - 1) as u64);
+            }
+        }
+        if let Some(&(slot, _)) = r.rewritten.last() {
+            cur.slot = slot;
+        }
     }
     // Corner vocabulary: new vertices, old corners of rewritten slots, then
     // explicitly coded vertices (first occurrence wins).
@@ -784,18 +1015,26 @@ pub fn encode_record(
         }
     }
     let mut n_extra = 0u64;
-    let mut corner = |v: u32, s: &mut [Vec<u8>; 5], cur: &mut Cursors| {
+    let mut corner = |v: u32, s: &mut [Vec<u8>; 5], cur: &mut Cursors| -> bool {
         if v >= v0 && ((v - v0) as usize) < n_new {
             put_u(&mut s[CONN], 1 + (v - v0) as u64);
         } else if let Some(&idx) = vocab.get(&v) {
             put_u(&mut s[CONN], 1 + idx);
         } else {
             put_u(&mut s[CONN], 0);
-            put_s(&mut s[REFS], v as i64 - cur.vref as i64);
-            cur.vref = v;
+            if let Some(l) = local {
+                let Ok(i) = l.verts.binary_search(&v) else {
+                    return false;
+                };
+                put_u(&mut s[SLOTS], i as u64);
+            } else {
+                put_s(&mut s[REFS], v as i64 - cur.vref as i64);
+                cur.vref = v;
+            }
             vocab.insert(v, (n_new + 4 * n_rw) as u64 + n_extra);
             n_extra += 1;
         }
+        true
     };
     for &(slot, q) in &r.rewritten {
         let old = st.quads[slot as usize];
@@ -804,14 +1043,16 @@ pub fn encode_record(
             .fold(0u64, |m, c| m | 1 << c);
         put_u(&mut s[CONN], mask);
         for (c, &v) in q.iter().enumerate() {
-            if mask & (1 << c) != 0 {
-                corner(v, s, cur);
+            if mask & (1 << c) != 0 && !corner(v, s, cur) {
+                return false;
             }
         }
     }
     for q in &r.appended {
         for &v in q {
-            corner(v, s, cur);
+            if !corner(v, s, cur) {
+                return false;
+            }
         }
     }
     let first = first_faces(r, v0, n_new);
@@ -822,7 +1063,7 @@ pub fn encode_record(
         put_residual(&mut s[POS], pred, r.new_pos[t]);
         partial.new_pos.push(r.new_pos[t]);
     }
-    false
+    true
 }
 
 /// Concatenates the five streams, each prefixed by its LEB128 length.

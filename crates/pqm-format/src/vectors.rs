@@ -14,6 +14,8 @@ pub struct Vector {
     pub bytes: Vec<u8>,
     /// Levels recorded in the JSON digest (and as OBJ files).
     pub levels: Vec<usize>,
+    /// Records per form: general, split, local (spec §7.3).
+    pub forms: [usize; 3],
 }
 
 /// Every vector, generated deterministically.
@@ -21,11 +23,12 @@ pub fn all() -> Vec<Vector> {
     let make = |name, gen: GenOptions, opts: EncodeOptions| {
         let pm = generate_with(&gen);
         let n = pm.records.len();
-        let bytes = write_to_vec(&pm, &opts).expect("vector encodes").0;
+        let (bytes, r) = write_to_vec(&pm, &opts).expect("vector encodes");
         Vector {
             name,
             bytes,
             levels: vec![0, n / 3, 2 * n / 3, n],
+            forms: [r.general_records, r.split_records, r.local_records],
         }
     };
     vec![
@@ -61,7 +64,20 @@ pub fn all() -> Vec<Vector> {
             EncodeOptions {
                 bits: 8,
                 split_form: false,
+                local_form: false,
                 chunk_bytes: 64,
+                ..EncodeOptions::default()
+            },
+        ),
+        make(
+            "local_form",
+            GenOptions {
+                base: BaseShape::Box { n: 3 },
+                ..GenOptions::new(5, 300)
+            },
+            EncodeOptions {
+                split_form: false,
+                chunk_records: Some(12),
                 ..EncodeOptions::default()
             },
         ),
