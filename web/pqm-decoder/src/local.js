@@ -1,0 +1,249 @@
+/**
+ * Local record form (spec §7.7): a general-form record whose moved
+ * vertices, rewritten slots and explicit corners are named by small indices
+ * into the neighbourhood of one *anchor* vertex instead of by global deltas.
+ *
+ * Neighbourhood of anchor `m`: `A` = the corners of the faces at `m`
+ * (1..=255 faces); `R` = every slot with a corner in `A`, ascending (at most
+ * 4096 corners visited while collecting, else the record is invalid);
+ * `U` = the corners of the faces of `R`, ascending.
+ *
+ * Written from the spec; shares only the apply/log primitives with the
+ * general form (codec.js).
+ */
+import { readCode, logMove, rewriteSlot, appendQuad, appendVertex, checkDistinct } from './codec.js';
+
+const MAX_STAR = 255;
+const MAX_CORNERS = 4096;
+
+// Scratch, sized by the limits above (no allocation per record).
+const lA = new Int32Array(4 * MAX_STAR);
+const lR = new Int32Array(MAX_CORNERS);
+const lU = new Int32Array(4 * MAX_CORNERS);
+// Per-record lists, grown on demand (bounded by |R| and the streams).
+let lSlots = new Int32Array(64);
+let lRw = new Int32Array(256);
+let lApp = new Int32Array(256);
+let lExtra = new Int32Array(64);
+let lFirst = new Int32Array(64);
+
+/** Sorts `a[0..n]` ascending and removes repeats; returns the new length. */
+function sortUnique(a, n) {
+  const s = a.subarray(0, n).sort();
+  let k = 0;
+  for (let i = 0; i < n; i++) if (i === 0 || s[i] !== s[k - 1]) s[k++] = s[i];
+  return k;
+}
+
+/** Fills lR / lU for anchor `m`; returns [|R|, |U|]. */
+function neighbourhood(st, m) {
+  const f = st.f;
+  const head = st.head;
+  const next = st.next;
+  let n = 0;
+  let na = 0;
+  for (let c = head[m]; c >= 0; c = next[c]) {
+    if (++n > MAX_STAR) throw `anchor ${m} has more than ${MAX_STAR} faces (local form needs 1..=255)`;
+    const s4 = c & ~3;
+    lA[na++] = f[s4];
+    lA[na++] = f[s4 + 1];
+    lA[na++] = f[s4 + 2];
+    lA[na++] = f[s4 + 3];
+  }
+  if (n === 0) throw `anchor ${m} has no face`;
+  na = sortUnique(lA, na);
+  let nr = 0;
+  for (let i = 0; i < na; i++) {
+    for (let c = head[lA[i]]; c >= 0; c = next[c]) {
+      if (nr === MAX_CORNERS) throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
+      lR[nr++] = c >> 2;
+    }
+  }
+  nr = sortUnique(lR, nr);
+  let nu = 0;
+  for (let i = 0; i < nr; i++) {
+    const s4 = 4 * lR[i];
+    lU[nu++] = f[s4];
+    lU[nu++] = f[s4 + 1];
+    lU[nu++] = f[s4 + 2];
+    lU[nu++] = f[s4 + 3];
+  }
+  return [nr, sortUnique(lU, nu)];
+}
+
+/** The `t`-th ascending local index (first as is, then gaps after `next`). */
+function localIndex(ctx, t, next, len, what) {
+  const i = t === 0 ? ctx.slots.u() : next + ctx.slots.u();
+  if (i >= len) throw `${what} local index ${i} outside 0..${len}`;
+  return i;
+}
+
+/** Resolves a corner code (spec §7.4, explicit corners as in §7.7). */
+function cornerCode(ctx, V, nNew, nRw, nU, f) {
+  const x = ctx.conn.u();
+  if (x === 0) {
+    const i = ctx.slots.u();
+    if (i >= nU) throw `local corner index ${i} outside 0..${nU}`;
+    const v = lU[i];
+    if (ctx.nExtra === lExtra.length) {
+      const g = new Int32Array(2 * lExtra.length);
+      g.set(lExtra);
+      lExtra = g;
+    }
+    lExtra[ctx.nExtra++] = v;
+    return v;
+  }
+  if (x <= nNew) return V + x - 1;
+  if (x <= nNew + 4 * nRw) {
+    const i = x - 1 - nNew;
+    return f[4 * lSlots[i >> 2] + (i & 3)];
+  }
+  const e = x - 1 - nNew - 4 * nRw;
+  if (e >= ctx.nExtra) throw `corner code ${x} names extra entry ${e}, only ${ctx.nExtra} exist`;
+  return lExtra[e];
+}
+
+const clamp = (x, qmax) => (x < 0 ? 0 : x > qmax ? qmax : x);
+
+/** Local form (spec §7.7); `sym` is the record's symbol byte. */
+export function decodeLocal(ctx, sym) {
+  if (sym >> 4) throw `local-form symbol 0x${sym.toString(16)} has bits 4-7 set`;
+  const st = ctx.st;
+  const conn = ctx.conn;
+  const V = st.nv;
+  const NF = st.nf;
+  const m = ctx.vcur + ctx.refs.s();
+  if (m < 0 || m >= V) throw `local-form anchor ${m} outside 0..${V}`;
+  ctx.vcur = m;
+  const [nR, nU] = neighbourhood(st, m);
+
+  const nNew = conn.u();
+  if (nNew > ctx.VF - V) throw `${nNew} new vertices exceed the final count ${ctx.VF} (now ${V})`;
+  const nMoved = conn.u();
+  if (nMoved > nU) throw `${nMoved} moved vertices, the neighbourhood holds ${nU}`;
+  const nRw = conn.u();
+  if (nRw > nR) throw `${nRw} rewritten faces, the neighbourhood holds ${nR}`;
+  const nApp = conn.u();
+  if (nApp > ctx.FF - NF) throw `${nApp} appended faces exceed the final count ${ctx.FF} (now ${NF})`;
+  // Each element takes at least one byte of its streams: check before
+  // sizing any scratch buffer by these counts.
+  if (nMoved + nRw > ctx.slots.remaining() || nRw + 4 * nApp > conn.remaining() || 3 * (nNew + nMoved) > ctx.pos.remaining()) {
+    throw `counts (${nNew} new, ${nMoved} moved, ${nRw} rewritten, ${nApp} appended) exceed what the streams hold`;
+  }
+
+  // Moved vertices: applied at once, so that predictions see them.
+  let next = 0;
+  for (let t = 0; t < nMoved; t++) {
+    const i = localIndex(ctx, t, next, nU, 'moved vertex');
+    next = i + 1;
+    const v = lU[i];
+    const q = st.q;
+    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], `moved vertex ${v}`);
+    logMove(ctx, v);
+  }
+
+  // Rewritten slots (the slot cursor is not used by this form).
+  if (nRw > lSlots.length) lSlots = new Int32Array(2 * nRw);
+  next = 0;
+  for (let t = 0; t < nRw; t++) {
+    const i = localIndex(ctx, t, next, nR, 'rewritten face');
+    next = i + 1;
+    lSlots[t] = lR[i];
+  }
+
+  // Quads. Old quads of rewritten slots stay in st.f until applied.
+  ctx.nExtra = 0;
+  const f = st.f;
+  if (4 * nRw > lRw.length) lRw = new Int32Array(8 * nRw);
+  if (4 * nApp > lApp.length) lApp = new Int32Array(8 * nApp);
+  const rwNew = lRw;
+  const app = lApp;
+  for (let i = 0; i < nRw; i++) {
+    const mask = conn.u();
+    if (mask > 15) throw `corner mask ${mask} of slot ${lSlots[i]} exceeds 15`;
+    const s4 = 4 * lSlots[i];
+    for (let c = 0; c < 4; c++) {
+      rwNew[4 * i + c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, nU, f) : f[s4 + c];
+    }
+    checkDistinct(rwNew, 4 * i, `rewritten slot ${lSlots[i]}`);
+  }
+  for (let i = 0; i < nApp; i++) {
+    for (let c = 0; c < 4; c++) app[4 * i + c] = cornerCode(ctx, V, nNew, nRw, nU, f);
+    checkDistinct(app, 4 * i, `appended quad ${i}`);
+  }
+
+  // New vertex codes (spec §7.6): the first quad containing each, in the
+  // order "appended, then rewritten by slot" (lSlots is ascending).
+  if (nNew > 0) {
+    if (nNew > lFirst.length) lFirst = new Int32Array(2 * nNew);
+    const firstHit = lFirst;
+    firstHit.fill(-1, 0, nNew);
+    for (let i = 0; i < 4 * nApp; i++) {
+      const v = app[i] - V;
+      if (v >= 0 && firstHit[v] < 0) firstHit[v] = i;
+    }
+    const base = 4 * nApp;
+    for (let i = 0; i < 4 * nRw; i++) {
+      const v = rwNew[i] - V;
+      if (v >= 0 && firstHit[v] < 0) firstHit[v] = base + i;
+    }
+    st.reserve(V + nNew, NF);
+    const qmax = ctx.qmax;
+    for (let k = 0; k < nNew; k++) {
+      const x = V + k;
+      const q = st.q;
+      let px, py, pz;
+      let found = false;
+      const hit = firstHit[k];
+      if (hit >= 0) {
+        const arr = hit < base ? app : rwNew;
+        const o = hit < base ? hit & ~3 : (hit - base) & ~3;
+        const c = hit & 3;
+        const n1 = arr[o + ((c + 1) & 3)];
+        const op = arr[o + ((c + 2) & 3)];
+        const n3 = arr[o + ((c + 3) & 3)];
+        const k1 = n1 < x;
+        const ko = op < x;
+        const k3 = n3 < x;
+        if (k1 && ko && k3) {
+          px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
+          py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
+          pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
+          found = true;
+        } else if (k1 || ko || k3) {
+          let sx = 0, sy = 0, sz = 0, n = 0;
+          for (const [u, known] of [[n1, k1], [op, ko], [n3, k3]]) {
+            if (!known) continue;
+            sx += q[3 * u];
+            sy += q[3 * u + 1];
+            sz += q[3 * u + 2];
+            n++;
+          }
+          px = Math.floor(sx / n);
+          py = Math.floor(sy / n);
+          pz = Math.floor(sz / n);
+          found = true;
+        }
+      }
+      if (!found) {
+        if (x > V) {
+          px = q[3 * (x - 1)];
+          py = q[3 * (x - 1) + 1];
+          pz = q[3 * (x - 1) + 2];
+        } else {
+          px = py = pz = ctx.half;
+        }
+      }
+      readCode(ctx, px, py, pz, `new vertex ${x}`);
+      appendVertex(ctx);
+    }
+  }
+
+  // Apply the connectivity.
+  for (let i = 0; i < nRw; i++) {
+    rewriteSlot(ctx, lSlots[i], rwNew[4 * i], rwNew[4 * i + 1], rwNew[4 * i + 2], rwNew[4 * i + 3]);
+  }
+  for (let i = 0; i < nApp; i++) {
+    appendQuad(ctx, app[4 * i], app[4 * i + 1], app[4 * i + 2], app[4 * i + 3]);
+  }
+}
