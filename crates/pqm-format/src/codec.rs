@@ -751,14 +751,20 @@ fn decode_patch(
             .copied()
             .ok_or_else(|| format!("corner code {x} out of range"))
     };
+    // The local form's mask also carries a rotation (bits 4-5): the
+    // coarsener may restore a face starting at another corner, and naming
+    // all four corners again would cost far more than two bits.
+    let max_mask = if local.is_some() { 63 } else { 15 };
     for &s in &slots {
-        let mask = rd[CONN].u_max(15, "corner mask")?;
+        let mask = rd[CONN].u_max(max_mask, "corner mask")?;
         let mut q = st.quads[s as usize];
         for (c, qc) in q.iter_mut().enumerate() {
             if mask & (1 << c) != 0 {
                 *qc = corner(rd, cur)?;
             }
         }
+        let rot = (mask >> 4) as usize;
+        let q = [0, 1, 2, 3].map(|k| q[(k + rot) % 4]);
         check_distinct(&q, &format!("rewritten slot {s}"))?;
         r.rewritten.push((s, q));
     }
@@ -1038,10 +1044,19 @@ fn encode_patch(
     };
     for &(slot, q) in &r.rewritten {
         let old = st.quads[slot as usize];
+        // Local form: the rotation that keeps the most old corners.
+        let rot = if local.is_some() {
+            (0..4)
+                .min_by_key(|&rot| (0..4).filter(|&j| q[(j + 4 - rot) % 4] != old[j]).count())
+                .unwrap_or(0)
+        } else {
+            0
+        };
+        let q = [0, 1, 2, 3].map(|j| q[(j + 4 - rot) % 4]);
         let mask = (0..4)
             .filter(|&c| q[c] != old[c])
             .fold(0u64, |m, c| m | 1 << c);
-        put_u(&mut s[CONN], mask);
+        put_u(&mut s[CONN], mask | (rot as u64) << 4);
         for (c, &v) in q.iter().enumerate() {
             if mask & (1 << c) != 0 && !corner(v, s, cur) {
                 return false;

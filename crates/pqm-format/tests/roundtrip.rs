@@ -134,8 +134,12 @@ proptest! {
         splits in 0usize..150,
         opts in opts_strategy(),
         sizes in prop::collection::vec(1usize..300, 1..8),
+        rotate in any::<bool>(),
     ) {
-        let pm = testgen::generate(seed, splits);
+        let mut pm = testgen::generate(seed, splits);
+        if rotate {
+            pqm_format::vectors::rotate_rewritten(&mut pm);
+        }
         let bytes = encode(&pm, &opts);
         let (mut dec, events) = push_in_pieces(&bytes, &sizes);
         prop_assert_eq!(events.last(), Some(&Event::Finished));
@@ -542,7 +546,8 @@ fn local_form_is_used_and_never_larger() {
     // places (the general form's case); its splits with a moved second
     // vertex fit the local form. Real coarsener records are local (see the
     // `streams` example): there nearly all records use it.
-    let pm = testgen::generate(21, 3000);
+    let mut pm = testgen::generate(21, 3000);
+    pqm_format::vectors::rotate_rewritten(&mut pm);
     let (a, ra) = write_to_vec(&pm, &EncodeOptions::default()).unwrap();
     let (b, rb) = write_to_vec(
         &pm,

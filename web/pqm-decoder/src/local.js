@@ -26,6 +26,7 @@ let lRw = new Int32Array(256);
 let lApp = new Int32Array(256);
 let lExtra = new Int32Array(64);
 let lFirst = new Int32Array(64);
+const lQuad = new Int32Array(4);
 
 /** Sorts `a[0..n]` ascending and removes repeats; returns the new length. */
 function sortUnique(a, n) {
@@ -159,12 +160,15 @@ export function decodeLocal(ctx, sym) {
   const rwNew = lRw;
   const app = lApp;
   for (let i = 0; i < nRw; i++) {
+    // bits 0-3: replaced corners of the old quad; bits 4-5: rotation
     const mask = conn.u();
-    if (mask > 15) throw `corner mask ${mask} of slot ${lSlots[i]} exceeds 15`;
+    if (mask > 63) throw `corner mask ${mask} of slot ${lSlots[i]} exceeds 63`;
     const s4 = 4 * lSlots[i];
     for (let c = 0; c < 4; c++) {
-      rwNew[4 * i + c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, nU, f) : f[s4 + c];
+      lQuad[c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, nU, f) : f[s4 + c];
     }
+    const rot = mask >> 4;
+    for (let k = 0; k < 4; k++) rwNew[4 * i + k] = lQuad[(k + rot) & 3];
     checkDistinct(rwNew, 4 * i, `rewritten slot ${lSlots[i]}`);
   }
   for (let i = 0; i < nApp; i++) {
