@@ -4,15 +4,18 @@
 //! new / moved / rewritten / appended counts, and the compressed bits per
 //! refined vertex each stream takes.
 //!
-//! `cargo run --release -p pqm-format --example streams -- FILE.pqm...`
-//! (write the files with `pqm encode`; re-encoding skips the coarsener).
+//! `cargo run --release -p pqm-format --example streams -- [--no-local] FILE.pqm...`
+//! (write the files with `pqm encode`; re-encoding skips the coarsener;
+//! `--no-local` re-encodes without the local form, as version 1.0 did).
 
 use pqm_format::{decode_all, write_to_vec, EncodeOptions, Limits};
 
 const OPS: [&str; 4] = ["qvMerge", "qeMerge", "doublet", "smooth"];
 
 fn main() {
-    let files: Vec<String> = std::env::args().skip(1).collect();
+    let mut files: Vec<String> = std::env::args().skip(1).collect();
+    let local_form = !files.iter().any(|f| f == "--no-local");
+    files.retain(|f| f != "--no-local");
     if files.is_empty() {
         eprintln!("usage: streams FILE.pqm...");
         std::process::exit(2);
@@ -39,6 +42,7 @@ fn main() {
         let bits = dec.header().map_or(14, |h| h.quant_bits);
         let opts = EncodeOptions {
             bits,
+            local_form,
             ..EncodeOptions::default()
         };
         let (out, r) = match write_to_vec(&pm, &opts) {
