@@ -110,6 +110,38 @@ pub struct Local {
 /// cannot make one record scan a huge fan).
 pub const MAX_LOCAL_CORNERS: usize = 4096;
 
+/// Generation stamps of [`MeshState::local_into`]: `v[u] == gen` marks
+/// vertex `u` as seen in the current pass (two passes per call), `f` the
+/// same for slots. Grown on demand; reset when the counter wraps.
+#[derive(Default)]
+struct Marks {
+    gen: u32,
+    v: Vec<u32>,
+    f: Vec<u32>,
+    /// Scratch list of the star's vertices.
+    star: Vec<u32>,
+}
+
+impl Marks {
+    /// Fresh stamps for a mesh of `nv` vertices and `nf` slots: the vertex
+    /// generation (the next one, +1, is also reserved) and the face one.
+    fn next_gen(&mut self, nv: usize, nf: usize) -> (u32, u32) {
+        if self.v.len() < nv {
+            self.v.resize(nv, 0);
+        }
+        if self.f.len() < nf {
+            self.f.resize(nf, 0);
+        }
+        if self.gen >= u32::MAX - 2 {
+            self.gen = 0;
+            self.v.fill(0);
+            self.f.fill(0);
+        }
+        self.gen += 2;
+        (self.gen - 1, self.gen)
+    }
+}
+
 /// Running cursors of one chunk (reset to 0 at every chunk start).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Cursors {
@@ -261,39 +293,91 @@ impl MeshState {
 
     /// Local neighbourhood of anchor `m` (spec §7.7), or why it has none.
     pub fn local(&self, m: u32) -> Result<Local, String> {
-        let mut star_verts: Vec<u32> = Vec::with_capacity(16);
-        let mut n = 0usize;
-        for (f, _) in self.corners(m) {
-            n += 1;
-            if n > MAX_SPLIT_STAR {
-                return Err(format!(
-                    "anchor {m} has more than {MAX_SPLIT_STAR} faces (local form needs 1..=255)"
-                ));
-            }
-            star_verts.extend_from_slice(&self.quads[f as usize]);
+        let mut out = Local::default();
+        self.local_into(m, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`MeshState::local`] into `out` (reusing its buffers). Duplicates are
+    /// dropped with per-thread generation stamps instead of sorting every
+    /// raw entry: only the distinct faces and vertices get sorted (this runs
+    /// once per local-form record when decoding, up to 16 times when encoding).
+    pub fn local_into(&self, m: u32, out: &mut Local) -> Result<(), String> {
+        thread_local! {
+            static MARKS: std::cell::RefCell<Marks> = std::cell::RefCell::new(Marks::default());
         }
-        if n == 0 {
-            return Err(format!("anchor {m} has no face"));
-        }
-        star_verts.sort_unstable();
-        star_verts.dedup();
-        let mut faces: Vec<u32> = Vec::with_capacity(64);
-        for &u in &star_verts {
-            for (f, _) in self.corners(u) {
-                if faces.len() == MAX_LOCAL_CORNERS {
+        MARKS.with(|cell| {
+            let mut mk = cell.borrow_mut();
+            let (gv, gf) = mk.next_gen(self.q.len(), self.quads.len());
+            let mut star_verts = std::mem::take(&mut mk.star);
+            star_verts.clear();
+            let mut n = 0usize;
+            for (f, _) in self.corners(m) {
+                n += 1;
+                if n > MAX_SPLIT_STAR {
                     return Err(format!(
-                        "the faces around anchor {m} have more than {MAX_LOCAL_CORNERS} corners"
+                        "anchor {m} has more than {MAX_SPLIT_STAR} faces (local form needs 1..=255)"
                     ));
                 }
-                faces.push(f);
+                for &u in &self.quads[f as usize] {
+                    if mk.v[u as usize] != gv {
+                        mk.v[u as usize] = gv;
+                        star_verts.push(u);
+                    }
+                }
             }
+            let r = self.collect_local(m, n, &star_verts, &mut mk, gv + 1, gf, out);
+            mk.star = star_verts;
+            r
+        })
+    }
+
+    /// The second half of [`MeshState::local_into`]: faces around the star
+    /// vertices, then their corners (`gu`, `gf`: fresh stamps).
+    #[allow(clippy::too_many_arguments)]
+    fn collect_local(
+        &self,
+        m: u32,
+        n: usize,
+        star_verts: &[u32],
+        mk: &mut Marks,
+        gu: u32,
+        gf: u32,
+        out: &mut Local,
+    ) -> Result<(), String> {
+        {
+            if n == 0 {
+                return Err(format!("anchor {m} has no face"));
+            }
+            out.faces.clear();
+            out.verts.clear();
+            let mut entries = 0usize;
+            for &u in star_verts {
+                for (f, _) in self.corners(u) {
+                    entries += 1;
+                    if entries > MAX_LOCAL_CORNERS {
+                        return Err(format!(
+                            "the faces around anchor {m} have more than {MAX_LOCAL_CORNERS} corners"
+                        ));
+                    }
+                    if mk.f[f as usize] != gf {
+                        mk.f[f as usize] = gf;
+                        out.faces.push(f);
+                    }
+                }
+            }
+            out.faces.sort_unstable();
+            for &f in &out.faces {
+                for &u in &self.quads[f as usize] {
+                    if mk.v[u as usize] != gu {
+                        mk.v[u as usize] = gu;
+                        out.verts.push(u);
+                    }
+                }
+            }
+            out.verts.sort_unstable();
+            Ok(())
         }
-        faces.sort_unstable();
-        faces.dedup();
-        let mut verts: Vec<u32> = faces.iter().flat_map(|&f| self.quads[f as usize]).collect();
-        verts.sort_unstable();
-        verts.dedup();
-        Ok(Local { faces, verts })
     }
 
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
@@ -608,14 +692,21 @@ pub fn decode_record(
                     "symbol {sym:#04x} of form {form} has split-form bits set"
                 ));
             }
-            let local = if form == 2 {
+            if form == 2 {
                 let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
                 cur.vref = m;
-                Some(st.local(m)?)
+                // One neighbourhood buffer per thread, reused by every record.
+                thread_local! {
+                    static LOCAL: std::cell::RefCell<Local> = std::cell::RefCell::new(Local::default());
+                }
+                LOCAL.with(|cell| {
+                    let mut local = cell.borrow_mut();
+                    st.local_into(m, &mut local)?;
+                    decode_patch(st, rd, cur, max_v, max_f, Some(&local), &mut r)
+                })?;
             } else {
-                None
-            };
-            decode_patch(st, rd, cur, max_v, max_f, local.as_ref(), &mut r)?;
+                decode_patch(st, rd, cur, max_v, max_f, None, &mut r)?;
+            }
         }
         1 => {
             if v0 >= max_v || f0 >= max_f {
