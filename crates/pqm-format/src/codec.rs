@@ -639,11 +639,13 @@ fn put_residual(out: &mut Vec<u8>, pred: [u32; 3], p: [u32; 3]) {
     }
 }
 
-fn check_distinct(q: &[u32; 4], what: &str) -> Result<(), String> {
+/// Checks that the 4 corners of `q` are distinct; `what` names the face in
+/// the error (a closure, so that no string is built on the hot path).
+fn check_distinct(q: &[u32; 4], what: impl FnOnce() -> String) -> Result<(), String> {
     for a in 0..4 {
         for b in a + 1..4 {
             if q[a] == q[b] {
-                return Err(format!("{what} repeats vertex {}", q[a]));
+                return Err(format!("{} repeats vertex {}", what(), q[a]));
             }
         }
     }
@@ -856,7 +858,7 @@ fn decode_patch(
         }
         let rot = (mask >> 4) as usize;
         let q = [0, 1, 2, 3].map(|k| q[(k + rot) % 4]);
-        check_distinct(&q, &format!("rewritten slot {s}"))?;
+        check_distinct(&q, || format!("rewritten slot {s}"))?;
         r.rewritten.push((s, q));
     }
     for a in 0..n_app {
@@ -864,7 +866,7 @@ fn decode_patch(
         for qc in q.iter_mut() {
             *qc = corner(rd, cur)?;
         }
-        check_distinct(&q, &format!("appended face {a}"))?;
+        check_distinct(&q, || format!("appended face {a}"))?;
         r.appended.push(q);
     }
     let first = first_faces(r, v0, n_new);
@@ -1245,7 +1247,7 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
             *qc = v as u32;
             prev = v;
         }
-        check_distinct(&q, &format!("face {f}"))?;
+        check_distinct(&q, || format!("face {f}"))?;
         quads.push(q);
     }
     let mut pos = Vec::with_capacity(nv as usize);
