@@ -28,12 +28,32 @@ let lExtra = new Int32Array(64);
 let lFirst = new Int32Array(64);
 const lQuad = new Int32Array(4);
 
-/** Sorts `a[0..n]` ascending and removes repeats; returns the new length. */
-function sortUnique(a, n) {
-  const s = a.subarray(0, n).sort();
-  let k = 0;
-  for (let i = 0; i < n; i++) if (i === 0 || s[i] !== s[k - 1]) s[k++] = s[i];
-  return k;
+// Generation stamps (spec order is by id; stamps drop repeats so that only
+// the distinct faces and vertices get sorted): stampV[v] === gen marks
+// vertex v as seen in the current pass, stampF likewise for slots.
+let stampV = new Int32Array(0);
+let stampF = new Int32Array(0);
+let gen = 0;
+
+/** Fresh stamps for `nv` vertices and `nf` slots; returns the vertex stamp (the next value is reserved too). */
+function nextGen(nv, nf) {
+  if (stampV.length < nv) {
+    const g = new Int32Array(Math.max(nv, 2 * stampV.length));
+    g.set(stampV);
+    stampV = g;
+  }
+  if (stampF.length < nf) {
+    const g = new Int32Array(Math.max(nf, 2 * stampF.length));
+    g.set(stampF);
+    stampF = g;
+  }
+  if (gen > 0x3fffffff) {
+    gen = 0;
+    stampV.fill(0);
+    stampF.fill(0);
+  }
+  gen += 2;
+  return gen - 1;
 }
 
 /** Fills lR / lU for anchor `m`; returns [|R|, |U|]. */
@@ -41,35 +61,51 @@ function neighbourhood(st, m) {
   const f = st.f;
   const head = st.head;
   const next = st.next;
+  const gv = nextGen(st.nv, st.nf);
+  const gu = gv + 1;
+  const gf = gv + 1;
+  const sv = stampV;
+  const sf = stampF;
   let n = 0;
   let na = 0;
   for (let c = head[m]; c >= 0; c = next[c]) {
     if (++n > MAX_STAR) throw `anchor ${m} has more than ${MAX_STAR} faces (local form needs 1..=255)`;
     const s4 = c & ~3;
-    lA[na++] = f[s4];
-    lA[na++] = f[s4 + 1];
-    lA[na++] = f[s4 + 2];
-    lA[na++] = f[s4 + 3];
+    for (let k = 0; k < 4; k++) {
+      const u = f[s4 + k];
+      if (sv[u] !== gv) {
+        sv[u] = gv;
+        lA[na++] = u;
+      }
+    }
   }
   if (n === 0) throw `anchor ${m} has no face`;
-  na = sortUnique(lA, na);
+  let entries = 0;
   let nr = 0;
   for (let i = 0; i < na; i++) {
     for (let c = head[lA[i]]; c >= 0; c = next[c]) {
-      if (nr === MAX_CORNERS) throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
-      lR[nr++] = c >> 2;
+      if (++entries > MAX_CORNERS) throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
+      const s = c >> 2;
+      if (sf[s] !== gf) {
+        sf[s] = gf;
+        lR[nr++] = s;
+      }
     }
   }
-  nr = sortUnique(lR, nr);
+  lR.subarray(0, nr).sort();
   let nu = 0;
   for (let i = 0; i < nr; i++) {
     const s4 = 4 * lR[i];
-    lU[nu++] = f[s4];
-    lU[nu++] = f[s4 + 1];
-    lU[nu++] = f[s4 + 2];
-    lU[nu++] = f[s4 + 3];
+    for (let k = 0; k < 4; k++) {
+      const u = f[s4 + k];
+      if (sv[u] !== gu) {
+        sv[u] = gu;
+        lU[nu++] = u;
+      }
+    }
   }
-  return [nr, sortUnique(lU, nu)];
+  lU.subarray(0, nu).sort();
+  return [nr, nu];
 }
 
 /** The `t`-th ascending local index (first as is, then gaps after `next`). */
@@ -216,11 +252,22 @@ export function decodeLocal(ctx, sym) {
           found = true;
         } else if (k1 || ko || k3) {
           let sx = 0, sy = 0, sz = 0, n = 0;
-          for (const [u, known] of [[n1, k1], [op, ko], [n3, k3]]) {
-            if (!known) continue;
-            sx += q[3 * u];
-            sy += q[3 * u + 1];
-            sz += q[3 * u + 2];
+          if (k1) {
+            sx += q[3 * n1];
+            sy += q[3 * n1 + 1];
+            sz += q[3 * n1 + 2];
+            n++;
+          }
+          if (ko) {
+            sx += q[3 * op];
+            sy += q[3 * op + 1];
+            sz += q[3 * op + 2];
+            n++;
+          }
+          if (k3) {
+            sx += q[3 * n3];
+            sy += q[3 * n3 + 1];
+            sz += q[3 * n3 + 2];
             n++;
           }
           px = Math.floor(sx / n);
