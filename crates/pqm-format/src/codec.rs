@@ -3,8 +3,10 @@
 //! Both the encoder and the decoder run the same [`MeshState`] — quantized
 //! positions, quads and vertex→face adjacency at the current level — because
 //! the coding is *predictive*: the compact split form names a vertex and two
-//! wings in its link ring (which needs adjacency) and every position is a
-//! residual against a prediction from positions the decoder already has.
+//! wings in its link ring, the local form names faces and vertices by their
+//! index in the 2-ring of one anchor vertex (both need adjacency), and every
+//! position is a residual against a prediction from positions the decoder
+//! already has.
 //!
 //! A record is coded into five separate byte streams (symbols, connectivity
 //! integers, vertex references, face slots, position residuals) because

@@ -5,8 +5,10 @@
 //! Steps: validate the mesh; compute the bounding box of every position it
 //! ever shows; quantize everything on that one grid; run the decoder's
 //! [`MeshState`] alongside and code each record in the split form when that
-//! reproduces it exactly, else in the general form; cut chunks by record
-//! count or payload size; compress each chunk as an independent zstd frame.
+//! reproduces it exactly, else in the local form when its changes lie around
+//! one vertex (nearly every coarsener record), else in the general form; cut
+//! chunks by record count or payload size; compress each chunk as an
+//! independent zstd frame.
 
 use crate::codec::{self, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
 use crate::error::EncodeError;

@@ -575,6 +575,50 @@ fn local_form_is_used_and_never_larger() {
     }
 }
 
+#[test]
+fn per_op_stats_add_up_to_the_report() {
+    let mut pm = testgen::generate(33, 800);
+    pqm_format::vectors::rotate_rewritten(&mut pm);
+    let (_, r) = write_to_vec(
+        &pm,
+        &EncodeOptions {
+            chunk_bytes: 2048,
+            ..EncodeOptions::default()
+        },
+    )
+    .unwrap();
+    let ops = &r.per_op;
+    assert_eq!(
+        ops.iter().map(|o| o.records).sum::<usize>(),
+        pm.records.len()
+    );
+    for o in ops {
+        assert_eq!(o.forms.iter().sum::<usize>(), o.records);
+    }
+    assert_eq!(
+        ops.iter().map(|o| o.forms[0]).sum::<usize>(),
+        r.general_records
+    );
+    assert_eq!(
+        ops.iter().map(|o| o.forms[1]).sum::<usize>(),
+        r.split_records
+    );
+    assert_eq!(
+        ops.iter().map(|o| o.forms[2]).sum::<usize>(),
+        r.local_records
+    );
+    let new: u64 = ops.iter().map(|o| o.new).sum();
+    assert_eq!(new, r.refined_vertices);
+    for t in 0..5 {
+        let raw: u64 = ops.iter().map(|o| o.raw_bytes[t]).sum();
+        assert_eq!(raw, r.stream_raw_bytes[t]);
+        let bytes: f64 = ops.iter().map(|o| o.bytes[t]).sum();
+        assert!((bytes - r.stream_bytes[t]).abs() < 1e-6 * r.stream_bytes[t].max(1.0));
+    }
+    let app: u64 = ops.iter().map(|o| o.appended).sum();
+    assert_eq!(app as usize, pm.final_face_count() - pm.base.face_count());
+}
+
 /// A one-record chunk payload from raw streams.
 fn payload(ops: &[u8], conn: &[u64], refs: &[i64], slots: &[u64], pos: &[i64]) -> [Vec<u8>; 5] {
     use pqm_format::varint::{put_s, put_u};
