@@ -240,7 +240,31 @@ fn every_prefix_yields_the_deepest_complete_level() {
         chunk_records: Some(6),
         ..EncodeOptions::default()
     };
-    let bytes = encode(&pm, &opts);
+    check_every_prefix(&pm, &opts);
+    // Again with rotated faces, so that most records use the local form.
+    let mut pm = testgen::generate_with(&GenOptions {
+        base: BaseShape::Box { n: 2 },
+        ..GenOptions::new(12, 120)
+    });
+    pqm_format::vectors::rotate_rewritten(&mut pm);
+    let opts = EncodeOptions {
+        chunk_records: Some(20),
+        ..EncodeOptions::default()
+    };
+    let (_, r) = write_to_vec(&pm, &opts).unwrap();
+    assert!(
+        r.local_records > pm.records.len() / 2,
+        "{} local of {}",
+        r.local_records,
+        pm.records.len()
+    );
+    check_every_prefix(&pm, &opts);
+}
+
+/// Every prefix of `pm` encoded with `opts` yields exactly the levels whose
+/// chunks are complete.
+fn check_every_prefix(pm: &ProgressiveMesh, opts: &EncodeOptions) {
+    let bytes = encode(pm, opts);
     let full = decode_all(&bytes, Limits::default()).unwrap();
     let q = full.quantizer().unwrap();
     // Level reached after each chunk, and where each chunk ends.
