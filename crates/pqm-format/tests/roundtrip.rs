@@ -300,7 +300,7 @@ fn check_every_prefix(pm: &ProgressiveMesh, opts: &EncodeOptions) {
         assert_eq!(s.finished, n == bytes.len());
         if let Some(k) = expect {
             dec.refine_to(Target::Level(usize::MAX)).unwrap();
-            assert_level(&dec, &pm, &q, k);
+            assert_level(&dec, pm, &q, k);
             if n < bytes.len() {
                 assert!(
                     s.waiting_for.is_some() && s.bytes_needed.is_some_and(|b| b > 0),
