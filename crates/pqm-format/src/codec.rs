@@ -770,13 +770,31 @@ fn decode_patch(
     let n_rw = rd[CONN].u_max(max_rw, "rewritten face count")? as usize;
     let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
     let v1 = v0 + n_new as u32;
-    let mut li = 0u64; // next local index (local form)
-    for t in 0..n_moved {
-        let v = if let Some(l) = local {
-            let i = local_index(&mut rd[SLOTS], t, li, l.verts.len(), "moved vertex")?;
-            li = i + 1;
-            l.verts[i as usize]
-        } else {
+    let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
+    if let Some(l) = local {
+        // Local form (spec §7.7): rewritten slots first, then the moved
+        // vertices as indices into `W` (the old corners of those slots —
+        // where most moved vertices are — then the rest of `U`).
+        let mut next = 0u64;
+        for t in 0..n_rw {
+            let i = local_index(&mut rd[SLOTS], t, next, l.faces.len(), "rewritten face")?;
+            next = i + 1;
+            slots.push(l.faces[i as usize]);
+        }
+        if n_moved > 0 {
+            let w = moved_vocabulary(st, &slots, l);
+            next = 0;
+            for t in 0..n_moved {
+                let i = local_index(&mut rd[SLOTS], t, next, w.len(), "moved vertex")?;
+                next = i + 1;
+                let v = w[i as usize];
+                let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+                r.moved.push((v, p));
+            }
+            r.moved.sort_unstable_by_key(|mv| mv.0);
+        }
+    } else {
+        for _ in 0..n_moved {
             let d = rd[REFS].s()?;
             let v = vref(cur.vref, d, v0, "moved vertex")?;
             if r.moved.last().is_some_and(|&(p, _)| p >= v) {
@@ -785,30 +803,21 @@ fn decode_patch(
                 ));
             }
             cur.vref = v;
-            v
-        };
-        let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
-        r.moved.push((v, p));
-    }
-    let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
-    li = 0;
-    for t in 0..n_rw {
-        if let Some(l) = local {
-            let i = local_index(&mut rd[SLOTS], t, li, l.faces.len(), "rewritten face")?;
-            li = i + 1;
-            slots.push(l.faces[i as usize]);
-            continue;
+            let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+            r.moved.push((v, p));
         }
-        let s = if t == 0 {
-            (cur.slot as i64).saturating_add(rd[SLOTS].s()?)
-        } else {
-            let gap = rd[SLOTS].u_max(f0 as u64, "slot gap")? as i64;
-            slots.last().map_or(0, |&p: &u32| p as i64) + 1 + gap
-        };
-        if s < 0 || s >= f0 as i64 {
-            return Err(format!("rewrites slot {s} but only {f0} faces exist"));
+        for t in 0..n_rw {
+            let s = if t == 0 {
+                (cur.slot as i64).saturating_add(rd[SLOTS].s()?)
+            } else {
+                let gap = rd[SLOTS].u_max(f0 as u64, "slot gap")? as i64;
+                slots.last().map_or(0, |&p: &u32| p as i64) + 1 + gap
+            };
+            if s < 0 || s >= f0 as i64 {
+                return Err(format!("rewrites slot {s} but only {f0} faces exist"));
+            }
+            slots.push(s as u32);
         }
-        slots.push(s as u32);
     }
     if let (None, Some(&s)) = (local, slots.last()) {
         cur.slot = s;
@@ -878,6 +887,35 @@ fn decode_patch(
         r.new_pos.push(p);
     }
     Ok(())
+}
+
+/// The local form's vocabulary for moved vertices (spec §7.7): the distinct
+/// corners of the old quads of the rewritten `slots` (in slot order, corners
+/// 0..3), then the other vertices of `l.verts`, ascending — a permutation of
+/// `l.verts` (rewritten slots lie in `l.faces`).
+fn moved_vocabulary(st: &MeshState, slots: &[u32], l: &Local) -> Vec<u32> {
+    // Membership by position in the sorted `l.verts` (binary search), so a
+    // hostile record with thousands of rewritten slots stays O(n log n).
+    let mut in_head = vec![false; l.verts.len()];
+    let mut w: Vec<u32> = Vec::with_capacity(l.verts.len());
+    for &s in slots {
+        for &v in &st.quads[s as usize] {
+            if let Ok(k) = l.verts.binary_search(&v) {
+                if !in_head[k] {
+                    in_head[k] = true;
+                    w.push(v);
+                }
+            }
+        }
+    }
+    w.extend(
+        l.verts
+            .iter()
+            .zip(&in_head)
+            .filter(|(_, &h)| !h)
+            .map(|(&v, _)| v),
+    );
+    w
 }
 
 /// Reads the `t`-th ascending local index from `rd` (the first as is, the
@@ -1074,21 +1112,30 @@ fn encode_patch(
     }
     if let Some(l) = local {
         let mut next = 0;
-        for &(v, p) in &r.moved {
-            let Ok(i) = l.verts.binary_search(&v) else {
-                return false;
-            };
-            put_u(&mut s[SLOTS], (i - next) as u64);
-            next = i + 1;
-            put_residual(&mut s[POS], st.q[v as usize], p);
-        }
-        next = 0;
         for &(slot, _) in &r.rewritten {
             let Ok(i) = l.faces.binary_search(&slot) else {
                 return false;
             };
             put_u(&mut s[SLOTS], (i - next) as u64);
             next = i + 1;
+        }
+        if !r.moved.is_empty() {
+            let slots: Vec<u32> = r.rewritten.iter().map(|rw| rw.0).collect();
+            let w = moved_vocabulary(st, &slots, l);
+            let mut idx = Vec::with_capacity(r.moved.len());
+            for &(v, p) in &r.moved {
+                let Some(i) = w.iter().position(|&x| x == v) else {
+                    return false;
+                };
+                idx.push((i, v, p));
+            }
+            idx.sort_unstable_by_key(|e| e.0);
+            next = 0;
+            for &(i, v, p) in &idx {
+                put_u(&mut s[SLOTS], (i - next) as u64);
+                next = i + 1;
+                put_residual(&mut s[POS], st.q[v as usize], p);
+            }
         }
     } else {
         for &(v, p) in &r.moved {

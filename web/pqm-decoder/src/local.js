@@ -20,6 +20,8 @@ const MAX_CORNERS = 4096;
 const lA = new Int32Array(4 * MAX_STAR);
 const lR = new Int32Array(MAX_CORNERS);
 const lU = new Int32Array(4 * MAX_CORNERS);
+const lW = new Int32Array(4 * MAX_CORNERS);
+const lInHead = new Uint8Array(4 * MAX_CORNERS);
 // Per-record lists, grown on demand (bounded by |R| and the streams).
 let lSlots = new Int32Array(64);
 let lRw = new Int32Array(256);
@@ -115,6 +117,36 @@ function localIndex(ctx, t, next, len, what) {
   return i;
 }
 
+/** Index of `v` in the sorted lU[0..nU], or −1. */
+function indexInU(v, nU) {
+  let lo = 0;
+  let hi = nU;
+  while (lo < hi) {
+    const mid = (lo + hi) >> 1;
+    if (lU[mid] < v) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo < nU && lU[lo] === v ? lo : -1;
+}
+
+/** Fills lW (spec §7.7: moved-vertex vocabulary) for the rewritten slots lSlots[0..nRw]; returns its length (= |U|). */
+function movedVocabulary(f, nRw, nU) {
+  lInHead.fill(0, 0, nU);
+  let n = 0;
+  for (let t = 0; t < nRw; t++) {
+    const s4 = 4 * lSlots[t];
+    for (let k = 0; k < 4; k++) {
+      const j = indexInU(f[s4 + k], nU);
+      if (j >= 0 && !lInHead[j]) {
+        lInHead[j] = 1;
+        lW[n++] = lU[j];
+      }
+    }
+  }
+  for (let j = 0; j < nU; j++) if (!lInHead[j]) lW[n++] = lU[j];
+  return n;
+}
+
 /** Resolves a corner code (spec §7.4, explicit corners as in §7.7). */
 function cornerCode(ctx, V, nNew, nRw, nU, f) {
   const x = ctx.conn.u();
@@ -168,24 +200,29 @@ export function decodeLocal(ctx, sym) {
     throw `counts (${nNew} new, ${nMoved} moved, ${nRw} rewritten, ${nApp} appended) exceed what the streams hold`;
   }
 
-  // Moved vertices: applied at once, so that predictions see them.
-  let next = 0;
-  for (let t = 0; t < nMoved; t++) {
-    const i = localIndex(ctx, t, next, nU, 'moved vertex');
-    next = i + 1;
-    const v = lU[i];
-    const q = st.q;
-    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], `moved vertex ${v}`);
-    logMove(ctx, v);
-  }
-
   // Rewritten slots (the slot cursor is not used by this form).
   if (nRw > lSlots.length) lSlots = new Int32Array(2 * nRw);
-  next = 0;
+  let next = 0;
   for (let t = 0; t < nRw; t++) {
     const i = localIndex(ctx, t, next, nR, 'rewritten face');
     next = i + 1;
     lSlots[t] = lR[i];
+  }
+
+  // Moved vertices, as indices into W: the distinct old corners of the
+  // rewritten slots (slot order, corners 0..3), then the rest of U
+  // ascending. Applied at once, so that predictions see them.
+  if (nMoved > 0) {
+    const nW = movedVocabulary(st.f, nRw, nU);
+    next = 0;
+    for (let t = 0; t < nMoved; t++) {
+      const i = localIndex(ctx, t, next, nW, 'moved vertex');
+      next = i + 1;
+      const v = lW[i];
+      const q = st.q;
+      readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], `moved vertex ${v}`);
+      logMove(ctx, v);
+    }
   }
 
   // Quads. Old quads of rewritten slots stay in st.f until applied.

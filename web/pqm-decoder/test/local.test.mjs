@@ -62,13 +62,15 @@ function badRecord(bytes, record, message) {
 }
 
 // Record 0, anchor 0 (corner of the grid): S = {0}, A = {0, 1, 4, 5},
-// R = [0, 1, 3, 4], U = [0, 1, 2, 4, 5, 6, 8, 9, 10]. It moves U[5] = 6 and
-// rotates slot R[3] = 4 ([5, 6, 10, 9]) by one corner, replacing none.
+// R = [0, 1, 3, 4], U = [0, 1, 2, 4, 5, 6, 8, 9, 10]. It rewrites slot
+// R[3] = 4 ([5, 6, 10, 9]), so the moved-vertex vocabulary is
+// W = [5, 6, 10, 9, 0, 1, 2, 4, 8]; it moves W[1] = 6 and rotates slot 4 by
+// one corner, replacing none.
 const rec0 = {
   ops: [0x09], // op 1, form 2
   conn: [0, 1, 1, 0, 1 << 4],
   refs: [{ s: 0 }],
-  slots: [5, 3],
+  slots: [3, 1],
   pos: [{ s: 3 }, { s: -1 }, { s: 0 }],
 };
 // Record 1, anchor 15: S = {8}, A = {10, 11, 14, 15}, R = [4, 5, 7, 8],
@@ -106,8 +108,8 @@ test('local form: neighbourhood indices, rotation, explicit corners, prediction'
 });
 
 test('local form: hostile indices and masks are bad records', () => {
-  badRecord(file({ ...rec0, slots: [9, 3] }, 16, 9), 0, /local index 9 outside 0\.\.9/);
-  badRecord(file({ ...rec0, slots: [5, 4] }, 16, 9), 0, /local index 4 outside 0\.\.4/);
+  badRecord(file({ ...rec0, slots: [3, 9] }, 16, 9), 0, /moved vertex local index 9 outside 0\.\.9/);
+  badRecord(file({ ...rec0, slots: [4, 1] }, 16, 9), 0, /rewritten face local index 4 outside 0\.\.4/);
   badRecord(file({ ...rec0, conn: [0, 10, 1, 0, 16] }, 16, 9), 0, /10 moved vertices, the neighbourhood holds 9/);
   badRecord(file({ ...rec0, conn: [0, 1, 5, 0, 16] }, 16, 9), 0, /5 rewritten faces, the neighbourhood holds 4/);
   badRecord(file({ ...rec0, conn: [0, 1, 1, 0, 64] }, 16, 9), 0, /corner mask 64/);
@@ -116,5 +118,5 @@ test('local form: hostile indices and masks are bad records', () => {
   // an explicit corner beyond U; an explicit corner U[5] = 6 replacing
   // corner 0 of [5, 6, 10, 9] repeats vertex 6
   badRecord(file({ ...rec1, refs: [{ s: 15 }], slots: [3, 9, 2] }, 17, 10), 0, /local corner index 9/);
-  badRecord(file({ ...rec0, conn: [0, 1, 1, 0, 16 | 1, 0], slots: [5, 3, 5] }, 16, 9), 0, /repeats a vertex/);
+  badRecord(file({ ...rec0, conn: [0, 1, 1, 0, 16 | 1, 0], slots: [3, 1, 5] }, 16, 9), 0, /repeats a vertex/);
 });
