@@ -782,15 +782,24 @@ fn decode_patch(
             slots.push(l.faces[i as usize]);
         }
         if n_moved > 0 {
-            let w = moved_vocabulary(st, &slots, l);
-            next = 0;
-            for t in 0..n_moved {
-                let i = local_index(&mut rd[SLOTS], t, next, w.len(), "moved vertex")?;
-                next = i + 1;
-                let v = w[i as usize];
-                let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
-                r.moved.push((v, p));
+            // Vocabulary buffers reused by every record of this thread.
+            thread_local! {
+                static VOCAB: std::cell::RefCell<(Vec<u32>, Vec<bool>)> =
+                    const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
             }
+            VOCAB.with(|cell| -> Result<(), String> {
+                let (w, in_head) = &mut *cell.borrow_mut();
+                moved_vocabulary(st, &slots, l, w, in_head);
+                let mut next = 0u64;
+                for t in 0..n_moved {
+                    let i = local_index(&mut rd[SLOTS], t, next, w.len(), "moved vertex")?;
+                    next = i + 1;
+                    let v = w[i as usize];
+                    let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+                    r.moved.push((v, p));
+                }
+                Ok(())
+            })?;
             r.moved.sort_unstable_by_key(|mv| mv.0);
         }
     } else {
@@ -893,11 +902,18 @@ fn decode_patch(
 /// corners of the old quads of the rewritten `slots` (in slot order, corners
 /// 0..3), then the other vertices of `l.verts`, ascending — a permutation of
 /// `l.verts` (rewritten slots lie in `l.faces`).
-fn moved_vocabulary(st: &MeshState, slots: &[u32], l: &Local) -> Vec<u32> {
+fn moved_vocabulary(
+    st: &MeshState,
+    slots: &[u32],
+    l: &Local,
+    w: &mut Vec<u32>,
+    in_head: &mut Vec<bool>,
+) {
     // Membership by position in the sorted `l.verts` (binary search), so a
     // hostile record with thousands of rewritten slots stays O(n log n).
-    let mut in_head = vec![false; l.verts.len()];
-    let mut w: Vec<u32> = Vec::with_capacity(l.verts.len());
+    in_head.clear();
+    in_head.resize(l.verts.len(), false);
+    w.clear();
     for &s in slots {
         for &v in &st.quads[s as usize] {
             if let Ok(k) = l.verts.binary_search(&v) {
@@ -911,11 +927,10 @@ fn moved_vocabulary(st: &MeshState, slots: &[u32], l: &Local) -> Vec<u32> {
     w.extend(
         l.verts
             .iter()
-            .zip(&in_head)
+            .zip(in_head.iter())
             .filter(|(_, &h)| !h)
             .map(|(&v, _)| v),
     );
-    w
 }
 
 /// Reads the `t`-th ascending local index from `rd` (the first as is, the
@@ -1121,7 +1136,8 @@ fn encode_patch(
         }
         if !r.moved.is_empty() {
             let slots: Vec<u32> = r.rewritten.iter().map(|rw| rw.0).collect();
-            let w = moved_vocabulary(st, &slots, l);
+            let (mut w, mut in_head) = (Vec::new(), Vec::new());
+            moved_vocabulary(st, &slots, l, &mut w, &mut in_head);
             let mut idx = Vec::with_capacity(r.moved.len());
             for &(v, p) in &r.moved {
                 let Some(i) = w.iter().position(|&x| x == v) else {
