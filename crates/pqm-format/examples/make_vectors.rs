@@ -21,6 +21,12 @@ fn main() {
             )
             .expect("write obj");
         }
-        println!("{}: {} bytes, levels {:?}", v.name, v.bytes.len(), v.levels);
+        println!(
+            "{}: {} bytes, levels {:?}, records per form (general, split, local) {:?}",
+            v.name,
+            v.bytes.len(),
+            v.levels,
+            v.forms
+        );
     }
 }

@@ -1,5 +1,6 @@
 //! Measures the size of `.pqm` files written from generated progressive
-//! meshes, split form vs general form, and prints bits per vertex.
+//! meshes, split form vs local form vs general form, and prints bits per
+//! vertex.
 //!
 //! `cargo run --release -p pqm-format --example measure [splits] [seed]`
 
@@ -24,11 +25,16 @@ fn main() {
         pm.final_face_count(),
         pm.records.len()
     );
-    for (name, split_form) in [("split form", true), ("general form", false)] {
+    for (name, split_form, local_form) in [
+        ("split form", true, false),
+        ("local form", false, true),
+        ("general form", false, false),
+    ] {
         for bits in [12u8, 14, 16] {
             let opts = EncodeOptions {
                 bits,
                 split_form,
+                local_form,
                 ..EncodeOptions::default()
             };
             let (bytes, r) = write_to_vec(&pm, &opts).expect("encode");

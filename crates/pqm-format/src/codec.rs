@@ -3,8 +3,10 @@
 //! Both the encoder and the decoder run the same [`MeshState`] — quantized
 //! positions, quads and vertex→face adjacency at the current level — because
 //! the coding is *predictive*: the compact split form names a vertex and two
-//! wings in its link ring (which needs adjacency) and every position is a
-//! residual against a prediction from positions the decoder already has.
+//! wings in its link ring, the local form names faces and vertices by their
+//! index in the 2-ring of one anchor vertex (both need adjacency), and every
+//! position is a residual against a prediction from positions the decoder
+//! already has.
 //!
 //! A record is coded into five separate byte streams (symbols, connectivity
 //! integers, vertex references, face slots, position residuals) because
@@ -89,6 +91,57 @@ pub struct Star {
     pub faces: Vec<u32>,
     /// Link ring `l_0 … l_{L-1}` (`L = K`, or `K + 1` on the boundary).
     pub link: Vec<u32>,
+}
+
+/// Neighbourhood of a local-form anchor `m` (spec §7.7): `faces` = every
+/// slot whose quad has a corner in the closed star of `m` (the vertices of
+/// the faces at `m`), ascending; `verts` = the corners of those faces,
+/// ascending. Ascending ids make both lists cheap to build identically in
+/// any decoder (no walk), and the record names its faces and vertices by
+/// their small index here instead of by global slot / vertex deltas.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Local {
+    /// Slots of the 2-ring faces, ascending.
+    pub faces: Vec<u32>,
+    /// Vertices of those faces, ascending.
+    pub verts: Vec<u32>,
+}
+
+/// The local form is invalid when collecting its faces visits more than
+/// this many corners (bounds the decoder's work per record: a hostile file
+/// cannot make one record scan a huge fan).
+pub const MAX_LOCAL_CORNERS: usize = 4096;
+
+/// Generation stamps of [`MeshState::local_into`]: `v[u] == gen` marks
+/// vertex `u` as seen in the current pass (two passes per call), `f` the
+/// same for slots. Grown on demand; reset when the counter wraps.
+#[derive(Default)]
+struct Marks {
+    gen: u32,
+    v: Vec<u32>,
+    f: Vec<u32>,
+    /// Scratch list of the star's vertices.
+    star: Vec<u32>,
+}
+
+impl Marks {
+    /// Fresh stamps for a mesh of `nv` vertices and `nf` slots: the vertex
+    /// generation (the next one, +1, is also reserved) and the face one.
+    fn next_gen(&mut self, nv: usize, nf: usize) -> (u32, u32) {
+        if self.v.len() < nv {
+            self.v.resize(nv, 0);
+        }
+        if self.f.len() < nf {
+            self.f.resize(nf, 0);
+        }
+        if self.gen >= u32::MAX - 2 {
+            self.gen = 0;
+            self.v.fill(0);
+            self.f.fill(0);
+        }
+        self.gen += 2;
+        (self.gen - 1, self.gen)
+    }
 }
 
 /// Running cursors of one chunk (reset to 0 at every chunk start).
@@ -238,6 +291,95 @@ impl MeshState {
         }
         self.q.truncate(v_before);
         self.head.truncate(v_before);
+    }
+
+    /// Local neighbourhood of anchor `m` (spec §7.7), or why it has none.
+    pub fn local(&self, m: u32) -> Result<Local, String> {
+        let mut out = Local::default();
+        self.local_into(m, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`MeshState::local`] into `out` (reusing its buffers). Duplicates are
+    /// dropped with per-thread generation stamps instead of sorting every
+    /// raw entry: only the distinct faces and vertices get sorted (this runs
+    /// once per local-form record when decoding, up to 16 times when encoding).
+    pub fn local_into(&self, m: u32, out: &mut Local) -> Result<(), String> {
+        thread_local! {
+            static MARKS: std::cell::RefCell<Marks> = std::cell::RefCell::new(Marks::default());
+        }
+        MARKS.with(|cell| {
+            let mut mk = cell.borrow_mut();
+            let (gv, gf) = mk.next_gen(self.q.len(), self.quads.len());
+            let mut star_verts = std::mem::take(&mut mk.star);
+            star_verts.clear();
+            let mut n = 0usize;
+            for (f, _) in self.corners(m) {
+                n += 1;
+                if n > MAX_SPLIT_STAR {
+                    return Err(format!(
+                        "anchor {m} has more than {MAX_SPLIT_STAR} faces (local form needs 1..=255)"
+                    ));
+                }
+                for &u in &self.quads[f as usize] {
+                    if mk.v[u as usize] != gv {
+                        mk.v[u as usize] = gv;
+                        star_verts.push(u);
+                    }
+                }
+            }
+            let r = self.collect_local(m, n, &star_verts, &mut mk, gv + 1, gf, out);
+            mk.star = star_verts;
+            r
+        })
+    }
+
+    /// The second half of [`MeshState::local_into`]: faces around the star
+    /// vertices, then their corners (`gu`, `gf`: fresh stamps).
+    #[allow(clippy::too_many_arguments)]
+    fn collect_local(
+        &self,
+        m: u32,
+        n: usize,
+        star_verts: &[u32],
+        mk: &mut Marks,
+        gu: u32,
+        gf: u32,
+        out: &mut Local,
+    ) -> Result<(), String> {
+        {
+            if n == 0 {
+                return Err(format!("anchor {m} has no face"));
+            }
+            out.faces.clear();
+            out.verts.clear();
+            let mut entries = 0usize;
+            for &u in star_verts {
+                for (f, _) in self.corners(u) {
+                    entries += 1;
+                    if entries > MAX_LOCAL_CORNERS {
+                        return Err(format!(
+                            "the faces around anchor {m} have more than {MAX_LOCAL_CORNERS} corners"
+                        ));
+                    }
+                    if mk.f[f as usize] != gf {
+                        mk.f[f as usize] = gf;
+                        out.faces.push(f);
+                    }
+                }
+            }
+            out.faces.sort_unstable();
+            for &f in &out.faces {
+                for &u in &self.quads[f as usize] {
+                    if mk.v[u as usize] != gu {
+                        mk.v[u as usize] = gu;
+                        out.verts.push(u);
+                    }
+                }
+            }
+            out.verts.sort_unstable();
+            Ok(())
+        }
     }
 
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
@@ -499,11 +641,13 @@ fn put_residual(out: &mut Vec<u8>, pred: [u32; 3], p: [u32; 3]) {
     }
 }
 
-fn check_distinct(q: &[u32; 4], what: &str) -> Result<(), String> {
+/// Checks that the 4 corners of `q` are distinct; `what` names the face in
+/// the error (a closure, so that no string is built on the hot path).
+fn check_distinct(q: &[u32; 4], what: impl FnOnce() -> String) -> Result<(), String> {
     for a in 0..4 {
         for b in a + 1..4 {
             if q[a] == q[b] {
-                return Err(format!("{what} repeats vertex {}", q[a]));
+                return Err(format!("{} repeats vertex {}", what(), q[a]));
             }
         }
     }
@@ -546,93 +690,26 @@ pub fn decode_record(
         appended: Vec::new(),
     };
     match form {
-        0 => {
+        0 | 2 => {
             if sym & 0xf0 != 0 {
                 return Err(format!(
-                    "general-form symbol {sym:#04x} has split-form bits set"
+                    "symbol {sym:#04x} of form {form} has split-form bits set"
                 ));
             }
-            let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
-            let n_moved = rd[CONN].u_max(v0 as u64, "moved vertex count")? as usize;
-            let n_rw = rd[CONN].u_max(f0 as u64, "rewritten face count")? as usize;
-            let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
-            let v1 = v0 + n_new as u32;
-            for _ in 0..n_moved {
-                let d = rd[REFS].s()?;
-                let v = vref(cur.vref, d, v0, "moved vertex")?;
-                if r.moved.last().is_some_and(|&(p, _)| p >= v) {
-                    return Err(format!(
-                        "moved vertex {v} is not in strictly ascending order"
-                    ));
+            if form == 2 {
+                let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
+                cur.vref = m;
+                // One neighbourhood buffer per thread, reused by every record.
+                thread_local! {
+                    static LOCAL: std::cell::RefCell<Local> = std::cell::RefCell::new(Local::default());
                 }
-                cur.vref = v;
-                let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
-                r.moved.push((v, p));
-            }
-            let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
-            for t in 0..n_rw {
-                let s = if t == 0 {
-                    (cur.slot as i64).saturating_add(rd[SLOTS].s()?)
-                } else {
-                    let gap = rd[SLOTS].u_max(f0 as u64, "slot gap")? as i64;
-                    slots.last().map_or(0, |&p: &u32| p as i64) + 1 + gap
-                };
-                if s < 0 || s >= f0 as i64 {
-                    return Err(format!("rewrites slot {s} but only {f0} faces exist"));
-                }
-                slots.push(s as u32);
-            }
-            if let Some(&s) = slots.last() {
-                cur.slot = s;
-            }
-            let mut extra: Vec<u32> = Vec::new();
-            let mut corner = |rd: &mut [Reader; 5], cur: &mut Cursors| -> Result<u32, String> {
-                let x = rd[CONN].u()?;
-                if x == 0 {
-                    let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
-                    cur.vref = v;
-                    extra.push(v);
-                    return Ok(v);
-                }
-                let idx = x - 1;
-                if idx < n_new as u64 {
-                    return Ok(v0 + idx as u32);
-                }
-                let idx = idx - n_new as u64;
-                if idx < 4 * n_rw as u64 {
-                    let s = slots[(idx / 4) as usize];
-                    return Ok(st.quads[s as usize][(idx % 4) as usize]);
-                }
-                let idx = idx - 4 * n_rw as u64;
-                extra
-                    .get(idx as usize)
-                    .copied()
-                    .ok_or_else(|| format!("corner code {x} out of range"))
-            };
-            for &s in &slots {
-                let mask = rd[CONN].u_max(15, "corner mask")?;
-                let mut q = st.quads[s as usize];
-                for (c, qc) in q.iter_mut().enumerate() {
-                    if mask & (1 << c) != 0 {
-                        *qc = corner(rd, cur)?;
-                    }
-                }
-                check_distinct(&q, &format!("rewritten slot {s}"))?;
-                r.rewritten.push((s, q));
-            }
-            for a in 0..n_app {
-                let mut q = [0u32; 4];
-                for qc in q.iter_mut() {
-                    *qc = corner(rd, cur)?;
-                }
-                check_distinct(&q, &format!("appended face {a}"))?;
-                r.appended.push(q);
-            }
-            let first = first_faces(&r, v0, n_new);
-            for (t, f) in first.into_iter().enumerate() {
-                let pred = predict(st, &r, v0, v0 + t as u32, f);
-                let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-                r.new_pos.push(p);
+                LOCAL.with(|cell| {
+                    let mut local = cell.borrow_mut();
+                    st.local_into(m, &mut local)?;
+                    decode_patch(st, rd, cur, max_v, max_f, Some(&local), &mut r)
+                })?;
+            } else {
+                decode_patch(st, rd, cur, max_v, max_f, None, &mut r)?;
             }
         }
         1 => {
@@ -668,6 +745,212 @@ pub fn decode_record(
         _ => return Err(format!("unknown record form {form} in symbol {sym:#04x}")),
     }
     Ok(r)
+}
+
+/// Decodes the body of a general-form (`local = None`, spec §7.4) or
+/// local-form (spec §7.7) record into `r`: the two differ only in how moved
+/// vertices, rewritten slots and explicit corners are named.
+fn decode_patch(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    local: Option<&Local>,
+    r: &mut QRecord,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
+    let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
+    let (max_moved, max_rw) = match local {
+        Some(l) => (l.verts.len() as u64, l.faces.len() as u64),
+        None => (v0 as u64, f0 as u64),
+    };
+    let n_moved = rd[CONN].u_max(max_moved, "moved vertex count")? as usize;
+    let n_rw = rd[CONN].u_max(max_rw, "rewritten face count")? as usize;
+    let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
+    let v1 = v0 + n_new as u32;
+    let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
+    if let Some(l) = local {
+        // Local form (spec §7.7): rewritten slots first, then the moved
+        // vertices as indices into `W` (the old corners of those slots —
+        // where most moved vertices are — then the rest of `U`).
+        let mut next = 0u64;
+        for t in 0..n_rw {
+            let i = local_index(&mut rd[SLOTS], t, next, l.faces.len(), "rewritten face")?;
+            next = i + 1;
+            slots.push(l.faces[i as usize]);
+        }
+        if n_moved > 0 {
+            // Vocabulary buffers reused by every record of this thread.
+            thread_local! {
+                static VOCAB: std::cell::RefCell<(Vec<u32>, Vec<bool>)> =
+                    const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+            }
+            VOCAB.with(|cell| -> Result<(), String> {
+                let (w, in_head) = &mut *cell.borrow_mut();
+                moved_vocabulary(st, &slots, l, w, in_head);
+                let mut next = 0u64;
+                for t in 0..n_moved {
+                    let i = local_index(&mut rd[SLOTS], t, next, w.len(), "moved vertex")?;
+                    next = i + 1;
+                    let v = w[i as usize];
+                    let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+                    r.moved.push((v, p));
+                }
+                Ok(())
+            })?;
+            r.moved.sort_unstable_by_key(|mv| mv.0);
+        }
+    } else {
+        for _ in 0..n_moved {
+            let d = rd[REFS].s()?;
+            let v = vref(cur.vref, d, v0, "moved vertex")?;
+            if r.moved.last().is_some_and(|&(p, _)| p >= v) {
+                return Err(format!(
+                    "moved vertex {v} is not in strictly ascending order"
+                ));
+            }
+            cur.vref = v;
+            let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+            r.moved.push((v, p));
+        }
+        for t in 0..n_rw {
+            let s = if t == 0 {
+                (cur.slot as i64).saturating_add(rd[SLOTS].s()?)
+            } else {
+                let gap = rd[SLOTS].u_max(f0 as u64, "slot gap")? as i64;
+                slots.last().map_or(0, |&p: &u32| p as i64) + 1 + gap
+            };
+            if s < 0 || s >= f0 as i64 {
+                return Err(format!("rewrites slot {s} but only {f0} faces exist"));
+            }
+            slots.push(s as u32);
+        }
+    }
+    if let (None, Some(&s)) = (local, slots.last()) {
+        cur.slot = s;
+    }
+    let mut extra: Vec<u32> = Vec::new();
+    let mut corner = |rd: &mut [Reader; 5], cur: &mut Cursors| -> Result<u32, String> {
+        let x = rd[CONN].u()?;
+        if x == 0 {
+            let v = match local {
+                Some(l) => {
+                    let i = rd[SLOTS].u_max(l.verts.len() as u64 - 1, "local corner index")?;
+                    l.verts[i as usize]
+                }
+                None => {
+                    let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
+                    cur.vref = v;
+                    v
+                }
+            };
+            extra.push(v);
+            return Ok(v);
+        }
+        let idx = x - 1;
+        if idx < n_new as u64 {
+            return Ok(v0 + idx as u32);
+        }
+        let idx = idx - n_new as u64;
+        if idx < 4 * n_rw as u64 {
+            let s = slots[(idx / 4) as usize];
+            return Ok(st.quads[s as usize][(idx % 4) as usize]);
+        }
+        let idx = idx - 4 * n_rw as u64;
+        extra
+            .get(idx as usize)
+            .copied()
+            .ok_or_else(|| format!("corner code {x} out of range"))
+    };
+    // The local form's mask also carries a rotation (bits 4-5): the
+    // coarsener may restore a face starting at another corner, and naming
+    // all four corners again would cost far more than two bits.
+    let max_mask = if local.is_some() { 63 } else { 15 };
+    for &s in &slots {
+        let mask = rd[CONN].u_max(max_mask, "corner mask")?;
+        let mut q = st.quads[s as usize];
+        for (c, qc) in q.iter_mut().enumerate() {
+            if mask & (1 << c) != 0 {
+                *qc = corner(rd, cur)?;
+            }
+        }
+        let rot = (mask >> 4) as usize;
+        let q = [0, 1, 2, 3].map(|k| q[(k + rot) % 4]);
+        check_distinct(&q, || format!("rewritten slot {s}"))?;
+        r.rewritten.push((s, q));
+    }
+    for a in 0..n_app {
+        let mut q = [0u32; 4];
+        for qc in q.iter_mut() {
+            *qc = corner(rd, cur)?;
+        }
+        check_distinct(&q, || format!("appended face {a}"))?;
+        r.appended.push(q);
+    }
+    let first = first_faces(r, v0, n_new);
+    for (t, f) in first.into_iter().enumerate() {
+        let pred = predict(st, r, v0, v0 + t as u32, f);
+        let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+        r.new_pos.push(p);
+    }
+    Ok(())
+}
+
+/// The local form's vocabulary for moved vertices (spec §7.7): the distinct
+/// corners of the old quads of the rewritten `slots` (in slot order, corners
+/// 0..3), then the other vertices of `l.verts`, ascending — a permutation of
+/// `l.verts` (rewritten slots lie in `l.faces`).
+fn moved_vocabulary(
+    st: &MeshState,
+    slots: &[u32],
+    l: &Local,
+    w: &mut Vec<u32>,
+    in_head: &mut Vec<bool>,
+) {
+    // Membership by position in the sorted `l.verts` (binary search), so a
+    // hostile record with thousands of rewritten slots stays O(n log n).
+    in_head.clear();
+    in_head.resize(l.verts.len(), false);
+    w.clear();
+    for &s in slots {
+        for &v in &st.quads[s as usize] {
+            if let Ok(k) = l.verts.binary_search(&v) {
+                if !in_head[k] {
+                    in_head[k] = true;
+                    w.push(v);
+                }
+            }
+        }
+    }
+    w.extend(
+        l.verts
+            .iter()
+            .zip(in_head.iter())
+            .filter(|(_, &h)| !h)
+            .map(|(&v, _)| v),
+    );
+}
+
+/// Reads the `t`-th ascending local index from `rd` (the first as is, the
+/// next ones as gaps after `next`), which must be `< len`.
+fn local_index(
+    rd: &mut Reader,
+    t: usize,
+    next: u64,
+    len: usize,
+    what: &str,
+) -> Result<u64, String> {
+    let i = if t == 0 {
+        rd.u()?
+    } else {
+        next.saturating_add(rd.u()?)
+    };
+    if i >= len as u64 {
+        return Err(format!("{what} local index {i} outside 0..{len}"));
+    }
+    Ok(i)
 }
 
 /// The split-form parameters `(m, i, e, rot, moved)` that reproduce `r`
@@ -707,14 +990,18 @@ fn split_params(st: &MeshState, r: &QRecord) -> Option<SplitParams> {
 
 /// Encodes `r` (normalized: moved ids and rewritten slots strictly
 /// ascending, indices valid against `st`) into `s`. Uses the split form when
-/// `allow_split` and it reproduces `r` exactly. Returns true for the split form.
+/// `allow_split` and it reproduces `r` exactly; else, when `allow_local`,
+/// the local form (spec §7.7) with the anchor that writes the fewest bytes,
+/// if that is no larger than the general form. Returns the form used (spec
+/// §7.3: 0 general, 1 split, 2 local).
 pub fn encode_record(
     st: &MeshState,
     r: &QRecord,
     cur: &mut Cursors,
     s: &mut [Vec<u8>; 5],
     allow_split: bool,
-) -> bool {
+    allow_local: bool,
+) -> u8 {
     let v0 = st.q.len() as u32;
     let op = r.op as u8;
     if allow_split {
@@ -751,29 +1038,137 @@ pub fn encode_record(
                 },
                 c,
             );
-            return true;
+            return 1;
         }
     }
+    if allow_local {
+        let mut best: Option<([Vec<u8>; 5], Cursors)> = None;
+        let mut best_len = usize::MAX;
+        for m in local_candidates(st, r) {
+            let Ok(local) = st.local(m) else { continue };
+            let mut tmp: [Vec<u8>; 5] = Default::default();
+            let mut c2 = *cur;
+            tmp[OPS].push(op | (2 << 2));
+            put_s(&mut tmp[REFS], m as i64 - c2.vref as i64);
+            c2.vref = m;
+            if !encode_patch(st, r, &mut c2, &mut tmp, Some(&local)) {
+                continue;
+            }
+            let len: usize = tmp.iter().map(|x| x.len()).sum();
+            if len < best_len {
+                best_len = len;
+                best = Some((tmp, c2));
+            }
+        }
+        let mut tmp: [Vec<u8>; 5] = Default::default();
+        let mut c2 = *cur;
+        tmp[OPS].push(op);
+        encode_patch(st, r, &mut c2, &mut tmp, None);
+        let len: usize = tmp.iter().map(|x| x.len()).sum();
+        let (form, (tmp, c2)) = match best {
+            Some(b) if best_len <= len => (2, b),
+            _ => (0, (tmp, c2)),
+        };
+        for t in 0..5 {
+            s[t].extend_from_slice(&tmp[t]);
+        }
+        *cur = c2;
+        return form;
+    }
     s[OPS].push(op);
+    encode_patch(st, r, cur, s, None);
+    0
+}
+
+/// Anchors worth trying for the local form of `r`: the old corners of its
+/// rewritten slots, else its moved vertices, else the existing corners of
+/// its appended quads (at most 16, ascending).
+fn local_candidates(st: &MeshState, r: &QRecord) -> Vec<u32> {
+    let v0 = st.q.len() as u32;
+    let mut c: Vec<u32> = r
+        .rewritten
+        .iter()
+        .flat_map(|&(slot, _)| st.quads[slot as usize])
+        .collect();
+    if c.is_empty() {
+        c = r.moved.iter().map(|m| m.0).collect();
+    }
+    if c.is_empty() {
+        c = r
+            .appended
+            .iter()
+            .flatten()
+            .copied()
+            .filter(|&v| v < v0)
+            .collect();
+    }
+    c.sort_unstable();
+    c.dedup();
+    c.truncate(16);
+    c
+}
+
+/// Writes the body of a general-form (`local = None`, spec §7.4) or
+/// local-form (spec §7.7) record — everything after the symbol and, for the
+/// local form, the anchor. Returns false (having written partial data) when
+/// the local form cannot name one of the record's slots or vertices.
+fn encode_patch(
+    st: &MeshState,
+    r: &QRecord,
+    cur: &mut Cursors,
+    s: &mut [Vec<u8>; 5],
+    local: Option<&Local>,
+) -> bool {
+    let v0 = st.q.len() as u32;
     let n_new = r.new_pos.len();
     let n_rw = r.rewritten.len();
     for n in [n_new, r.moved.len(), n_rw, r.appended.len()] {
         put_u(&mut s[CONN], n as u64);
     }
-    for &(v, p) in &r.moved {
-        put_s(&mut s[REFS], v as i64 - cur.vref as i64);
-        cur.vref = v;
-        put_residual(&mut s[POS], st.q[v as usize], p);
-    }
-    for (t, &(slot, _)) in r.rewritten.iter().enumerate() {
-        if t == 0 {
-            put_s(&mut s[SLOTS], slot as i64 - cur.slot as i64);
-        } else {
-            put_u(&mut s[SLOTS], (slot - r.rewritten[t - 1].0 - 1) as u64);
+    if let Some(l) = local {
+        let mut next = 0;
+        for &(slot, _) in &r.rewritten {
+            let Ok(i) = l.faces.binary_search(&slot) else {
+                return false;
+            };
+            put_u(&mut s[SLOTS], (i - next) as u64);
+            next = i + 1;
         }
-    }
-    if let Some(&(slot, _)) = r.rewritten.last() {
-        cur.slot = slot;
+        if !r.moved.is_empty() {
+            let slots: Vec<u32> = r.rewritten.iter().map(|rw| rw.0).collect();
+            let (mut w, mut in_head) = (Vec::new(), Vec::new());
+            moved_vocabulary(st, &slots, l, &mut w, &mut in_head);
+            let mut idx = Vec::with_capacity(r.moved.len());
+            for &(v, p) in &r.moved {
+                let Some(i) = w.iter().position(|&x| x == v) else {
+                    return false;
+                };
+                idx.push((i, v, p));
+            }
+            idx.sort_unstable_by_key(|e| e.0);
+            next = 0;
+            for &(i, v, p) in &idx {
+                put_u(&mut s[SLOTS], (i - next) as u64);
+                next = i + 1;
+                put_residual(&mut s[POS], st.q[v as usize], p);
+            }
+        }
+    } else {
+        for &(v, p) in &r.moved {
+            put_s(&mut s[REFS], v as i64 - cur.vref as i64);
+            cur.vref = v;
+            put_residual(&mut s[POS], st.q[v as usize], p);
+        }
+        for (t, &(slot, _)) in r.rewritten.iter().enumerate() {
+            if t == 0 {
+                put_s(&mut s[SLOTS], slot as i64 - cur.slot as i64);
+            } else {
+                put_u(&mut s[SLOTS], (slot - r.rewritten[t - 1].0 - 1) as u64);
+            }
+        }
+        if let Some(&(slot, _)) = r.rewritten.last() {
+            cur.slot = slot;
+        }
     }
     // Corner vocabulary: new vertices, old corners of rewritten slots, then
     // explicitly coded vertices (first occurrence wins).
@@ -784,34 +1179,53 @@ pub fn encode_record(
         }
     }
     let mut n_extra = 0u64;
-    let mut corner = |v: u32, s: &mut [Vec<u8>; 5], cur: &mut Cursors| {
+    let mut corner = |v: u32, s: &mut [Vec<u8>; 5], cur: &mut Cursors| -> bool {
         if v >= v0 && ((v - v0) as usize) < n_new {
             put_u(&mut s[CONN], 1 + (v - v0) as u64);
         } else if let Some(&idx) = vocab.get(&v) {
             put_u(&mut s[CONN], 1 + idx);
         } else {
             put_u(&mut s[CONN], 0);
-            put_s(&mut s[REFS], v as i64 - cur.vref as i64);
-            cur.vref = v;
+            if let Some(l) = local {
+                let Ok(i) = l.verts.binary_search(&v) else {
+                    return false;
+                };
+                put_u(&mut s[SLOTS], i as u64);
+            } else {
+                put_s(&mut s[REFS], v as i64 - cur.vref as i64);
+                cur.vref = v;
+            }
             vocab.insert(v, (n_new + 4 * n_rw) as u64 + n_extra);
             n_extra += 1;
         }
+        true
     };
     for &(slot, q) in &r.rewritten {
         let old = st.quads[slot as usize];
+        // Local form: the rotation that keeps the most old corners.
+        let rot = if local.is_some() {
+            (0..4)
+                .min_by_key(|&rot| (0..4).filter(|&j| q[(j + 4 - rot) % 4] != old[j]).count())
+                .unwrap_or(0)
+        } else {
+            0
+        };
+        let q = [0, 1, 2, 3].map(|j| q[(j + 4 - rot) % 4]);
         let mask = (0..4)
             .filter(|&c| q[c] != old[c])
             .fold(0u64, |m, c| m | 1 << c);
-        put_u(&mut s[CONN], mask);
+        put_u(&mut s[CONN], mask | (rot as u64) << 4);
         for (c, &v) in q.iter().enumerate() {
-            if mask & (1 << c) != 0 {
-                corner(v, s, cur);
+            if mask & (1 << c) != 0 && !corner(v, s, cur) {
+                return false;
             }
         }
     }
     for q in &r.appended {
         for &v in q {
-            corner(v, s, cur);
+            if !corner(v, s, cur) {
+                return false;
+            }
         }
     }
     let first = first_faces(r, v0, n_new);
@@ -822,7 +1236,7 @@ pub fn encode_record(
         put_residual(&mut s[POS], pred, r.new_pos[t]);
         partial.new_pos.push(r.new_pos[t]);
     }
-    false
+    true
 }
 
 /// Concatenates the five streams, each prefixed by its LEB128 length.
@@ -898,7 +1312,7 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
             *qc = v as u32;
             prev = v;
         }
-        check_distinct(&q, &format!("face {f}"))?;
+        check_distinct(&q, || format!("face {f}"))?;
         quads.push(q);
     }
     let mut pos = Vec::with_capacity(nv as usize);

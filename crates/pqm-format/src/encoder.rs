@@ -5,8 +5,10 @@
 //! Steps: validate the mesh; compute the bounding box of every position it
 //! ever shows; quantize everything on that one grid; run the decoder's
 //! [`MeshState`] alongside and code each record in the split form when that
-//! reproduces it exactly, else in the general form; cut chunks by record
-//! count or payload size; compress each chunk as an independent zstd frame.
+//! reproduces it exactly, else in the local form when its changes lie around
+//! one vertex (nearly every coarsener record), else in the general form; cut
+//! chunks by record count or payload size; compress each chunk as an
+//! independent zstd frame.
 
 use crate::codec::{self, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
 use crate::error::EncodeError;
@@ -34,6 +36,9 @@ pub struct EncodeOptions {
     /// Use the compact split form where it applies (default true; false
     /// codes every record in the general form, for measurement and tests).
     pub split_form: bool,
+    /// Use the local form (spec §7.7) where it is smaller than the general
+    /// form (default true).
+    pub local_form: bool,
     /// Write the `VORD` section when the mesh has a vertex order (default true).
     pub vertex_order: bool,
 }
@@ -47,6 +52,7 @@ impl Default for EncodeOptions {
             zstd_level: 19,
             window_log: 21,
             split_form: true,
+            local_form: true,
             vertex_order: true,
         }
     }
@@ -84,6 +90,8 @@ pub struct EncodeReport {
     pub split_records: usize,
     /// Records coded in the general form.
     pub general_records: usize,
+    /// Records coded in the local form.
+    pub local_records: usize,
     /// Uncompressed bytes per stream (ops, conn, refs, slots, pos), all chunks.
     pub stream_raw_bytes: [u64; 5],
     /// Compressed chunk bytes attributed to each stream: every stream is also
@@ -95,6 +103,34 @@ pub struct EncodeReport {
     pub bits_per_vertex: BitsPerVertex,
     /// Whole-file bits per final vertex (base, table and sections included).
     pub file_bits_per_vertex: f64,
+    /// Per operator kind (index = `OpKind as usize`): what its records hold
+    /// and which share of each stream they take (see [`OpStats`]).
+    pub per_op: [OpStats; 4],
+}
+
+/// What the records of one operator kind hold and cost (a measuring aid:
+/// find where the bits go).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OpStats {
+    /// Records of this kind.
+    pub records: usize,
+    /// Of them, coded in each form (index = form number, spec §7.3).
+    pub forms: [usize; 4],
+    /// Sums over the records of new vertices, moved vertices, rewritten
+    /// slots and appended quads (divide by `records` for the average).
+    pub new: u64,
+    /// See `new`.
+    pub moved: u64,
+    /// See `new`.
+    pub rewritten: u64,
+    /// See `new`.
+    pub appended: u64,
+    /// Uncompressed bytes this kind wrote into each stream.
+    pub raw_bytes: [u64; 5],
+    /// Compressed bytes attributed to this kind per stream: each stream's
+    /// compressed share ([`EncodeReport::stream_bytes`]) split in proportion
+    /// to the raw bytes each kind wrote into it within the chunk.
+    pub bytes: [f64; 5],
 }
 
 fn compress(data: &[u8], opts: &EncodeOptions) -> Result<Vec<u8>, EncodeError> {
@@ -205,7 +241,9 @@ pub fn write(
     let mut streams: [Vec<u8>; 5] = Default::default();
     let mut cursors = Cursors::default();
     let mut in_chunk = 0u32;
+    let mut op_raw = [[0u64; 5]; 4];
     let mut close = |streams: &mut [Vec<u8>; 5],
+                     op_raw: &mut [[u64; 5]; 4],
                      in_chunk: &mut u32,
                      cursors: &mut Cursors,
                      state: &MeshState,
@@ -221,8 +259,15 @@ pub fn write(
         let sum: f64 = alone.iter().sum();
         for t in 0..5 {
             report.stream_raw_bytes[t] += streams[t].len() as u64;
-            report.stream_bytes[t] += bytes.len() as f64 * alone[t] / sum.max(1.0);
+            let share = bytes.len() as f64 * alone[t] / sum.max(1.0);
+            report.stream_bytes[t] += share;
+            for (o, raw) in op_raw.iter().enumerate() {
+                if !streams[t].is_empty() {
+                    report.per_op[o].bytes[t] += share * raw[t] as f64 / streams[t].len() as f64;
+                }
+            }
         }
+        *op_raw = [[0; 5]; 4];
         chunks.push(Chunk {
             info: ChunkInfo {
                 offset: 0,
@@ -252,10 +297,31 @@ pub fn write(
             rewritten: rec.rewritten.clone(),
             appended: rec.appended_faces.clone(),
         };
-        if codec::encode_record(&state, &q, &mut cursors, &mut streams, opts.split_form) {
-            report.split_records += 1;
-        } else {
-            report.general_records += 1;
+        let before = [0, 1, 2, 3, 4].map(|t| streams[t].len());
+        let form = codec::encode_record(
+            &state,
+            &q,
+            &mut cursors,
+            &mut streams,
+            opts.split_form,
+            opts.local_form,
+        );
+        match form {
+            0 => report.general_records += 1,
+            1 => report.split_records += 1,
+            _ => report.local_records += 1,
+        }
+        let st = &mut report.per_op[q.op as usize];
+        st.records += 1;
+        st.forms[form as usize] += 1;
+        st.new += q.new_pos.len() as u64;
+        st.moved += q.moved.len() as u64;
+        st.rewritten += q.rewritten.len() as u64;
+        st.appended += q.appended.len() as u64;
+        for t in 0..5 {
+            let n = (streams[t].len() - before[t]) as u64;
+            st.raw_bytes[t] += n;
+            op_raw[q.op as usize][t] += n;
         }
         state.apply(&q);
         in_chunk += 1;
@@ -263,6 +329,7 @@ pub fn write(
         if opts.chunk_records.is_some_and(|n| in_chunk as usize >= n) || size >= opts.chunk_bytes {
             close(
                 &mut streams,
+                &mut op_raw,
                 &mut in_chunk,
                 &mut cursors,
                 &state,
@@ -274,6 +341,7 @@ pub fn write(
     if in_chunk > 0 {
         close(
             &mut streams,
+            &mut op_raw,
             &mut in_chunk,
             &mut cursors,
             &state,

@@ -8,7 +8,7 @@ pub const MAGIC: [u8; 8] = [0x89, b'P', b'Q', b'M', 0x0D, 0x0A, 0x1A, 0x0A];
 /// Major version this crate writes and reads.
 pub const VERSION_MAJOR: u16 = 1;
 /// Minor version this crate writes.
-pub const VERSION_MINOR: u16 = 0;
+pub const VERSION_MINOR: u16 = 1;
 /// Header length written by v1.0 (readers accept longer headers).
 pub const HEADER_LEN: u32 = 120;
 /// Bytes of the header needed to learn `header_len`.

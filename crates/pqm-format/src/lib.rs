@@ -53,7 +53,7 @@ pub mod quant;
 pub mod varint;
 
 pub use decoder::{decode_all, quad_triangles, Change, Decoder, Event, Limits, Status, Target};
-pub use encoder::{write, write_to_vec, BitsPerVertex, EncodeOptions, EncodeReport};
+pub use encoder::{write, write_to_vec, BitsPerVertex, EncodeOptions, EncodeReport, OpStats};
 pub use error::{DecodeError, EncodeError, FormatError, Section};
 pub use layout::{ChunkInfo, Header};
 pub use quant::Quantizer;

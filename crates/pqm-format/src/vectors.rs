@@ -4,6 +4,7 @@
 
 use crate::{write_to_vec, Decoder, EncodeOptions, Target};
 use pqm_core::progressive::testgen::{generate_with, BaseShape, GenOptions};
+use pqm_core::ProgressiveMesh;
 use std::fmt::Write as _;
 
 /// One test vector: a file and the levels whose digests are recorded.
@@ -14,18 +15,37 @@ pub struct Vector {
     pub bytes: Vec<u8>,
     /// Levels recorded in the JSON digest (and as OBJ files).
     pub levels: Vec<usize>,
+    /// Records per form: general, split, local (spec §7.3).
+    pub forms: [usize; 3],
+}
+
+/// Rotates the rewritten quads of every record by `(record + slot) mod 4`
+/// corners (the same faces, another first corner), as the coarsener's
+/// records do when it restores a face starting at another corner — what the
+/// local form's rotation bits are for.
+pub fn rotate_rewritten(pm: &mut ProgressiveMesh) {
+    for (k, r) in pm.records.iter_mut().enumerate() {
+        for (s, q) in r.rewritten.iter_mut() {
+            let rot = (k + *s as usize) % 4;
+            *q = [0, 1, 2, 3].map(|j| q[(j + rot) % 4]);
+        }
+    }
 }
 
 /// Every vector, generated deterministically.
 pub fn all() -> Vec<Vector> {
     let make = |name, gen: GenOptions, opts: EncodeOptions| {
-        let pm = generate_with(&gen);
+        let mut pm = generate_with(&gen);
+        if name == "local_form" {
+            rotate_rewritten(&mut pm);
+        }
         let n = pm.records.len();
-        let bytes = write_to_vec(&pm, &opts).expect("vector encodes").0;
+        let (bytes, r) = write_to_vec(&pm, &opts).expect("vector encodes");
         Vector {
             name,
             bytes,
             levels: vec![0, n / 3, 2 * n / 3, n],
+            forms: [r.general_records, r.split_records, r.local_records],
         }
     };
     vec![
@@ -61,7 +81,20 @@ pub fn all() -> Vec<Vector> {
             EncodeOptions {
                 bits: 8,
                 split_form: false,
+                local_form: false,
                 chunk_bytes: 64,
+                ..EncodeOptions::default()
+            },
+        ),
+        make(
+            "local_form",
+            GenOptions {
+                base: BaseShape::Box { n: 3 },
+                ..GenOptions::new(5, 300)
+            },
+            EncodeOptions {
+                split_form: false,
+                chunk_records: Some(12),
                 ..EncodeOptions::default()
             },
         ),

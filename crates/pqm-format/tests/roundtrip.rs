@@ -108,15 +108,19 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
         64usize..4096,
         any::<bool>(),
         1i32..20,
+        any::<bool>(),
     )
         .prop_map(
-            |(bits, chunk_records, chunk_bytes, split_form, zstd_level)| EncodeOptions {
-                bits,
-                chunk_records,
-                chunk_bytes,
-                zstd_level,
-                split_form,
-                ..EncodeOptions::default()
+            |(bits, chunk_records, chunk_bytes, split_form, zstd_level, local_form)| {
+                EncodeOptions {
+                    bits,
+                    chunk_records,
+                    chunk_bytes,
+                    zstd_level,
+                    split_form,
+                    local_form,
+                    ..EncodeOptions::default()
+                }
             },
         )
 }
@@ -130,8 +134,12 @@ proptest! {
         splits in 0usize..150,
         opts in opts_strategy(),
         sizes in prop::collection::vec(1usize..300, 1..8),
+        rotate in any::<bool>(),
     ) {
-        let pm = testgen::generate(seed, splits);
+        let mut pm = testgen::generate(seed, splits);
+        if rotate {
+            pqm_format::vectors::rotate_rewritten(&mut pm);
+        }
         let bytes = encode(&pm, &opts);
         let (mut dec, events) = push_in_pieces(&bytes, &sizes);
         prop_assert_eq!(events.last(), Some(&Event::Finished));
@@ -151,9 +159,10 @@ proptest! {
         seed in any::<u64>(),
         walk in prop::collection::vec(0usize..200, 1..12),
         split_form in any::<bool>(),
+        local_form in any::<bool>(),
     ) {
         let pm = testgen::generate(seed, 120);
-        let opts = EncodeOptions { chunk_records: Some(17), split_form, ..EncodeOptions::default() };
+        let opts = EncodeOptions { chunk_records: Some(17), split_form, local_form, ..EncodeOptions::default() };
         let bytes = encode(&pm, &opts);
         let mut dec = decode_all(&bytes, Limits::default()).unwrap();
         let q = expected_quantizer(&pm, opts.bits);
@@ -231,7 +240,31 @@ fn every_prefix_yields_the_deepest_complete_level() {
         chunk_records: Some(6),
         ..EncodeOptions::default()
     };
-    let bytes = encode(&pm, &opts);
+    check_every_prefix(&pm, &opts);
+    // Again with rotated faces, so that most records use the local form.
+    let mut pm = testgen::generate_with(&GenOptions {
+        base: BaseShape::Box { n: 2 },
+        ..GenOptions::new(12, 120)
+    });
+    pqm_format::vectors::rotate_rewritten(&mut pm);
+    let opts = EncodeOptions {
+        chunk_records: Some(20),
+        ..EncodeOptions::default()
+    };
+    let (_, r) = write_to_vec(&pm, &opts).unwrap();
+    assert!(
+        r.local_records > pm.records.len() / 2,
+        "{} local of {}",
+        r.local_records,
+        pm.records.len()
+    );
+    check_every_prefix(&pm, &opts);
+}
+
+/// Every prefix of `pm` encoded with `opts` yields exactly the levels whose
+/// chunks are complete.
+fn check_every_prefix(pm: &ProgressiveMesh, opts: &EncodeOptions) {
+    let bytes = encode(pm, opts);
     let full = decode_all(&bytes, Limits::default()).unwrap();
     let q = full.quantizer().unwrap();
     // Level reached after each chunk, and where each chunk ends.
@@ -267,7 +300,7 @@ fn every_prefix_yields_the_deepest_complete_level() {
         assert_eq!(s.finished, n == bytes.len());
         if let Some(k) = expect {
             dec.refine_to(Target::Level(usize::MAX)).unwrap();
-            assert_level(&dec, &pm, &q, k);
+            assert_level(&dec, pm, &q, k);
             if n < bytes.len() {
                 assert!(
                     s.waiting_for.is_some() && s.bytes_needed.is_some_and(|b| b > 0),
@@ -532,6 +565,160 @@ fn split_form_covers_generated_splits_and_is_smaller() {
 }
 
 #[test]
+fn local_form_is_used_and_never_larger() {
+    // The generator's fused steps and smoothing touch random far-apart
+    // places (the general form's case); its splits with a moved second
+    // vertex fit the local form. Real coarsener records are local (see the
+    // `streams` example): there nearly all records use it.
+    let mut pm = testgen::generate(21, 3000);
+    pqm_format::vectors::rotate_rewritten(&mut pm);
+    let (a, ra) = write_to_vec(&pm, &EncodeOptions::default()).unwrap();
+    let (b, rb) = write_to_vec(
+        &pm,
+        &EncodeOptions {
+            local_form: false,
+            ..EncodeOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(rb.local_records, 0);
+    let n = pm.records.len();
+    assert_eq!(ra.general_records + ra.split_records + ra.local_records, n);
+    assert!(ra.split_records > 0 && ra.local_records > 0 && ra.general_records > 0);
+    assert!(
+        a.len() <= b.len(),
+        "with local form {} vs without {}",
+        a.len(),
+        b.len()
+    );
+    let mut dec = decode_all(&a, Limits::default()).unwrap();
+    let q = expected_quantizer(&pm, 14);
+    for k in [n / 2, n] {
+        dec.set_level(Target::Level(k)).unwrap();
+        assert_level(&dec, &pm, &q, k);
+    }
+}
+
+#[test]
+fn per_op_stats_add_up_to_the_report() {
+    let mut pm = testgen::generate(33, 800);
+    pqm_format::vectors::rotate_rewritten(&mut pm);
+    let (_, r) = write_to_vec(
+        &pm,
+        &EncodeOptions {
+            chunk_bytes: 2048,
+            ..EncodeOptions::default()
+        },
+    )
+    .unwrap();
+    let ops = &r.per_op;
+    assert_eq!(
+        ops.iter().map(|o| o.records).sum::<usize>(),
+        pm.records.len()
+    );
+    for o in ops {
+        assert_eq!(o.forms.iter().sum::<usize>(), o.records);
+    }
+    assert_eq!(
+        ops.iter().map(|o| o.forms[0]).sum::<usize>(),
+        r.general_records
+    );
+    assert_eq!(
+        ops.iter().map(|o| o.forms[1]).sum::<usize>(),
+        r.split_records
+    );
+    assert_eq!(
+        ops.iter().map(|o| o.forms[2]).sum::<usize>(),
+        r.local_records
+    );
+    let new: u64 = ops.iter().map(|o| o.new).sum();
+    assert_eq!(new, r.refined_vertices);
+    for t in 0..5 {
+        let raw: u64 = ops.iter().map(|o| o.raw_bytes[t]).sum();
+        assert_eq!(raw, r.stream_raw_bytes[t]);
+        let bytes: f64 = ops.iter().map(|o| o.bytes[t]).sum();
+        assert!((bytes - r.stream_bytes[t]).abs() < 1e-6 * r.stream_bytes[t].max(1.0));
+    }
+    let app: u64 = ops.iter().map(|o| o.appended).sum();
+    assert_eq!(app as usize, pm.final_face_count() - pm.base.face_count());
+}
+
+/// A one-record chunk payload from raw streams.
+fn payload(ops: &[u8], conn: &[u64], refs: &[i64], slots: &[u64], pos: &[i64]) -> [Vec<u8>; 5] {
+    use pqm_format::varint::{put_s, put_u};
+    let mut s: [Vec<u8>; 5] = Default::default();
+    s[0] = ops.to_vec();
+    conn.iter().for_each(|&x| put_u(&mut s[1], x));
+    refs.iter().for_each(|&x| put_s(&mut s[2], x));
+    slots.iter().for_each(|&x| put_u(&mut s[3], x));
+    pos.iter().for_each(|&x| put_s(&mut s[4], x));
+    s
+}
+
+#[test]
+fn hostile_local_form_records_are_rejected() {
+    use pqm_format::codec::{decode_record, Cursors, MeshState};
+    use pqm_format::varint::Reader;
+    // A 2×2 grid of quads: vertex 4 is interior (4 faces).
+    let q: Vec<[u32; 3]> = (0..9).map(|i| [i % 3 * 10, i / 3 * 10, 0]).collect();
+    let quads = vec![[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6], [4, 5, 8, 7]];
+    let st = MeshState::new((1 << 14) - 1, q, quads);
+    let local = st.local(4).unwrap();
+    assert_eq!(local.faces, vec![0, 1, 2, 3]);
+    assert_eq!(local.verts, (0..9).collect::<Vec<u32>>());
+    let run = |s: [Vec<u8>; 5]| {
+        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+        decode_record(&st, &mut rd, &mut Cursors::default(), 20, 20)
+    };
+    let sym = 0x08 | 1; // local form, qeMerge
+                        // Valid: move vertex 4 by (1, 0, 0).
+    let ok = run(payload(&[sym], &[0, 1, 0, 0], &[4], &[4], &[1, 0, 0])).unwrap();
+    assert_eq!(ok.moved, vec![(4, [11, 10, 0])]);
+    // Anchor beyond the vertices.
+    let e = run(payload(&[sym], &[0, 0, 0, 0], &[9], &[], &[])).unwrap_err();
+    assert!(e.contains("anchor"), "{e}");
+    // More moved vertices than the neighbourhood holds (bounded before any
+    // allocation by |U| = 9).
+    let e = run(payload(&[sym], &[0, 10, 0, 0], &[4], &[], &[])).unwrap_err();
+    assert!(e.contains("moved vertex count"), "{e}");
+    // Local index outside the neighbourhood.
+    let e = run(payload(&[sym], &[0, 1, 0, 0], &[4], &[9], &[0, 0, 0])).unwrap_err();
+    assert!(e.contains("local index 9"), "{e}");
+    // Rewritten face index outside the 4 faces; gap overflow.
+    let e = run(payload(&[sym], &[0, 0, 2, 0], &[4], &[1, u64::MAX], &[])).unwrap_err();
+    assert!(e.contains("local index"), "{e}");
+    // Explicit corner beyond the neighbourhood.
+    let e = run(payload(&[sym], &[0, 0, 1, 0, 1, 0], &[4], &[0, 9], &[])).unwrap_err();
+    assert!(e.contains("local corner index"), "{e}");
+    // Split-form bits on a local-form symbol.
+    let e = run(payload(&[sym | 0x40], &[0, 0, 0, 0], &[4], &[], &[])).unwrap_err();
+    assert!(e.contains("split-form bits"), "{e}");
+    // An isolated vertex has no neighbourhood.
+    let st2 = MeshState::new((1 << 14) - 1, vec![[0, 0, 0]; 5], vec![[0, 1, 2, 3]]);
+    let mut s = payload(&[sym], &[0, 0, 0, 0], &[4], &[], &[]);
+    let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+    let e = decode_record(&st2, &mut rd, &mut Cursors::default(), 20, 20).unwrap_err();
+    assert!(e.contains("no face"), "{e}");
+    // A fan of 300 faces around one vertex: refused (more than 255).
+    let n = 300u32;
+    let mut q = vec![[0u32, 0, 0]];
+    let mut quads = Vec::new();
+    for i in 0..n {
+        q.push([i, 1, 0]);
+        q.push([i, 2, 0]);
+    }
+    for i in 0..n {
+        let (a, b) = (1 + 2 * i, 1 + 2 * ((i + 1) % n));
+        quads.push([0, a, a + 1, b]);
+    }
+    let big = MeshState::new((1 << 14) - 1, q, quads);
+    s = payload(&[sym], &[0, 0, 0, 0], &[0], &[], &[]);
+    rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+    let e = decode_record(&big, &mut rd, &mut Cursors::default(), 20_000, 20_000).unwrap_err();
+    assert!(e.contains("more than 255"), "{e}");
+}
+
+#[test]
 fn empty_and_record_free_meshes() {
     let mut pm = testgen::generate(4, 0);
     pm.level_error = vec![0.0];
@@ -656,14 +843,14 @@ fn bad_record_errors_name_the_record() {
 }
 
 /// Chunk `c` of `bytes` with the symbol of its record `k` made invalid
-/// (record form 2), re-CRC'd: records before `k` decode, record `k` fails.
+/// (record form 3), re-CRC'd: records before `k` decode, record `k` fails.
 fn break_record(bytes: &[u8], c: usize, k: usize) -> Vec<u8> {
     use pqm_format::codec::{join_streams, split_streams};
     repack_chunk(bytes, c, |p| {
         let mut s: [Vec<u8>; 5] = split_streams(p)
             .unwrap()
             .map(|mut r| r.bytes(r.remaining()).unwrap().to_vec());
-        s[0][k] = 0x08;
+        s[0][k] = 0x0c;
         *p = join_streams(&s);
     })
 }
@@ -687,7 +874,7 @@ fn a_failing_record_discards_its_whole_chunk() {
                 message,
             })) => {
                 assert_eq!((c as usize, r as usize), (chunk, level + record));
-                assert!(message.contains("form 2"), "{message}");
+                assert!(message.contains("form 3"), "{message}");
             }
             other => panic!("{other:?}"),
         }

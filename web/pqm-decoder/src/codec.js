@@ -10,6 +10,7 @@
 import { Reader } from './reader.js';
 import { ensure } from './grow.js';
 import { badRecord, invalid } from './errors.js';
+import { decodeLocal } from './local.js';
 
 /**
  * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
@@ -379,6 +380,8 @@ function decodeRecord(ctx) {
     decodeGeneral(ctx);
   } else if (form === 1) {
     decodeSplit(ctx, sym);
+  } else if (form === 2) {
+    decodeLocal(ctx, sym);
   } else {
     throw `record form ${form} is invalid (symbol 0x${sym.toString(16)})`;
   }
@@ -389,7 +392,7 @@ function decodeRecord(ctx) {
  * The message names `${what} ${id}${suffix}`, built only on failure (this
  * runs once per new or moved vertex: no string work on the good path).
  */
-function readCode(ctx, px, py, pz, what, id, suffix) {
+export function readCode(ctx, px, py, pz, what, id, suffix) {
   const p = ctx.pos;
   const x = px + p.s();
   const y = py + p.s();
@@ -406,7 +409,7 @@ function readCode(ctx, px, py, pz, what, id, suffix) {
 const clamp = (x, qmax) => (x < 0 ? 0 : x > qmax ? qmax : x);
 
 /** Logs a move of `v` to the code in ctx.cx/cy/cz and applies it. */
-function logMove(ctx, v) {
+export function logMove(ctx, v) {
   const log = ctx.log;
   const q = ctx.st.q;
   const n = log.nMoved;
@@ -424,7 +427,7 @@ function logMove(ctx, v) {
 }
 
 /** Logs that `slot` becomes quad `a b c d`, updating quads and adjacency. */
-function rewriteSlot(ctx, slot, a, b, c, d) {
+export function rewriteSlot(ctx, slot, a, b, c, d) {
   const st = ctx.st;
   const log = ctx.log;
   const f = st.f;
@@ -453,7 +456,7 @@ function relink(st, c, v) {
 }
 
 /** Appends quad `a b c d` at the next slot. */
-function appendQuad(ctx, a, b, c, d) {
+export function appendQuad(ctx, a, b, c, d) {
   const st = ctx.st;
   const log = ctx.log;
   const slot = st.nf;
@@ -480,7 +483,7 @@ function appendQuad(ctx, a, b, c, d) {
 }
 
 /** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
-function appendVertex(ctx) {
+export function appendVertex(ctx) {
   const st = ctx.st;
   const log = ctx.log;
   const v = st.nv;
@@ -692,7 +695,7 @@ function decodeGeneral(ctx) {
 }
 
 /** Throws unless quad `a[o .. o+4)` has four distinct vertices (message: `${what} ${id}`). */
-function checkDistinct(a, o, what, id) {
+export function checkDistinct(a, o, what, id) {
   const x = a[o], y = a[o + 1], z = a[o + 2], w = a[o + 3];
   if (x === y || x === z || x === w || y === z || y === w || z === w) {
     throw `${what} ${id} repeats a vertex (${x} ${y} ${z} ${w})`;

@@ -1,0 +1,110 @@
+//! Where the bits of a `.pqm` file go: decodes each given file, re-encodes
+//! its records with this crate's encoder (same grid, default options) and
+//! prints, per operator kind, how many records, which forms, the average
+//! new / moved / rewritten / appended counts, and the compressed bits per
+//! refined vertex each stream takes.
+//!
+//! `cargo run --release -p pqm-format --example streams -- [--no-local] FILE.pqm...`
+//! (write the files with `pqm encode`; re-encoding skips the coarsener;
+//! `--no-local` re-encodes without the local form, as version 1.0 did).
+
+use pqm_format::{decode_all, write_to_vec, EncodeOptions, Limits};
+
+const OPS: [&str; 4] = ["qvMerge", "qeMerge", "doublet", "smooth"];
+
+fn main() {
+    let mut files: Vec<String> = std::env::args().skip(1).collect();
+    let local_form = !files.iter().any(|f| f == "--no-local");
+    files.retain(|f| f != "--no-local");
+    if files.is_empty() {
+        eprintln!("usage: streams FILE.pqm...");
+        std::process::exit(2);
+    }
+    for f in files {
+        let bytes = match std::fs::read(&f) {
+            Ok(b) => b,
+            Err(e) => {
+                eprintln!("{f}: {e}");
+                continue;
+            }
+        };
+        let dec = match decode_all(&bytes, Limits::none()) {
+            Ok(d) => d,
+            Err(e) => {
+                eprintln!("{f}: {e}");
+                continue;
+            }
+        };
+        let Some(pm) = dec.to_progressive_mesh() else {
+            eprintln!("{f}: nothing decoded");
+            continue;
+        };
+        let bits = dec.header().map_or(14, |h| h.quant_bits);
+        let opts = EncodeOptions {
+            bits,
+            local_form,
+            ..EncodeOptions::default()
+        };
+        let (out, r) = match write_to_vec(&pm, &opts) {
+            Ok(x) => x,
+            Err(e) => {
+                eprintln!("{f}: re-encode: {e}");
+                continue;
+            }
+        };
+        let n = r.refined_vertices.max(1) as f64;
+        println!(
+            "## {f}: {} → {} bytes; {} records, {} refined vertices; bits/refined vertex: conn {:.1} + pos {:.1} = {:.1} (file {:.1} bits/final vertex)",
+            bytes.len(),
+            out.len(),
+            pm.records.len(),
+            r.refined_vertices,
+            r.bits_per_vertex.connectivity,
+            r.bits_per_vertex.positions,
+            r.bits_per_vertex.total,
+            r.file_bits_per_vertex
+        );
+        println!("| op | records | forms g/s/l | avg new | avg moved | avg rewritten | avg appended | ops | conn | refs | slots | pos | total (bits/refined vertex) |");
+        println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let mut tot = [0f64; 5];
+        for (o, s) in r.per_op.iter().enumerate() {
+            if s.records == 0 {
+                continue;
+            }
+            let k = s.records as f64;
+            let b: Vec<f64> = s.bytes.iter().map(|x| 8.0 * x / n).collect();
+            for t in 0..5 {
+                tot[t] += b[t];
+            }
+            println!(
+                "| {} | {} | {}/{}/{} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+                OPS[o],
+                s.records,
+                s.forms[0],
+                s.forms[1],
+                s.forms[2],
+                s.new as f64 / k,
+                s.moved as f64 / k,
+                s.rewritten as f64 / k,
+                s.appended as f64 / k,
+                b[0],
+                b[1],
+                b[2],
+                b[3],
+                b[4],
+                b.iter().sum::<f64>()
+            );
+        }
+        println!(
+            "| all | {} | | | | | | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            pm.records.len(),
+            tot[0],
+            tot[1],
+            tot[2],
+            tot[3],
+            tot[4],
+            tot.iter().sum::<f64>()
+        );
+        println!("raw stream bytes {:?}\n", r.stream_raw_bytes);
+    }
+}

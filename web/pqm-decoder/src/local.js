@@ -1,0 +1,368 @@
+/**
+ * Local record form (spec §7.7): a general-form record whose moved
+ * vertices, rewritten slots and explicit corners are named by small indices
+ * into the neighbourhood of one *anchor* vertex instead of by global deltas.
+ *
+ * Neighbourhood of anchor `m`: `A` = the corners of the faces at `m`
+ * (1..=255 faces); `R` = every slot with a corner in `A`, ascending (at most
+ * 4096 corners visited while collecting, else the record is invalid);
+ * `U` = the corners of the faces of `R`, ascending.
+ *
+ * Written from the spec; shares only the apply/log primitives with the
+ * general form (codec.js).
+ */
+import { readCode, logMove, rewriteSlot, appendQuad, appendVertex, checkDistinct } from './codec.js';
+
+const MAX_STAR = 255;
+const MAX_CORNERS = 4096;
+
+// Scratch, sized by the limits above (no allocation per record).
+const lA = new Int32Array(4 * MAX_STAR);
+const lR = new Int32Array(MAX_CORNERS);
+const lU = new Int32Array(4 * MAX_CORNERS);
+const lW = new Int32Array(4 * MAX_CORNERS);
+const lInHead = new Uint8Array(4 * MAX_CORNERS);
+// Per-record lists, grown on demand (bounded by |R| and the streams).
+let lSlots = new Int32Array(64);
+let lRw = new Int32Array(256);
+let lApp = new Int32Array(256);
+let lExtra = new Int32Array(64);
+let lFirst = new Int32Array(64);
+const lQuad = new Int32Array(4);
+
+// Generation stamps (spec order is by id; stamps drop repeats so that only
+// the distinct faces and vertices get sorted): stampV[v] === gen marks
+// vertex v as seen in the current pass, stampF likewise for slots.
+let stampV = new Int32Array(0);
+let stampF = new Int32Array(0);
+let gen = 0;
+
+/** Fresh stamps for `nv` vertices and `nf` slots; returns the vertex stamp (the next value is reserved too). */
+function nextGen(nv, nf) {
+  if (stampV.length < nv) {
+    const g = new Int32Array(Math.max(nv, 2 * stampV.length));
+    g.set(stampV);
+    stampV = g;
+  }
+  if (stampF.length < nf) {
+    const g = new Int32Array(Math.max(nf, 2 * stampF.length));
+    g.set(stampF);
+    stampF = g;
+  }
+  if (gen > 0x3fffffff) {
+    gen = 0;
+    stampV.fill(0);
+    stampF.fill(0);
+  }
+  gen += 2;
+  return gen - 1;
+}
+
+// Star of the anchor (Frontier.star output) and per-vertex slot stamps that
+// drop repeated nodes of the decoder's corner lists (spec counts corners).
+const starSlots = new Int32Array(MAX_STAR);
+const starCorners = new Int32Array(MAX_STAR);
+let stampS = new Int32Array(0);
+let genS = 0;
+
+/** A fresh slot stamp (one per walked vertex) for `nf` slots. */
+function nextSlotGen(nf) {
+  if (stampS.length < nf) {
+    const g = new Int32Array(Math.max(nf, 2 * stampS.length));
+    g.set(stampS);
+    stampS = g;
+  }
+  if (genS > 0x3fffffff) {
+    genS = 0;
+    stampS.fill(0);
+  }
+  return ++genS;
+}
+
+/** Fills lR / lU for anchor `m`; returns [|R|, |U|]. */
+function neighbourhood(st, m) {
+  const f = st.f;
+  const head = st.head;
+  const nodeC = st.nodeC;
+  const nodeN = st.nodeN;
+  const gv = nextGen(st.nv, st.nf);
+  const gu = gv + 1;
+  const gf = gv + 1;
+  const sv = stampV;
+  const sf = stampF;
+  let na = 0;
+  // Frontier.star drops stale and repeated nodes and throws past 255 faces.
+  const K = st.star(m, starSlots, starCorners);
+  if (K === 0) throw `anchor ${m} has no face`;
+  for (let i = 0; i < K; i++) {
+    const s4 = 4 * starSlots[i];
+    for (let k = 0; k < 4; k++) {
+      const u = f[s4 + k];
+      if (sv[u] !== gv) {
+        sv[u] = gv;
+        lA[na++] = u;
+      }
+    }
+  }
+  let entries = 0;
+  let nr = 0;
+  for (let i = 0; i < na; i++) {
+    const u = lA[i];
+    const gs = nextSlotGen(st.nf);
+    const ss = stampS;
+    // The corner lists may hold stale nodes (the corner moved on) and
+    // repeats (a corner that came back): count each live corner once.
+    for (let n = head[u]; n >= 0; n = nodeN[n]) {
+      const c = nodeC[n];
+      if (f[c] !== u) continue;
+      const s = c >> 2;
+      if (ss[s] === gs) continue;
+      ss[s] = gs;
+      if (++entries > MAX_CORNERS) throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
+      if (sf[s] !== gf) {
+        sf[s] = gf;
+        lR[nr++] = s;
+      }
+    }
+  }
+  lR.subarray(0, nr).sort();
+  let nu = 0;
+  for (let i = 0; i < nr; i++) {
+    const s4 = 4 * lR[i];
+    for (let k = 0; k < 4; k++) {
+      const u = f[s4 + k];
+      if (sv[u] !== gu) {
+        sv[u] = gu;
+        lU[nu++] = u;
+      }
+    }
+  }
+  lU.subarray(0, nu).sort();
+  return [nr, nu];
+}
+
+/** The `t`-th ascending local index (first as is, then gaps after `next`). */
+function localIndex(ctx, t, next, len, what) {
+  const i = t === 0 ? ctx.slots.u() : next + ctx.slots.u();
+  if (i >= len) throw `${what} local index ${i} outside 0..${len}`;
+  return i;
+}
+
+/** Index of `v` in the sorted lU[0..nU], or −1. */
+function indexInU(v, nU) {
+  let lo = 0;
+  let hi = nU;
+  while (lo < hi) {
+    const mid = (lo + hi) >> 1;
+    if (lU[mid] < v) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo < nU && lU[lo] === v ? lo : -1;
+}
+
+/** Fills lW (spec §7.7: moved-vertex vocabulary) for the rewritten slots lSlots[0..nRw]; returns its length (= |U|). */
+function movedVocabulary(f, nRw, nU) {
+  lInHead.fill(0, 0, nU);
+  let n = 0;
+  for (let t = 0; t < nRw; t++) {
+    const s4 = 4 * lSlots[t];
+    for (let k = 0; k < 4; k++) {
+      const j = indexInU(f[s4 + k], nU);
+      if (j >= 0 && !lInHead[j]) {
+        lInHead[j] = 1;
+        lW[n++] = lU[j];
+      }
+    }
+  }
+  for (let j = 0; j < nU; j++) if (!lInHead[j]) lW[n++] = lU[j];
+  return n;
+}
+
+/** Resolves a corner code (spec §7.4, explicit corners as in §7.7). */
+function cornerCode(ctx, V, nNew, nRw, nU, f) {
+  const x = ctx.conn.u();
+  if (x === 0) {
+    const i = ctx.slots.u();
+    if (i >= nU) throw `local corner index ${i} outside 0..${nU}`;
+    const v = lU[i];
+    if (ctx.nExtra === lExtra.length) {
+      const g = new Int32Array(2 * lExtra.length);
+      g.set(lExtra);
+      lExtra = g;
+    }
+    lExtra[ctx.nExtra++] = v;
+    return v;
+  }
+  if (x <= nNew) return V + x - 1;
+  if (x <= nNew + 4 * nRw) {
+    const i = x - 1 - nNew;
+    return f[4 * lSlots[i >> 2] + (i & 3)];
+  }
+  const e = x - 1 - nNew - 4 * nRw;
+  if (e >= ctx.nExtra) throw `corner code ${x} names extra entry ${e}, only ${ctx.nExtra} exist`;
+  return lExtra[e];
+}
+
+const clamp = (x, qmax) => (x < 0 ? 0 : x > qmax ? qmax : x);
+
+/** Local form (spec §7.7); `sym` is the record's symbol byte. */
+export function decodeLocal(ctx, sym) {
+  if (sym >> 4) throw `local-form symbol 0x${sym.toString(16)} has bits 4-7 set`;
+  const st = ctx.st;
+  const conn = ctx.conn;
+  const V = st.nv;
+  const NF = st.nf;
+  const m = ctx.vcur + ctx.refs.s();
+  if (m < 0 || m >= V) throw `local-form anchor ${m} outside 0..${V}`;
+  ctx.vcur = m;
+  const [nR, nU] = neighbourhood(st, m);
+
+  const nNew = conn.u();
+  if (nNew > ctx.VF - V) throw `${nNew} new vertices exceed the final count ${ctx.VF} (now ${V})`;
+  const nMoved = conn.u();
+  if (nMoved > nU) throw `${nMoved} moved vertices, the neighbourhood holds ${nU}`;
+  const nRw = conn.u();
+  if (nRw > nR) throw `${nRw} rewritten faces, the neighbourhood holds ${nR}`;
+  const nApp = conn.u();
+  if (nApp > ctx.FF - NF) throw `${nApp} appended faces exceed the final count ${ctx.FF} (now ${NF})`;
+  // Each element takes at least one byte of its streams: check before
+  // sizing any scratch buffer by these counts.
+  if (nMoved + nRw > ctx.slots.remaining() || nRw + 4 * nApp > conn.remaining() || 3 * (nNew + nMoved) > ctx.pos.remaining()) {
+    throw `counts (${nNew} new, ${nMoved} moved, ${nRw} rewritten, ${nApp} appended) exceed what the streams hold`;
+  }
+
+  // Rewritten slots (the slot cursor is not used by this form).
+  if (nRw > lSlots.length) lSlots = new Int32Array(2 * nRw);
+  let next = 0;
+  for (let t = 0; t < nRw; t++) {
+    const i = localIndex(ctx, t, next, nR, 'rewritten face');
+    next = i + 1;
+    lSlots[t] = lR[i];
+  }
+
+  // Moved vertices, as indices into W: the distinct old corners of the
+  // rewritten slots (slot order, corners 0..3), then the rest of U
+  // ascending. Applied at once, so that predictions see them.
+  if (nMoved > 0) {
+    const nW = movedVocabulary(st.f, nRw, nU);
+    next = 0;
+    for (let t = 0; t < nMoved; t++) {
+      const i = localIndex(ctx, t, next, nW, 'moved vertex');
+      next = i + 1;
+      const v = lW[i];
+      const q = st.q;
+      readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], "moved vertex", v, "");
+      logMove(ctx, v);
+    }
+  }
+
+  // Quads. Old quads of rewritten slots stay in st.f until applied.
+  ctx.nExtra = 0;
+  const f = st.f;
+  if (4 * nRw > lRw.length) lRw = new Int32Array(8 * nRw);
+  if (4 * nApp > lApp.length) lApp = new Int32Array(8 * nApp);
+  const rwNew = lRw;
+  const app = lApp;
+  for (let i = 0; i < nRw; i++) {
+    // bits 0-3: replaced corners of the old quad; bits 4-5: rotation
+    const mask = conn.u();
+    if (mask > 63) throw `corner mask ${mask} of slot ${lSlots[i]} exceeds 63`;
+    const s4 = 4 * lSlots[i];
+    for (let c = 0; c < 4; c++) {
+      lQuad[c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, nU, f) : f[s4 + c];
+    }
+    const rot = mask >> 4;
+    for (let k = 0; k < 4; k++) rwNew[4 * i + k] = lQuad[(k + rot) & 3];
+    checkDistinct(rwNew, 4 * i, "rewritten slot", lSlots[i]);
+  }
+  for (let i = 0; i < nApp; i++) {
+    for (let c = 0; c < 4; c++) app[4 * i + c] = cornerCode(ctx, V, nNew, nRw, nU, f);
+    checkDistinct(app, 4 * i, "appended quad", i);
+  }
+
+  // New vertex codes (spec §7.6): the first quad containing each, in the
+  // order "appended, then rewritten by slot" (lSlots is ascending).
+  if (nNew > 0) {
+    if (nNew > lFirst.length) lFirst = new Int32Array(2 * nNew);
+    const firstHit = lFirst;
+    firstHit.fill(-1, 0, nNew);
+    for (let i = 0; i < 4 * nApp; i++) {
+      const v = app[i] - V;
+      if (v >= 0 && firstHit[v] < 0) firstHit[v] = i;
+    }
+    const base = 4 * nApp;
+    for (let i = 0; i < 4 * nRw; i++) {
+      const v = rwNew[i] - V;
+      if (v >= 0 && firstHit[v] < 0) firstHit[v] = base + i;
+    }
+    st.reserve(V + nNew, NF);
+    const qmax = ctx.qmax;
+    for (let k = 0; k < nNew; k++) {
+      const x = V + k;
+      const q = st.q;
+      let px, py, pz;
+      let found = false;
+      const hit = firstHit[k];
+      if (hit >= 0) {
+        const arr = hit < base ? app : rwNew;
+        const o = hit < base ? hit & ~3 : (hit - base) & ~3;
+        const c = hit & 3;
+        const n1 = arr[o + ((c + 1) & 3)];
+        const op = arr[o + ((c + 2) & 3)];
+        const n3 = arr[o + ((c + 3) & 3)];
+        const k1 = n1 < x;
+        const ko = op < x;
+        const k3 = n3 < x;
+        if (k1 && ko && k3) {
+          px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
+          py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
+          pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
+          found = true;
+        } else if (k1 || ko || k3) {
+          let sx = 0, sy = 0, sz = 0, n = 0;
+          if (k1) {
+            sx += q[3 * n1];
+            sy += q[3 * n1 + 1];
+            sz += q[3 * n1 + 2];
+            n++;
+          }
+          if (ko) {
+            sx += q[3 * op];
+            sy += q[3 * op + 1];
+            sz += q[3 * op + 2];
+            n++;
+          }
+          if (k3) {
+            sx += q[3 * n3];
+            sy += q[3 * n3 + 1];
+            sz += q[3 * n3 + 2];
+            n++;
+          }
+          px = Math.floor(sx / n);
+          py = Math.floor(sy / n);
+          pz = Math.floor(sz / n);
+          found = true;
+        }
+      }
+      if (!found) {
+        if (x > V) {
+          px = q[3 * (x - 1)];
+          py = q[3 * (x - 1) + 1];
+          pz = q[3 * (x - 1) + 2];
+        } else {
+          px = py = pz = ctx.half;
+        }
+      }
+      readCode(ctx, px, py, pz, "new vertex", x, "");
+      appendVertex(ctx);
+    }
+  }
+
+  // Apply the connectivity.
+  for (let i = 0; i < nRw; i++) {
+    rewriteSlot(ctx, lSlots[i], rwNew[4 * i], rwNew[4 * i + 1], rwNew[4 * i + 2], rwNew[4 * i + 3]);
+  }
+  for (let i = 0; i < nApp; i++) {
+    appendQuad(ctx, app[4 * i], app[4 * i + 1], app[4 * i + 2], app[4 * i + 3]);
+  }
+}
