@@ -206,8 +206,36 @@ pub struct Coarsener {
     epoch: u32,
     fmark: Vec<u32>,
     vmark: Vec<u32>,
-    scratch_touched: Vec<VertexId>,
-    scratch_pairs: Vec<(u32, u32)>,
+    /// Local slot of each vertex marked in `vmark` (valid for the epoch).
+    vlocal: Vec<u32>,
+    scratch: ScoreScratch,
+}
+
+/// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
+/// local slot.
+#[derive(Default)]
+struct ScoreScratch {
+    touched: Vec<VertexId>,
+    /// `(valence, ideal valence)` before the step.
+    before: Vec<(usize, usize)>,
+    /// Neighbours after the step, `nb[nb_range[k].0..nb_range[k].1]`.
+    nb: Vec<u32>,
+    nb_range: Vec<(usize, usize)>,
+    /// `(valence, ideal valence)` after the step, `None` when gone.
+    after: Vec<Option<(usize, usize)>>,
+    /// Removed by a doublet the step triggers.
+    gone: Vec<bool>,
+}
+
+impl ScoreScratch {
+    fn clear(&mut self) {
+        self.touched.clear();
+        self.before.clear();
+        self.nb.clear();
+        self.nb_range.clear();
+        self.after.clear();
+        self.gone.clear();
+    }
 }
 
 impl Coarsener {
@@ -247,8 +275,8 @@ impl Coarsener {
             epoch: 0,
             fmark: vec![0; mesh_faces],
             vmark: vec![0; n],
-            scratch_touched: Vec::new(),
-            scratch_pairs: Vec::new(),
+            vlocal: vec![0; n],
+            scratch: ScoreScratch::default(),
         }
     }
 
@@ -468,8 +496,10 @@ impl Coarsener {
     /// push a vertex past [`MAX_VALENCE`] (and past its valence before).
     fn cost(&mut self, cand: Cand, patch: &Patch) -> Option<f64> {
         // --- V: ideal-vertex fraction before/after over the touched vertices.
-        // Valences after come from the distinct neighbour pairs over kept
-        // and inserted faces; epoch marks make the set tests O(1).
+        // Valences after count the distinct neighbours over kept and
+        // inserted faces. Epoch marks make the set tests O(1), and each
+        // touched vertex gets a local slot (`vlocal`) so its neighbour list
+        // and flags live in small scratch arrays: no sort, no allocation.
         self.epoch = self.epoch.wrapping_add(1);
         if self.epoch == 0 {
             self.fmark.iter_mut().for_each(|x| *x = 0);
@@ -478,10 +508,8 @@ impl Coarsener {
         }
         let epoch = self.epoch;
         let m = &self.mesh;
-        let mut touched = std::mem::take(&mut self.scratch_touched);
-        let mut pairs = std::mem::take(&mut self.scratch_pairs);
-        touched.clear();
-        pairs.clear();
+        let mut s = std::mem::take(&mut self.scratch);
+        s.clear();
         for &f in &patch.remove {
             self.fmark[f.idx()] = epoch;
         }
@@ -489,45 +517,57 @@ impl Coarsener {
             for v in m.face_vertices(f) {
                 if self.vmark[v.idx()] != epoch {
                     self.vmark[v.idx()] = epoch;
-                    touched.push(v);
+                    self.vlocal[v.idx()] = s.touched.len() as u32;
+                    s.touched.push(v);
                 }
             }
         }
+        let vmark = &self.vmark;
+        let vlocal = &self.vlocal;
+        // local slot of a touched vertex
+        let local = |v: VertexId| (vmark[v.idx()] == epoch).then(|| vlocal[v.idx()] as usize);
         let kept = |f: Option<FaceId>| f.is_some_and(|f| self.fmark[f.idx()] != epoch);
+        let is_merged = |v: VertexId| patch.merged.iter().any(|g| g.0 == v);
         let mut dev_b = 0usize;
-        let mut before: Vec<(VertexId, usize, usize)> = Vec::with_capacity(touched.len());
-        for &v in &touched {
+        for &v in &s.touched {
             let (val, ideal) = (m.valence(v), m.ideal_valence(v));
-            before.push((v, val, ideal));
+            s.before.push((val, ideal));
             dev_b = dev_b.max(val.abs_diff(ideal));
-            if patch.merged.iter().any(|g| g.0 == v) {
-                continue;
-            }
-            for h in m.outgoing(v) {
-                if kept(m.face(h)) || kept(m.face(m.twin(h))) {
-                    pairs.push((v.0, m.to_vertex(h).0));
+        }
+        // neighbours after of each surviving touched vertex (CSR in `nb`):
+        // kept edges, then the edges of the inserted quads, each once
+        for &v in &s.touched {
+            let start = s.nb.len();
+            if !is_merged(v) {
+                for h in m.outgoing(v) {
+                    if kept(m.face(h)) || kept(m.face(m.twin(h))) {
+                        let w = m.to_vertex(h).0;
+                        if !s.nb[start..].contains(&w) {
+                            s.nb.push(w);
+                        }
+                    }
+                }
+                for q in &patch.add {
+                    for i in 0..4 {
+                        if q[i] == v {
+                            for w in [q[(i + 1) % 4].0, q[(i + 3) % 4].0] {
+                                if !s.nb[start..].contains(&w) {
+                                    s.nb.push(w);
+                                }
+                            }
+                        }
+                    }
                 }
             }
+            s.nb_range.push((start, s.nb.len()));
         }
-        for q in &patch.add {
-            for i in 0..4 {
-                let (a, b) = (q[i].0, q[(i + 1) % 4].0);
-                pairs.push((a, b));
-                pairs.push((b, a));
-            }
-        }
-        pairs.sort_unstable();
-        pairs.dedup();
-        // (vertex, valence after, ideal after, start in pairs)
-        let mut after: Vec<(VertexId, usize, usize, usize)> = Vec::with_capacity(touched.len());
-        let mut i = 0;
-        while i < pairs.len() {
-            let v = VertexId(pairs[i].0);
-            let mut j = i;
-            while j < pairs.len() && pairs[j].0 == v.0 {
-                j += 1;
-            }
-            if self.vmark[v.idx()] == epoch && !patch.merged.iter().any(|g| g.0 == v) {
+        // (valence after, ideal after) per touched slot; `None` when the
+        // vertex merges away or keeps no edge
+        for (k, &v) in s.touched.iter().enumerate() {
+            let (lo, hi) = s.nb_range[k];
+            let after = if hi == lo || is_merged(v) {
+                None
+            } else {
                 let boundary = m.is_boundary_vertex(v)
                     || patch
                         .merged
@@ -538,17 +578,19 @@ impl Coarsener {
                     (true, true) => m.ideal_valence(v),
                     (true, false) => 3,
                 };
-                after.push((v, j - i, ideal, i));
-            }
-            i = j;
+                Some((hi - lo, ideal))
+            };
+            s.after.push(after);
         }
         // doublets the step triggers: interior valence-2 survivors vanish and
         // their two neighbours lose an edge each
-        let gone: Vec<u32> = after
-            .iter()
-            .filter(|a| a.2 == 4 && a.1 == 2)
-            .map(|a| a.0 .0)
-            .collect();
+        let mut any_gone = false;
+        for a in &s.after {
+            let g = matches!(a, Some((2, 4)));
+            any_gone |= g;
+            s.gone.push(g);
+        }
+        let gone = |w: u32| local(VertexId(w)).is_some_and(|k| s.gone[k]);
         // V counts the vertices whose valence the step changes (merged,
         // doublet-removed, or with another valence after): unchanged ones
         // would only dilute the ratio.
@@ -556,31 +598,32 @@ impl Coarsener {
         let (mut ideal_b, mut count_b) = (0usize, 0usize);
         let mut over_cap = false;
         let merge_target = |v: VertexId| patch.merged.iter().any(|g| g.1 == v);
-        for &(v, val_b, ideal_vb) in &before {
-            let survivor = after.iter().find(|a| a.0 == v);
-            let changed = match survivor {
+        for (k, &v) in s.touched.iter().enumerate() {
+            let (val_b, ideal_vb) = s.before[k];
+            let changed = match s.after[k] {
                 None => true,
-                Some(a) => merge_target(v) || a.1 != val_b || gone.contains(&v.0),
+                Some((val_a, _)) => merge_target(v) || val_a != val_b || s.gone[k],
             };
             if changed {
                 count_b += 1;
                 ideal_b += (val_b == ideal_vb) as usize;
             }
         }
-        for &(v, val, ideal, start) in &after {
+        for (k, &v) in s.touched.iter().enumerate() {
+            let Some((val, ideal)) = s.after[k] else {
+                continue;
+            };
             if ideal == 4 && val == 2 {
                 continue;
             }
-            let lost = if gone.is_empty() {
-                0
+            let lost = if any_gone {
+                let (lo, hi) = s.nb_range[k];
+                s.nb[lo..hi].iter().filter(|&&w| gone(w)).count()
             } else {
-                pairs[start..start + val]
-                    .iter()
-                    .filter(|p| gone.contains(&p.1))
-                    .count()
+                0
             };
             let val = val - lost;
-            let val_b = before.iter().find(|b| b.0 == v).map_or(0, |b| b.1);
+            let val_b = s.before[k].0;
             if val > MAX_VALENCE.max(val_b) {
                 over_cap = true;
             }
@@ -601,8 +644,7 @@ impl Coarsener {
             ideal_a as f64 / count_a as f64
         }
         .max(V_FLOOR);
-        self.scratch_touched = touched;
-        self.scratch_pairs = pairs;
+        self.scratch = s;
         let m = &self.mesh;
         // --- D: importance-weighted moved distance
         let imp = |vs: &[VertexId]| {
