@@ -394,14 +394,22 @@ impl Coarsener {
         for d in 0..2u8 {
             self.push(Cand::Qv(f, d));
         }
-        let hs: Vec<HalfedgeId> = self.mesh.face_halfedges(f).collect();
-        for h in hs {
+        // walk the loop by hand: `push` needs `&mut self`, and collecting
+        // the half-edges first would allocate per face
+        let h0 = self.mesh.face_halfedge(f);
+        let mut h = h0;
+        loop {
+            let next = self.mesh.next(h);
             // one qeMerge entry per interior edge: from the face with the
             // smaller id
             if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
                 if f < g {
                     self.push(Cand::Qe(h));
                 }
+            }
+            h = next;
+            if h == h0 {
+                break;
             }
         }
     }
@@ -654,14 +662,23 @@ impl Coarsener {
                 / vs.len() as f64
         };
         let p = |v: VertexId| m.position(v);
-        let (dist, quads, collapsed): (f64, Vec<FaceId>, Vec<(VertexId, VertexId)>) = match cand {
+        // fixed-size lists (one or two quads, one or two collapsed edges):
+        // scoring runs for every re-scored candidate, so no allocation here
+        let none = VertexId(0);
+        let (dist, quads, n_quads, collapsed, n_coll): (
+            f64,
+            [FaceId; 2],
+            usize,
+            [(VertexId, VertexId); 2],
+            usize,
+        ) = match cand {
             Cand::Qv(f, d) => {
                 let q = m.quad_vertices(f).unwrap_or([VertexId(0); 4]);
                 let (a, c) = (q[d as usize], q[d as usize + 2]);
                 let keep = patch.merged.first().map_or(a, |g| g.1);
                 let dist = (p(a) - p(c)).length() * imp(&q);
                 let other = [q[(d as usize + 1) % 4], q[(d as usize + 3) % 4]];
-                (dist, vec![f], vec![(keep, other[0]), (keep, other[1])])
+                (dist, [f, f], 1, [(keep, other[0]), (keep, other[1])], 2)
             }
             Cand::Qe(h) => match ops::qe_merge::qe_site(m, h) {
                 Ok(site) => {
@@ -670,28 +687,27 @@ impl Coarsener {
                     let d1 = ((p(b) + p(c)) * 0.5 - mid).length();
                     let d2 = ((p(f) + p(e)) * 0.5 - mid).length();
                     let dist = 0.5 * (d1 + d2) * imp(&site.v);
-                    (dist, vec![site.q1, site.q2], vec![(a, d)])
+                    (dist, [site.q1, site.q2], 2, [(a, d), (none, none)], 1)
                 }
-                Err(_) => (0.0, vec![], vec![]),
+                Err(_) => (0.0, [FaceId(0); 2], 0, [(none, none); 2], 0),
             },
         };
+        let collapsed = &collapsed[..n_coll];
         let dterm = dist / self.diag;
         // --- A: alignment before (dual chords) / after (collapsed edges)
         let mut a_b = 0.0;
         let mut a_a = 0.0;
         let mut n_a = 0;
-        for &f in &quads {
-            let c = m.face_centroid(f);
+        for &f in &quads[..n_quads] {
             let n = m.face_normal(f);
             let q = m.quad_vertices(f).unwrap_or([VertexId(0); 4]);
             let fld = rosy4_average(n, q.iter().map(|&v| self.attrs.field[v.idx()]));
-            let _ = c;
             let chord1 = (p(q[2]) + p(q[3])) - (p(q[0]) + p(q[1]));
             let chord2 = (p(q[3]) + p(q[0])) - (p(q[1]) + p(q[2]));
             if let (Some(s1), Some(s2)) = (alignment(chord1, fld, n), alignment(chord2, fld, n)) {
                 a_b += 0.5 * (s1 + s2);
                 let mut s_after = 0.0;
-                for &(u, w) in &collapsed {
+                for &(u, w) in collapsed {
                     let dir = patch.position_after(m, w) - patch.position_after(m, u);
                     s_after += alignment(dir, fld, n).unwrap_or(1.0);
                 }
