@@ -225,6 +225,10 @@ struct ScoreScratch {
     after: Vec<Option<(usize, usize)>>,
     /// Removed by a doublet the step triggers.
     gone: Vec<bool>,
+    /// First corner (`4 · quad + i` into `Patch::add`) at each slot, and
+    /// the next corner at the same vertex (`u32::MAX` ends a list).
+    corner_head: Vec<u32>,
+    corner_next: Vec<u32>,
 }
 
 impl ScoreScratch {
@@ -235,6 +239,8 @@ impl ScoreScratch {
         self.nb_range.clear();
         self.after.clear();
         self.gone.clear();
+        self.corner_head.clear();
+        self.corner_next.clear();
     }
 }
 
@@ -544,7 +550,20 @@ impl Coarsener {
         }
         // neighbours after of each surviving touched vertex (CSR in `nb`):
         // kept edges, then the edges of the inserted quads, each once
-        for &v in &s.touched {
+        // corners of the inserted quads, linked per touched vertex (every
+        // inserted vertex is a vertex of a removed face)
+        s.corner_head.resize(s.touched.len(), u32::MAX);
+        for (qi, q) in patch.add.iter().enumerate() {
+            for (i, &v) in q.iter().enumerate() {
+                let c = (4 * qi + i) as u32;
+                let next = match local(v) {
+                    Some(k) => std::mem::replace(&mut s.corner_head[k], c),
+                    None => u32::MAX,
+                };
+                s.corner_next.push(next);
+            }
+        }
+        for (k, &v) in s.touched.iter().enumerate() {
             let start = s.nb.len();
             if !is_merged(v) {
                 for h in m.outgoing(v) {
@@ -555,16 +574,15 @@ impl Coarsener {
                         }
                     }
                 }
-                for q in &patch.add {
-                    for i in 0..4 {
-                        if q[i] == v {
-                            for w in [q[(i + 1) % 4].0, q[(i + 3) % 4].0] {
-                                if !s.nb[start..].contains(&w) {
-                                    s.nb.push(w);
-                                }
-                            }
+                let mut c = s.corner_head[k];
+                while c != u32::MAX {
+                    let (q, i) = (&patch.add[c as usize / 4], c as usize % 4);
+                    for w in [q[(i + 1) % 4].0, q[(i + 3) % 4].0] {
+                        if !s.nb[start..].contains(&w) {
+                            s.nb.push(w);
                         }
                     }
+                    c = s.corner_next[c as usize];
                 }
             }
             s.nb_range.push((start, s.nb.len()));
