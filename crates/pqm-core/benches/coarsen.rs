@@ -80,6 +80,7 @@ fn main() {
     };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
     let report = c.run(&mut |_| {});
+    let (queue_peak, entry_bytes) = c.queue_peak();
     let pm = c.to_progressive();
     let t_pqm = t.elapsed().as_secs_f64();
     let peak = PEAK.load(Ordering::Relaxed) - base;
@@ -128,6 +129,10 @@ fn main() {
     println!(
         "peak heap during coarsening: {:.0} bytes per input quad",
         peak as f64 / n_quads as f64
+    );
+    println!(
+        "priority queue peak: {queue_peak} entries x {entry_bytes} bytes = {:.0} bytes per input quad (Vec capacity up to 2x that)",
+        (queue_peak * entry_bytes) as f64 / n_quads as f64
     );
     println!(
         "stop: {:?}, {} qv, {} qe, {} doublets",

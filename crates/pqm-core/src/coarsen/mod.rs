@@ -206,6 +206,8 @@ pub struct Coarsener {
     epoch: u32,
     fmark: Vec<u32>,
     vmark: Vec<u32>,
+    /// Most entries the queue held at once (for the memory benchmark).
+    queue_peak: usize,
     /// Local slot of each vertex marked in `vmark` (valid for the epoch).
     vlocal: Vec<u32>,
     scratch: ScoreScratch,
@@ -281,6 +283,7 @@ impl Coarsener {
             epoch: 0,
             fmark: vec![0; mesh_faces],
             vmark: vec![0; n],
+            queue_peak: 0,
             vlocal: vec![0; n],
             scratch: ScoreScratch::default(),
         }
@@ -310,6 +313,11 @@ impl Coarsener {
     /// Steps logged so far (coarsening order).
     pub fn logs(&self) -> &[StepLog] {
         &self.logs
+    }
+    /// Most entries the priority queue held at once, and the bytes of one
+    /// entry (for memory benchmarks).
+    pub fn queue_peak(&self) -> (usize, usize) {
+        (self.queue_peak, std::mem::size_of::<Entry>())
     }
     /// The feature state (for tests and reports).
     pub fn features(&self) -> &FeatureState {
@@ -357,6 +365,9 @@ impl Coarsener {
                 }
             }
         }
+        // The queue's slack (and, when nothing legal was left, the whole
+        // queue) is not needed any more: free it before the records are built.
+        self.queue.shrink_to_fit();
         if self.report.stop.is_none() {
             self.report.stop = Some(StopReason::TargetReached);
         }
@@ -440,6 +451,7 @@ impl Coarsener {
             }
         };
         self.queue.push(Entry { cost, cand, stamps });
+        self.queue_peak = self.queue_peak.max(self.queue.len());
     }
 
     // --------------------------------------------------------- candidates
@@ -900,21 +912,11 @@ impl Coarsener {
         let applied = &undo_stack[0];
         // the op's own moves are logged with it; the relaxation came last, so
         // it goes with the last log of the step (undone first when refining)
-        let moved: Vec<(VertexId, DVec3, DVec3)> = positions_before
-            .iter()
-            .map(|&(v, before)| {
-                let after = patch
-                    .moved
-                    .iter()
-                    .find(|m| m.0 == v)
-                    .map_or(before, |m| m.1);
-                (v, before, after)
-            })
-            .collect();
-        let relax_moves: Vec<(VertexId, DVec3, DVec3)> = relaxed
+        let moved: Vec<(VertexId, DVec3)> = positions_before.clone();
+        let relax_moves: Vec<(VertexId, DVec3)> = relaxed
             .iter()
             .filter(|&&(v, before)| self.mesh.position(v) != before)
-            .map(|&(v, before)| (v, before, self.mesh.position(v)))
+            .copied()
             .collect();
         self.logs.push(StepLog::of_patch(
             op,
@@ -1177,10 +1179,10 @@ impl Coarsener {
                 break;
             }
         }
-        let moved: Vec<(VertexId, DVec3, DVec3)> = old
+        let moved: Vec<(VertexId, DVec3)> = old
             .iter()
             .filter(|(v, p)| self.mesh.position(*v) != *p)
-            .map(|&(v, p)| (v, p, self.mesh.position(v)))
+            .copied()
             .collect();
         if moved.is_empty() {
             return;
