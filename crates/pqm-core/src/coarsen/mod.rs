@@ -41,6 +41,7 @@ use crate::progressive::{OpKind, ProgressiveMesh};
 use crate::qem::{self, Quadric};
 use features::{FeatureDelta, FeatureState, GroupConstraint};
 use glam::DVec3;
+use rayon::prelude::*;
 use record::StepLog;
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -57,6 +58,9 @@ pub const RELAX_ITERATIONS: u32 = 2;
 /// A vertex whose incident quads have a Scaled Jacobian below this after a
 /// step is relaxed.
 pub const RELAX_BELOW_JACOBIAN: f64 = 0.5;
+/// Fewer candidates than this are scored on the calling thread (a
+/// parallel split would cost more than it saves).
+const PARALLEL_MIN_CANDIDATES: usize = 32;
 /// Floor of `V_after`, so a step that leaves no ideal vertex among the ones
 /// it changes scores badly but finitely.
 pub const V_FLOOR: f64 = 0.1;
@@ -203,20 +207,20 @@ pub struct Coarsener {
     errors: Vec<f64>,
     report: CoarsenReport,
     input_faces: usize,
-    epoch: u32,
-    fmark: Vec<u32>,
-    vmark: Vec<u32>,
     /// Most entries the queue held at once (for the memory benchmark).
     queue_peak: usize,
-    /// Local slot of each vertex marked in `vmark` (valid for the epoch).
-    vlocal: Vec<u32>,
-    scratch: ScoreScratch,
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
-/// local slot.
+/// local slot. One per thread (scoring runs in parallel), so the sets are
+/// small hash maps over the candidate's few ids rather than marks over the
+/// whole mesh.
 #[derive(Default)]
 struct ScoreScratch {
+    /// Removed faces of the candidate's patch.
+    removed: IdMap,
+    /// Local slot of each touched vertex.
+    slot: IdMap,
     touched: Vec<VertexId>,
     /// `(valence, ideal valence)` before the step.
     before: Vec<(usize, usize)>,
@@ -231,6 +235,80 @@ struct ScoreScratch {
     /// the next corner at the same vertex (`u32::MAX` ends a list).
     corner_head: Vec<u32>,
     corner_next: Vec<u32>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<ScoreScratch> = std::cell::RefCell::new(ScoreScratch::default());
+}
+
+/// A small open-addressing map `u32 → u32` (linear probing), cleared in
+/// time proportional to what it holds: the id sets of one candidate.
+#[derive(Default)]
+struct IdMap {
+    keys: Vec<u32>,
+    vals: Vec<u32>,
+    used: Vec<usize>,
+}
+
+impl IdMap {
+    const EMPTY: u32 = u32::MAX;
+
+    /// Empties the map, sized for about `n` keys.
+    fn reset(&mut self, n: usize) {
+        let cap = (4 * n).next_power_of_two().max(64);
+        if self.keys.len() < cap {
+            self.keys = vec![Self::EMPTY; cap];
+            self.vals = vec![0; cap];
+        } else {
+            for &i in &self.used {
+                self.keys[i] = Self::EMPTY;
+            }
+        }
+        self.used.clear();
+    }
+
+    #[inline]
+    fn slot_of(&self, k: u32) -> usize {
+        let mask = self.keys.len() - 1;
+        let mut i = ((u64::from(k) * 0x9E37_79B9_7F4A_7C15) >> 40) as usize & mask;
+        while self.keys[i] != k && self.keys[i] != Self::EMPTY {
+            i = (i + 1) & mask;
+        }
+        i
+    }
+
+    /// Inserts `k → v` unless `k` is there; true when inserted. Keeps the
+    /// load at most one half (grows by rehashing).
+    fn insert(&mut self, k: u32, v: u32) -> bool {
+        let i = self.slot_of(k);
+        if self.keys[i] == k {
+            return false;
+        }
+        if 2 * (self.used.len() + 1) > self.keys.len() {
+            let old: Vec<(u32, u32)> = self
+                .used
+                .iter()
+                .map(|&i| (self.keys[i], self.vals[i]))
+                .collect();
+            self.keys = vec![Self::EMPTY; 2 * self.keys.len()];
+            self.vals = vec![0; self.keys.len()];
+            self.used.clear();
+            for (k, v) in old {
+                self.insert(k, v);
+            }
+            return self.insert(k, v);
+        }
+        self.keys[i] = k;
+        self.vals[i] = v;
+        self.used.push(i);
+        true
+    }
+
+    #[inline]
+    fn get(&self, k: u32) -> Option<u32> {
+        let i = self.slot_of(k);
+        (self.keys[i] == k).then(|| self.vals[i])
+    }
 }
 
 impl ScoreScratch {
@@ -264,7 +342,6 @@ impl Coarsener {
         let features = FeatureState::new(&mesh, features);
         let input_faces = mesh.face_count();
         let quadrics = qem::vertex_quadrics(&mesh);
-        let mesh_faces = mesh.face_capacity();
         Coarsener {
             stamp: vec![0; mesh.face_capacity()],
             quadrics,
@@ -280,12 +357,7 @@ impl Coarsener {
             errors: vec![0.0],
             report: CoarsenReport::default(),
             input_faces,
-            epoch: 0,
-            fmark: vec![0; mesh_faces],
-            vmark: vec![0; n],
             queue_peak: 0,
-            vlocal: vec![0; n],
-            scratch: ScoreScratch::default(),
         }
     }
 
@@ -344,9 +416,7 @@ impl Coarsener {
         let all: Vec<VertexId> = self.mesh.vertices().collect();
         self.remove_doublets_committed(&all);
         let faces: Vec<FaceId> = self.mesh.faces().collect();
-        for f in faces {
-            self.push_face(f);
-        }
+        self.push_faces(&faces);
         let target = self.target_faces();
         let mut since = 0;
         while self.mesh.face_count() > target {
@@ -404,41 +474,58 @@ impl Coarsener {
         }
     }
 
-    fn push_face(&mut self, f: FaceId) {
-        if !self.mesh.is_face_alive(f) {
-            return;
-        }
-        for d in 0..2u8 {
-            self.push(Cand::Qv(f, d));
-        }
-        // walk the loop by hand: `push` needs `&mut self`, and collecting
-        // the half-edges first would allocate per face
-        let h0 = self.mesh.face_halfedge(f);
-        let mut h = h0;
-        loop {
-            let next = self.mesh.next(h);
-            // one qeMerge entry per interior edge: from the face with the
-            // smaller id
-            if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
-                if f < g {
-                    self.push(Cand::Qe(h));
+    /// The candidate's cost, `None` when it cannot be built or breaks the
+    /// valence cap. Pure (reads the mesh only), so candidates can be scored
+    /// in parallel.
+    fn score(&self, cand: Cand, s: &mut ScoreScratch) -> Option<f64> {
+        // Scoring builds the patch but leaves the (costlier) topology check
+        // to commit time: a candidate that fails it is dropped when popped
+        // and comes back only when its neighbourhood changes.
+        let patch = self.build(cand).ok()?;
+        self.cost(cand, &patch, s)
+    }
+
+    /// Queues the candidates of `faces` (live ones): both qvMerge diagonals
+    /// of each quad, then a qeMerge per interior edge from the face with the
+    /// smaller id. They are scored in parallel, then pushed in that order:
+    /// the queue ends up exactly as with one push after the other.
+    fn push_faces(&mut self, faces: &[FaceId]) {
+        let mut cands: Vec<Cand> = Vec::with_capacity(faces.len() * 4);
+        for &f in faces {
+            if !self.mesh.is_face_alive(f) {
+                continue;
+            }
+            cands.push(Cand::Qv(f, 0));
+            cands.push(Cand::Qv(f, 1));
+            for h in self.mesh.face_halfedges(f) {
+                if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
+                    if f < g {
+                        cands.push(Cand::Qe(h));
+                    }
                 }
             }
-            h = next;
-            if h == h0 {
-                break;
+        }
+        let this = &*self;
+        let costs: Vec<Option<f64>> = if cands.len() < PARALLEL_MIN_CANDIDATES {
+            SCRATCH.with(|s| {
+                let s = &mut s.borrow_mut();
+                cands.iter().map(|&c| this.score(c, s)).collect()
+            })
+        } else {
+            cands
+                .par_iter()
+                .with_min_len(PARALLEL_MIN_CANDIDATES / 2)
+                .map(|&c| SCRATCH.with(|s| this.score(c, &mut s.borrow_mut())))
+                .collect()
+        };
+        for (c, cost) in cands.into_iter().zip(costs) {
+            if let Some(cost) = cost {
+                self.push_scored(c, cost);
             }
         }
     }
 
-    fn push(&mut self, cand: Cand) {
-        // Scoring builds the patch but leaves the (costlier) topology check
-        // to commit time: a candidate that fails it is dropped when popped
-        // and comes back only when its neighbourhood changes.
-        let Ok(patch) = self.build(cand) else { return };
-        let Some(cost) = self.cost(cand, &patch) else {
-            return;
-        };
+    fn push_scored(&mut self, cand: Cand, cost: f64) {
         let stamps = match cand {
             Cand::Qv(f, _) => (self.stamp[f.idx()], 0),
             Cand::Qe(h) => {
@@ -520,39 +607,31 @@ impl Coarsener {
 
     /// The paper's error `E` for a built patch; `None` when the step would
     /// push a vertex past [`MAX_VALENCE`] (and past its valence before).
-    fn cost(&mut self, cand: Cand, patch: &Patch) -> Option<f64> {
+    fn cost(&self, cand: Cand, patch: &Patch, s: &mut ScoreScratch) -> Option<f64> {
         // --- V: ideal-vertex fraction before/after over the touched vertices.
         // Valences after count the distinct neighbours over kept and
-        // inserted faces. Epoch marks make the set tests O(1), and each
-        // touched vertex gets a local slot (`vlocal`) so its neighbour list
-        // and flags live in small scratch arrays: no sort, no allocation.
-        self.epoch = self.epoch.wrapping_add(1);
-        if self.epoch == 0 {
-            self.fmark.iter_mut().for_each(|x| *x = 0);
-            self.vmark.iter_mut().for_each(|x| *x = 0);
-            self.epoch = 1;
-        }
-        let epoch = self.epoch;
+        // inserted faces. Each touched vertex gets a local slot so its
+        // neighbour list and flags live in small scratch arrays: no sort,
+        // no allocation once the scratch is warm.
         let m = &self.mesh;
-        let mut s = std::mem::take(&mut self.scratch);
         s.clear();
+        s.removed.reset(patch.remove.len());
+        s.slot.reset(4 * patch.remove.len());
         for &f in &patch.remove {
-            self.fmark[f.idx()] = epoch;
+            s.removed.insert(f.0, 0);
         }
         for &f in &patch.remove {
             for v in m.face_vertices(f) {
-                if self.vmark[v.idx()] != epoch {
-                    self.vmark[v.idx()] = epoch;
-                    self.vlocal[v.idx()] = s.touched.len() as u32;
+                if s.slot.insert(v.0, s.touched.len() as u32) {
                     s.touched.push(v);
                 }
             }
         }
-        let vmark = &self.vmark;
-        let vlocal = &self.vlocal;
+        let slot = std::mem::take(&mut s.slot);
+        let removed = std::mem::take(&mut s.removed);
         // local slot of a touched vertex
-        let local = |v: VertexId| (vmark[v.idx()] == epoch).then(|| vlocal[v.idx()] as usize);
-        let kept = |f: Option<FaceId>| f.is_some_and(|f| self.fmark[f.idx()] != epoch);
+        let local = |v: VertexId| slot.get(v.0).map(|k| k as usize);
+        let kept = |f: Option<FaceId>| f.is_some_and(|f| removed.get(f.0).is_none());
         let is_merged = |v: VertexId| patch.merged.iter().any(|g| g.0 == v);
         let mut dev_b = 0usize;
         for &v in &s.touched {
@@ -682,7 +761,8 @@ impl Coarsener {
             ideal_a as f64 / count_a as f64
         }
         .max(V_FLOOR);
-        self.scratch = s;
+        s.slot = slot;
+        s.removed = removed;
         let m = &self.mesh;
         // --- D: importance-weighted moved distance
         let imp = |vs: &[VertexId]| {
@@ -953,9 +1033,7 @@ impl Coarsener {
             }
             self.stamp[f.idx()] = self.stamp[f.idx()].wrapping_add(1);
         }
-        for &f in &after_faces {
-            self.push_face(f);
-        }
+        self.push_faces(&after_faces);
         true
     }
 
