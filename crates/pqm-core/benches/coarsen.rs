@@ -79,9 +79,19 @@ fn main() {
         ..Default::default()
     };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
+    // (peak so far, live now) after each phase, to see what holds the peak
+    let phase = || {
+        (
+            PEAK.load(Ordering::Relaxed) - base,
+            CURRENT.load(Ordering::Relaxed) - base,
+        )
+    };
+    let after_setup = phase();
     let report = c.run(&mut |_| {});
+    let after_run = phase();
     let (queue_peak, entry_bytes) = c.queue_peak();
     let pm = c.to_progressive();
+    let after_records = phase();
     let t_pqm = t.elapsed().as_secs_f64();
     let peak = PEAK.load(Ordering::Relaxed) - base;
     let reached = c.mesh().face_count();
@@ -129,6 +139,16 @@ fn main() {
     println!(
         "peak heap during coarsening: {:.0} bytes per input quad",
         peak as f64 / n_quads as f64
+    );
+    let per = |b: usize| b as f64 / n_quads as f64;
+    println!(
+        "bytes per input quad, (peak so far, live): setup ({:.0}, {:.0}), coarsening ({:.0}, {:.0}), records ({:.0}, {:.0})",
+        per(after_setup.0),
+        per(after_setup.1),
+        per(after_run.0),
+        per(after_run.1),
+        per(after_records.0),
+        per(after_records.1)
     );
     println!(
         "priority queue peak: {queue_peak} entries x {entry_bytes} bytes = {:.0} bytes per input quad (Vec capacity up to 2x that)",
