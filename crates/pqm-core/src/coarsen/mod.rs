@@ -26,7 +26,9 @@
 //! folded or inverted quad, and keeps every feature curve; otherwise the
 //! step is undone exactly. Stale entries are skipped with per-face stamps;
 //! after a commit only the candidates of the faces around the touched
-//! vertices are re-scored.
+//! vertices are re-scored. Scoring only reads the mesh, so a batch of
+//! candidates is scored in parallel (rayon, per-thread scratch) and pushed
+//! in candidate order: the output does not depend on the thread count.
 
 pub mod features;
 pub mod record;
@@ -589,8 +591,6 @@ impl Coarsener {
             s.before.push((val, ideal));
             dev_b = dev_b.max(val.abs_diff(ideal));
         }
-        // neighbours after of each surviving touched vertex (CSR in `nb`):
-        // kept edges, then the edges of the inserted quads, each once
         // corners of the inserted quads, linked per touched vertex (every
         // inserted vertex is a vertex of a removed face)
         s.corner_head.resize(s.touched.len(), u32::MAX);
@@ -604,6 +604,8 @@ impl Coarsener {
                 s.corner_next.push(next);
             }
         }
+        // neighbours after of each surviving touched vertex (CSR in `nb`):
+        // kept edges, then the edges of the inserted quads, each once
         for (k, &v) in s.touched.iter().enumerate() {
             let start = s.nb.len();
             if !is_merged(v) {
