@@ -90,13 +90,12 @@ fn main() {
     let report = c.run(&mut |_| {});
     let after_run = phase();
     let (queue_peak, entry_bytes) = c.queue_peak();
-    let pm = c.to_progressive();
+    let reached = c.mesh().face_count();
+    let pm = c.into_progressive();
     let after_records = phase();
     let t_pqm = t.elapsed().as_secs_f64();
     let peak = PEAK.load(Ordering::Relaxed) - base;
-    let reached = c.mesh().face_count();
     let steps = pm.records.len();
-    drop(c);
 
     // --- meshopt: simplify the triangulation (two triangles per quad)
     let mut tris: Vec<u32> = Vec::with_capacity(n_quads * 6);

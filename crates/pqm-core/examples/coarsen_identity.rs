@@ -46,14 +46,20 @@ fn run(name: &str, mut im: IndexedMesh, target: usize, smoothing: Smoothing) {
     };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
     let report = c.run(&mut |_| {});
-    let pm = c.to_progressive();
+    let coarsest = c.mesh().to_indexed().0;
+    // `PQM_TO_PROGRESSIVE=1`: the borrowing variant (must hash the same)
+    let pm = if std::env::var_os("PQM_TO_PROGRESSIVE").is_some() {
+        c.to_progressive()
+    } else {
+        c.into_progressive()
+    };
     let dt = t.elapsed().as_secs_f64();
     let mut h = HashWriter(Default::default());
-    write!(h, "{report:?}|{pm:?}|{:?}", c.mesh().to_indexed().0).expect("hash");
+    write!(h, "{report:?}|{pm:?}|{coarsest:?}").expect("hash");
     println!(
         "{name:<11} {:>7} -> {:>5} faces, {:>6} records, hash {:016x}  ({dt:.2} s)",
         im.face_count(),
-        c.mesh().face_count(),
+        coarsest.face_count(),
         pm.records.len(),
         h.0.finish()
     );

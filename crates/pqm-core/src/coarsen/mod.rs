@@ -404,6 +404,17 @@ impl Coarsener {
         record::to_progressive(&self.mesh, &self.logs, &self.errors)
     }
 
+    /// [`Coarsener::to_progressive`] for when the coarsener is done with:
+    /// frees the queue, attributes and quadrics first, then each step log
+    /// as soon as its record is built — the same result with a lower peak
+    /// (logs and records are never both held in full).
+    pub fn into_progressive(self) -> ProgressiveMesh {
+        let Coarsener {
+            mesh, logs, errors, ..
+        } = self;
+        record::into_progressive(&mesh, logs, &errors)
+    }
+
     // ------------------------------------------------------------- queue
 
     fn fresh(&self, e: &Entry) -> bool {

@@ -80,6 +80,36 @@ const NONE: u32 = u32::MAX;
 /// coarsening order). `errors[s]` is the error bound after `s` steps
 /// (`logs.len() + 1` entries).
 pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> ProgressiveMesh {
+    build(coarsest, logs.len(), logs.iter().rev(), errors)
+}
+
+/// [`to_progressive`] that consumes the logs and frees each one as soon as
+/// its record is built, so the logs and the records are not both held in
+/// full (the same result).
+pub fn into_progressive(
+    coarsest: &Mesh,
+    mut logs: Vec<StepLog>,
+    errors: &[f64],
+) -> ProgressiveMesh {
+    let n = logs.len();
+    let fine_to_coarse = std::iter::from_fn(move || {
+        let log = logs.pop();
+        // the log array itself shrinks as it empties
+        if logs.len() < logs.capacity() / 4 {
+            logs.shrink_to_fit();
+        }
+        log
+    });
+    build(coarsest, n, fine_to_coarse, errors)
+}
+
+/// Replays `n` logs given last-logged first (coarse → fine).
+fn build<L: std::borrow::Borrow<StepLog>>(
+    coarsest: &Mesh,
+    n: usize,
+    coarse_to_fine: impl Iterator<Item = L>,
+    errors: &[f64],
+) -> ProgressiveMesh {
     let mut cv = vec![NONE; coarsest.vertex_capacity()];
     let mut cf = vec![NONE; coarsest.face_capacity()];
     let mut base = IndexedMesh::new();
@@ -97,8 +127,9 @@ pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> Prog
         base.push_face(&buf);
     }
     let mut n_faces = base.face_count() as u32;
-    let mut records = Vec::with_capacity(logs.len());
-    for log in logs.iter().rev() {
+    let mut records = Vec::with_capacity(n);
+    for log in coarse_to_fine {
+        let log = log.borrow();
         let mut rec = SplitRecord {
             op: log.op,
             new_vertices: Vec::new(),
@@ -141,7 +172,6 @@ pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> Prog
         }
         records.push(rec);
     }
-    let n = logs.len();
     let level_error = (0..=n)
         .map(|k| errors.get(n - k).copied().unwrap_or(0.0))
         .collect();
