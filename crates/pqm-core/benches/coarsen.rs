@@ -20,6 +20,7 @@ use std::time::Instant;
 struct Counting;
 static CURRENT: AtomicUsize = AtomicUsize::new(0);
 static PEAK: AtomicUsize = AtomicUsize::new(0);
+static OVERALL: AtomicUsize = AtomicUsize::new(0);
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, l: Layout) -> *mut u8 {
@@ -79,13 +80,24 @@ fn main() {
         ..Default::default()
     };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
+    // (peak during the phase, live at its end), to see what holds the
+    // peak; each phase restarts the peak from what is live
+    let phase = || {
+        let now = CURRENT.load(Ordering::Relaxed);
+        let peak = PEAK.swap(now, Ordering::Relaxed);
+        OVERALL.fetch_max(peak, Ordering::Relaxed);
+        (peak - base, now - base)
+    };
+    let after_setup = phase();
     let report = c.run(&mut |_| {});
-    let pm = c.to_progressive();
-    let t_pqm = t.elapsed().as_secs_f64();
-    let peak = PEAK.load(Ordering::Relaxed) - base;
+    let after_run = phase();
+    let (queue_peak, entry_bytes) = c.queue_peak();
     let reached = c.mesh().face_count();
+    let pm = c.into_progressive();
+    let after_records = phase();
+    let t_pqm = t.elapsed().as_secs_f64();
+    let peak = OVERALL.load(Ordering::Relaxed) - base;
     let steps = pm.records.len();
-    drop(c);
 
     // --- meshopt: simplify the triangulation (two triangles per quad)
     let mut tris: Vec<u32> = Vec::with_capacity(n_quads * 6);
@@ -128,6 +140,20 @@ fn main() {
     println!(
         "peak heap during coarsening: {:.0} bytes per input quad",
         peak as f64 / n_quads as f64
+    );
+    let per = |b: usize| b as f64 / n_quads as f64;
+    println!(
+        "bytes per input quad, (peak in phase, live after): setup ({:.0}, {:.0}), coarsening ({:.0}, {:.0}), records ({:.0}, {:.0})",
+        per(after_setup.0),
+        per(after_setup.1),
+        per(after_run.0),
+        per(after_run.1),
+        per(after_records.0),
+        per(after_records.1)
+    );
+    println!(
+        "priority queue peak: {queue_peak} entries x {entry_bytes} bytes = {:.0} bytes per input quad (Vec capacity up to 2x that)",
+        (queue_peak * entry_bytes) as f64 / n_quads as f64
     );
     println!(
         "stop: {:?}, {} qv, {} qe, {} doublets",

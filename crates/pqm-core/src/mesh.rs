@@ -1216,7 +1216,7 @@ impl Iterator for RingIter<'_> {
 
 /// Tiny fixed-capacity-first vectors for per-face loops, so hot paths do not
 /// allocate for faces of up to eight vertices.
-mod smallvec_lite {
+pub(crate) mod smallvec_lite {
     use super::{FaceId, HalfedgeId, VertexId};
     pub type Small = Sv<VertexId>;
     pub type SmallH = Sv<HalfedgeId>;

@@ -14,30 +14,45 @@ use crate::progressive::{OpKind, ProgressiveMesh, SplitRecord};
 use glam::DVec3;
 
 /// One committed coarsening step, in the coarsener's ids.
+///
+/// Kept for every step until [`to_progressive`] runs, so it stores only what
+/// the records need, compactly (one allocation per list, quads inline).
 #[derive(Clone, Debug, PartialEq)]
 pub struct StepLog {
     /// The operator.
     pub op: OpKind,
-    /// Faces the step removed or rewrote, with their vertex lists before it.
-    pub faces_before: Vec<(FaceId, Vec<VertexId>)>,
-    /// Faces the step wrote, with their vertex lists after it; every id here
-    /// is also in `faces_before` (a step never creates a face id).
-    pub faces_after: Vec<(FaceId, Vec<VertexId>)>,
+    /// Faces the step removed or rewrote, with their vertex lists before it
+    /// (a face of fewer than four vertices is padded with
+    /// `VertexId(u32::MAX)`; a longer one keeps its first four, all a record
+    /// can hold).
+    pub faces_before: Vec<(FaceId, [VertexId; 4])>,
+    /// Faces the step wrote (a step never creates a face id: every id here
+    /// is also in `faces_before`).
+    pub faces_after: Vec<FaceId>,
     /// Vertices the step deleted, with their positions before it.
     pub removed_vertices: Vec<(VertexId, DVec3)>,
-    /// Vertices the step moved: `(vertex, before, after)`.
-    pub moved: Vec<(VertexId, DVec3, DVec3)>,
+    /// Vertices the step moved, with their positions before it.
+    pub moved: Vec<(VertexId, DVec3)>,
+}
+
+/// The first four vertices of a face, padded with `VertexId(u32::MAX)`.
+fn quad_of(vs: &[VertexId]) -> [VertexId; 4] {
+    let mut q = [VertexId(NONE); 4];
+    for (i, &v) in vs.iter().take(4).enumerate() {
+        q[i] = v;
+    }
+    q
 }
 
 impl StepLog {
     /// The log of an applied patch: its removed faces with their old vertex
-    /// lists, its inserted quads with their ids.
+    /// lists, the ids of its inserted quads.
     pub fn of_patch(
         op: OpKind,
         patch: &Patch,
         applied: &Applied,
         removed_vertices: Vec<(VertexId, DVec3)>,
-        moved: Vec<(VertexId, DVec3, DVec3)>,
+        moved: Vec<(VertexId, DVec3)>,
     ) -> StepLog {
         StepLog {
             op,
@@ -45,13 +60,13 @@ impl StepLog {
                 .remove
                 .iter()
                 .copied()
-                .zip(applied.old_faces.iter().cloned())
+                .zip(applied.old_faces.iter().map(|vs| quad_of(vs)))
                 .collect(),
             faces_after: applied
                 .faces
                 .iter()
-                .zip(&patch.add)
-                .map(|(&f, q)| (f, q.to_vec()))
+                .take(patch.add.len())
+                .copied()
                 .collect(),
             removed_vertices,
             moved,
@@ -65,6 +80,36 @@ const NONE: u32 = u32::MAX;
 /// coarsening order). `errors[s]` is the error bound after `s` steps
 /// (`logs.len() + 1` entries).
 pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> ProgressiveMesh {
+    build(coarsest, logs.len(), logs.iter().rev(), errors)
+}
+
+/// [`to_progressive`] that consumes the logs and frees each one as soon as
+/// its record is built, so the logs and the records are not both held in
+/// full (the same result).
+pub fn into_progressive(
+    coarsest: &Mesh,
+    mut logs: Vec<StepLog>,
+    errors: &[f64],
+) -> ProgressiveMesh {
+    let n = logs.len();
+    let fine_to_coarse = std::iter::from_fn(move || {
+        let log = logs.pop();
+        // the log array itself shrinks as it empties
+        if logs.len() < logs.capacity() / 4 {
+            logs.shrink_to_fit();
+        }
+        log
+    });
+    build(coarsest, n, fine_to_coarse, errors)
+}
+
+/// Replays `n` logs given last-logged first (coarse → fine).
+fn build<L: std::borrow::Borrow<StepLog>>(
+    coarsest: &Mesh,
+    n: usize,
+    coarse_to_fine: impl Iterator<Item = L>,
+    errors: &[f64],
+) -> ProgressiveMesh {
     let mut cv = vec![NONE; coarsest.vertex_capacity()];
     let mut cf = vec![NONE; coarsest.face_capacity()];
     let mut base = IndexedMesh::new();
@@ -82,8 +127,9 @@ pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> Prog
         base.push_face(&buf);
     }
     let mut n_faces = base.face_count() as u32;
-    let mut records = Vec::with_capacity(logs.len());
-    for log in logs.iter().rev() {
+    let mut records = Vec::with_capacity(n);
+    for log in coarse_to_fine {
+        let log = log.borrow();
         let mut rec = SplitRecord {
             op: log.op,
             new_vertices: Vec::new(),
@@ -101,21 +147,17 @@ pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> Prog
         let mut moved: Vec<(u32, DVec3)> = log
             .moved
             .iter()
-            .map(|&(v, before, _)| (cv[v.idx()], before))
+            .map(|&(v, before)| (cv[v.idx()], before))
             .collect();
         moved.sort_by_key(|m| m.0);
         rec.moved = moved;
-        let quad = |vs: &[VertexId], cv: &[u32]| -> [u32; 4] {
-            let mut q = [NONE; 4];
-            for (i, v) in vs.iter().take(4).enumerate() {
-                q[i] = cv[v.idx()];
-            }
-            q
+        let quad = |vs: &[VertexId; 4], cv: &[u32]| -> [u32; 4] {
+            vs.map(|v| if v.0 == NONE { NONE } else { cv[v.idx()] })
         };
         let mut appended: Vec<(FaceId, [u32; 4])> = Vec::new();
         for (f, vs) in &log.faces_before {
             let q = quad(vs, &cv);
-            if log.faces_after.iter().any(|a| a.0 == *f) {
+            if log.faces_after.contains(f) {
                 rec.rewritten.push((cf[f.idx()], q));
             } else {
                 appended.push((*f, q));
@@ -130,7 +172,6 @@ pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> Prog
         }
         records.push(rec);
     }
-    let n = logs.len();
     let level_error = (0..=n)
         .map(|k| errors.get(n - k).copied().unwrap_or(0.0))
         .collect();

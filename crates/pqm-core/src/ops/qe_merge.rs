@@ -24,6 +24,9 @@
 
 use super::{check_patch, map_face, Patch, Reject};
 use crate::mesh::{FaceId, HalfedgeId, Mesh, VertexId};
+
+/// A face's vertex list after the collapse (inline up to eight vertices).
+type FaceVerts = crate::mesh::smallvec_lite::Small;
 use glam::DVec3;
 
 /// The six vertices and two quads of a qeMerge across half-edge `h`:
@@ -102,7 +105,8 @@ pub fn qe_merge_patch(
         }
     }
     // Their vertex lists after the collapse.
-    let mut mapped: Vec<(FaceId, Vec<VertexId>, bool)> = Vec::with_capacity(faces.len());
+    // (vertex lists inline: this runs for every re-scored candidate)
+    let mut mapped: Vec<(FaceId, FaceVerts, bool)> = Vec::with_capacity(faces.len());
     let mut buf = Vec::with_capacity(8);
     for &g in &faces {
         let changed = map_face(mesh, g, &merged, &mut buf);
@@ -116,12 +120,13 @@ pub fn qe_merge_patch(
                 "a triangle forms away from one endpoint",
             ));
         }
-        mapped.push((g, buf.clone(), changed));
+        mapped.push((g, buf.iter().copied().collect(), changed));
     }
     let mut patch = Patch {
         merged,
         moved: vec![(a, pos_a), (d, pos_d)],
-        ..Default::default()
+        remove: Vec::with_capacity(mapped.len() + 2),
+        add: Vec::with_capacity(mapped.len()),
     };
     let mut fan_old: [Vec<FaceId>; 2] = Default::default();
     let mut fan_new: [Vec<[VertexId; 4]>; 2] = Default::default();
@@ -164,7 +169,7 @@ pub fn qe_merge_patch(
 /// does not cross edge `x–y`. Appends the old faces (in walk order) to
 /// `old` and the new quads to `new`. No triangle at `x`: nothing to do.
 fn refan(
-    mapped: &[(FaceId, Vec<VertexId>, bool)],
+    mapped: &[(FaceId, FaceVerts, bool)],
     x: VertexId,
     y: VertexId,
     old: &mut Vec<FaceId>,

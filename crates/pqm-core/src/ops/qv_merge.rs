@@ -54,10 +54,12 @@ pub fn qv_merge_patch(
         std::mem::swap(&mut keep, &mut gone);
     }
     let merged = vec![(gone, keep)];
+    // (sized for a regular vertex: scoring builds this for every candidate)
     let mut patch = Patch {
         merged,
         moved: vec![(keep, position)],
-        ..Default::default()
+        remove: Vec::with_capacity(8),
+        add: Vec::with_capacity(8),
     };
     let mut buf = Vec::with_capacity(8);
     for g in mesh.vertex_faces(gone) {
