@@ -94,7 +94,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         p.quad_faces
     ));
     run_with_bar(&mut p.coarsener, None, "spot", ctx);
-    let pm = p.coarsener.to_progressive();
+    let pm = p.coarsener.into_progressive();
     let pqm = args.out_dir.join("spot.pqm");
     let mut enc = None;
     write_atomic(&pqm, |w| {

@@ -217,7 +217,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let r = run_with_bar(&mut p.coarsener, target, &label, ctx);
-    let pm = p.coarsener.to_progressive();
+    let pm = p.coarsener.into_progressive();
     let eopts = EncodeOptions {
         bits: args.bits,
         chunk_bytes: args.chunk_bytes as usize,
