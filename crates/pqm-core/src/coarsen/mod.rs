@@ -58,8 +58,14 @@ pub const ALPHA: f64 = 0.01;
 /// The paper's β: penalty weight when the worst valence gets worse.
 pub const BETA: f64 = 100.0;
 /// No step may raise a vertex's valence above this (unless it was already
-/// higher): the quality bar's worst valence.
+/// higher): the quality bar's worst valence. (The first phase caps at
+/// [`FIRST_PHASE_MAX_VALENCE`].)
 pub const MAX_VALENCE: usize = 6;
+/// Valence cap of the first phase. Every vertex above its ideal valence
+/// forces as many below it elsewhere (the deficits sum to a constant), so
+/// the coarsener first goes as far as it can without creating a valence-6
+/// vertex, then allows them for the rest of the way.
+pub const FIRST_PHASE_MAX_VALENCE: usize = 5;
 /// Iterations of the relaxation after each step.
 pub const RELAX_ITERATIONS: u32 = 2;
 /// A vertex whose incident quads have a Scaled Jacobian below this after a
@@ -71,7 +77,7 @@ pub const RESCUE_ITERATIONS: u32 = 6;
 /// Most a moved or merged vertex may sit, root-mean-square, off the planes
 /// of the input faces it stands for (fraction of the bbox diagonal): what
 /// keeps the Hausdorff distance of a level down.
-pub const MAX_SURFACE_DEVIATION: f64 = 0.008;
+pub const MAX_SURFACE_DEVIATION: f64 = 0.007;
 /// Floor of `A_after`. The paper's ratio `A_before / A_after` is unbounded
 /// where the field is noisy (flat or umbilic regions put any edge near 45°);
 /// with a floor of 0.001 the alignment factor spans six orders of magnitude
@@ -226,6 +232,9 @@ pub struct Coarsener {
     /// face states it was scored on — even after an id is recycled.
     stamp: Vec<u32>,
     next_stamp: u32,
+    /// Valence cap of the current phase: [`FIRST_PHASE_MAX_VALENCE`] until
+    /// nothing is legal under it, then [`MAX_VALENCE`].
+    cap: usize,
     queue: BinaryHeap<Entry>,
     logs: Vec<StepLog>,
     errors: Vec<f64>,
@@ -260,6 +269,7 @@ impl Coarsener {
         Coarsener {
             stamp: (0..mesh_faces as u32).collect(),
             next_stamp: mesh_faces as u32,
+            cap: FIRST_PHASE_MAX_VALENCE,
             quadrics,
             drift: vec![0.0; n],
             mesh,
@@ -338,6 +348,16 @@ impl Coarsener {
         let mut since = 0;
         while self.mesh.face_count() > target {
             let Some(e) = self.queue.pop() else {
+                if self.cap < MAX_VALENCE {
+                    // first phase done: allow valence MAX_VALENCE and
+                    // score everything again
+                    self.cap = MAX_VALENCE;
+                    let faces: Vec<FaceId> = self.mesh.faces().collect();
+                    for f in faces {
+                        self.push_face(f);
+                    }
+                    continue;
+                }
                 self.report.stop = Some(StopReason::NothingLegal);
                 break;
             };
@@ -618,7 +638,7 @@ impl Coarsener {
             };
             let val = val - lost;
             let val_b = before.iter().find(|b| b.0 == v).map_or(0, |b| b.1);
-            if val > MAX_VALENCE.max(val_b) {
+            if val > self.cap.max(val_b) {
                 over_cap = true;
             }
             dev_a = dev_a.max(val.abs_diff(ideal));
@@ -838,7 +858,7 @@ impl Coarsener {
         {
             Err("dual chords")
         } else if valence_before.iter().any(|&(v, before)| {
-            self.mesh.is_vertex_alive(v) && self.mesh.valence(v) > MAX_VALENCE.max(before)
+            self.mesh.is_vertex_alive(v) && self.mesh.valence(v) > self.cap.max(before)
         }) {
             Err("valence above the cap")
         } else if let Err(Reject::Geometry(why)) = guard.check(&self.mesh, &after_faces) {
