@@ -235,6 +235,10 @@ pub struct Coarsener {
     /// Valence cap of the current phase: [`FIRST_PHASE_MAX_VALENCE`] until
     /// nothing is legal under it, then [`MAX_VALENCE`].
     cap: usize,
+    /// Whether [`MAX_SURFACE_DEVIATION`] still holds: dropped in a last
+    /// phase, only when nothing else is legal, so a face target is reached
+    /// whenever the topology allows (the error bound `max_error` stays).
+    limit_deviation: bool,
     queue: BinaryHeap<Entry>,
     logs: Vec<StepLog>,
     errors: Vec<f64>,
@@ -270,6 +274,7 @@ impl Coarsener {
             stamp: (0..mesh_faces as u32).collect(),
             next_stamp: mesh_faces as u32,
             cap: FIRST_PHASE_MAX_VALENCE,
+            limit_deviation: true,
             quadrics,
             drift: vec![0.0; n],
             mesh,
@@ -348,10 +353,15 @@ impl Coarsener {
         let mut since = 0;
         while self.mesh.face_count() > target {
             let Some(e) = self.queue.pop() else {
-                if self.cap < MAX_VALENCE {
-                    // first phase done: allow valence MAX_VALENCE and
-                    // score everything again
-                    self.cap = MAX_VALENCE;
+                if self.cap < MAX_VALENCE || self.limit_deviation {
+                    // phase done: first allow valence MAX_VALENCE, then
+                    // drop the surface-deviation limit; score everything
+                    // again
+                    if self.cap < MAX_VALENCE {
+                        self.cap = MAX_VALENCE;
+                    } else {
+                        self.limit_deviation = false;
+                    }
                     let faces: Vec<FaceId> = self.mesh.faces().collect();
                     for f in faces {
                         self.push_face(f);
@@ -863,7 +873,9 @@ impl Coarsener {
             Err("valence above the cap")
         } else if let Err(Reject::Geometry(why)) = guard.check(&self.mesh, &after_faces) {
             Err(why)
-        } else if self.surface_deviation(&moves, &composed) > MAX_SURFACE_DEVIATION {
+        } else if self.limit_deviation
+            && self.surface_deviation(&moves, &composed) > MAX_SURFACE_DEVIATION
+        {
             Err("off the surface")
         } else if self.error_with(&drift) > self.opts.max_error.unwrap_or(f64::INFINITY) {
             Err("error bound")
