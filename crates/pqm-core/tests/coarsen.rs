@@ -89,3 +89,30 @@ fn local_smoothing_and_determinism() {
     assert_eq!(a.to_progressive(), b.to_progressive());
     a.mesh().validate().unwrap();
 }
+
+/// Stale entries are pruned: the heap never holds more than about twice the
+/// live bound (two qvMerge + two qeMerge entries per face), where skipping
+/// them only at pop time let it grow with the number of steps (18 entries
+/// per input quad on spot). The records stay valid (every record moves a
+/// vertex at most once, also when the shape rescue relaxes a merge target).
+#[test]
+fn queue_stays_bounded_and_records_validate() {
+    for src in [torus(40, 24), grid(30, 24)] {
+        let n = src.face_count();
+        let (c, r) = run(
+            &src,
+            CoarsenOptions {
+                target_ratio: Some(0.2),
+                ..Default::default()
+            },
+        );
+        // prune threshold 2·(4F + 64) plus one commit's worth of pushes
+        assert!(
+            r.peak_queue <= 8 * n + 1000,
+            "{} entries for {n} faces",
+            r.peak_queue
+        );
+        assert!(r.qv_merges + r.qe_merges > 0);
+        c.to_progressive().validate().unwrap();
+    }
+}

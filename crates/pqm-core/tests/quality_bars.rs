@@ -8,6 +8,10 @@
 //! Where the target is not reached yet, the threshold here is the
 //! figure the coarsener reaches today (a regression floor), written next to
 //! the target: `floor (target)`. The achieved figures are printed.
+//! The figures move by a few percent when the order of near-equal steps
+//! changes (variants that should be equivalent measured 66–72 % ideal on
+//! spot before the fold-over fix), so a floor sits a little below the
+//! figure reached.
 
 use pqm_core::coarsen::{CoarsenOptions, Coarsener};
 use pqm_core::metrics::{mesh_stats, valence};
@@ -85,6 +89,15 @@ fn check(name: &str, bars: Bars) {
         h.max,
         report.stop
     );
+    println!(
+        "  {name}: qv {} qe {} doublets {}; peak queue {} entries ({:.1} per input quad); rejections {:?}",
+        report.qv_merges,
+        report.qe_merges,
+        report.doublets,
+        report.peak_queue,
+        report.peak_queue as f64 / input.face_count() as f64,
+        report.rejections
+    );
     assert_eq!(
         (after.components, after.boundary_loops, after.genus),
         (before.components, before.boundary_loops, before.genus),
@@ -127,7 +140,7 @@ fn spot_to_700() {
         Bars {
             target: Target::Faces(700),
             max_faces: 700,
-            min_ideal: 0.72, // (target 0.85)
+            min_ideal: 0.76, // (target 0.85)
             min_sj_median: 0.85,
             max_hausdorff: 0.02,
         },
@@ -140,10 +153,10 @@ fn fandisk_with_sharp_features() {
         "quad/fandisk_quads.off",
         Bars {
             target: Target::Faces(250),
-            max_faces: 520,  // (target 250: the feature rules stop it earlier today)
+            max_faces: 500,  // (target 250: the feature rules stop it earlier today)
             min_ideal: 0.76, // (target 0.85)
             min_sj_median: 0.85,
-            max_hausdorff: 0.025, // (target 0.02)
+            max_hausdorff: 0.02,
         },
     );
 }
@@ -154,10 +167,10 @@ fn loki_with_boundaries() {
         "quad/loki.obj",
         Bars {
             target: Target::Faces(2000),
-            max_faces: 3100,      // (target 2000)
-            min_ideal: 0.52,      // (target 0.85)
-            min_sj_median: 0.65,  // (target 0.85)
-            max_hausdorff: 0.045, // (target 0.02)
+            max_faces: 2000,
+            min_ideal: 0.57,     // (target 0.85)
+            min_sj_median: 0.68, // (target 0.85)
+            max_hausdorff: 0.02,
         },
     );
 }
@@ -168,10 +181,10 @@ fn makehuman_many_components() {
         "quad/makehuman_base.obj",
         Bars {
             target: Target::Ratio(0.25),
-            max_faces: 6100,      // (target 4622 = 25 %)
-            min_ideal: 0.53,      // (target 0.85)
-            min_sj_median: 0.80,  // (target 0.85)
-            max_hausdorff: 0.025, // (target 0.02)
+            max_faces: 4622, // 25 %
+            min_ideal: 0.57, // (target 0.85)
+            min_sj_median: 0.85,
+            max_hausdorff: 0.02,
         },
     );
 }
@@ -183,8 +196,8 @@ fn bunny_quad_split_to_5000() {
         Bars {
             target: Target::Faces(5000),
             max_faces: 5000,
-            min_ideal: 0.60,     // (target 0.75 for split inputs)
-            min_sj_median: 0.70, // (target 0.85)
+            min_ideal: 0.72, // (target 0.75 for split inputs)
+            min_sj_median: 0.85,
             max_hausdorff: 0.02,
         },
     );

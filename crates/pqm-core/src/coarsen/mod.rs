@@ -24,11 +24,20 @@
 //! doublet removals and the relaxation of the re-fanned vertices, the mesh is
 //! still manifold, quad-only, has four distinct dual chords per quad, no
 //! folded or inverted quad, and keeps every feature curve; otherwise the
-//! step is undone exactly. Stale entries are skipped with per-face stamps;
-//! after a commit only the candidates of the faces around the touched
-//! vertices are re-scored. Scoring only reads the mesh, so a batch of
-//! candidates is scored in parallel (rayon, per-thread scratch) and pushed
-//! in candidate order: the output does not depend on the thread count.
+//! step is undone exactly. A step that fails only the shape guard gets one
+//! more try after relaxing every free vertex of its inserted quads, and no
+//! moved vertex may sit more than [`MAX_SURFACE_DEVIATION`] off the input
+//! planes it stands for.
+//!
+//! Stale entries are skipped with per-face generations that are unique over
+//! all faces and all time (ids are recycled, so a per-face counter could
+//! match an entry scored for another face); after a commit only the
+//! candidates of the faces around the touched vertices are re-scored, and
+//! the heap is rebuilt without stale entries when they outnumber the live
+//! ones (see [`CoarsenReport::peak_queue`]). Scoring only reads the mesh,
+//! so a batch of candidates is scored in parallel (rayon, per-thread
+//! scratch) and pushed in candidate order: the output does not depend on
+//! the thread count.
 
 pub mod features;
 pub mod record;
@@ -53,8 +62,14 @@ pub const ALPHA: f64 = 0.01;
 /// The paper's β: penalty weight when the worst valence gets worse.
 pub const BETA: f64 = 100.0;
 /// No step may raise a vertex's valence above this (unless it was already
-/// higher): the quality bar's worst valence.
+/// higher): the quality bar's worst valence. (The first phase caps at
+/// [`FIRST_PHASE_MAX_VALENCE`].)
 pub const MAX_VALENCE: usize = 6;
+/// Valence cap of the first phase. Every vertex above its ideal valence
+/// forces as many below it elsewhere (the deficits sum to a constant), so
+/// the coarsener first goes as far as it can without creating a valence-6
+/// vertex, then allows them for the rest of the way.
+pub const FIRST_PHASE_MAX_VALENCE: usize = 5;
 /// Iterations of the relaxation after each step.
 pub const RELAX_ITERATIONS: u32 = 2;
 /// A vertex whose incident quads have a Scaled Jacobian below this after a
@@ -63,6 +78,20 @@ pub const RELAX_BELOW_JACOBIAN: f64 = 0.5;
 /// Fewer candidates than this are scored on the calling thread (a
 /// parallel split would cost more than it saves).
 const PARALLEL_MIN_CANDIDATES: usize = 32;
+/// Iterations of the wider relaxation tried when a step fails only the
+/// geometry guard (0 = no second chance).
+pub const RESCUE_ITERATIONS: u32 = 6;
+/// Most a moved or merged vertex may sit, root-mean-square, off the planes
+/// of the input faces it stands for (fraction of the bbox diagonal): what
+/// keeps the Hausdorff distance of a level down.
+pub const MAX_SURFACE_DEVIATION: f64 = 0.007;
+/// Floor of `A_after`. The paper's ratio `A_before / A_after` is unbounded
+/// where the field is noisy (flat or umbilic regions put any edge near 45°);
+/// with a floor of 0.001 the alignment factor spans six orders of magnitude
+/// and drowns `V`. With 0.3 it spans about 10×, comparable to `V`'s range for
+/// structure-keeping steps. Measured on the quality-bar meshes: same or
+/// better ideal fraction, coarsening gets further (loki, makehuman).
+pub const A_FLOOR: f64 = 0.3;
 /// Floor of `V_after`, so a step that leaves no ideal vertex among the ones
 /// it changes scores badly but finitely.
 pub const V_FLOOR: f64 = 0.1;
@@ -123,6 +152,8 @@ pub struct CoarsenReport {
     pub error: f64,
     /// Popped candidates that were not committed, by reason.
     pub rejections: std::collections::BTreeMap<String, usize>,
+    /// Most entries the priority queue held at once (stale ones included).
+    pub peak_queue: usize,
 }
 
 fn reject_name(e: &Reject) -> String {
@@ -203,7 +234,18 @@ pub struct Coarsener {
     /// Accumulated displacement bound per vertex (model units).
     drift: Vec<f64>,
     error: f64,
+    /// Generation per face id: unique over all faces and all time (taken
+    /// from `next_stamp`), so an entry's stamps can only match the very
+    /// face states it was scored on — even after an id is recycled.
     stamp: Vec<u32>,
+    next_stamp: u32,
+    /// Valence cap of the current phase: [`FIRST_PHASE_MAX_VALENCE`] until
+    /// nothing is legal under it, then [`MAX_VALENCE`].
+    cap: usize,
+    /// Whether [`MAX_SURFACE_DEVIATION`] still holds: dropped in a last
+    /// phase, only when nothing else is legal, so a face target is reached
+    /// whenever the topology allows (the error bound `max_error` stays).
+    limit_deviation: bool,
     queue: BinaryHeap<Entry>,
     logs: Vec<StepLog>,
     errors: Vec<f64>,
@@ -291,8 +333,12 @@ impl Coarsener {
         let features = FeatureState::new(&mesh, features);
         let input_faces = mesh.face_count();
         let quadrics = qem::vertex_quadrics(&mesh);
+        let mesh_faces = mesh.face_capacity();
         Coarsener {
-            stamp: vec![0; mesh.face_capacity()],
+            stamp: (0..mesh_faces as u32).collect(),
+            next_stamp: mesh_faces as u32,
+            cap: FIRST_PHASE_MAX_VALENCE,
+            limit_deviation: true,
             quadrics,
             drift: vec![0.0; n],
             mesh,
@@ -365,11 +411,24 @@ impl Coarsener {
         let all: Vec<VertexId> = self.mesh.vertices().collect();
         self.remove_doublets_committed(&all);
         let faces: Vec<FaceId> = self.mesh.faces().collect();
-        self.push_faces(&faces);
+        self.push_faces(&faces, &[]);
         let target = self.target_faces();
         let mut since = 0;
         while self.mesh.face_count() > target {
             let Some(e) = self.queue.pop() else {
+                if self.cap < MAX_VALENCE || self.limit_deviation {
+                    // phase done: first allow valence MAX_VALENCE, then
+                    // drop the surface-deviation limit; score everything
+                    // again
+                    if self.cap < MAX_VALENCE {
+                        self.cap = MAX_VALENCE;
+                    } else {
+                        self.limit_deviation = false;
+                    }
+                    let faces: Vec<FaceId> = self.mesh.faces().collect();
+                    self.push_faces(&faces, &[]);
+                    continue;
+                }
                 self.report.stop = Some(StopReason::NothingLegal);
                 break;
             };
@@ -446,10 +505,14 @@ impl Coarsener {
     }
 
     /// Queues the candidates of `faces` (live ones): both qvMerge diagonals
-    /// of each quad, then a qeMerge per interior edge from the face with the
-    /// smaller id. They are scored in parallel, then pushed in that order:
-    /// the queue ends up exactly as with one push after the other.
-    fn push_faces(&mut self, faces: &[FaceId]) {
+    /// of each quad, then a qeMerge per interior edge. `batch` is the set of
+    /// faces re-scored together: an interior edge gets one entry, from the
+    /// face with the smaller id — unless the other face is outside the batch
+    /// (its entry for the edge went stale with this face's stamp and will not
+    /// be pushed again), in which case this face pushes it. They are scored
+    /// in parallel, then pushed in that order: the queue ends up exactly as
+    /// with one push after the other.
+    fn push_faces(&mut self, faces: &[FaceId], batch: &[FaceId]) {
         let mut cands: Vec<Cand> = Vec::with_capacity(faces.len() * 4);
         for &f in faces {
             if !self.mesh.is_face_alive(f) {
@@ -459,7 +522,7 @@ impl Coarsener {
             cands.push(Cand::Qv(f, 1));
             for h in self.mesh.face_halfedges(f) {
                 if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
-                    if f < g {
+                    if f < g || !batch.contains(&g) {
                         cands.push(Cand::Qe(h));
                     }
                 }
@@ -499,6 +562,7 @@ impl Coarsener {
         };
         self.queue.push(Entry { cost, cand, stamps });
         self.queue_peak = self.queue_peak.max(self.queue.len());
+        self.report.peak_queue = self.report.peak_queue.max(self.queue.len());
     }
 
     // --------------------------------------------------------- candidates
@@ -704,7 +768,7 @@ impl Coarsener {
             };
             let val = val - lost;
             let val_b = s.before[k].0;
-            if val > MAX_VALENCE.max(val_b) {
+            if val > self.cap.max(val_b) {
                 over_cap = true;
             }
             dev_a = dev_a.max(val.abs_diff(ideal));
@@ -788,7 +852,11 @@ impl Coarsener {
                 n_a += 1;
             }
         }
-        let aratio = if n_a == 0 { 1.0 } else { a_b / a_a.max(1e-3) };
+        let aratio = if n_a == 0 {
+            1.0
+        } else {
+            a_b / a_a.max(A_FLOOR)
+        };
         let mut e =
             (v_b / v_a + ALPHA).powi(2) * (dterm + ALPHA).powi(2) * (aratio + ALPHA).powi(2);
         if dev_a > dev_b {
@@ -887,8 +955,8 @@ impl Coarsener {
         for (d, _) in &doublet_logs {
             inserted.extend(d.add.iter().flatten().copied());
         }
-        let relax_set = self.relax_set(&patch, &inserted);
-        let relaxed = self.relax(&relax_set, RELAX_ITERATIONS);
+        let relax_set = self.relax_set(&patch, &inserted, false);
+        let mut relaxed = self.relax(&relax_set, RELAX_ITERATIONS);
         // compose merges: a vertex merged into one that later merged again
         let composed: Vec<(VertexId, VertexId)> = merged_all
             .iter()
@@ -899,6 +967,19 @@ impl Coarsener {
                 (g, into)
             })
             .collect();
+        let after_faces = self.faces_around_touched(&patch, &composed, &inserted);
+        // A step whose only fault is shape gets a second chance: relax every
+        // free vertex of the inserted quads (not only the badly shaped ones)
+        // and check again. Only vertices whose faces are all in
+        // `after_faces` move, so the guard still sees every changed quad.
+        if guard_ok && RESCUE_ITERATIONS > 0 && guard.check(&self.mesh, &after_faces).is_err() {
+            let wide = self.relax_set(&patch, &inserted, true);
+            for (v, p) in self.relax(&wide, RESCUE_ITERATIONS) {
+                if !relaxed.iter().any(|r| r.0 == v) {
+                    relaxed.push((v, p));
+                }
+            }
+        }
         // checks after the whole step
         let moves: Vec<(VertexId, DVec3)> = positions_before
             .iter()
@@ -906,7 +987,6 @@ impl Coarsener {
             .copied()
             .collect();
         let drift = self.drift_updates(&moves, &composed);
-        let after_faces = self.faces_around_touched(&patch, &composed, &inserted);
         let mut delta = FeatureDelta::default();
         let verdict: Result<FeatureDelta, &'static str> = if !guard_ok {
             Err("doublet")
@@ -916,11 +996,15 @@ impl Coarsener {
         {
             Err("dual chords")
         } else if valence_before.iter().any(|&(v, before)| {
-            self.mesh.is_vertex_alive(v) && self.mesh.valence(v) > MAX_VALENCE.max(before)
+            self.mesh.is_vertex_alive(v) && self.mesh.valence(v) > self.cap.max(before)
         }) {
             Err("valence above the cap")
         } else if let Err(Reject::Geometry(why)) = guard.check(&self.mesh, &after_faces) {
             Err(why)
+        } else if self.limit_deviation
+            && self.surface_deviation(&moves, &composed) > MAX_SURFACE_DEVIATION
+        {
+            Err("off the surface")
         } else if self.error_with(&drift) > self.opts.max_error.unwrap_or(f64::INFINITY) {
             Err("error bound")
         } else {
@@ -942,11 +1026,13 @@ impl Coarsener {
             }
         };
         if !ok {
+            // relaxation moved vertices that the patch undo does not know
+            // about; put them back first, since the rescue may have moved a
+            // merge target whose position the undo then restores
+            self.restore_relaxed(&relaxed);
             while let Some(a) = undo_stack.pop() {
                 ops::undo(&mut self.mesh, &a).expect("undo of a just-applied patch");
             }
-            // relaxation moved vertices that the patch undo does not know about
-            self.restore_relaxed(&relaxed);
             self.report.rejected += 1;
             return false;
         }
@@ -983,34 +1069,59 @@ impl Coarsener {
             self.report.doublets += 1;
         }
         if let Some(last) = self.logs.last_mut() {
-            last.moved.extend(relax_moves);
+            // the rescue may relax a vertex the op itself moved (a merge
+            // target): one entry per vertex, from before the op to the end
+            // (a log keeps the position before only: the one after is the
+            // mesh's when the record is built)
+            for (v, before) in relax_moves {
+                if !last.moved.iter().any(|m| m.0 == v) {
+                    last.moved.push((v, before));
+                }
+            }
         }
         match op {
             OpKind::QvMerge => self.report.qv_merges += 1,
             _ => self.report.qe_merges += 1,
         }
-        // re-score the neighbourhood
+        // re-score the neighbourhood: new generations first (so every entry
+        // of these faces goes stale), then fresh entries
         for &f in &after_faces {
             if f.idx() >= self.stamp.len() {
                 self.stamp.resize(f.idx() + 1, 0);
             }
-            self.stamp[f.idx()] = self.stamp[f.idx()].wrapping_add(1);
+            self.stamp[f.idx()] = self.next_stamp;
+            self.next_stamp = self.next_stamp.wrapping_add(1);
         }
-        self.push_faces(&after_faces);
+        self.push_faces(&after_faces, &after_faces);
+        self.prune_queue();
         true
+    }
+
+    /// Drops stale entries once they outnumber the live ones: each face
+    /// has at most two qvMerge entries and owns at most two interior edges'
+    /// qeMerge entries on average, so `4 × faces` bounds the live count.
+    /// Skipping stale entries at pop time gives the same order, so pruning
+    /// never changes a result — it only bounds the heap.
+    fn prune_queue(&mut self) {
+        let live_bound = 4 * self.mesh.face_count() + 64;
+        if self.queue.len() > 2 * live_bound {
+            let mut q = std::mem::take(&mut self.queue);
+            q.retain(|e| self.fresh(e));
+            self.queue = q;
+        }
     }
 
     /// Vertices the step relaxes: the middle vertices of the re-fans (odd
     /// path vertices, which a re-fan leaves on a straight line) and, with
     /// local smoothing, every vertex of the inserted quads. Feature vertices
     /// never move.
-    fn relax_set(&self, patch: &Patch, inserted: &[VertexId]) -> Vec<VertexId> {
+    fn relax_set(&self, patch: &Patch, inserted: &[VertexId], all: bool) -> Vec<VertexId> {
         let merged_into: Vec<VertexId> = patch.moved.iter().map(|m| m.0).collect();
-        let local = self.opts.smoothing == Smoothing::Local;
+        let local = all || self.opts.smoothing == Smoothing::Local;
         let mut set: Vec<VertexId> = Vec::new();
         for &v in inserted {
             if set.contains(&v)
-                || merged_into.contains(&v)
+                || (merged_into.contains(&v) && !all)
                 || !self.mesh.is_vertex_alive(v)
                 || self.mesh.is_boundary_vertex(v)
                 || self.features.is_feature(v)
@@ -1124,6 +1235,37 @@ impl Coarsener {
             set(&mut out, into, di);
         }
         out
+    }
+
+    /// Worst root-mean-square distance, over the vertices the step moved or
+    /// merged into, from the vertex's position to the planes of the input
+    /// faces it stands for (its accumulated quadric, the merge groups'
+    /// included), as a fraction of the bbox diagonal. The quadrics are
+    /// area-weighted plane sums, so the weight total is the trace of the
+    /// 3×3 block.
+    fn surface_deviation(
+        &self,
+        moves: &[(VertexId, DVec3)],
+        merged: &[(VertexId, VertexId)],
+    ) -> f64 {
+        let mut worst: f64 = 0.0;
+        let targets = moves.iter().map(|m| m.0).chain(merged.iter().map(|m| m.1));
+        for v in targets {
+            if !self.mesh.is_vertex_alive(v) {
+                continue;
+            }
+            let mut q = self.quadrics[v.idx()];
+            for &(g, into) in merged {
+                if into == v {
+                    q += self.quadrics[g.idx()];
+                }
+            }
+            let w = q.a[0] + q.a[4] + q.a[7];
+            if w > 0.0 {
+                worst = worst.max((q.evaluate(self.mesh.position(v)) / w).sqrt());
+            }
+        }
+        worst / self.diag
     }
 
     fn error_with(&self, updates: &[(VertexId, f64)]) -> f64 {

@@ -132,24 +132,16 @@ pub fn undo(mesh: &mut Mesh, applied: &Applied) -> Result<(), MeshError> {
     Ok(())
 }
 
-/// Scaled Jacobian of a quad given its corner positions: the minimum over
-/// corners of `dot(e1 × e2, n) / (|e1||e2|)`, with `n` the quad's Newell
-/// normal. 1 for a square, ≤ 0 for a folded or degenerate corner.
+/// Scaled Jacobian of a quad given its corner positions — exactly the
+/// quality metric's [`polygon_scaled_jacobian`](crate::metrics::scaled_jacobian::polygon_scaled_jacobian)
+/// (corner sine `|e1 × e2| / (|e1||e2|)`, negative where the corner turns
+/// against the Newell normal). The guard must use the metric's measure: the
+/// projected form `dot(e1 × e2, n) / (|e1||e2|)` used before rates a twisted,
+/// non-planar corner much better (loki: −0.02 where the metric says −0.44),
+/// so the guard let through quads the quality bars call inverted.
+/// 1 for a square, ≤ 0 for a folded or degenerate corner.
 pub fn quad_scaled_jacobian(p: [DVec3; 4]) -> f64 {
-    let n = newell_normal(&p);
-    let mut worst: f64 = 1.0;
-    for i in 0..4 {
-        let e1 = p[(i + 1) % 4] - p[i];
-        let e2 = p[(i + 3) % 4] - p[i];
-        let d = e1.length() * e2.length();
-        let s = if d > 0.0 && n != DVec3::ZERO {
-            e1.cross(e2).dot(n) / d
-        } else {
-            0.0
-        };
-        worst = worst.min(s);
-    }
-    worst
+    crate::metrics::scaled_jacobian::polygon_scaled_jacobian(&p)
 }
 
 /// Unit Newell normal of a polygon (zero when degenerate).
@@ -167,6 +159,9 @@ pub const MIN_NEW_QUAD_JACOBIAN: f64 = 0.2;
 /// A new face's normal may turn at most this far (cosine) from the normal
 /// of what it replaces; below it counts as a fold-over.
 pub const MIN_NORMAL_COSINE: f64 = 0.2;
+/// Fold-over reference: the captured faces around the new face (true) or
+/// the face that had its id before (false).
+const LOCAL_FOLD_REFERENCE: bool = true;
 
 /// The shared validation of every operator, run on the candidate patch
 /// before anything is committed: the mesh stays edge- and vertex-manifold
@@ -187,6 +182,8 @@ pub fn check_patch(mesh: &Mesh, patch: &Patch) -> Result<(), Reject> {
 #[derive(Clone, Debug, Default)]
 pub struct GeometryGuard {
     before: Vec<(FaceId, DVec3)>,
+    /// Vertices and area-weighted normal of every captured face.
+    local: Vec<(Vec<VertexId>, DVec3)>,
     average: DVec3,
     min_sj: f64,
 }
@@ -202,18 +199,34 @@ impl GeometryGuard {
             if !mesh.is_face_alive(f) {
                 continue;
             }
-            let p: Vec<DVec3> = mesh.face_vertices(f).map(|v| mesh.position(v)).collect();
+            let vs: Vec<VertexId> = mesh.face_vertices(f).collect();
+            let p: Vec<DVec3> = vs.iter().map(|&v| mesh.position(v)).collect();
             let n = newell_normal(&p);
-            if let Ok(q) = <[DVec3; 4]>::try_from(p.as_slice()) {
-                g.average += n * area4(&q);
+            let weighted = if let Ok(q) = <[DVec3; 4]>::try_from(p.as_slice()) {
                 g.min_sj = g.min_sj.min(quad_scaled_jacobian(q));
+                n * area4(&q)
             } else {
-                g.average += n;
-            }
+                n
+            };
+            g.average += weighted;
             g.before.push((f, n));
+            g.local.push((vs, weighted));
         }
         g.average = g.average.normalize_or_zero();
         g
+    }
+
+    /// Area-weighted normal of the captured faces that share a vertex with
+    /// `q`: the surface the new face replaces, wherever its id came from.
+    fn local_normal(&self, q: &[VertexId; 4]) -> Option<DVec3> {
+        let mut n = DVec3::ZERO;
+        for (vs, w) in &self.local {
+            if vs.iter().any(|v| q.contains(v)) {
+                n += *w;
+            }
+        }
+        let n = n.normalize_or_zero();
+        (n != DVec3::ZERO).then_some(n)
     }
 
     /// Checks the faces of `region` (live faces only) after the step.
@@ -228,11 +241,13 @@ impl GeometryGuard {
                     "a quad would be inverted or too distorted",
                 ));
             }
-            let reference = self
-                .before
-                .iter()
-                .find(|b| b.0 == f)
-                .map_or(self.average, |b| b.1);
+            let reference = if LOCAL_FOLD_REFERENCE {
+                self.local_normal(&q)
+            } else {
+                None
+            }
+            .or_else(|| self.before.iter().find(|b| b.0 == f).map(|b| b.1))
+            .unwrap_or(self.average);
             if newell_normal(&p).dot(reference) < MIN_NORMAL_COSINE {
                 return Err(Reject::Geometry("a quad would fold over"));
             }
