@@ -156,3 +156,14 @@ proptest! {
         read_all_formats(texts[which].as_bytes());
     }
 }
+
+/// gltf-json indexes `accessors` with a primitive's POSITION unchecked while
+/// validating: the reader must refuse such a file before that, naming it.
+#[test]
+fn gltf_primitive_naming_a_missing_accessor_is_an_error() {
+    let json =
+        br#"{"asset":{"version":"2.0"},"meshes":[{"primitives":[{"attributes":{"POSITION":5}}]}]}"#;
+    let err = io::read_gltf_bytes(json, None).expect_err("accessor 5 does not exist");
+    let msg = err.to_string();
+    assert!(msg.contains("accessor 5"), "{msg}");
+}

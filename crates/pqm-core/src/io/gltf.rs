@@ -82,6 +82,27 @@ fn gltf_err(message: impl Into<String>) -> MeshIoError {
     MeshIoError::parse(Location::Unknown, message)
 }
 
+/// gltf-json's validation indexes `accessors` with a primitive's POSITION
+/// index unchecked (it panics on a hostile file), so every accessor a
+/// primitive names is bounds-checked first.
+fn check_accessor_indices(root: &gltf::json::Root) -> Result<(), MeshIoError> {
+    let n = root.accessors.len();
+    for (mi, mesh) in root.meshes.iter().enumerate() {
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            let named = prim.attributes.values().chain(prim.indices.iter());
+            for a in named {
+                if a.value() >= n {
+                    return Err(gltf_err(format!(
+                        "mesh {mi} primitive {pi} names accessor {} but the file has {n}",
+                        a.value()
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Reads a glTF (JSON) or GLB file held in memory (see [`read_gltf`]).
 pub fn read_gltf_bytes(data: &[u8], base_dir: Option<&Path>) -> Result<IndexedMesh, MeshIoError> {
     let data = if data.starts_with(b"glTF") {
@@ -113,6 +134,7 @@ pub fn read_gltf_bytes(data: &[u8], base_dir: Option<&Path>) -> Result<IndexedMe
     let mut root = raw.document.into_json();
     root.extensions_required
         .retain(|e| e != KHR_MESH_QUANTIZATION);
+    check_accessor_indices(&root)?;
     let doc = gltf::Gltf {
         document: gltf::Document::from_json(root).map_err(invalid)?,
         blob: raw.blob,
