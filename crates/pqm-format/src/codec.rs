@@ -49,6 +49,38 @@ pub struct QRecord {
     pub appended: Vec<[u32; 4]>,
 }
 
+impl Default for QRecord {
+    /// An empty record (a buffer for [`decode_record_into`]).
+    fn default() -> Self {
+        QRecord {
+            op: OpKind::QvMerge,
+            new_pos: Vec::new(),
+            moved: Vec::new(),
+            rewritten: Vec::new(),
+            appended: Vec::new(),
+        }
+    }
+}
+
+/// Sorts a short list ascending: insertion sort up to 32 entries (the
+/// neighbourhoods of §7.7 hold ~16 faces and ~25 vertices, where it beats
+/// the general sort's dispatch), the standard unstable sort beyond.
+fn sort_small(x: &mut [u32]) {
+    if x.len() > 32 {
+        x.sort_unstable();
+        return;
+    }
+    for i in 1..x.len() {
+        let v = x[i];
+        let mut j = i;
+        while j > 0 && x[j - 1] > v {
+            x[j] = x[j - 1];
+            j -= 1;
+        }
+        x[j] = v;
+    }
+}
+
 /// Largest face count a [`MeshState`] holds: corner ids `4 s + k` must fit
 /// in a `u32` below [`NIL`]. (A file beyond it is refused as exceeding the
 /// decoder's limits; it would need tens of GiB anyway.)
@@ -141,6 +173,20 @@ impl Marks {
         }
         self.gen += 2;
         (self.gen - 1, self.gen)
+    }
+
+    /// One fresh vertex stamp (after [`Marks::next_gen`]'s two are used).
+    fn next_v_gen(&mut self, nv: usize) -> u32 {
+        if self.v.len() < nv {
+            self.v.resize(nv, 0);
+        }
+        if self.gen >= u32::MAX - 2 {
+            self.gen = 0;
+            self.v.fill(0);
+            self.f.fill(0);
+        }
+        self.gen += 1;
+        self.gen
     }
 }
 
@@ -303,83 +349,88 @@ impl MeshState {
     /// [`MeshState::local`] into `out` (reusing its buffers). Duplicates are
     /// dropped with per-thread generation stamps instead of sorting every
     /// raw entry: only the distinct faces and vertices get sorted (this runs
-    /// once per local-form record when decoding, up to 16 times when encoding).
+    /// up to 16 times per record when encoding; the decoder uses
+    /// [`DecodeScratch`], which builds `verts` only when a record needs it).
     pub fn local_into(&self, m: u32, out: &mut Local) -> Result<(), String> {
         thread_local! {
             static MARKS: std::cell::RefCell<Marks> = std::cell::RefCell::new(Marks::default());
         }
         MARKS.with(|cell| {
             let mut mk = cell.borrow_mut();
-            let (gv, gf) = mk.next_gen(self.q.len(), self.quads.len());
-            let mut star_verts = std::mem::take(&mut mk.star);
-            star_verts.clear();
-            let mut n = 0usize;
-            for (f, _) in self.corners(m) {
-                n += 1;
-                if n > MAX_SPLIT_STAR {
-                    return Err(format!(
-                        "anchor {m} has more than {MAX_SPLIT_STAR} faces (local form needs 1..=255)"
-                    ));
-                }
-                for &u in &self.quads[f as usize] {
-                    if mk.v[u as usize] != gv {
-                        mk.v[u as usize] = gv;
-                        star_verts.push(u);
-                    }
-                }
-            }
-            let r = self.collect_local(m, n, &star_verts, &mut mk, gv + 1, gf, out);
-            mk.star = star_verts;
-            r
+            let gu = self.local_faces(m, &mut mk, &mut out.faces)?;
+            self.local_verts(&out.faces, &mut mk, gu, &mut out.verts);
+            Ok(())
         })
     }
 
-    /// The second half of [`MeshState::local_into`]: faces around the star
-    /// vertices, then their corners (`gu`, `gf`: fresh stamps).
-    #[allow(clippy::too_many_arguments)]
-    fn collect_local(
-        &self,
-        m: u32,
-        n: usize,
-        star_verts: &[u32],
-        mk: &mut Marks,
-        gu: u32,
-        gf: u32,
-        out: &mut Local,
-    ) -> Result<(), String> {
-        {
-            if n == 0 {
-                return Err(format!("anchor {m} has no face"));
+    /// First half of [`MeshState::local_into`]: the sorted slots of every
+    /// face with a corner in the closed star of `m` into `faces`, with every
+    /// check of spec §7.7 (1..=255 faces at `m`, at most
+    /// [`MAX_LOCAL_CORNERS`] corners visited). Returns the vertex stamp that
+    /// [`MeshState::local_verts`] must use for the same neighbourhood.
+    fn local_faces(&self, m: u32, mk: &mut Marks, faces: &mut Vec<u32>) -> Result<u32, String> {
+        let (gv, gf) = mk.next_gen(self.q.len(), self.quads.len());
+        let Marks { v, f, star, .. } = mk;
+        star.clear();
+        faces.clear();
+        // Direct walks of the corner lists (no iterator state): this is the
+        // decoder's hottest loop, a few dozen scattered reads per record.
+        let mut n = 0usize;
+        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
+        while c != NIL {
+            n += 1;
+            if n > MAX_SPLIT_STAR {
+                return Err(format!(
+                    "anchor {m} has more than {MAX_SPLIT_STAR} faces (local form needs 1..=255)"
+                ));
             }
-            out.faces.clear();
-            out.verts.clear();
-            let mut entries = 0usize;
-            for &u in star_verts {
-                for (f, _) in self.corners(u) {
-                    entries += 1;
-                    if entries > MAX_LOCAL_CORNERS {
-                        return Err(format!(
-                            "the faces around anchor {m} have more than {MAX_LOCAL_CORNERS} corners"
-                        ));
-                    }
-                    if mk.f[f as usize] != gf {
-                        mk.f[f as usize] = gf;
-                        out.faces.push(f);
-                    }
+            for &u in &self.quads[(c >> 2) as usize] {
+                if v[u as usize] != gv {
+                    v[u as usize] = gv;
+                    star.push(u);
                 }
             }
-            out.faces.sort_unstable();
-            for &f in &out.faces {
-                for &u in &self.quads[f as usize] {
-                    if mk.v[u as usize] != gu {
-                        mk.v[u as usize] = gu;
-                        out.verts.push(u);
-                    }
-                }
-            }
-            out.verts.sort_unstable();
-            Ok(())
+            c = self.next[c as usize];
         }
+        if n == 0 {
+            return Err(format!("anchor {m} has no face"));
+        }
+        let mut entries = 0usize;
+        for &u in star.iter() {
+            let mut c = self.head[u as usize];
+            while c != NIL {
+                entries += 1;
+                if entries > MAX_LOCAL_CORNERS {
+                    return Err(format!(
+                        "the faces around anchor {m} have more than {MAX_LOCAL_CORNERS} corners"
+                    ));
+                }
+                let s = c >> 2;
+                if f[s as usize] != gf {
+                    f[s as usize] = gf;
+                    faces.push(s);
+                }
+                c = self.next[c as usize];
+            }
+        }
+        sort_small(faces);
+        Ok(gv + 1)
+    }
+
+    /// Second half of [`MeshState::local_into`]: the sorted distinct
+    /// corners of `faces` into `verts` (`gu`: the stamp
+    /// [`MeshState::local_faces`] returned; no other pass in between).
+    fn local_verts(&self, faces: &[u32], mk: &mut Marks, gu: u32, verts: &mut Vec<u32>) {
+        verts.clear();
+        for &s in faces {
+            for &u in &self.quads[s as usize] {
+                if mk.v[u as usize] != gu {
+                    mk.v[u as usize] = gu;
+                    verts.push(u);
+                }
+            }
+        }
+        sort_small(verts);
     }
 
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
@@ -595,10 +646,16 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>
             return [0, 1, 2]
                 .map(|t| (a[t] as i64 + c[t] as i64 - b[t] as i64).clamp(0, qmax) as u32);
         }
-        let ks: Vec<[u32; 3]> = [n1, o, n3].into_iter().flatten().collect();
-        if !ks.is_empty() {
-            let n = ks.len() as u64;
-            return [0, 1, 2].map(|t| (ks.iter().map(|p| p[t] as u64).sum::<u64>() / n) as u32);
+        // Mean of the known ones (summed in place: no list per vertex).
+        let (mut sum, mut n) = ([0u64; 3], 0u64);
+        for p in [n1, o, n3].into_iter().flatten() {
+            for t in 0..3 {
+                sum[t] += p[t] as u64;
+            }
+            n += 1;
+        }
+        if n > 0 {
+            return sum.map(|x| (x / n) as u32);
         }
     }
     if x > v0 {
@@ -611,7 +668,15 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>
 
 /// First face (appended, then rewritten) containing each new vertex.
 fn first_faces(r: &QRecord, v0: u32, n_new: usize) -> Vec<Option<[u32; 4]>> {
-    let mut first = vec![None; n_new];
+    let mut first = Vec::new();
+    first_faces_into(r, v0, n_new, &mut first);
+    first
+}
+
+/// [`first_faces`] into `first` (reusing its buffer).
+fn first_faces_into(r: &QRecord, v0: u32, n_new: usize, first: &mut Vec<Option<[u32; 4]>>) {
+    first.clear();
+    first.resize(n_new, None);
     let faces = r.appended.iter().chain(r.rewritten.iter().map(|(_, q)| q));
     for q in faces {
         for &u in q {
@@ -620,7 +685,6 @@ fn first_faces(r: &QRecord, v0: u32, n_new: usize) -> Vec<Option<[u32; 4]>> {
             }
         }
     }
-    first
 }
 
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
@@ -665,8 +729,49 @@ fn vref(cursor: u32, delta: i64, limit: u32, what: &str) -> Result<u32, String> 
     Ok(v as u32)
 }
 
+/// Reusable buffers of [`decode_record_into`]: the local neighbourhood and
+/// its generation stamps, the moved-vertex vocabulary, rewritten slots,
+/// explicit corners and first faces. One per decoder, so that decoding a
+/// record allocates nothing once the buffers have grown.
+#[derive(Default)]
+pub struct DecodeScratch {
+    marks: Marks,
+    /// Neighbourhood of the current local-form anchor. `faces` is built
+    /// for every local-form record (it carries the form's validity checks);
+    /// `verts` only when the record names a moved vertex or an explicit
+    /// corner — most records use neither.
+    local: Local,
+    /// Vertex stamp for building `local.verts`; `None` once built.
+    verts_stamp: Option<u32>,
+    w: Vec<u32>,
+    slots: Vec<u32>,
+    extra: Vec<u32>,
+    first: Vec<Option<[u32; 4]>>,
+}
+
+impl DecodeScratch {
+    /// Empty buffers (they grow to the largest record seen).
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+/// `l.verts` of the current neighbourhood, built on first use.
+fn lazy_verts<'a>(
+    st: &MeshState,
+    l: &'a mut Local,
+    stamp: &mut Option<u32>,
+    marks: &mut Marks,
+) -> &'a [u32] {
+    if let Some(gu) = stamp.take() {
+        st.local_verts(&l.faces, marks, gu, &mut l.verts);
+    }
+    &l.verts
+}
+
 /// Decodes one record against `st` (level before the record). `max_v` /
 /// `max_f` are the file's final counts: no record may exceed them.
+/// (Convenience over [`decode_record_into`] with per-thread buffers.)
 pub fn decode_record(
     st: &MeshState,
     rd: &mut [Reader; 5],
@@ -674,6 +779,29 @@ pub fn decode_record(
     max_v: u32,
     max_f: u32,
 ) -> Result<QRecord, String> {
+    thread_local! {
+        static SCRATCH: std::cell::RefCell<DecodeScratch> =
+            std::cell::RefCell::new(DecodeScratch::default());
+    }
+    let mut r = QRecord::default();
+    SCRATCH.with(|cell| {
+        decode_record_into(st, rd, cur, max_v, max_f, &mut r, &mut cell.borrow_mut())
+    })?;
+    Ok(r)
+}
+
+/// [`decode_record`] into `r` (its lists are cleared first and their
+/// buffers reused) with the caller's scratch buffers: the decoder's hot
+/// path, which allocates nothing per record.
+pub fn decode_record_into(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
@@ -682,13 +810,11 @@ pub fn decode_record(
     let rot = ((sym >> 4) & 3) as usize;
     let moved_flag = sym & 0x40 != 0;
     let reflect_c = sym & 0x80 != 0;
-    let mut r = QRecord {
-        op,
-        new_pos: Vec::new(),
-        moved: Vec::new(),
-        rewritten: Vec::new(),
-        appended: Vec::new(),
-    };
+    r.op = op;
+    r.new_pos.clear();
+    r.moved.clear();
+    r.rewritten.clear();
+    r.appended.clear();
     match form {
         0 | 2 => {
             if sym & 0xf0 != 0 {
@@ -696,21 +822,14 @@ pub fn decode_record(
                     "symbol {sym:#04x} of form {form} has split-form bits set"
                 ));
             }
-            if form == 2 {
+            let local = form == 2;
+            if local {
                 let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
                 cur.vref = m;
-                // One neighbourhood buffer per thread, reused by every record.
-                thread_local! {
-                    static LOCAL: std::cell::RefCell<Local> = std::cell::RefCell::new(Local::default());
-                }
-                LOCAL.with(|cell| {
-                    let mut local = cell.borrow_mut();
-                    st.local_into(m, &mut local)?;
-                    decode_patch(st, rd, cur, max_v, max_f, Some(&local), &mut r)
-                })?;
-            } else {
-                decode_patch(st, rd, cur, max_v, max_f, None, &mut r)?;
+                let gu = st.local_faces(m, &mut sc.marks, &mut sc.local.faces)?;
+                sc.verts_stamp = Some(gu);
             }
+            decode_patch(st, rd, cur, max_v, max_f, local, sc, r)?;
         }
         1 => {
             if v0 >= max_v || f0 >= max_f {
@@ -728,7 +847,7 @@ pub fn decode_record(
             let j = (i + 1 + e) % l;
             let (rewritten, appended) = build_split(st, m, &star, i, j, rot)?;
             r.rewritten = rewritten;
-            r.appended = vec![appended];
+            r.appended.push(appended);
             let m_old = st.q[m as usize];
             if moved_flag {
                 let p = add_residual(predict_a(st, m, &star, i, j), &mut rd[POS], st.qmax)?;
@@ -737,41 +856,63 @@ pub fn decode_record(
             let pred = if reflect_c {
                 reflect(st, m_old, r.moved.first().map_or(m_old, |mv| mv.1))
             } else {
-                predict(st, &r, v0, v0, Some(appended))
+                predict(st, r, v0, v0, Some(appended))
             };
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
         }
         _ => return Err(format!("unknown record form {form} in symbol {sym:#04x}")),
     }
-    Ok(r)
+    Ok(())
 }
 
-/// Decodes the body of a general-form (`local = None`, spec §7.4) or
-/// local-form (spec §7.7) record into `r`: the two differ only in how moved
-/// vertices, rewritten slots and explicit corners are named.
+/// Decodes the body of a general-form (`local` false, spec §7.4) or
+/// local-form (spec §7.7, neighbourhood faces in `sc.local`) record into
+/// `r`: the two differ only in how moved vertices, rewritten slots and
+/// explicit corners are named.
+#[allow(clippy::too_many_arguments)]
 fn decode_patch(
     st: &MeshState,
     rd: &mut [Reader; 5],
     cur: &mut Cursors,
     max_v: u32,
     max_f: u32,
-    local: Option<&Local>,
+    local: bool,
+    sc: &mut DecodeScratch,
     r: &mut QRecord,
 ) -> Result<(), String> {
+    let DecodeScratch {
+        marks,
+        local: l,
+        verts_stamp,
+        w,
+        slots,
+        extra,
+        first,
+    } = sc;
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
-    let (max_moved, max_rw) = match local {
-        Some(l) => (l.verts.len() as u64, l.faces.len() as u64),
-        None => (v0 as u64, f0 as u64),
+    let n_moved = if local {
+        // Bounded by the neighbourhood's vertex count, which is built only
+        // when there is a moved vertex (0 fits any bound).
+        let n = rd[CONN].u()?;
+        if n > 0 {
+            let max = lazy_verts(st, l, verts_stamp, marks).len() as u64;
+            if n > max {
+                return Err(format!("moved vertex count = {n} exceeds {max}"));
+            }
+        }
+        n as usize
+    } else {
+        rd[CONN].u_max(v0 as u64, "moved vertex count")? as usize
     };
-    let n_moved = rd[CONN].u_max(max_moved, "moved vertex count")? as usize;
-    let n_rw = rd[CONN].u_max(max_rw, "rewritten face count")? as usize;
+    let max_rw = if local { l.faces.len() } else { f0 as usize };
+    let n_rw = rd[CONN].u_max(max_rw as u64, "rewritten face count")? as usize;
     let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
     let v1 = v0 + n_new as u32;
-    let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
-    if let Some(l) = local {
+    slots.clear();
+    if local {
         // Local form (spec §7.7): rewritten slots first, then the moved
         // vertices as indices into `W` (the old corners of those slots —
         // where most moved vertices are — then the rest of `U`).
@@ -782,24 +923,16 @@ fn decode_patch(
             slots.push(l.faces[i as usize]);
         }
         if n_moved > 0 {
-            // Vocabulary buffers reused by every record of this thread.
-            thread_local! {
-                static VOCAB: std::cell::RefCell<(Vec<u32>, Vec<bool>)> =
-                    const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+            // `l.verts` was built when the count was read.
+            moved_vocabulary_stamped(st, slots, l, w, marks);
+            let mut next = 0u64;
+            for t in 0..n_moved {
+                let i = local_index(&mut rd[SLOTS], t, next, w.len(), "moved vertex")?;
+                next = i + 1;
+                let v = w[i as usize];
+                let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+                r.moved.push((v, p));
             }
-            VOCAB.with(|cell| -> Result<(), String> {
-                let (w, in_head) = &mut *cell.borrow_mut();
-                moved_vocabulary(st, &slots, l, w, in_head);
-                let mut next = 0u64;
-                for t in 0..n_moved {
-                    let i = local_index(&mut rd[SLOTS], t, next, w.len(), "moved vertex")?;
-                    next = i + 1;
-                    let v = w[i as usize];
-                    let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
-                    r.moved.push((v, p));
-                }
-                Ok(())
-            })?;
             r.moved.sort_unstable_by_key(|mv| mv.0);
         }
     } else {
@@ -827,24 +960,23 @@ fn decode_patch(
             }
             slots.push(s as u32);
         }
+        if let Some(&s) = slots.last() {
+            cur.slot = s;
+        }
     }
-    if let (None, Some(&s)) = (local, slots.last()) {
-        cur.slot = s;
-    }
-    let mut extra: Vec<u32> = Vec::new();
+    extra.clear();
+    let slots: &[u32] = slots;
     let mut corner = |rd: &mut [Reader; 5], cur: &mut Cursors| -> Result<u32, String> {
         let x = rd[CONN].u()?;
         if x == 0 {
-            let v = match local {
-                Some(l) => {
-                    let i = rd[SLOTS].u_max(l.verts.len() as u64 - 1, "local corner index")?;
-                    l.verts[i as usize]
-                }
-                None => {
-                    let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
-                    cur.vref = v;
-                    v
-                }
+            let v = if local {
+                let verts = lazy_verts(st, l, verts_stamp, marks);
+                let i = rd[SLOTS].u_max(verts.len() as u64 - 1, "local corner index")?;
+                verts[i as usize]
+            } else {
+                let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
+                cur.vref = v;
+                v
             };
             extra.push(v);
             return Ok(v);
@@ -867,8 +999,8 @@ fn decode_patch(
     // The local form's mask also carries a rotation (bits 4-5): the
     // coarsener may restore a face starting at another corner, and naming
     // all four corners again would cost far more than two bits.
-    let max_mask = if local.is_some() { 63 } else { 15 };
-    for &s in &slots {
+    let max_mask = if local { 63 } else { 15 };
+    for &s in slots {
         let mask = rd[CONN].u_max(max_mask, "corner mask")?;
         let mut q = st.quads[s as usize];
         for (c, qc) in q.iter_mut().enumerate() {
@@ -889,8 +1021,8 @@ fn decode_patch(
         check_distinct(&q, || format!("appended face {a}"))?;
         r.appended.push(q);
     }
-    let first = first_faces(r, v0, n_new);
-    for (t, f) in first.into_iter().enumerate() {
+    first_faces_into(r, v0, n_new, first);
+    for (t, &f) in first.iter().enumerate() {
         let pred = predict(st, r, v0, v0 + t as u32, f);
         let p = add_residual(pred, &mut rd[POS], st.qmax)?;
         r.new_pos.push(p);
@@ -931,6 +1063,34 @@ fn moved_vocabulary(
             .filter(|(_, &h)| !h)
             .map(|(&v, _)| v),
     );
+}
+
+/// [`moved_vocabulary`] for the decoder, with generation stamps instead of
+/// binary searches: O(corners + |U|) per record. Equal to it because every
+/// old corner of a rewritten slot is in `l.verts` (the slots are taken from
+/// `l.faces`, whose corners `l.verts` are), which must be built.
+fn moved_vocabulary_stamped(
+    st: &MeshState,
+    slots: &[u32],
+    l: &Local,
+    w: &mut Vec<u32>,
+    marks: &mut Marks,
+) {
+    let g = marks.next_v_gen(st.q.len());
+    w.clear();
+    for &s in slots {
+        for &v in &st.quads[s as usize] {
+            if marks.v[v as usize] != g {
+                marks.v[v as usize] = g;
+                w.push(v);
+            }
+        }
+    }
+    for &v in &l.verts {
+        if marks.v[v as usize] != g {
+            w.push(v);
+        }
+    }
 }
 
 /// Reads the `t`-th ascending local index from `rd` (the first as is, the

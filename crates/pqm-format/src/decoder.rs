@@ -223,6 +223,10 @@ struct Records {
     /// Codes of vertices `base_v..`, and quads of slots `base_f..`.
     new_pos: Vec<[u32; 3]>,
     appended: Vec<[u32; 4]>,
+    /// Decode buffers (used in the scratch list only): the record being
+    /// decoded and the codec's per-record scratch, reused across records.
+    rec: codec::QRecord,
+    buffers: codec::DecodeScratch,
 }
 
 impl Records {
@@ -806,24 +810,25 @@ impl Decoder {
         sc.f_at.push(st.quads.len() as u32);
         sc.moved_at.push(0);
         sc.rw_at.push(0);
-        for t in 0..info.record_count {
-            let rec =
-                codec::decode_record(st, rd, &mut cur, h.final_vertex_count, h.final_face_count)
-                    .map_err(|message| FormatError::BadRecord {
-                        chunk: i,
-                        record: first_record + t,
-                        message,
-                    })?;
-            st.apply_logged(&rec, &mut sc.moved, &mut sc.rw);
-            sc.op.push(rec.op);
-            sc.new_pos.extend_from_slice(&rec.new_pos);
-            sc.appended.extend_from_slice(&rec.appended);
-            sc.v_at.push(st.q.len() as u32);
-            sc.f_at.push(st.quads.len() as u32);
-            sc.moved_at.push(sc.moved.len());
-            sc.rw_at.push(sc.rw.len());
-        }
+        let mut rec = std::mem::take(&mut sc.rec);
+        let mut buffers = std::mem::take(&mut sc.buffers);
+        let r = Self::decode_chunk_loop(
+            i,
+            info,
+            h,
+            first_record,
+            st,
+            rd,
+            sc,
+            &mut cur,
+            &mut rec,
+            &mut buffers,
+        );
+        sc.rec = rec;
+        sc.buffers = buffers;
+        r?;
         for s in rd.iter() {
+
             if s.remaining() != 0 {
                 return Err(FormatError::Invalid {
                     section: Section::Chunk(i),
@@ -842,6 +847,48 @@ impl Decoder {
                     info.face_count
                 ),
             });
+        }
+        Ok(())
+    }
+
+    /// The record loop of [`Decoder::decode_chunk_records`]: decodes each
+    /// record into the reused `rec` (no allocation per record) and applies it.
+    #[allow(clippy::too_many_arguments)]
+    fn decode_chunk_loop(
+        i: u32,
+        info: &ChunkInfo,
+        h: &Header,
+        first_record: u32,
+        st: &mut MeshState,
+        rd: &mut [Reader<'_>; 5],
+        sc: &mut Records,
+        cur: &mut Cursors,
+        rec: &mut codec::QRecord,
+        buffers: &mut codec::DecodeScratch,
+    ) -> Result<(), FormatError> {
+        for t in 0..info.record_count {
+            codec::decode_record_into(
+                st,
+                rd,
+                cur,
+                h.final_vertex_count,
+                h.final_face_count,
+                rec,
+                buffers,
+            )
+            .map_err(|message| FormatError::BadRecord {
+                chunk: i,
+                record: first_record + t,
+                message,
+            })?;
+            st.apply_logged(rec, &mut sc.moved, &mut sc.rw);
+            sc.op.push(rec.op);
+            sc.new_pos.extend_from_slice(&rec.new_pos);
+            sc.appended.extend_from_slice(&rec.appended);
+            sc.v_at.push(st.q.len() as u32);
+            sc.f_at.push(st.quads.len() as u32);
+            sc.moved_at.push(sc.moved.len());
+            sc.rw_at.push(sc.rw.len());
         }
         Ok(())
     }
