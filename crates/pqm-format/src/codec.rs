@@ -358,33 +358,30 @@ impl MeshState {
         Ok(out)
     }
 
-    /// [`MeshState::local`] into `out` (reusing its buffers). Duplicates are
-    /// dropped with per-thread generation stamps instead of sorting every
-    /// raw entry: only the distinct faces and vertices get sorted (this runs
-    /// up to 16 times per record when encoding; the decoder uses
-    /// [`DecodeScratch`], which builds `verts` only when a record needs it).
+    /// [`MeshState::local`] into `out` (reusing its buffers), with
+    /// per-thread stamps (the decoder passes its own, see [`DecodeScratch`]).
     pub fn local_into(&self, m: u32, out: &mut Local) -> Result<(), String> {
         thread_local! {
             static MARKS: std::cell::RefCell<Marks> = std::cell::RefCell::new(Marks::default());
         }
-        MARKS.with(|cell| {
-            let mut mk = cell.borrow_mut();
-            let gu = self.local_faces(m, &mut mk, &mut out.faces)?;
-            self.local_verts(&out.faces, &mut mk, gu, &mut out.verts);
-            Ok(())
-        })
+        MARKS.with(|cell| self.local_with(m, &mut cell.borrow_mut(), out))
     }
 
-    /// First half of [`MeshState::local_into`]: the sorted slots of every
-    /// face with a corner in the closed star of `m` into `faces`, with every
-    /// check of spec §7.7 (1..=255 faces at `m`, at most
-    /// [`MAX_LOCAL_CORNERS`] corners visited). Returns the vertex stamp that
-    /// [`MeshState::local_verts`] must use for the same neighbourhood.
-    fn local_faces(&self, m: u32, mk: &mut Marks, faces: &mut Vec<u32>) -> Result<u32, String> {
+    /// [`MeshState::local_into`] with the caller's stamps. Duplicates are
+    /// dropped with generation stamps instead of sorting every raw entry:
+    /// only the distinct faces and vertices get sorted. The corners of a
+    /// face are read as soon as the face is found: on a large mesh these
+    /// reads miss the cache, and issued next to the corner-list walk (a
+    /// chain of dependent loads) their misses overlap with it instead of
+    /// being paid one after another in a second pass.
+    fn local_with(&self, m: u32, mk: &mut Marks, out: &mut Local) -> Result<(), String> {
         let (gv, gf) = mk.next_gen(self.q.len(), self.quads.len());
+        let gu = gv + 1;
         let Marks { v, f, star, .. } = mk;
+        let Local { faces, verts } = out;
         star.clear();
         faces.clear();
+        verts.clear();
         // Direct walks of the corner lists (no iterator state): this is the
         // decoder's hottest loop, a few dozen scattered reads per record.
         let mut n = 0usize;
@@ -421,28 +418,19 @@ impl MeshState {
                 if f[s as usize] != gf {
                     f[s as usize] = gf;
                     faces.push(s);
+                    for &x in &self.quads[s as usize] {
+                        if v[x as usize] != gu {
+                            v[x as usize] = gu;
+                            verts.push(x);
+                        }
+                    }
                 }
                 c = self.next[c as usize];
             }
         }
         sort_distinct(faces);
-        Ok(gv + 1)
-    }
-
-    /// Second half of [`MeshState::local_into`]: the sorted distinct
-    /// corners of `faces` into `verts` (`gu`: the stamp
-    /// [`MeshState::local_faces`] returned; no other pass in between).
-    fn local_verts(&self, faces: &[u32], mk: &mut Marks, gu: u32, verts: &mut Vec<u32>) {
-        verts.clear();
-        for &s in faces {
-            for &u in &self.quads[s as usize] {
-                if mk.v[u as usize] != gu {
-                    mk.v[u as usize] = gu;
-                    verts.push(u);
-                }
-            }
-        }
         sort_distinct(verts);
+        Ok(())
     }
 
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
@@ -748,13 +736,8 @@ fn vref(cursor: u32, delta: i64, limit: u32, what: &str) -> Result<u32, String> 
 #[derive(Default)]
 pub struct DecodeScratch {
     marks: Marks,
-    /// Neighbourhood of the current local-form anchor. `faces` is built
-    /// for every local-form record (it carries the form's validity checks);
-    /// `verts` only when the record names a moved vertex or an explicit
-    /// corner — most records use neither.
+    /// Neighbourhood of the current local-form anchor.
     local: Local,
-    /// Vertex stamp for building `local.verts`; `None` once built.
-    verts_stamp: Option<u32>,
     w: Vec<u32>,
     slots: Vec<u32>,
     extra: Vec<u32>,
@@ -766,19 +749,6 @@ impl DecodeScratch {
     pub fn new() -> Self {
         Self::default()
     }
-}
-
-/// `l.verts` of the current neighbourhood, built on first use.
-fn lazy_verts<'a>(
-    st: &MeshState,
-    l: &'a mut Local,
-    stamp: &mut Option<u32>,
-    marks: &mut Marks,
-) -> &'a [u32] {
-    if let Some(gu) = stamp.take() {
-        st.local_verts(&l.faces, marks, gu, &mut l.verts);
-    }
-    &l.verts
 }
 
 /// Decodes one record against `st` (level before the record). `max_v` /
@@ -838,8 +808,7 @@ pub fn decode_record_into(
             if local {
                 let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
                 cur.vref = m;
-                let gu = st.local_faces(m, &mut sc.marks, &mut sc.local.faces)?;
-                sc.verts_stamp = Some(gu);
+                st.local_with(m, &mut sc.marks, &mut sc.local)?;
             }
             decode_patch(st, rd, cur, max_v, max_f, local, sc, r)?;
         }
@@ -896,7 +865,6 @@ fn decode_patch(
     let DecodeScratch {
         marks,
         local: l,
-        verts_stamp,
         w,
         slots,
         extra,
@@ -905,21 +873,12 @@ fn decode_patch(
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
-    let n_moved = if local {
-        // Bounded by the neighbourhood's vertex count, which is built only
-        // when there is a moved vertex (0 fits any bound).
-        let n = rd[CONN].u()?;
-        if n > 0 {
-            let max = lazy_verts(st, l, verts_stamp, marks).len() as u64;
-            if n > max {
-                return Err(format!("moved vertex count = {n} exceeds {max}"));
-            }
-        }
-        n as usize
+    let (max_moved, max_rw) = if local {
+        (l.verts.len(), l.faces.len())
     } else {
-        rd[CONN].u_max(v0 as u64, "moved vertex count")? as usize
+        (v0 as usize, f0 as usize)
     };
-    let max_rw = if local { l.faces.len() } else { f0 as usize };
+    let n_moved = rd[CONN].u_max(max_moved as u64, "moved vertex count")? as usize;
     let n_rw = rd[CONN].u_max(max_rw as u64, "rewritten face count")? as usize;
     let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
     let v1 = v0 + n_new as u32;
@@ -935,7 +894,6 @@ fn decode_patch(
             slots.push(l.faces[i as usize]);
         }
         if n_moved > 0 {
-            // `l.verts` was built when the count was read.
             moved_vocabulary_stamped(st, slots, l, w, marks);
             let mut next = 0u64;
             for t in 0..n_moved {
@@ -982,9 +940,8 @@ fn decode_patch(
         let x = rd[CONN].u()?;
         if x == 0 {
             let v = if local {
-                let verts = lazy_verts(st, l, verts_stamp, marks);
-                let i = rd[SLOTS].u_max(verts.len() as u64 - 1, "local corner index")?;
-                verts[i as usize]
+                let i = rd[SLOTS].u_max(l.verts.len() as u64 - 1, "local corner index")?;
+                l.verts[i as usize]
             } else {
                 let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
                 cur.vref = v;

@@ -788,8 +788,12 @@ impl Decoder {
         // allocate beyond the payload size counted in the memory estimate.
         let cap = payload.len();
         let n_rec = (info.record_count as usize).min(cap);
-        let n_v = (info.vertex_count as usize).saturating_sub(st.q.len()).min(cap);
-        let n_f = (info.face_count as usize).saturating_sub(st.quads.len()).min(cap);
+        let n_v = (info.vertex_count as usize)
+            .saturating_sub(st.q.len())
+            .min(cap);
+        let n_f = (info.face_count as usize)
+            .saturating_sub(st.quads.len())
+            .min(cap);
         r.op.reserve(n_rec);
         r.v_at.reserve(n_rec);
         r.f_at.reserve(n_rec);
