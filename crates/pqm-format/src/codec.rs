@@ -894,11 +894,22 @@ fn decode_patch(
             slots.push(l.faces[i as usize]);
         }
         if n_moved > 0 {
-            moved_vocabulary_stamped(st, slots, l, w, marks);
+            // `W` is a permutation of `l.verts`, so its length is known
+            // before it is built; its tail (the vertices that are not old
+            // corners of rewritten slots) is built only as far as the
+            // ascending indices reach — most moved vertices are in the head.
+            let g = moved_vocabulary_head(st, slots, w, marks);
+            let mut tail = l.verts.iter();
             let mut next = 0u64;
             for t in 0..n_moved {
-                let i = local_index(&mut rd[SLOTS], t, next, w.len(), "moved vertex")?;
+                let i = local_index(&mut rd[SLOTS], t, next, l.verts.len(), "moved vertex")?;
                 next = i + 1;
+                while w.len() <= i as usize {
+                    let &u = tail.next().ok_or("moved-vertex vocabulary too short")?;
+                    if marks.v[u as usize] != g {
+                        w.push(u);
+                    }
+                }
                 let v = w[i as usize];
                 let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
                 r.moved.push((v, p));
@@ -1034,17 +1045,19 @@ fn moved_vocabulary(
     );
 }
 
-/// [`moved_vocabulary`] for the decoder, with generation stamps instead of
-/// binary searches: O(corners + |U|) per record. Equal to it because every
-/// old corner of a rewritten slot is in `l.verts` (the slots are taken from
-/// `l.faces`, whose corners `l.verts` are), which must be built.
-fn moved_vocabulary_stamped(
+/// The head of [`moved_vocabulary`]'s `W` for the decoder: the distinct
+/// old corners of the rewritten `slots` into `w`, each stamped in
+/// `marks.v` with the returned generation (stamps instead of binary
+/// searches: O(corners) per record). The rest of `W` is the vertices of
+/// `l.verts` without that stamp, ascending — the same list as
+/// [`moved_vocabulary`], because every old corner of a rewritten slot is in
+/// `l.verts` (the slots are taken from `l.faces`, whose corners `l.verts` are).
+fn moved_vocabulary_head(
     st: &MeshState,
     slots: &[u32],
-    l: &Local,
     w: &mut Vec<u32>,
     marks: &mut Marks,
-) {
+) -> u32 {
     let g = marks.next_v_gen(st.q.len());
     w.clear();
     for &s in slots {
@@ -1055,11 +1068,7 @@ fn moved_vocabulary_stamped(
             }
         }
     }
-    for &v in &l.verts {
-        if marks.v[v as usize] != g {
-            w.push(v);
-        }
-    }
+    g
 }
 
 /// Reads the `t`-th ascending local index from `rd` (the first as is, the
