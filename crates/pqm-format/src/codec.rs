@@ -147,9 +147,11 @@ pub struct Local {
 /// cannot make one record scan a huge fan).
 pub const MAX_LOCAL_CORNERS: usize = 4096;
 
-/// Generation stamps of [`MeshState::local_into`]: `v[u] == gen` marks
-/// vertex `u` as seen in the current pass (two passes per call), `f` the
-/// same for slots. Grown on demand; reset when the counter wraps.
+/// Generation stamps of [`MeshState::local_with`]: `v[u] == gen` marks
+/// vertex `u` as seen in the current pass (star vertices and neighbourhood
+/// vertices take one generation each, the decoder's moved-vertex vocabulary
+/// a third), `f` the same for slots. Grown on demand; reset when the
+/// counter wraps.
 #[derive(Default)]
 struct Marks {
     gen: u32,
@@ -1463,4 +1465,25 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
         return Err(format!("{} unused bytes at the end", r.remaining()));
     }
     Ok(MeshState::new(qmax, pos, quads))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sort_distinct;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The rank sort agrees with the standard sort on distinct values,
+        /// on both sides of its small-list limit.
+        #[test]
+        fn sort_distinct_sorts(set in proptest::collection::btree_set(any::<u32>(), 0..100)) {
+            let mut want: Vec<u32> = set.into_iter().collect();
+            // A fixed shuffle (reversed halves) so the input is not sorted.
+            let mid = want.len() / 2;
+            let mut x: Vec<u32> = want[mid..].iter().rev().chain(want[..mid].iter()).copied().collect();
+            sort_distinct(&mut x);
+            want.sort_unstable();
+            prop_assert_eq!(x, want);
+        }
+    }
 }
