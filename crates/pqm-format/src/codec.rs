@@ -49,6 +49,41 @@ pub struct QRecord {
     pub appended: Vec<[u32; 4]>,
 }
 
+impl Default for QRecord {
+    /// An empty record (a buffer for [`decode_record_into`]).
+    fn default() -> Self {
+        QRecord {
+            op: OpKind::QvMerge,
+            new_pos: Vec::new(),
+            moved: Vec::new(),
+            rewritten: Vec::new(),
+            appended: Vec::new(),
+        }
+    }
+}
+
+/// Sorts a list of *distinct* values ascending. Up to 64 entries (the
+/// neighbourhoods of §7.7 hold ~20 faces and ~30 vertices on real meshes)
+/// by rank: each value goes to the position given by the count of smaller
+/// values — n² comparisons, but branch-free and vectorized, where insertion
+/// sort or the general sort spend their time in mispredicted branches. The
+/// standard unstable sort beyond. (Equal values would collide: callers
+/// dedup first.)
+fn sort_distinct(x: &mut [u32]) {
+    const SMALL: usize = 64;
+    if x.len() > SMALL {
+        x.sort_unstable();
+        return;
+    }
+    let mut out = [0u32; SMALL];
+    for &v in x.iter() {
+        let rank: u32 = x.iter().map(|&y| (y < v) as u32).sum();
+        out[rank as usize] = v;
+    }
+    x.copy_from_slice(&out[..x.len()]);
+    debug_assert!(x.windows(2).all(|w| w[0] < w[1]), "values not distinct");
+}
+
 /// Largest face count a [`MeshState`] holds: corner ids `4 s + k` must fit
 /// in a `u32` below [`NIL`]. (A file beyond it is refused as exceeding the
 /// decoder's limits; it would need tens of GiB anyway.)
@@ -112,9 +147,11 @@ pub struct Local {
 /// cannot make one record scan a huge fan).
 pub const MAX_LOCAL_CORNERS: usize = 4096;
 
-/// Generation stamps of [`MeshState::local_into`]: `v[u] == gen` marks
-/// vertex `u` as seen in the current pass (two passes per call), `f` the
-/// same for slots. Grown on demand; reset when the counter wraps.
+/// Generation stamps of [`MeshState::local_with`]: `v[u] == gen` marks
+/// vertex `u` as seen in the current pass (star vertices and neighbourhood
+/// vertices take one generation each, the decoder's moved-vertex vocabulary
+/// a third), `f` the same for slots. Grown on demand; reset when the
+/// counter wraps.
 #[derive(Default)]
 struct Marks {
     gen: u32,
@@ -141,6 +178,20 @@ impl Marks {
         }
         self.gen += 2;
         (self.gen - 1, self.gen)
+    }
+
+    /// One fresh vertex stamp (after [`Marks::next_gen`]'s two are used).
+    fn next_v_gen(&mut self, nv: usize) -> u32 {
+        if self.v.len() < nv {
+            self.v.resize(nv, 0);
+        }
+        if self.gen >= u32::MAX - 2 {
+            self.gen = 0;
+            self.v.fill(0);
+            self.f.fill(0);
+        }
+        self.gen += 1;
+        self.gen
     }
 }
 
@@ -171,6 +222,15 @@ impl MeshState {
             }
         }
         st
+    }
+
+    /// Reserves room for `nv` more vertices and `nf` more slots.
+    pub fn reserve(&mut self, nv: usize, nf: usize) {
+        self.q.reserve(nv);
+        self.head.reserve(nv);
+        self.quads.reserve(nf);
+        self.next.reserve(4 * nf);
+        self.prev.reserve(4 * nf);
     }
 
     /// Adds corner `c` to the list of vertex `v`.
@@ -300,86 +360,79 @@ impl MeshState {
         Ok(out)
     }
 
-    /// [`MeshState::local`] into `out` (reusing its buffers). Duplicates are
-    /// dropped with per-thread generation stamps instead of sorting every
-    /// raw entry: only the distinct faces and vertices get sorted (this runs
-    /// once per local-form record when decoding, up to 16 times when encoding).
+    /// [`MeshState::local`] into `out` (reusing its buffers), with
+    /// per-thread stamps (the decoder passes its own, see [`DecodeScratch`]).
     pub fn local_into(&self, m: u32, out: &mut Local) -> Result<(), String> {
         thread_local! {
             static MARKS: std::cell::RefCell<Marks> = std::cell::RefCell::new(Marks::default());
         }
-        MARKS.with(|cell| {
-            let mut mk = cell.borrow_mut();
-            let (gv, gf) = mk.next_gen(self.q.len(), self.quads.len());
-            let mut star_verts = std::mem::take(&mut mk.star);
-            star_verts.clear();
-            let mut n = 0usize;
-            for (f, _) in self.corners(m) {
-                n += 1;
-                if n > MAX_SPLIT_STAR {
-                    return Err(format!(
-                        "anchor {m} has more than {MAX_SPLIT_STAR} faces (local form needs 1..=255)"
-                    ));
-                }
-                for &u in &self.quads[f as usize] {
-                    if mk.v[u as usize] != gv {
-                        mk.v[u as usize] = gv;
-                        star_verts.push(u);
-                    }
-                }
-            }
-            let r = self.collect_local(m, n, &star_verts, &mut mk, gv + 1, gf, out);
-            mk.star = star_verts;
-            r
-        })
+        MARKS.with(|cell| self.local_with(m, &mut cell.borrow_mut(), out))
     }
 
-    /// The second half of [`MeshState::local_into`]: faces around the star
-    /// vertices, then their corners (`gu`, `gf`: fresh stamps).
-    #[allow(clippy::too_many_arguments)]
-    fn collect_local(
-        &self,
-        m: u32,
-        n: usize,
-        star_verts: &[u32],
-        mk: &mut Marks,
-        gu: u32,
-        gf: u32,
-        out: &mut Local,
-    ) -> Result<(), String> {
-        {
-            if n == 0 {
-                return Err(format!("anchor {m} has no face"));
+    /// [`MeshState::local_into`] with the caller's stamps. Duplicates are
+    /// dropped with generation stamps instead of sorting every raw entry:
+    /// only the distinct faces and vertices get sorted. The corners of a
+    /// face are read as soon as the face is found: on a large mesh these
+    /// reads miss the cache, and issued next to the corner-list walk (a
+    /// chain of dependent loads) their misses overlap with it instead of
+    /// being paid one after another in a second pass.
+    fn local_with(&self, m: u32, mk: &mut Marks, out: &mut Local) -> Result<(), String> {
+        let (gv, gf) = mk.next_gen(self.q.len(), self.quads.len());
+        let gu = gv + 1;
+        let Marks { v, f, star, .. } = mk;
+        let Local { faces, verts } = out;
+        star.clear();
+        faces.clear();
+        verts.clear();
+        // Direct walks of the corner lists (no iterator state): this is the
+        // decoder's hottest loop, a few dozen scattered reads per record.
+        let mut n = 0usize;
+        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
+        while c != NIL {
+            n += 1;
+            if n > MAX_SPLIT_STAR {
+                return Err(format!(
+                    "anchor {m} has more than {MAX_SPLIT_STAR} faces (local form needs 1..=255)"
+                ));
             }
-            out.faces.clear();
-            out.verts.clear();
-            let mut entries = 0usize;
-            for &u in star_verts {
-                for (f, _) in self.corners(u) {
-                    entries += 1;
-                    if entries > MAX_LOCAL_CORNERS {
-                        return Err(format!(
-                            "the faces around anchor {m} have more than {MAX_LOCAL_CORNERS} corners"
-                        ));
-                    }
-                    if mk.f[f as usize] != gf {
-                        mk.f[f as usize] = gf;
-                        out.faces.push(f);
-                    }
+            for &u in &self.quads[(c >> 2) as usize] {
+                if v[u as usize] != gv {
+                    v[u as usize] = gv;
+                    star.push(u);
                 }
             }
-            out.faces.sort_unstable();
-            for &f in &out.faces {
-                for &u in &self.quads[f as usize] {
-                    if mk.v[u as usize] != gu {
-                        mk.v[u as usize] = gu;
-                        out.verts.push(u);
-                    }
-                }
-            }
-            out.verts.sort_unstable();
-            Ok(())
+            c = self.next[c as usize];
         }
+        if n == 0 {
+            return Err(format!("anchor {m} has no face"));
+        }
+        let mut entries = 0usize;
+        for &u in star.iter() {
+            let mut c = self.head[u as usize];
+            while c != NIL {
+                entries += 1;
+                if entries > MAX_LOCAL_CORNERS {
+                    return Err(format!(
+                        "the faces around anchor {m} have more than {MAX_LOCAL_CORNERS} corners"
+                    ));
+                }
+                let s = c >> 2;
+                if f[s as usize] != gf {
+                    f[s as usize] = gf;
+                    faces.push(s);
+                    for &x in &self.quads[s as usize] {
+                        if v[x as usize] != gu {
+                            v[x as usize] = gu;
+                            verts.push(x);
+                        }
+                    }
+                }
+                c = self.next[c as usize];
+            }
+        }
+        sort_distinct(faces);
+        sort_distinct(verts);
+        Ok(())
     }
 
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
@@ -595,10 +648,16 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>
             return [0, 1, 2]
                 .map(|t| (a[t] as i64 + c[t] as i64 - b[t] as i64).clamp(0, qmax) as u32);
         }
-        let ks: Vec<[u32; 3]> = [n1, o, n3].into_iter().flatten().collect();
-        if !ks.is_empty() {
-            let n = ks.len() as u64;
-            return [0, 1, 2].map(|t| (ks.iter().map(|p| p[t] as u64).sum::<u64>() / n) as u32);
+        // Mean of the known ones (summed in place: no list per vertex).
+        let (mut sum, mut n) = ([0u64; 3], 0u64);
+        for p in [n1, o, n3].into_iter().flatten() {
+            for t in 0..3 {
+                sum[t] += p[t] as u64;
+            }
+            n += 1;
+        }
+        if n > 0 {
+            return sum.map(|x| (x / n) as u32);
         }
     }
     if x > v0 {
@@ -611,7 +670,15 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>
 
 /// First face (appended, then rewritten) containing each new vertex.
 fn first_faces(r: &QRecord, v0: u32, n_new: usize) -> Vec<Option<[u32; 4]>> {
-    let mut first = vec![None; n_new];
+    let mut first = Vec::new();
+    first_faces_into(r, v0, n_new, &mut first);
+    first
+}
+
+/// [`first_faces`] into `first` (reusing its buffer).
+fn first_faces_into(r: &QRecord, v0: u32, n_new: usize, first: &mut Vec<Option<[u32; 4]>>) {
+    first.clear();
+    first.resize(n_new, None);
     let faces = r.appended.iter().chain(r.rewritten.iter().map(|(_, q)| q));
     for q in faces {
         for &u in q {
@@ -620,7 +687,6 @@ fn first_faces(r: &QRecord, v0: u32, n_new: usize) -> Vec<Option<[u32; 4]>> {
             }
         }
     }
-    first
 }
 
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
@@ -665,8 +731,31 @@ fn vref(cursor: u32, delta: i64, limit: u32, what: &str) -> Result<u32, String> 
     Ok(v as u32)
 }
 
+/// Reusable buffers of [`decode_record_into`]: the local neighbourhood and
+/// its generation stamps, the moved-vertex vocabulary, rewritten slots,
+/// explicit corners and first faces. One per decoder, so that decoding a
+/// record allocates nothing once the buffers have grown.
+#[derive(Default)]
+pub struct DecodeScratch {
+    marks: Marks,
+    /// Neighbourhood of the current local-form anchor.
+    local: Local,
+    w: Vec<u32>,
+    slots: Vec<u32>,
+    extra: Vec<u32>,
+    first: Vec<Option<[u32; 4]>>,
+}
+
+impl DecodeScratch {
+    /// Empty buffers (they grow to the largest record seen).
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
 /// Decodes one record against `st` (level before the record). `max_v` /
 /// `max_f` are the file's final counts: no record may exceed them.
+/// (Convenience over [`decode_record_into`] with per-thread buffers.)
 pub fn decode_record(
     st: &MeshState,
     rd: &mut [Reader; 5],
@@ -674,6 +763,29 @@ pub fn decode_record(
     max_v: u32,
     max_f: u32,
 ) -> Result<QRecord, String> {
+    thread_local! {
+        static SCRATCH: std::cell::RefCell<DecodeScratch> =
+            std::cell::RefCell::new(DecodeScratch::default());
+    }
+    let mut r = QRecord::default();
+    SCRATCH.with(|cell| {
+        decode_record_into(st, rd, cur, max_v, max_f, &mut r, &mut cell.borrow_mut())
+    })?;
+    Ok(r)
+}
+
+/// [`decode_record`] into `r` (its lists are cleared first and their
+/// buffers reused) with the caller's scratch buffers: the decoder's hot
+/// path, which allocates nothing per record.
+pub fn decode_record_into(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
@@ -682,13 +794,11 @@ pub fn decode_record(
     let rot = ((sym >> 4) & 3) as usize;
     let moved_flag = sym & 0x40 != 0;
     let reflect_c = sym & 0x80 != 0;
-    let mut r = QRecord {
-        op,
-        new_pos: Vec::new(),
-        moved: Vec::new(),
-        rewritten: Vec::new(),
-        appended: Vec::new(),
-    };
+    r.op = op;
+    r.new_pos.clear();
+    r.moved.clear();
+    r.rewritten.clear();
+    r.appended.clear();
     match form {
         0 | 2 => {
             if sym & 0xf0 != 0 {
@@ -696,21 +806,13 @@ pub fn decode_record(
                     "symbol {sym:#04x} of form {form} has split-form bits set"
                 ));
             }
-            if form == 2 {
+            let local = form == 2;
+            if local {
                 let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
                 cur.vref = m;
-                // One neighbourhood buffer per thread, reused by every record.
-                thread_local! {
-                    static LOCAL: std::cell::RefCell<Local> = std::cell::RefCell::new(Local::default());
-                }
-                LOCAL.with(|cell| {
-                    let mut local = cell.borrow_mut();
-                    st.local_into(m, &mut local)?;
-                    decode_patch(st, rd, cur, max_v, max_f, Some(&local), &mut r)
-                })?;
-            } else {
-                decode_patch(st, rd, cur, max_v, max_f, None, &mut r)?;
+                st.local_with(m, &mut sc.marks, &mut sc.local)?;
             }
+            decode_patch(st, rd, cur, max_v, max_f, local, sc, r)?;
         }
         1 => {
             if v0 >= max_v || f0 >= max_f {
@@ -728,7 +830,7 @@ pub fn decode_record(
             let j = (i + 1 + e) % l;
             let (rewritten, appended) = build_split(st, m, &star, i, j, rot)?;
             r.rewritten = rewritten;
-            r.appended = vec![appended];
+            r.appended.push(appended);
             let m_old = st.q[m as usize];
             if moved_flag {
                 let p = add_residual(predict_a(st, m, &star, i, j), &mut rd[POS], st.qmax)?;
@@ -737,41 +839,53 @@ pub fn decode_record(
             let pred = if reflect_c {
                 reflect(st, m_old, r.moved.first().map_or(m_old, |mv| mv.1))
             } else {
-                predict(st, &r, v0, v0, Some(appended))
+                predict(st, r, v0, v0, Some(appended))
             };
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
         }
         _ => return Err(format!("unknown record form {form} in symbol {sym:#04x}")),
     }
-    Ok(r)
+    Ok(())
 }
 
-/// Decodes the body of a general-form (`local = None`, spec §7.4) or
-/// local-form (spec §7.7) record into `r`: the two differ only in how moved
-/// vertices, rewritten slots and explicit corners are named.
+/// Decodes the body of a general-form (`local` false, spec §7.4) or
+/// local-form (spec §7.7, neighbourhood faces in `sc.local`) record into
+/// `r`: the two differ only in how moved vertices, rewritten slots and
+/// explicit corners are named.
+#[allow(clippy::too_many_arguments)]
 fn decode_patch(
     st: &MeshState,
     rd: &mut [Reader; 5],
     cur: &mut Cursors,
     max_v: u32,
     max_f: u32,
-    local: Option<&Local>,
+    local: bool,
+    sc: &mut DecodeScratch,
     r: &mut QRecord,
 ) -> Result<(), String> {
+    let DecodeScratch {
+        marks,
+        local: l,
+        w,
+        slots,
+        extra,
+        first,
+    } = sc;
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
-    let (max_moved, max_rw) = match local {
-        Some(l) => (l.verts.len() as u64, l.faces.len() as u64),
-        None => (v0 as u64, f0 as u64),
+    let (max_moved, max_rw) = if local {
+        (l.verts.len(), l.faces.len())
+    } else {
+        (v0 as usize, f0 as usize)
     };
-    let n_moved = rd[CONN].u_max(max_moved, "moved vertex count")? as usize;
-    let n_rw = rd[CONN].u_max(max_rw, "rewritten face count")? as usize;
+    let n_moved = rd[CONN].u_max(max_moved as u64, "moved vertex count")? as usize;
+    let n_rw = rd[CONN].u_max(max_rw as u64, "rewritten face count")? as usize;
     let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
     let v1 = v0 + n_new as u32;
-    let mut slots = Vec::with_capacity(n_rw.min(1 << 16));
-    if let Some(l) = local {
+    slots.clear();
+    if local {
         // Local form (spec §7.7): rewritten slots first, then the moved
         // vertices as indices into `W` (the old corners of those slots —
         // where most moved vertices are — then the rest of `U`).
@@ -782,24 +896,26 @@ fn decode_patch(
             slots.push(l.faces[i as usize]);
         }
         if n_moved > 0 {
-            // Vocabulary buffers reused by every record of this thread.
-            thread_local! {
-                static VOCAB: std::cell::RefCell<(Vec<u32>, Vec<bool>)> =
-                    const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
-            }
-            VOCAB.with(|cell| -> Result<(), String> {
-                let (w, in_head) = &mut *cell.borrow_mut();
-                moved_vocabulary(st, &slots, l, w, in_head);
-                let mut next = 0u64;
-                for t in 0..n_moved {
-                    let i = local_index(&mut rd[SLOTS], t, next, w.len(), "moved vertex")?;
-                    next = i + 1;
-                    let v = w[i as usize];
-                    let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
-                    r.moved.push((v, p));
+            // `W` is a permutation of `l.verts`, so its length is known
+            // before it is built; its tail (the vertices that are not old
+            // corners of rewritten slots) is built only as far as the
+            // ascending indices reach — most moved vertices are in the head.
+            let g = moved_vocabulary_head(st, slots, w, marks);
+            let mut tail = l.verts.iter();
+            let mut next = 0u64;
+            for t in 0..n_moved {
+                let i = local_index(&mut rd[SLOTS], t, next, l.verts.len(), "moved vertex")?;
+                next = i + 1;
+                while w.len() <= i as usize {
+                    let &u = tail.next().ok_or("moved-vertex vocabulary too short")?;
+                    if marks.v[u as usize] != g {
+                        w.push(u);
+                    }
                 }
-                Ok(())
-            })?;
+                let v = w[i as usize];
+                let p = add_residual(st.q[v as usize], &mut rd[POS], st.qmax)?;
+                r.moved.push((v, p));
+            }
             r.moved.sort_unstable_by_key(|mv| mv.0);
         }
     } else {
@@ -827,24 +943,22 @@ fn decode_patch(
             }
             slots.push(s as u32);
         }
+        if let Some(&s) = slots.last() {
+            cur.slot = s;
+        }
     }
-    if let (None, Some(&s)) = (local, slots.last()) {
-        cur.slot = s;
-    }
-    let mut extra: Vec<u32> = Vec::new();
+    extra.clear();
+    let slots: &[u32] = slots;
     let mut corner = |rd: &mut [Reader; 5], cur: &mut Cursors| -> Result<u32, String> {
         let x = rd[CONN].u()?;
         if x == 0 {
-            let v = match local {
-                Some(l) => {
-                    let i = rd[SLOTS].u_max(l.verts.len() as u64 - 1, "local corner index")?;
-                    l.verts[i as usize]
-                }
-                None => {
-                    let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
-                    cur.vref = v;
-                    v
-                }
+            let v = if local {
+                let i = rd[SLOTS].u_max(l.verts.len() as u64 - 1, "local corner index")?;
+                l.verts[i as usize]
+            } else {
+                let v = vref(cur.vref, rd[REFS].s()?, v1, "face corner")?;
+                cur.vref = v;
+                v
             };
             extra.push(v);
             return Ok(v);
@@ -867,8 +981,8 @@ fn decode_patch(
     // The local form's mask also carries a rotation (bits 4-5): the
     // coarsener may restore a face starting at another corner, and naming
     // all four corners again would cost far more than two bits.
-    let max_mask = if local.is_some() { 63 } else { 15 };
-    for &s in &slots {
+    let max_mask = if local { 63 } else { 15 };
+    for &s in slots {
         let mask = rd[CONN].u_max(max_mask, "corner mask")?;
         let mut q = st.quads[s as usize];
         for (c, qc) in q.iter_mut().enumerate() {
@@ -889,8 +1003,8 @@ fn decode_patch(
         check_distinct(&q, || format!("appended face {a}"))?;
         r.appended.push(q);
     }
-    let first = first_faces(r, v0, n_new);
-    for (t, f) in first.into_iter().enumerate() {
+    first_faces_into(r, v0, n_new, first);
+    for (t, &f) in first.iter().enumerate() {
         let pred = predict(st, r, v0, v0 + t as u32, f);
         let p = add_residual(pred, &mut rd[POS], st.qmax)?;
         r.new_pos.push(p);
@@ -931,6 +1045,32 @@ fn moved_vocabulary(
             .filter(|(_, &h)| !h)
             .map(|(&v, _)| v),
     );
+}
+
+/// The head of [`moved_vocabulary`]'s `W` for the decoder: the distinct
+/// old corners of the rewritten `slots` into `w`, each stamped in
+/// `marks.v` with the returned generation (stamps instead of binary
+/// searches: O(corners) per record). The rest of `W` is the vertices of
+/// `l.verts` without that stamp, ascending — the same list as
+/// [`moved_vocabulary`], because every old corner of a rewritten slot is in
+/// `l.verts` (the slots are taken from `l.faces`, whose corners `l.verts` are).
+fn moved_vocabulary_head(
+    st: &MeshState,
+    slots: &[u32],
+    w: &mut Vec<u32>,
+    marks: &mut Marks,
+) -> u32 {
+    let g = marks.next_v_gen(st.q.len());
+    w.clear();
+    for &s in slots {
+        for &v in &st.quads[s as usize] {
+            if marks.v[v as usize] != g {
+                marks.v[v as usize] = g;
+                w.push(v);
+            }
+        }
+    }
+    g
 }
 
 /// Reads the `t`-th ascending local index from `rd` (the first as is, the
@@ -1325,4 +1465,25 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
         return Err(format!("{} unused bytes at the end", r.remaining()));
     }
     Ok(MeshState::new(qmax, pos, quads))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sort_distinct;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The rank sort agrees with the standard sort on distinct values,
+        /// on both sides of its small-list limit.
+        #[test]
+        fn sort_distinct_sorts(set in proptest::collection::btree_set(any::<u32>(), 0..100)) {
+            let mut want: Vec<u32> = set.into_iter().collect();
+            // A fixed shuffle (reversed halves) so the input is not sorted.
+            let mid = want.len() / 2;
+            let mut x: Vec<u32> = want[mid..].iter().rev().chain(want[..mid].iter()).copied().collect();
+            sort_distinct(&mut x);
+            want.sort_unstable();
+            prop_assert_eq!(x, want);
+        }
+    }
 }

@@ -206,10 +206,9 @@ pub struct Status {
     pub failed: bool,
 }
 
-/// Explicit records with undo data, structure-of-arrays. The decoder keeps
-/// one for every committed record and a scratch one for the chunk being
-/// decoded (there, `v_at[0]` etc. are the counts at the chunk's start and
-/// `moved_at` / `rw_at` index the scratch's own lists).
+/// Explicit records with undo data, structure-of-arrays: every committed
+/// record (a chunk being decoded appends to it and is truncated away if it
+/// fails).
 #[derive(Default)]
 struct Records {
     op: Vec<OpKind>,
@@ -223,20 +222,6 @@ struct Records {
     /// Codes of vertices `base_v..`, and quads of slots `base_f..`.
     new_pos: Vec<[u32; 3]>,
     appended: Vec<[u32; 4]>,
-}
-
-impl Records {
-    fn clear(&mut self) {
-        self.op.clear();
-        self.v_at.clear();
-        self.f_at.clear();
-        self.moved_at.clear();
-        self.moved.clear();
-        self.rw_at.clear();
-        self.rw.clear();
-        self.new_pos.clear();
-        self.appended.clear();
-    }
 }
 
 /// The push decoder (see the module docs).
@@ -258,8 +243,12 @@ pub struct Decoder {
     payload_total: u64,
     frontier: Option<MeshState>,
     recs: Records,
-    /// Records of the chunk being decoded (reused between chunks).
-    scratch: Records,
+    /// The record being decoded, reused by every record.
+    rec: codec::QRecord,
+    /// The codec's per-record buffers.
+    buffers: codec::DecodeScratch,
+    /// Decompressed payload of the chunk being decoded (reused).
+    zbuf: Vec<u8>,
     vertex_order: Option<Vec<u32>>,
     zstd: Option<zstd::bulk::Decompressor<'static>>,
     // Current level.
@@ -288,7 +277,9 @@ impl Decoder {
             payload_total: 0,
             frontier: None,
             recs: Records::default(),
-            scratch: Records::default(),
+            rec: codec::QRecord::default(),
+            buffers: codec::DecodeScratch::default(),
+            zbuf: Vec::new(),
             vertex_order: None,
             zstd: None,
             level: 0,
@@ -663,6 +654,20 @@ impl Decoder {
         data: &[u8],
         ulen: u32,
     ) -> Result<Vec<u8>, DecodeError> {
+        let mut out = Vec::new();
+        self.decompress_into(section, data, ulen, &mut out)?;
+        Ok(out)
+    }
+
+    /// Decompresses the single frame `data` of `ulen` bytes into `out`
+    /// (cleared first; its buffer is reused).
+    fn decompress_into(
+        &mut self,
+        section: Section,
+        data: &[u8],
+        ulen: u32,
+        out: &mut Vec<u8>,
+    ) -> Result<(), DecodeError> {
         if self.zstd.is_none() {
             let mut d = zstd::bulk::Decompressor::new()
                 .map_err(|e| DecodeError::Internal(e.to_string()))?;
@@ -675,16 +680,19 @@ impl Decoder {
             .zstd
             .as_mut()
             .ok_or_else(|| DecodeError::Internal("no zstd context".into()))?;
-        let out = d
-            .decompress(data, ulen as usize)
+        // `ulen` was counted in the memory estimate (chunk table check).
+        out.clear();
+        out.reserve(ulen as usize);
+        let n = d
+            .decompress_to_buffer(data, out)
             .map_err(|e| DecodeError::invalid(section, format!("zstd: {e}")))?;
-        if out.len() != ulen as usize {
+        if n != ulen as usize || out.len() != n {
             return Err(DecodeError::invalid(
                 section,
-                format!("decompressed to {} bytes, expected {ulen}", out.len()),
+                format!("decompressed to {n} bytes, expected {ulen}"),
             ));
         }
-        Ok(out)
+        Ok(())
     }
 
     fn check_crc(section: Section, data: &[u8], stored: u32) -> Result<(), DecodeError> {
@@ -740,58 +748,100 @@ impl Decoder {
             .clone()
             .ok_or_else(|| DecodeError::Internal("chunk before header".into()))?;
         Self::check_crc(Section::Chunk(i), b, info.crc32)?;
-        let payload = self.decompress(Section::Chunk(i), b, info.uncompressed_len)?;
-        let mut rd = codec::split_streams(&payload)
-            .map_err(|m| DecodeError::invalid(Section::Chunk(i), m))?;
-        let mut st = self
-            .frontier
-            .take()
-            .ok_or_else(|| DecodeError::Internal("no frontier".into()))?;
-        // Records go to a scratch list first and are committed only when the
-        // whole chunk checked out (spec §7.2: a chunk's records are available
-        // once the whole chunk is). On failure the frontier is rolled back
-        // with the scratch's undo data, so it stays at the last good chunk.
-        let mut sc = std::mem::take(&mut self.scratch);
-        sc.clear();
-        let first_record = self.recs.op.len() as u32;
-        let result =
-            Self::decode_chunk_records(i, &info, &h, first_record, &mut st, &mut rd, &mut sc);
-        match result {
-            Ok(()) => {
-                let r = &mut self.recs;
-                let (m0, w0) = (r.moved.len(), r.rw.len());
-                r.op.extend_from_slice(&sc.op);
-                r.v_at.extend_from_slice(&sc.v_at[1..]);
-                r.f_at.extend_from_slice(&sc.f_at[1..]);
-                r.moved_at.extend(sc.moved_at[1..].iter().map(|&k| m0 + k));
-                r.rw_at.extend(sc.rw_at[1..].iter().map(|&k| w0 + k));
-                r.moved.extend_from_slice(&sc.moved);
-                r.rw.extend_from_slice(&sc.rw);
-                r.new_pos.extend_from_slice(&sc.new_pos);
-                r.appended.extend_from_slice(&sc.appended);
-            }
-            Err(_) => {
-                for k in (0..sc.op.len()).rev() {
-                    st.undo(
-                        sc.v_at[k] as usize,
-                        sc.f_at[k] as usize,
-                        &sc.moved[sc.moved_at[k]..sc.moved_at[k + 1]],
-                        &sc.rw[sc.rw_at[k]..sc.rw_at[k + 1]],
-                    );
-                }
-            }
-        }
-        self.scratch = sc;
-        self.frontier = Some(st);
+        // The payload goes into one buffer reused by every chunk (no fresh
+        // pages to fault in per chunk).
+        let mut payload = std::mem::take(&mut self.zbuf);
+        let result = self.decode_chunk(i, &info, &h, b, &mut payload);
+        self.zbuf = payload;
         result?;
         self.chunks_ready = i + 1;
         self.chunk_levels.push(self.recs.op.len());
         Ok(())
     }
 
-    /// Decodes and applies the records of chunk `i` to `st`, logging them in
-    /// `sc`; then checks that every stream is consumed and the counts match
-    /// the chunk table. On error `sc` holds the records applied so far.
+    /// Decompresses chunk `i` into `payload` and decodes its records
+    /// straight into the committed lists. Records become available only
+    /// when the whole chunk checked out (spec §7.2): on failure the frontier
+    /// is rolled back with the chunk's own undo data and the lists are
+    /// truncated to the last good chunk.
+    fn decode_chunk(
+        &mut self,
+        i: u32,
+        info: &ChunkInfo,
+        h: &Header,
+        b: &[u8],
+        payload: &mut Vec<u8>,
+    ) -> Result<(), DecodeError> {
+        self.decompress_into(Section::Chunk(i), b, info.uncompressed_len, payload)?;
+        let mut rd = codec::split_streams(payload)
+            .map_err(|m| DecodeError::invalid(Section::Chunk(i), m))?;
+        let mut st = self
+            .frontier
+            .take()
+            .ok_or_else(|| DecodeError::Internal("no frontier".into()))?;
+        let r = &mut self.recs;
+        let k0 = r.op.len();
+        let lens = (r.moved.len(), r.rw.len(), r.new_pos.len(), r.appended.len());
+        // Room for the chunk as the table states it, but never more than its
+        // payload could hold (every record, new vertex and appended face
+        // takes at least one byte): a hostile table cannot make this
+        // allocate beyond the payload size counted in the memory estimate.
+        let cap = payload.len();
+        let n_rec = (info.record_count as usize).min(cap);
+        let n_v = (info.vertex_count as usize)
+            .saturating_sub(st.q.len())
+            .min(cap);
+        let n_f = (info.face_count as usize)
+            .saturating_sub(st.quads.len())
+            .min(cap);
+        r.op.reserve(n_rec);
+        r.v_at.reserve(n_rec);
+        r.f_at.reserve(n_rec);
+        r.moved_at.reserve(n_rec);
+        r.rw_at.reserve(n_rec);
+        r.new_pos.reserve(n_v);
+        r.appended.reserve(n_f);
+        st.reserve(n_v, n_f);
+        let result = Self::decode_chunk_records(
+            i,
+            info,
+            h,
+            k0 as u32,
+            &mut st,
+            &mut rd,
+            r,
+            &mut self.rec,
+            &mut self.buffers,
+        );
+        if result.is_err() {
+            for k in (k0..r.op.len()).rev() {
+                st.undo(
+                    r.v_at[k] as usize,
+                    r.f_at[k] as usize,
+                    &r.moved[r.moved_at[k]..r.moved_at[k + 1]],
+                    &r.rw[r.rw_at[k]..r.rw_at[k + 1]],
+                );
+            }
+            r.op.truncate(k0);
+            for at in [&mut r.v_at, &mut r.f_at] {
+                at.truncate(k0 + 1);
+            }
+            r.moved_at.truncate(k0 + 1);
+            r.rw_at.truncate(k0 + 1);
+            r.moved.truncate(lens.0);
+            r.rw.truncate(lens.1);
+            r.new_pos.truncate(lens.2);
+            r.appended.truncate(lens.3);
+        }
+        self.frontier = Some(st);
+        Ok(result?)
+    }
+
+    /// Decodes and applies the records of chunk `i` to `st`, appending them
+    /// to `r` (whose last level is `st`'s); then checks that every stream is
+    /// consumed and the counts match the chunk table. On error `r` holds the
+    /// records applied so far. `rec` and `buffers` are reused per record.
+    #[allow(clippy::too_many_arguments)]
     fn decode_chunk_records(
         i: u32,
         info: &ChunkInfo,
@@ -799,29 +849,34 @@ impl Decoder {
         first_record: u32,
         st: &mut MeshState,
         rd: &mut [Reader<'_>; 5],
-        sc: &mut Records,
+        r: &mut Records,
+        rec: &mut codec::QRecord,
+        buffers: &mut codec::DecodeScratch,
     ) -> Result<(), FormatError> {
         let mut cur = Cursors::default();
-        sc.v_at.push(st.q.len() as u32);
-        sc.f_at.push(st.quads.len() as u32);
-        sc.moved_at.push(0);
-        sc.rw_at.push(0);
         for t in 0..info.record_count {
-            let rec =
-                codec::decode_record(st, rd, &mut cur, h.final_vertex_count, h.final_face_count)
-                    .map_err(|message| FormatError::BadRecord {
-                        chunk: i,
-                        record: first_record + t,
-                        message,
-                    })?;
-            st.apply_logged(&rec, &mut sc.moved, &mut sc.rw);
-            sc.op.push(rec.op);
-            sc.new_pos.extend_from_slice(&rec.new_pos);
-            sc.appended.extend_from_slice(&rec.appended);
-            sc.v_at.push(st.q.len() as u32);
-            sc.f_at.push(st.quads.len() as u32);
-            sc.moved_at.push(sc.moved.len());
-            sc.rw_at.push(sc.rw.len());
+            codec::decode_record_into(
+                st,
+                rd,
+                &mut cur,
+                h.final_vertex_count,
+                h.final_face_count,
+                rec,
+                buffers,
+            )
+            .map_err(|message| FormatError::BadRecord {
+                chunk: i,
+                record: first_record + t,
+                message,
+            })?;
+            st.apply_logged(rec, &mut r.moved, &mut r.rw);
+            r.op.push(rec.op);
+            r.new_pos.extend_from_slice(&rec.new_pos);
+            r.appended.extend_from_slice(&rec.appended);
+            r.v_at.push(st.q.len() as u32);
+            r.f_at.push(st.quads.len() as u32);
+            r.moved_at.push(r.moved.len());
+            r.rw_at.push(r.rw.len());
         }
         for s in rd.iter() {
             if s.remaining() != 0 {

@@ -58,7 +58,21 @@ impl<'a> Reader<'a> {
         Ok(b)
     }
     /// One unsigned LEB128 value.
+    #[inline]
     pub fn u(&mut self) -> Result<u64, String> {
+        // Fast path: most values in a record fit in one byte.
+        if let Some(&b) = self.buf.get(self.pos) {
+            if b < 0x80 {
+                self.pos += 1;
+                return Ok(b as u64);
+            }
+        }
+        self.u_multi()
+    }
+
+    /// [`Reader::u`] for values of two bytes or more (and the errors).
+    #[inline(never)]
+    fn u_multi(&mut self) -> Result<u64, String> {
         let mut v: u64 = 0;
         for i in 0..10 {
             let b = self.byte()?;
@@ -82,6 +96,7 @@ impl<'a> Reader<'a> {
         Ok(v)
     }
     /// One zigzag-coded signed value.
+    #[inline]
     pub fn s(&mut self) -> Result<i64, String> {
         Ok(unzigzag(self.u()?))
     }
