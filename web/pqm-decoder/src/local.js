@@ -58,35 +58,67 @@ function nextGen(nv, nf) {
   return gen - 1;
 }
 
-// Star of the anchor (Frontier.star output) and per-vertex slot stamps that
-// drop repeated nodes of the decoder's corner lists (spec counts corners).
+// Star of the anchor (Frontier.star output) and per-corner stamps that drop
+// repeated nodes of the decoder's corner lists (spec counts corners).
 const starSlots = new Int32Array(MAX_STAR);
 const starCorners = new Int32Array(MAX_STAR);
-let stampS = new Int32Array(0);
-let genS = 0;
+let stampC = new Int32Array(0);
+let genC = 0;
 
-/** A fresh slot stamp (one per walked vertex) for `nf` slots. */
-function nextSlotGen(nf) {
-  if (stampS.length < nf) {
-    const g = new Int32Array(Math.max(nf, 2 * stampS.length));
-    g.set(stampS);
-    stampS = g;
+/** A fresh corner stamp (one per record) for `nf` slots. */
+function nextCornerGen(nf) {
+  if (stampC.length < 4 * nf) {
+    const g = new Int32Array(Math.max(4 * nf, 2 * stampC.length));
+    g.set(stampC);
+    stampC = g;
   }
-  if (genS > 0x3fffffff) {
-    genS = 0;
-    stampS.fill(0);
+  if (genC > 0x3fffffff) {
+    genC = 0;
+    stampC.fill(0);
   }
-  return ++genS;
+  return ++genC;
 }
 
-/** Fills lR / lU for anchor `m`; returns [|R|, |U|]. */
+/**
+ * Sorts a[0..n) ascending in place. Insertion sort: the lists are short
+ * (|R| is 16 around a regular interior vertex, |U| 25) and nearly sorted
+ * (collected face by face around the anchor), where it beats
+ * TypedArray.prototype.sort (a subarray view and a generic sort per call).
+ * Falls back to the built-in sort for long lists.
+ */
+function sortInts(a, n) {
+  if (n > 64) {
+    a.subarray(0, n).sort();
+    return;
+  }
+  for (let i = 1; i < n; i++) {
+    const x = a[i];
+    let j = i - 1;
+    while (j >= 0 && a[j] > x) {
+      a[j + 1] = a[j];
+      j--;
+    }
+    a[j + 1] = x;
+  }
+}
+
+// Sizes of the neighbourhood of the record being decoded: |R|, and |U| or
+// −1 while U is not collected yet (U is needed only by moved vertices and
+// explicit corners, which most records lack; it is a function of the quads
+// before the record, which stay in st.f until the record is applied, so
+// collecting it later gives the same list).
+let curR = 0;
+let curU = -1;
+// Vertex stamp of U for the current record (see nextGen).
+let curGu = 0;
+
+/** Fills lR for anchor `m` (and lA); sets curR, resets curU. */
 function neighbourhood(st, m) {
   const f = st.f;
   const head = st.head;
   const nodeC = st.nodeC;
   const nodeN = st.nodeN;
   const gv = nextGen(st.nv, st.nf);
-  const gu = gv + 1;
   const gf = gv + 1;
   const sv = stampV;
   const sf = stampF;
@@ -106,28 +138,50 @@ function neighbourhood(st, m) {
   }
   let entries = 0;
   let nr = 0;
+  const gc = nextCornerGen(st.nf);
+  const sc = stampC;
   for (let i = 0; i < na; i++) {
     const u = lA[i];
-    const gs = nextSlotGen(st.nf);
-    const ss = stampS;
     // The corner lists may hold stale nodes (the corner moved on) and
-    // repeats (a corner that came back): count each live corner once.
-    for (let n = head[u]; n >= 0; n = nodeN[n]) {
+    // repeats (a corner that came back): count each live corner once
+    // (a corner belongs to one vertex, so one stamp per record suffices;
+    // a quad's corners are distinct, so a corner is a (vertex, face) pair).
+    // Stale and repeated nodes are unlinked on the way, as Frontier.star
+    // does, so that later walks of these busy lists are shorter.
+    let kept = -1;
+    for (let n = head[u]; n >= 0; ) {
       const c = nodeC[n];
-      if (f[c] !== u) continue;
-      const s = c >> 2;
-      if (ss[s] === gs) continue;
-      ss[s] = gs;
+      const next = nodeN[n];
+      if (f[c] !== u || sc[c] === gc) {
+        if (kept < 0) head[u] = next;
+        else nodeN[kept] = next;
+        n = next;
+        continue;
+      }
+      sc[c] = gc;
+      kept = n;
+      n = next;
       if (++entries > MAX_CORNERS) throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
+      const s = c >> 2;
       if (sf[s] !== gf) {
         sf[s] = gf;
         lR[nr++] = s;
       }
     }
   }
-  lR.subarray(0, nr).sort();
+  sortInts(lR, nr);
+  curR = nr;
+  curU = -1;
+  curGu = gv + 1;
+}
+
+/** Collects lU (once per record) from lR; returns |U|. */
+function collectU(f) {
+  if (curU >= 0) return curU;
+  const gu = curGu;
+  const sv = stampV;
   let nu = 0;
-  for (let i = 0; i < nr; i++) {
+  for (let i = 0; i < curR; i++) {
     const s4 = 4 * lR[i];
     for (let k = 0; k < 4; k++) {
       const u = f[s4 + k];
@@ -137,8 +191,9 @@ function neighbourhood(st, m) {
       }
     }
   }
-  lU.subarray(0, nu).sort();
-  return [nr, nu];
+  sortInts(lU, nu);
+  curU = nu;
+  return nu;
 }
 
 /** The `t`-th ascending local index (first as is, then gaps after `next`). */
@@ -179,9 +234,10 @@ function movedVocabulary(f, nRw, nU) {
 }
 
 /** Resolves a corner code (spec §7.4, explicit corners as in §7.7). */
-function cornerCode(ctx, V, nNew, nRw, nU, f) {
+function cornerCode(ctx, V, nNew, nRw, f) {
   const x = ctx.conn.u();
   if (x === 0) {
+    const nU = collectU(f);
     const i = ctx.slots.u();
     if (i >= nU) throw `local corner index ${i} outside 0..${nU}`;
     const v = lU[i];
@@ -215,11 +271,13 @@ export function decodeLocal(ctx, sym) {
   const m = ctx.vcur + ctx.refs.s();
   if (m < 0 || m >= V) throw `local-form anchor ${m} outside 0..${V}`;
   ctx.vcur = m;
-  const [nR, nU] = neighbourhood(st, m);
+  neighbourhood(st, m);
+  const nR = curR;
 
   const nNew = conn.u();
   if (nNew > ctx.VF - V) throw `${nNew} new vertices exceed the final count ${ctx.VF} (now ${V})`;
   const nMoved = conn.u();
+  const nU = nMoved > 0 ? collectU(st.f) : 0;
   if (nMoved > nU) throw `${nMoved} moved vertices, the neighbourhood holds ${nU}`;
   const nRw = conn.u();
   if (nRw > nR) throw `${nRw} rewritten faces, the neighbourhood holds ${nR}`;
@@ -269,14 +327,14 @@ export function decodeLocal(ctx, sym) {
     if (mask > 63) throw `corner mask ${mask} of slot ${lSlots[i]} exceeds 63`;
     const s4 = 4 * lSlots[i];
     for (let c = 0; c < 4; c++) {
-      lQuad[c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, nU, f) : f[s4 + c];
+      lQuad[c] = mask & (1 << c) ? cornerCode(ctx, V, nNew, nRw, f) : f[s4 + c];
     }
     const rot = mask >> 4;
     for (let k = 0; k < 4; k++) rwNew[4 * i + k] = lQuad[(k + rot) & 3];
     checkDistinct(rwNew, 4 * i, "rewritten slot", lSlots[i]);
   }
   for (let i = 0; i < nApp; i++) {
-    for (let c = 0; c < 4; c++) app[4 * i + c] = cornerCode(ctx, V, nNew, nRw, nU, f);
+    for (let c = 0; c < 4; c++) app[4 * i + c] = cornerCode(ctx, V, nNew, nRw, f);
     checkDistinct(app, 4 * i, "appended quad", i);
   }
 
