@@ -21,7 +21,6 @@ const lA = new Int32Array(4 * MAX_STAR);
 const lR = new Int32Array(MAX_CORNERS);
 const lU = new Int32Array(4 * MAX_CORNERS);
 const lW = new Int32Array(4 * MAX_CORNERS);
-const lInHead = new Uint8Array(4 * MAX_CORNERS);
 // Per-record lists, grown on demand (bounded by |R| and the streams).
 let lSlots = new Int32Array(64);
 let lRw = new Int32Array(256);
@@ -37,7 +36,11 @@ let stampV = new Int32Array(0);
 let stampF = new Int32Array(0);
 let gen = 0;
 
-/** Fresh stamps for `nv` vertices and `nf` slots; returns the vertex stamp (the next value is reserved too). */
+/**
+ * Fresh stamps for `nv` vertices and `nf` slots; returns `g`, reserving
+ * `g .. g+3`: vertices use g (in A), g+2 (in U), g+3 (in the head of W);
+ * slots use g+1 (in R) and g+2 (in R, exact recount).
+ */
 function nextGen(nv, nf) {
   if (stampV.length < nv) {
     const g = new Int32Array(Math.max(nv, 2 * stampV.length));
@@ -54,8 +57,8 @@ function nextGen(nv, nf) {
     stampV.fill(0);
     stampF.fill(0);
   }
-  gen += 2;
-  return gen - 1;
+  gen += 4;
+  return gen - 3;
 }
 
 // Star of the anchor (Frontier.star output) and per-corner stamps that drop
@@ -136,32 +139,29 @@ function neighbourhood(st, m) {
       }
     }
   }
+  // The corner lists may hold stale nodes (the corner moved on), unlinked
+  // here as Frontier.star does so that later walks of these busy lists are
+  // shorter, and repeats (a corner that came back), kept. The spec counts
+  // each live corner once; repeats are rare and can only raise the count,
+  // so the count is exact-checked (exactEntries) only when the raw one
+  // passes the limit: no per-corner stamp on the common path.
   let entries = 0;
   let nr = 0;
-  const gc = nextCornerGen(st.nf);
-  const sc = stampC;
   for (let i = 0; i < na; i++) {
     const u = lA[i];
-    // The corner lists may hold stale nodes (the corner moved on) and
-    // repeats (a corner that came back): count each live corner once
-    // (a corner belongs to one vertex, so one stamp per record suffices;
-    // a quad's corners are distinct, so a corner is a (vertex, face) pair).
-    // Stale and repeated nodes are unlinked on the way, as Frontier.star
-    // does, so that later walks of these busy lists are shorter.
     let kept = -1;
     for (let n = head[u]; n >= 0; ) {
       const c = nodeC[n];
       const next = nodeN[n];
-      if (f[c] !== u || sc[c] === gc) {
+      if (f[c] !== u) {
         if (kept < 0) head[u] = next;
         else nodeN[kept] = next;
         n = next;
         continue;
       }
-      sc[c] = gc;
       kept = n;
       n = next;
-      if (++entries > MAX_CORNERS) throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
+      entries++;
       const s = c >> 2;
       if (sf[s] !== gf) {
         sf[s] = gf;
@@ -169,10 +169,39 @@ function neighbourhood(st, m) {
       }
     }
   }
+  if (entries > MAX_CORNERS && exactEntries(st, na) > MAX_CORNERS) {
+    throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
+  }
   sortInts(lR, nr);
   curR = nr;
   curU = -1;
-  curGu = gv + 1;
+  curGu = gv + 2;
+}
+
+/**
+ * The spec's entry count of the neighbourhood whose A is lA[0..na): live
+ * corners of the A vertices, each corner once (a corner belongs to one
+ * vertex and a quad's corners are distinct, so a corner is one (vertex,
+ * face) pair). Stops counting past the limit.
+ */
+function exactEntries(st, na) {
+  const f = st.f;
+  const head = st.head;
+  const nodeC = st.nodeC;
+  const nodeN = st.nodeN;
+  const gc = nextCornerGen(st.nf);
+  const sc = stampC;
+  let entries = 0;
+  for (let i = 0; i < na; i++) {
+    const u = lA[i];
+    for (let n = head[u]; n >= 0; n = nodeN[n]) {
+      const c = nodeC[n];
+      if (f[c] !== u || sc[c] === gc) continue;
+      sc[c] = gc;
+      if (++entries > MAX_CORNERS) return entries;
+    }
+  }
+  return entries;
 }
 
 /** Collects lU (once per record) from lR; returns |U|. */
@@ -203,33 +232,31 @@ function localIndex(ctx, t, next, len, what) {
   return i;
 }
 
-/** Index of `v` in the sorted lU[0..nU], or −1. */
-function indexInU(v, nU) {
-  let lo = 0;
-  let hi = nU;
-  while (lo < hi) {
-    const mid = (lo + hi) >> 1;
-    if (lU[mid] < v) lo = mid + 1;
-    else hi = mid;
-  }
-  return lo < nU && lU[lo] === v ? lo : -1;
-}
-
-/** Fills lW (spec §7.7: moved-vertex vocabulary) for the rewritten slots lSlots[0..nRw]; returns its length (= |U|). */
+/**
+ * Fills lW (spec §7.7: moved-vertex vocabulary) for the rewritten slots
+ * lSlots[0..nRw]; returns its length (= |U|). The rewritten slots are in R,
+ * so their corners are in U: the head is marked with a vertex stamp (U's
+ * stamp is no longer needed once lU is collected) instead of being looked
+ * up in lU.
+ */
 function movedVocabulary(f, nRw, nU) {
-  lInHead.fill(0, 0, nU);
+  const gh = curGu + 1;
+  const sv = stampV;
   let n = 0;
   for (let t = 0; t < nRw; t++) {
     const s4 = 4 * lSlots[t];
     for (let k = 0; k < 4; k++) {
-      const j = indexInU(f[s4 + k], nU);
-      if (j >= 0 && !lInHead[j]) {
-        lInHead[j] = 1;
-        lW[n++] = lU[j];
+      const v = f[s4 + k];
+      if (sv[v] !== gh) {
+        sv[v] = gh;
+        lW[n++] = v;
       }
     }
   }
-  for (let j = 0; j < nU; j++) if (!lInHead[j]) lW[n++] = lU[j];
+  for (let j = 0; j < nU; j++) {
+    const v = lU[j];
+    if (sv[v] !== gh) lW[n++] = v;
+  }
   return n;
 }
 
