@@ -114,6 +114,8 @@ let curR = 0;
 let curU = -1;
 // Vertex stamp of U for the current record (see nextGen).
 let curGu = 0;
+// Whether lU[0..curU) is sorted yet (see collectU).
+let uSorted = false;
 
 /** Fills lR for anchor `m` (and lA); sets curR, resets curU. */
 function neighbourhood(st, m) {
@@ -204,7 +206,11 @@ function exactEntries(st, na) {
   return entries;
 }
 
-/** Collects lU (once per record) from lR; returns |U|. */
+/**
+ * Collects U (once per record) from lR into lU, in collection order;
+ * returns |U|. Sorting waits for sortedU: most records need only |U| (the
+ * moved vertices they name are usually in the head of W).
+ */
 function collectU(f) {
   if (curU >= 0) return curU;
   const gu = curGu;
@@ -220,9 +226,17 @@ function collectU(f) {
       }
     }
   }
-  sortInts(lU, nu);
   curU = nu;
+  uSorted = false;
   return nu;
+}
+
+/** Sorts lU[0..|U|) once per record (U is collected). */
+function sortedU() {
+  if (!uSorted) {
+    sortInts(lU, curU);
+    uSorted = true;
+  }
 }
 
 /** The `t`-th ascending local index (first as is, then gaps after `next`). */
@@ -233,13 +247,14 @@ function localIndex(ctx, t, next, len, what) {
 }
 
 /**
- * Fills lW (spec §7.7: moved-vertex vocabulary) for the rewritten slots
- * lSlots[0..nRw]; returns its length (= |U|). The rewritten slots are in R,
- * so their corners are in U: the head is marked with a vertex stamp (U's
- * stamp is no longer needed once lU is collected) instead of being looked
- * up in lU.
+ * Fills the head of lW (spec §7.7: moved-vertex vocabulary), the distinct
+ * old corners of the rewritten slots lSlots[0..nRw]; returns its length.
+ * The rewritten slots are in R, so their corners are in U: the head is
+ * marked with a vertex stamp (U's stamp is no longer needed once U is
+ * collected) instead of being looked up in U. W's length is |U|; its tail
+ * (vocabularyTail) is built only when an index reaches it.
  */
-function movedVocabulary(f, nRw, nU) {
+function vocabularyHead(f, nRw) {
   const gh = curGu + 1;
   const sv = stampV;
   let n = 0;
@@ -253,6 +268,16 @@ function movedVocabulary(f, nRw, nU) {
       }
     }
   }
+  return n;
+}
+
+/** Appends to lW[0..h) the vertices of U not in the head, ascending; returns |W| (= |U|). */
+function vocabularyTail(h) {
+  sortedU();
+  const gh = curGu + 1;
+  const sv = stampV;
+  const nU = curU;
+  let n = h;
   for (let j = 0; j < nU; j++) {
     const v = lU[j];
     if (sv[v] !== gh) lW[n++] = v;
@@ -265,6 +290,7 @@ function cornerCode(ctx, V, nNew, nRw, f) {
   const x = ctx.conn.u();
   if (x === 0) {
     const nU = collectU(f);
+    sortedU();
     const i = ctx.slots.u();
     if (i >= nU) throw `local corner index ${i} outside 0..${nU}`;
     const v = lU[i];
@@ -329,11 +355,17 @@ export function decodeLocal(ctx, sym) {
   // rewritten slots (slot order, corners 0..3), then the rest of U
   // ascending. Applied at once, so that predictions see them.
   if (nMoved > 0) {
-    const nW = movedVocabulary(st.f, nRw, nU);
+    // nU = |W|; the tail of W is built when an index first reaches it.
+    const h = vocabularyHead(st.f, nRw);
+    let tail = false;
     next = 0;
     for (let t = 0; t < nMoved; t++) {
-      const i = localIndex(ctx, t, next, nW, 'moved vertex');
+      const i = localIndex(ctx, t, next, nU, 'moved vertex');
       next = i + 1;
+      if (i >= h && !tail) {
+        vocabularyTail(h);
+        tail = true;
+      }
       const v = lW[i];
       const q = st.q;
       readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], "moved vertex", v, "");
