@@ -483,3 +483,20 @@ export function decodeLocal(ctx, sym) {
     appendQuad(ctx, app[4 * i], app[4 * i + 1], app[4 * i + 2], app[4 * i + 3]);
   }
 }
+
+/**
+ * The neighbourhood lists R and U (spec §7.7 step 2) of anchor `m` in
+ * frontier `st`, ascending, as fresh arrays; throws a message string where
+ * a local-form record with this anchor would be invalid (no face, more than
+ * 255 faces, more than 4096 entries). For tests: the decoder uses the
+ * scratch lists directly.
+ * @param {import('./codec.js').Frontier} st
+ * @param {number} m
+ * @returns {{R: number[], U: number[]}}
+ */
+export function neighbourhoodLists(st, m) {
+  neighbourhood(st, m);
+  const nU = collectU(st.f);
+  sortedU();
+  return { R: [...lR.subarray(0, curR)], U: [...lU.subarray(0, nU)] };
+}
