@@ -147,10 +147,18 @@ function neighbourhood(st, m) {
   // each live corner once; repeats are rare and can only raise the count,
   // so the count is exact-checked (exactEntries) only when the raw one
   // passes the limit: no per-corner stamp on the common path.
-  let entries = 0;
+  // The anchor's faces are S (the star, stale and repeated nodes already
+  // dropped): listed without walking m's corner list a second time.
+  let entries = K;
   let nr = 0;
+  for (let i = 0; i < K; i++) {
+    const s = starSlots[i];
+    sf[s] = gf;
+    lR[nr++] = s;
+  }
   for (let i = 0; i < na; i++) {
     const u = lA[i];
+    if (u === m) continue;
     let kept = -1;
     for (let n = head[u]; n >= 0; ) {
       const c = nodeC[n];
