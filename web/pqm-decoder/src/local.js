@@ -173,7 +173,9 @@ function neighbourhood(st, m) {
       n = next;
       entries++;
       const s = c >> 2;
-      if (sf[s] !== gf) {
+      // nr ≤ distinct entries: past MAX_CORNERS the record is invalid
+      // (checked below), so lR never needs more room
+      if (sf[s] !== gf && nr < MAX_CORNERS) {
         sf[s] = gf;
         lR[nr++] = s;
       }
