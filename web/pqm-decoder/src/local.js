@@ -61,10 +61,7 @@ function nextGen(nv, nf) {
   return gen - 3;
 }
 
-// Star of the anchor (Frontier.star output) and per-corner stamps that drop
-// repeated nodes of the decoder's corner lists (spec counts corners).
-const starSlots = new Int32Array(MAX_STAR);
-const starCorners = new Int32Array(MAX_STAR);
+// Per-corner stamps for the exact entry count (exactEntries).
 let stampC = new Int32Array(0);
 let genC = 0;
 
@@ -127,12 +124,35 @@ function neighbourhood(st, m) {
   const gf = gv + 1;
   const sv = stampV;
   const sf = stampF;
-  let na = 0;
-  // Frontier.star drops stale and repeated nodes and throws past 255 faces.
-  const K = st.star(m, starSlots, starCorners);
+  // S, the anchor's faces: its live corners, one per slot (stale and
+  // repeated nodes unlinked, as Frontier.star does, with the same limit
+  // and message). S is listed in R at once; R is sorted at the end, so the
+  // star needs no order (Frontier.star's insertion sort is skipped).
+  let K = 0;
+  let nr = 0;
+  let kept = -1;
+  for (let n = head[m]; n >= 0; ) {
+    const c = nodeC[n];
+    const next = nodeN[n];
+    const s = c >> 2;
+    if (f[c] !== m || sf[s] === gf) {
+      if (kept < 0) head[m] = next;
+      else nodeN[kept] = next;
+      n = next;
+      continue;
+    }
+    if (K === MAX_STAR) throw `vertex ${m} is in more than ${MAX_STAR} faces`;
+    sf[s] = gf;
+    lR[nr++] = s;
+    K++;
+    kept = n;
+    n = next;
+  }
   if (K === 0) throw `anchor ${m} has no face`;
+  // A: the distinct corners of S.
+  let na = 0;
   for (let i = 0; i < K; i++) {
-    const s4 = 4 * starSlots[i];
+    const s4 = 4 * lR[i];
     for (let k = 0; k < 4; k++) {
       const u = f[s4 + k];
       if (sv[u] !== gv) {
@@ -141,21 +161,14 @@ function neighbourhood(st, m) {
       }
     }
   }
-  // The corner lists may hold stale nodes (the corner moved on), unlinked
-  // here as Frontier.star does so that later walks of these busy lists are
-  // shorter, and repeats (a corner that came back), kept. The spec counts
-  // each live corner once; repeats are rare and can only raise the count,
-  // so the count is exact-checked (exactEntries) only when the raw one
-  // passes the limit: no per-corner stamp on the common path.
-  // The anchor's faces are S (the star, stale and repeated nodes already
-  // dropped): listed without walking m's corner list a second time.
+  // The other corner lists may hold stale nodes (the corner moved on),
+  // unlinked here too so that later walks of these busy lists are shorter,
+  // and repeats (a corner that came back), kept. The spec counts each live
+  // corner once; repeats are rare and can only raise the count, so the
+  // count is exact-checked (exactEntries) only when the raw one passes the
+  // limit: no per-corner stamp on the common path. The anchor's entries
+  // are its K faces.
   let entries = K;
-  let nr = 0;
-  for (let i = 0; i < K; i++) {
-    const s = starSlots[i];
-    sf[s] = gf;
-    lR[nr++] = s;
-  }
   for (let i = 0; i < na; i++) {
     const u = lA[i];
     if (u === m) continue;

@@ -137,3 +137,21 @@ test('repeated list nodes do not count: 4092 entries listed as more than 4096 no
   assert.equal(U.length, st.nv);
   assert.deepEqual(R, [...Array(st.nf).keys()]);
 });
+
+test('an anchor in more than 255 faces (each listed twice) is invalid; in 255 it is not', () => {
+  for (const faces of [255, 256]) {
+    const st = new Frontier();
+    st.maxV = 2 * faces + 2;
+    st.maxF = faces;
+    st.nv = 2 * faces + 2;
+    st.nf = faces;
+    st.reserve(st.nv, st.nf);
+    st.head = new Int32Array(st.nv);
+    for (let s = 0; s < faces; s++) st.f.set([0, 1 + 2 * s, 2 + 2 * s, 2 * faces + 1], 4 * s);
+    st.rebuild();
+    for (let s = 0; s < faces; s++) st.link(4 * s, 0); // repeated nodes of the anchor
+    check(st, 0, `${faces} faces`);
+    if (faces === 256) assert.throws(() => neighbourhoodLists(st, 0), (e) => /more than 255 faces/.test(e));
+    else assert.equal(neighbourhoodLists(st, 0).R.length, 255);
+  }
+});
