@@ -155,3 +155,35 @@ test('an anchor in more than 255 faces (each listed twice) is invalid; in 255 it
     else assert.equal(neighbourhoodLists(st, 0).R.length, 255);
   }
 });
+
+test('stamps stay exact across their wrap-around (16-bit generations)', () => {
+  // Component X: quad 0 on vertices 0..3; component Y: random quads on
+  // 4..13. X is walked, then Y 16,382 times, then X again: the generation
+  // counter cycles every 16,383 walks, so the second walk of X gets the
+  // same stamp values as the first, and only the clearing at the wrap keeps
+  // X's old stamps from hiding its vertices and faces.
+  const rand = rng(21);
+  const st = new Frontier();
+  st.maxV = 14;
+  st.maxF = 13;
+  st.nv = 14;
+  st.nf = 13;
+  st.reserve(st.nv, st.nf);
+  st.head = new Int32Array(st.nv);
+  st.f.set([0, 1, 2, 3], 0);
+  for (let s = 1; s < st.nf; s++) st.f.set(randomQuad(rand, 10).map((v) => v + 4), 4 * s);
+  st.rebuild();
+  const wantX = bruteNeighbourhood(st, 0);
+  assert.deepEqual(neighbourhoodLists(st, 0), wantX);
+  const ys = [];
+  for (let m = 4; m < 14; m++) {
+    const w = bruteNeighbourhood(st, m);
+    if (!w.error) ys.push([m, w]);
+  }
+  for (let call = 0; call < 16382; call++) {
+    const [m, w] = ys[call % ys.length];
+    const got = neighbourhoodLists(st, m);
+    if (got.R.length !== w.R.length || got.U.length !== w.U.length) assert.deepEqual(got, w, `call ${call}, anchor ${m}`);
+  }
+  assert.deepEqual(neighbourhoodLists(st, 0), wantX, 'X after a full cycle of generations');
+});
