@@ -83,10 +83,10 @@ function nextCornerGen(nf) {
 
 /**
  * Sorts a[0..n) ascending in place. Insertion sort: the lists are short
- * (|R| is 16 around a regular interior vertex, |U| 25) and nearly sorted
- * (collected face by face around the anchor), where it beats
- * TypedArray.prototype.sort (a subarray view and a generic sort per call).
- * Falls back to the built-in sort for long lists.
+ * (|R| is 16 around a regular interior vertex, |U| 25; on bunny's records
+ * 19.6 and 30.4 on average), where it beats TypedArray.prototype.sort (a
+ * subarray view and a generic sort per call). Falls back to the built-in
+ * sort for long lists.
  */
 function sortInts(a, n) {
   if (n > 64) {
@@ -106,9 +106,10 @@ function sortInts(a, n) {
 
 // Sizes of the neighbourhood of the record being decoded: |R|, and |U| or
 // −1 while U is not collected yet (U is needed only by moved vertices and
-// explicit corners, which most records lack; it is a function of the quads
-// before the record, which stay in st.f until the record is applied, so
-// collecting it later gives the same list).
+// explicit corners — 96 % of bunny's local records move a vertex, so this
+// saves little, but costs nothing; U is a function of the quads before the
+// record, which stay in st.f until the record is applied, so collecting it
+// later gives the same list).
 let curR = 0;
 let curU = -1;
 // Vertex stamp of U for the current record (see nextGen).
