@@ -603,7 +603,17 @@ function decodeGeneral(ctx) {
     checkDistinct(app, 4 * i, 'appended quad', i);
   }
 
-  // 6. new vertex codes. First find, for each new vertex, the first quad
+  finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app);
+}
+
+/**
+ * The end of a general- or local-form record (spec §7.4 steps 6 and the
+ * apply of §7.1): new vertex codes against the §7.6 prediction, then the
+ * rewritten slots (`slots`, ascending) and the appended quads.
+ */
+export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
+  const st = ctx.st;
+  // New vertex codes. First find, for each new vertex, the first quad
   // containing it in the order "appended, then rewritten by slot" — one
   // pass over the quads rather than one per vertex.
   if (nNew > 0) {

@@ -11,7 +11,7 @@
  * Written from the spec; shares only the apply/log primitives with the
  * general form (codec.js).
  */
-import { readCode, logMove, rewriteSlot, appendQuad, appendVertex, checkDistinct } from './codec.js';
+import { readCode, logMove, checkDistinct, finishRecord } from './codec.js';
 
 const MAX_STAR = 255;
 const MAX_CORNERS = 4096;
@@ -26,7 +26,6 @@ let lSlots = new Int32Array(64);
 let lRw = new Int32Array(256);
 let lApp = new Int32Array(256);
 let lExtra = new Int32Array(64);
-let lFirst = new Int32Array(64);
 const lQuad = new Int32Array(4);
 
 // Generation stamps (spec order is by id; stamps drop repeats so that only
@@ -338,8 +337,6 @@ function cornerCode(ctx, V, nNew, nRw, f) {
   return lExtra[e];
 }
 
-const clamp = (x, qmax) => (x < 0 ? 0 : x > qmax ? qmax : x);
-
 /** Local form (spec §7.7); `sym` is the record's symbol byte. */
 export function decodeLocal(ctx, sym) {
   if (sym >> 4) throw `local-form symbol 0x${sym.toString(16)} has bits 4-7 set`;
@@ -423,91 +420,7 @@ export function decodeLocal(ctx, sym) {
     checkDistinct(app, 4 * i, "appended quad", i);
   }
 
-  // New vertex codes (spec §7.6): the first quad containing each, in the
-  // order "appended, then rewritten by slot" (lSlots is ascending).
-  if (nNew > 0) {
-    if (nNew > lFirst.length) lFirst = new Int32Array(2 * nNew);
-    const firstHit = lFirst;
-    firstHit.fill(-1, 0, nNew);
-    for (let i = 0; i < 4 * nApp; i++) {
-      const v = app[i] - V;
-      if (v >= 0 && firstHit[v] < 0) firstHit[v] = i;
-    }
-    const base = 4 * nApp;
-    for (let i = 0; i < 4 * nRw; i++) {
-      const v = rwNew[i] - V;
-      if (v >= 0 && firstHit[v] < 0) firstHit[v] = base + i;
-    }
-    st.reserve(V + nNew, NF);
-    const qmax = ctx.qmax;
-    for (let k = 0; k < nNew; k++) {
-      const x = V + k;
-      const q = st.q;
-      let px, py, pz;
-      let found = false;
-      const hit = firstHit[k];
-      if (hit >= 0) {
-        const arr = hit < base ? app : rwNew;
-        const o = hit < base ? hit & ~3 : (hit - base) & ~3;
-        const c = hit & 3;
-        const n1 = arr[o + ((c + 1) & 3)];
-        const op = arr[o + ((c + 2) & 3)];
-        const n3 = arr[o + ((c + 3) & 3)];
-        const k1 = n1 < x;
-        const ko = op < x;
-        const k3 = n3 < x;
-        if (k1 && ko && k3) {
-          px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
-          py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
-          pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
-          found = true;
-        } else if (k1 || ko || k3) {
-          let sx = 0, sy = 0, sz = 0, n = 0;
-          if (k1) {
-            sx += q[3 * n1];
-            sy += q[3 * n1 + 1];
-            sz += q[3 * n1 + 2];
-            n++;
-          }
-          if (ko) {
-            sx += q[3 * op];
-            sy += q[3 * op + 1];
-            sz += q[3 * op + 2];
-            n++;
-          }
-          if (k3) {
-            sx += q[3 * n3];
-            sy += q[3 * n3 + 1];
-            sz += q[3 * n3 + 2];
-            n++;
-          }
-          px = Math.floor(sx / n);
-          py = Math.floor(sy / n);
-          pz = Math.floor(sz / n);
-          found = true;
-        }
-      }
-      if (!found) {
-        if (x > V) {
-          px = q[3 * (x - 1)];
-          py = q[3 * (x - 1) + 1];
-          pz = q[3 * (x - 1) + 2];
-        } else {
-          px = py = pz = ctx.half;
-        }
-      }
-      readCode(ctx, px, py, pz, "new vertex", x, "");
-      appendVertex(ctx);
-    }
-  }
-
-  // Apply the connectivity.
-  for (let i = 0; i < nRw; i++) {
-    rewriteSlot(ctx, lSlots[i], rwNew[4 * i], rwNew[4 * i + 1], rwNew[4 * i + 2], rwNew[4 * i + 3]);
-  }
-  for (let i = 0; i < nApp; i++) {
-    appendQuad(ctx, app[4 * i], app[4 * i + 1], app[4 * i + 2], app[4 * i + 3]);
-  }
+  finishRecord(ctx, V, NF, nNew, lSlots, nRw, rwNew, nApp, app);
 }
 
 /**
