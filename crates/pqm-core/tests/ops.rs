@@ -71,6 +71,44 @@ fn qe_merge_on_a_torus() {
     assert_eq!((m.valence(a), m.valence(d)), (5, 5));
 }
 
+/// The crossing-side re-fan (operators.md: "also legal; a candidate the
+/// cost can choose"): on a regular torus each one-sided crossing variant is
+/// a valid qeMerge with the same counts as the plain one but a different
+/// result; both crossing is rejected (the fans would share faces).
+#[test]
+fn qe_merge_crossing_refans_on_a_torus() {
+    let src = torus(24, 16);
+    let m0 = Mesh::from_indexed(&src).unwrap();
+    let h = m0.face_halfedge(FaceId(33));
+    let site = ops::qe_merge::qe_site(&m0, h).unwrap();
+    let [a, _, _, d, _, _] = site.v;
+    let (pa, pd) = (m0.position(a), m0.position(d));
+    let result = |cross: [bool; 2]| {
+        let mut m = m0.clone();
+        let patch = ops::qe_merge::can_qe_merge_with(&m, h, pa, pd, cross).unwrap();
+        ops::qe_merge(&mut m, &patch).unwrap();
+        m.validate().unwrap();
+        assert_eq!(
+            counts(&m),
+            (
+                m0.vertex_count() - 4,
+                m0.edge_count() - 8,
+                m0.face_count() - 4
+            )
+        );
+        assert!(quad_only(&m));
+        assert_eq!(m.genus(), 1);
+        canon(&m.to_indexed().0)
+    };
+    let plain = result([false, false]);
+    let cross_a = result([true, false]);
+    let cross_d = result([false, true]);
+    assert_ne!(plain, cross_a);
+    assert_ne!(plain, cross_d);
+    assert_ne!(cross_a, cross_d);
+    assert!(ops::qe_merge::can_qe_merge_with(&m0, h, pa, pd, [true, true]).is_err());
+}
+
 #[test]
 fn doublet_is_found_and_removed() {
     // qvMerge twice around one vertex of a grid leaves it with valence 2
@@ -163,6 +201,63 @@ fn undo_restores_ids_and_positions() {
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
+    /// As `random_operator_sequences`, with qeMerges re-fanning on any side
+    /// combination (including the rejected "both crossing"): every accepted
+    /// step keeps the mesh valid and quad-only; exact undo.
+    #[test]
+    fn random_sequences_with_crossing_refans(
+        shape in 0usize..2,
+        steps in prop::collection::vec((0u32..400, 0usize..18), 1..30),
+    ) {
+        let src = if shape == 0 { quad_sphere(5) } else { torus(20, 14) };
+        let mut m = Mesh::from_indexed(&src).unwrap();
+        let chi = m.euler_characteristic();
+        let mut log = Vec::new();
+        for (pick, kind) in steps {
+            let fs: Vec<FaceId> = m.faces().collect();
+            let f = fs[pick as usize % fs.len()];
+            let patch = if kind < 2 {
+                let q = m.quad_vertices(f).unwrap();
+                let p = midpoint(&m, q[kind], q[kind + 2]);
+                ops::can_qv_merge(&m, f, kind, false, p)
+            } else {
+                let (edge, side) = ((kind - 2) % 4, (kind - 2) / 4);
+                let cross = [side & 1 == 1, side & 2 == 2];
+                let h = m.face_halfedges(f).nth(edge).unwrap();
+                match ops::qe_merge::qe_site(&m, h) {
+                    Ok(site) => {
+                        let pa = midpoint(&m, site.v[0], site.v[1]);
+                        let pd = midpoint(&m, site.v[3], site.v[2]);
+                        let r = ops::qe_merge::can_qe_merge_with(&m, h, pa, pd, cross);
+                        prop_assert!(!(cross == [true, true] && r.is_ok()));
+                        r
+                    }
+                    Err(e) => Err(e),
+                }
+            };
+            let Ok(patch) = patch else { continue };
+            let before = m.face_count();
+            log.push(ops::apply_undoable(&mut m, &patch).unwrap());
+            prop_assert_eq!(m.face_count(), before - if kind < 2 { 1 } else { 4 });
+            let touched: Vec<VertexId> = patch.add.iter().flatten().copied().collect();
+            for v in ops::find_doublets(&m, &touched) {
+                if let Ok(d) = ops::can_remove_doublet(&m, v) {
+                    log.push(ops::apply_undoable(&mut m, &d).unwrap());
+                }
+            }
+            m.validate_structure().unwrap();
+            prop_assert!(quad_only(&m));
+            prop_assert_eq!(m.euler_characteristic(), chi);
+        }
+        while let Some(a) = log.pop() {
+            ops::undo(&mut m, &a).unwrap();
+        }
+        m.validate().unwrap();
+        let (back, _) = m.to_indexed();
+        prop_assert_eq!(&back.positions, &src.positions);
+        prop_assert_eq!(canon(&back), canon(&src));
+    }
+
     /// Random qvMerge / qeMerge / doublet sequences on a quad sphere and a
     /// torus: after each accepted step the mesh is structurally valid,
     /// quad-only and keeps its Euler characteristic; undoing every step in

@@ -14,6 +14,14 @@
 //!    by a triangle and a quad until two triangles meet, then join them",
 //!    done in one step.
 //!
+//! **Crossing side.** Each endpoint's fan may instead run over the other
+//! side, the one that crosses `A–D` (`shared/design/operators.md`: "also
+//! legal; it is a candidate the cost can choose"): same construction, the
+//! path then passes through the other endpoint. [`qe_merge_patch_with`]
+//! takes the side per endpoint; the two fans must not share a face, so
+//! "both crossing" (whose fans would both take the two faces on `A–D`) is
+//! rejected, leaving three usable combinations.
+//!
 //! Net: V−4, F−4, E−8. An endpoint whose collapse makes no triangle (both of
 //! its collapsing edges on the boundary) needs no re-fan; any other count, or
 //! a face that degenerates further (an endpoint of valence 3), is rejected by
@@ -84,6 +92,20 @@ pub fn can_qe_merge(
     Ok(patch)
 }
 
+/// [`can_qe_merge`] with the re-fan side chosen per endpoint (see
+/// [`qe_merge_patch_with`]).
+pub fn can_qe_merge_with(
+    mesh: &Mesh,
+    h: HalfedgeId,
+    pos_a: DVec3,
+    pos_d: DVec3,
+    cross: [bool; 2],
+) -> Result<Patch, Reject> {
+    let patch = qe_merge_patch_with(mesh, h, pos_a, pos_d, cross)?;
+    check_patch(mesh, &patch)?;
+    Ok(patch)
+}
+
 /// The unchecked patch of a qeMerge (for scoring; commit only after
 /// [`check_patch`]).
 pub fn qe_merge_patch(
@@ -91,6 +113,21 @@ pub fn qe_merge_patch(
     h: HalfedgeId,
     pos_a: DVec3,
     pos_d: DVec3,
+) -> Result<Patch, Reject> {
+    qe_merge_patch_with(mesh, h, pos_a, pos_d, [false, false])
+}
+
+/// [`qe_merge_patch`] with the re-fan side chosen per endpoint:
+/// `cross[0]` re-fans `A` over the side crossing `A–D`, `cross[1]` the same
+/// for `D` (`false`: the non-crossing side, the default operator). An
+/// endpoint without triangles has no fan, so asking it to cross is
+/// rejected (the candidate would duplicate the plain one).
+pub fn qe_merge_patch_with(
+    mesh: &Mesh,
+    h: HalfedgeId,
+    pos_a: DVec3,
+    pos_d: DVec3,
+    cross: [bool; 2],
 ) -> Result<Patch, Reject> {
     let site = qe_site(mesh, h)?;
     let [a, b, c, d, e, f] = site.v;
@@ -131,7 +168,18 @@ pub fn qe_merge_patch(
     let mut fan_old: [Vec<FaceId>; 2] = Default::default();
     let mut fan_new: [Vec<[VertexId; 4]>; 2] = Default::default();
     for (side, (x, y)) in [(a, d), (d, a)].into_iter().enumerate() {
-        refan(&mapped, x, y, &mut fan_old[side], &mut fan_new[side])?;
+        refan(
+            &mapped,
+            x,
+            y,
+            cross[side],
+            &mut fan_old[side],
+            &mut fan_new[side],
+        )?;
+    }
+    // Crossing fans take the faces on A–D; two fans must not share one.
+    if fan_old[0].iter().any(|g| fan_old[1].contains(g)) {
+        return Err(Reject::NotApplicable("the two re-fans share a face"));
     }
     // Rewritten faces first (each keeps its id), then the fans (k + 1 new
     // quads take the ids of the first k + 1 old fan faces), then the deleted
@@ -166,12 +214,14 @@ pub fn qe_merge_patch(
 }
 
 /// Re-fans the faces around `x` between its two triangles on the side that
-/// does not cross edge `x–y`. Appends the old faces (in walk order) to
-/// `old` and the new quads to `new`. No triangle at `x`: nothing to do.
+/// does not cross edge `x–y` (`cross`: on the side that does). Appends the
+/// old faces (in walk order) to `old` and the new quads to `new`. No
+/// triangle at `x`: nothing to do (an error when `cross` asks for a fan).
 fn refan(
     mapped: &[(FaceId, FaceVerts, bool)],
     x: VertexId,
     y: VertexId,
+    cross: bool,
     old: &mut Vec<FaceId>,
     new: &mut Vec<[VertexId; 4]>,
 ) -> Result<(), Reject> {
@@ -188,18 +238,24 @@ fn refan(
         }
     }
     match tris.len() {
+        0 if cross => return Err(Reject::NotApplicable("no fan to cross with")),
         0 => return Ok(()),
         2 => {}
         _ => return Err(Reject::NotApplicable("odd triangle count at an endpoint")),
     }
     // Walk forward (corner A → B when A.after == B.before) from one triangle
-    // to the other; the walk must not step across edge x–y.
+    // to the other; the walk must step across edge x–y exactly when `cross`
+    // (going round x, it does so at most once).
     let walk = |from: usize, to: usize| -> Option<Vec<usize>> {
         let mut chain = vec![from];
         let mut cur = from;
+        let mut crossed = false;
         while cur != to {
             if corners[cur].1 == y {
-                return None;
+                if !cross {
+                    return None;
+                }
+                crossed = true;
             }
             let next = corners.iter().position(|c| c.0 == corners[cur].1)?;
             if chain.contains(&next) {
@@ -208,13 +264,15 @@ fn refan(
             chain.push(next);
             cur = next;
         }
-        Some(chain)
+        (crossed == cross).then_some(chain)
     };
     let chain = walk(tris[0], tris[1])
         .or_else(|| walk(tris[1], tris[0]))
-        .ok_or(Reject::NotApplicable(
-            "no re-fan side avoids the merged edge",
-        ))?;
+        .ok_or(Reject::NotApplicable(if cross {
+            "no re-fan side crosses the merged edge"
+        } else {
+            "no re-fan side avoids the merged edge"
+        }))?;
     // Outer path in walk order: each face contributes its link from the
     // vertex before x to the vertex after x (reverse of its ccw order).
     let mut path: Vec<VertexId> = Vec::with_capacity(2 * chain.len() + 1);
