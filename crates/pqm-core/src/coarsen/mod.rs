@@ -53,7 +53,7 @@ use crate::qem::{self, Quadric};
 use features::{FeatureDelta, FeatureState, GroupConstraint};
 use glam::DVec3;
 use rayon::prelude::*;
-use record::StepLog;
+use record::{StepLog, StepLogs};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -247,7 +247,7 @@ pub struct Coarsener {
     /// whenever the topology allows (the error bound `max_error` stays).
     limit_deviation: bool,
     queue: BinaryHeap<Entry>,
-    logs: Vec<StepLog>,
+    logs: StepLogs,
     errors: Vec<f64>,
     report: CoarsenReport,
     input_faces: usize,
@@ -348,7 +348,7 @@ impl Coarsener {
             diag,
             error: 0.0,
             queue: BinaryHeap::new(),
-            logs: Vec::new(),
+            logs: StepLogs::new(),
             errors: vec![0.0],
             report: CoarsenReport::default(),
             input_faces,
@@ -378,7 +378,7 @@ impl Coarsener {
         &self.mesh
     }
     /// Steps logged so far (coarsening order).
-    pub fn logs(&self) -> &[StepLog] {
+    pub fn logs(&self) -> &StepLogs {
         &self.logs
     }
     /// Most entries the priority queue held at once, and the bytes of one
@@ -1047,7 +1047,9 @@ impl Coarsener {
             .filter(|&&(v, before)| self.mesh.position(v) != before)
             .copied()
             .collect();
-        self.logs.push(StepLog::of_patch(
+        // the step's logs are completed here, then stored compactly
+        let mut step_logs = Vec::with_capacity(1 + doublet_logs.len());
+        step_logs.push(StepLog::of_patch(
             op,
             &patch,
             applied,
@@ -1058,7 +1060,7 @@ impl Coarsener {
         self.errors.push(self.error);
         for ((d, pos), a) in doublet_logs.iter().zip(&undo_stack[1..]) {
             let removed = vec![(d.merged[0].0, *pos)];
-            self.logs.push(StepLog::of_patch(
+            step_logs.push(StepLog::of_patch(
                 OpKind::Doublet,
                 d,
                 a,
@@ -1068,7 +1070,7 @@ impl Coarsener {
             self.errors.push(self.error);
             self.report.doublets += 1;
         }
-        if let Some(last) = self.logs.last_mut() {
+        if let Some(last) = step_logs.last_mut() {
             // the rescue may relax a vertex the op itself moved (a merge
             // target): one entry per vertex, from before the op to the end
             // (a log keeps the position before only: the one after is the
@@ -1078,6 +1080,9 @@ impl Coarsener {
                     last.moved.push((v, before));
                 }
             }
+        }
+        for log in &step_logs {
+            self.logs.push(log);
         }
         match op {
             OpKind::QvMerge => self.report.qv_merges += 1,
@@ -1303,7 +1308,7 @@ impl Coarsener {
                 continue;
             };
             let removed = vec![(v, pos)];
-            self.logs.push(StepLog::of_patch(
+            self.logs.push(&StepLog::of_patch(
                 OpKind::Doublet,
                 &d,
                 &a,
@@ -1372,7 +1377,7 @@ impl Coarsener {
         }
         let drift = self.drift_updates(&old, &[]);
         self.commit_drift(&drift, &[]);
-        self.logs.push(StepLog {
+        self.logs.push(&StepLog {
             op: OpKind::Smooth,
             faces_before: Vec::new(),
             faces_after: Vec::new(),

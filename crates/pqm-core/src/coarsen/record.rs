@@ -76,31 +76,215 @@ impl StepLog {
 
 const NONE: u32 = u32::MAX;
 
-/// Builds the progressive mesh from the coarsest mesh and the logs (in
-/// coarsening order). `errors[s]` is the error bound after `s` steps
-/// (`logs.len() + 1` entries).
-pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> ProgressiveMesh {
-    build(coarsest, logs.len(), logs.iter().rev(), errors)
+/// Elements per chunk of a [`Chunked`] arena (a power of two, so a first
+/// chunk grown by doubling stops exactly at it).
+const CHUNK: usize = 1 << 16;
+
+/// An append-only array stored in chunks of [`CHUNK`] elements.
+///
+/// Why not one `Vec`: growing a `Vec` by doubling holds the old and the new
+/// buffer at once (up to 3x the contents) and leaves up to 2x slack; the
+/// step logs are the biggest thing the coarsener keeps, so that slack would
+/// be a large part of the peak. Chunks bound the slack to one chunk and never
+/// copy. Every chunk but the last holds exactly `CHUNK` elements.
+#[derive(Clone, Debug, Default)]
+struct Chunked<T> {
+    chunks: Vec<Vec<T>>,
+    len: usize,
 }
 
-/// [`to_progressive`] that consumes the logs and frees each one as soon as
-/// its record is built, so the logs and the records are not both held in
-/// full (the same result).
-pub fn into_progressive(
-    coarsest: &Mesh,
-    mut logs: Vec<StepLog>,
-    errors: &[f64],
-) -> ProgressiveMesh {
-    let n = logs.len();
-    let fine_to_coarse = std::iter::from_fn(move || {
-        let log = logs.pop();
-        // the log array itself shrinks as it empties
-        if logs.len() < logs.capacity() / 4 {
-            logs.shrink_to_fit();
+impl<T: Copy> Chunked<T> {
+    fn push(&mut self, x: T) {
+        match self.chunks.last_mut() {
+            Some(c) if c.len() < CHUNK => c.push(x),
+            _ => {
+                // the first chunk grows by doubling (small inputs stay
+                // small); later ones are allocated whole
+                let mut c = if self.chunks.is_empty() {
+                    Vec::new()
+                } else {
+                    Vec::with_capacity(CHUNK)
+                };
+                c.push(x);
+                self.chunks.push(c);
+            }
         }
-        log
-    });
-    build(coarsest, n, fine_to_coarse, errors)
+        self.len += 1;
+    }
+    fn get(&self, i: usize) -> T {
+        self.chunks[i / CHUNK][i % CHUNK]
+    }
+    /// Drops the elements from `len` on, freeing emptied chunks.
+    fn truncate(&mut self, len: usize) {
+        let keep = len.div_ceil(CHUNK);
+        self.chunks.truncate(keep);
+        if let Some(c) = self.chunks.last_mut() {
+            c.truncate(len - (keep - 1) * CHUNK);
+        }
+        if self.chunks.len() < self.chunks.capacity() / 4 {
+            self.chunks.shrink_to_fit();
+        }
+        self.len = len;
+    }
+}
+
+/// Trailer words per step in [`StepLogs`]: rewritten faces, appended faces,
+/// removed vertices, `moved << 2 | op`.
+const TRAILER: usize = 4;
+
+/// Every committed step's log, stored compactly as it is committed.
+///
+/// One chunked arena of `u32` ids and one of positions serve all steps (no
+/// per-step allocation or `Vec` headers). A step's ids are: for each face
+/// before it — rewritten faces first, then the ones it deleted (whose slots
+/// refinement appends) — the face id and its four vertex ids; then the
+/// removed vertices' ids; then the moved vertices' ids; then a
+/// [`TRAILER`] of counts, last so that the steps can be read back from the
+/// end (which is the order [`to_progressive`] needs) without an index.
+/// Positions: the removed vertices', then the moved vertices' (before the
+/// step). `faces_after` is not stored: it is exactly the rewritten faces.
+#[derive(Clone, Debug, Default)]
+pub struct StepLogs {
+    ids: Chunked<u32>,
+    positions: Chunked<DVec3>,
+    steps: usize,
+}
+
+impl StepLogs {
+    /// No steps.
+    pub fn new() -> StepLogs {
+        StepLogs::default()
+    }
+    /// Number of steps logged.
+    pub fn len(&self) -> usize {
+        self.steps
+    }
+    /// Whether no step is logged.
+    pub fn is_empty(&self) -> bool {
+        self.steps == 0
+    }
+
+    /// Appends one step. `log.faces_after` must be a subset of
+    /// `log.faces_before` (true of every step: a step never creates a face
+    /// id); faces in `faces_after` only are ignored, as the records do.
+    pub fn push(&mut self, log: &StepLog) {
+        let rewritten = |f: &FaceId| log.faces_after.contains(f);
+        let mut n_rewritten = 0u32;
+        for pass_rewritten in [true, false] {
+            for (f, q) in &log.faces_before {
+                if rewritten(f) == pass_rewritten {
+                    self.ids.push(f.0);
+                    for v in q {
+                        self.ids.push(v.0);
+                    }
+                    n_rewritten += u32::from(pass_rewritten);
+                }
+            }
+        }
+        for &(v, p) in &log.removed_vertices {
+            self.ids.push(v.0);
+            self.positions.push(p);
+        }
+        for &(v, p) in &log.moved {
+            self.ids.push(v.0);
+            self.positions.push(p);
+        }
+        let n_appended = log.faces_before.len() as u32 - n_rewritten;
+        self.ids.push(n_rewritten);
+        self.ids.push(n_appended);
+        self.ids.push(log.removed_vertices.len() as u32);
+        // a mesh has far fewer than 2^30 vertices (ids are u32 and each
+        // vertex costs tens of bytes)
+        self.ids.push(((log.moved.len() as u32) << 2) | log.op as u32);
+        self.steps += 1;
+    }
+
+    /// Decodes the step whose data ends at `(ids_end, positions_end)`;
+    /// returns it with where its data starts. In `faces_before` the
+    /// rewritten faces come first.
+    fn read_back(&self, ids_end: usize, positions_end: usize) -> (StepLog, usize, usize) {
+        let t = ids_end - TRAILER;
+        let n_rewritten = self.ids.get(t) as usize;
+        let n_appended = self.ids.get(t + 1) as usize;
+        let n_removed = self.ids.get(t + 2) as usize;
+        let last = self.ids.get(t + 3);
+        let n_moved = (last >> 2) as usize;
+        let op = OpKind::from_code((last & 3) as u8).unwrap_or(OpKind::Smooth);
+        let n_faces = n_rewritten + n_appended;
+        let ids_start = t - n_faces * 5 - n_removed - n_moved;
+        let positions_start = positions_end - n_removed - n_moved;
+        let mut i = ids_start;
+        let mut next = || {
+            let x = self.ids.get(i);
+            i += 1;
+            x
+        };
+        let mut faces_before = Vec::with_capacity(n_faces);
+        for _ in 0..n_faces {
+            let f = FaceId(next());
+            let q = [next(), next(), next(), next()].map(VertexId);
+            faces_before.push((f, q));
+        }
+        let faces_after = faces_before[..n_rewritten].iter().map(|e| e.0).collect();
+        let mut p = positions_start;
+        let mut vertices = |n: usize, next: &mut dyn FnMut() -> u32| -> Vec<(VertexId, DVec3)> {
+            (0..n)
+                .map(|_| {
+                    let v = (VertexId(next()), self.positions.get(p));
+                    p += 1;
+                    v
+                })
+                .collect()
+        };
+        let removed_vertices = vertices(n_removed, &mut next);
+        let moved = vertices(n_moved, &mut next);
+        let log = StepLog {
+            op,
+            faces_before,
+            faces_after,
+            removed_vertices,
+            moved,
+        };
+        (log, ids_start, positions_start)
+    }
+
+    /// The steps, last logged first.
+    pub fn iter_rev(&self) -> impl Iterator<Item = StepLog> + '_ {
+        let mut ends = (self.ids.len, self.positions.len);
+        (0..self.steps).map(move |_| {
+            let (log, i, p) = self.read_back(ends.0, ends.1);
+            ends = (i, p);
+            log
+        })
+    }
+
+    /// Removes and returns the last step, freeing its storage (chunk by
+    /// chunk).
+    pub fn pop(&mut self) -> Option<StepLog> {
+        if self.steps == 0 {
+            return None;
+        }
+        let (log, i, p) = self.read_back(self.ids.len, self.positions.len);
+        self.ids.truncate(i);
+        self.positions.truncate(p);
+        self.steps -= 1;
+        Some(log)
+    }
+}
+
+/// Builds the progressive mesh from the coarsest mesh and the logs.
+/// `errors[s]` is the error bound after `s` steps (`logs.len() + 1`
+/// entries).
+pub fn to_progressive(coarsest: &Mesh, logs: &StepLogs, errors: &[f64]) -> ProgressiveMesh {
+    build(coarsest, logs.len(), logs.iter_rev(), errors)
+}
+
+/// [`to_progressive`] that consumes the logs and frees them as their records
+/// are built, so the logs and the records are not both held in full (the
+/// same result).
+pub fn into_progressive(coarsest: &Mesh, mut logs: StepLogs, errors: &[f64]) -> ProgressiveMesh {
+    let n = logs.len();
+    build(coarsest, n, std::iter::from_fn(move || logs.pop()), errors)
 }
 
 /// Replays `n` logs given last-logged first (coarse → fine).
