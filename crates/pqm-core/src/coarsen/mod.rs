@@ -432,6 +432,12 @@ impl Coarsener {
                 self.report.stop = Some(StopReason::NothingLegal);
                 break;
             };
+            // The queue drains while the step logs grow: give its slack
+            // back so the two peaks do not add up (at most once per
+            // halving, so the copies are amortized; the order is unchanged).
+            if self.queue.capacity() > 4096 && self.queue.len() < self.queue.capacity() / 4 {
+                self.queue.shrink_to(self.queue.len() * 2);
+            }
             if !self.fresh(&e) {
                 continue;
             }
@@ -467,11 +473,14 @@ impl Coarsener {
     /// frees the queue, attributes and quadrics first, then each step log
     /// as soon as its record is built — the same result with a lower peak
     /// (logs and records are never both held in full).
-    pub fn into_progressive(self) -> ProgressiveMesh {
-        let Coarsener {
-            mesh, logs, errors, ..
-        } = self;
-        record::into_progressive(&mesh, logs, &errors)
+    pub fn into_progressive(mut self) -> ProgressiveMesh {
+        let logs = std::mem::take(&mut self.logs);
+        let errors = std::mem::take(&mut self.errors);
+        let base = record::Base::of(&self.mesh);
+        // everything else (mesh, queue, attributes, quadrics, features) is
+        // freed before the records are built, not at the end of this scope
+        drop(self);
+        record::into_progressive(base, logs, &errors)
     }
 
     // ------------------------------------------------------------- queue

@@ -276,44 +276,74 @@ impl StepLogs {
 /// `errors[s]` is the error bound after `s` steps (`logs.len() + 1`
 /// entries).
 pub fn to_progressive(coarsest: &Mesh, logs: &StepLogs, errors: &[f64]) -> ProgressiveMesh {
-    build(coarsest, logs.len(), logs.iter_rev(), errors)
+    build(Base::of(coarsest), logs.len(), logs.iter_rev(), errors)
 }
 
 /// [`to_progressive`] that consumes the logs and frees them as their records
 /// are built, so the logs and the records are not both held in full (the
-/// same result).
-pub fn into_progressive(coarsest: &Mesh, mut logs: StepLogs, errors: &[f64]) -> ProgressiveMesh {
+/// same result). `base` is [`Base::of`] the coarsest mesh: taking it first
+/// lets the caller free the mesh before the records are built.
+pub fn into_progressive(base: Base, mut logs: StepLogs, errors: &[f64]) -> ProgressiveMesh {
     let n = logs.len();
-    build(coarsest, n, std::iter::from_fn(move || logs.pop()), errors)
+    build(base, n, std::iter::from_fn(move || logs.pop()), errors)
+}
+
+/// What the records are built from besides the logs: the coarsest mesh in
+/// canonical numbering and the maps from the coarsener's ids to it.
+#[derive(Clone, Debug)]
+pub struct Base {
+    /// Coarsener vertex id → canonical id (`u32::MAX`: not yet placed).
+    cv: Vec<u32>,
+    /// Coarsener face id → canonical slot (`u32::MAX`: not yet placed).
+    cf: Vec<u32>,
+    base: IndexedMesh,
+    vertex_order: Vec<u32>,
+}
+
+impl Base {
+    /// The base of `coarsest`: its vertices and faces in id order.
+    pub fn of(coarsest: &Mesh) -> Base {
+        let mut cv = vec![NONE; coarsest.vertex_capacity()];
+        let mut cf = vec![NONE; coarsest.face_capacity()];
+        let mut base = IndexedMesh::new();
+        let mut vertex_order = Vec::with_capacity(coarsest.vertex_capacity());
+        for v in coarsest.vertices() {
+            cv[v.idx()] = base.positions.len() as u32;
+            vertex_order.push(v.0);
+            base.positions.push(coarsest.position(v));
+        }
+        let mut buf = Vec::with_capacity(4);
+        for f in coarsest.faces() {
+            cf[f.idx()] = base.face_count() as u32;
+            buf.clear();
+            buf.extend(coarsest.face_vertices(f).map(|v| cv[v.idx()]));
+            base.push_face(&buf);
+        }
+        Base {
+            cv,
+            cf,
+            base,
+            vertex_order,
+        }
+    }
 }
 
 /// Replays `n` logs given last-logged first (coarse → fine).
-fn build<L: std::borrow::Borrow<StepLog>>(
-    coarsest: &Mesh,
+fn build(
+    start: Base,
     n: usize,
-    coarse_to_fine: impl Iterator<Item = L>,
+    coarse_to_fine: impl Iterator<Item = StepLog>,
     errors: &[f64],
 ) -> ProgressiveMesh {
-    let mut cv = vec![NONE; coarsest.vertex_capacity()];
-    let mut cf = vec![NONE; coarsest.face_capacity()];
-    let mut base = IndexedMesh::new();
-    let mut vertex_order = Vec::with_capacity(coarsest.vertex_capacity());
-    for v in coarsest.vertices() {
-        cv[v.idx()] = base.positions.len() as u32;
-        vertex_order.push(v.0);
-        base.positions.push(coarsest.position(v));
-    }
-    let mut buf = Vec::with_capacity(4);
-    for f in coarsest.faces() {
-        cf[f.idx()] = base.face_count() as u32;
-        buf.clear();
-        buf.extend(coarsest.face_vertices(f).map(|v| cv[v.idx()]));
-        base.push_face(&buf);
-    }
+    let Base {
+        mut cv,
+        mut cf,
+        base,
+        mut vertex_order,
+    } = start;
     let mut n_faces = base.face_count() as u32;
     let mut records = Vec::with_capacity(n);
     for log in coarse_to_fine {
-        let log = log.borrow();
         let mut rec = SplitRecord {
             op: log.op,
             new_vertices: Vec::new(),
@@ -321,7 +351,7 @@ fn build<L: std::borrow::Borrow<StepLog>>(
             rewritten: Vec::new(),
             appended_faces: Vec::new(),
         };
-        let mut removed = log.removed_vertices.clone();
+        let mut removed = log.removed_vertices;
         removed.sort_by_key(|r| r.0);
         for (v, p) in removed {
             cv[v.idx()] = vertex_order.len() as u32;
