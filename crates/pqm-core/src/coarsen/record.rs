@@ -128,26 +128,55 @@ impl<T: Copy> Chunked<T> {
     }
 }
 
-/// Trailer words per step in [`StepLogs`]: rewritten faces, appended faces,
-/// removed vertices, `moved << 2 | op`.
-const TRAILER: usize = 4;
+/// An id in a narrow (3-byte) step is below this; `u32::MAX` (padding) is
+/// stored as it.
+const NARROW_NONE: u32 = 0xFF_FFFF;
+/// Flag bits of a step's last byte (its low two bits are the op code).
+const WIDE: u8 = 4;
+const BIG_COUNTS: u8 = 8;
 
 /// Every committed step's log, stored compactly as it is committed.
 ///
-/// One chunked arena of `u32` ids and one of positions serve all steps (no
+/// One chunked byte arena of ids and one of positions serve all steps (no
 /// per-step allocation or `Vec` headers). A step's ids are: for each face
 /// before it — rewritten faces first, then the ones it deleted (whose slots
 /// refinement appends) — the face id and its four vertex ids; then the
-/// removed vertices' ids; then the moved vertices' ids; then a
-/// [`TRAILER`] of counts, last so that the steps can be read back from the
-/// end (which is the order [`to_progressive`] needs) without an index.
-/// Positions: the removed vertices', then the moved vertices' (before the
-/// step). `faces_after` is not stored: it is exactly the rewritten faces.
+/// removed vertices' ids; then the moved vertices' ids. Each id takes three
+/// bytes (little-endian) when every id of the step is below 2^24 - 1 — the
+/// usual case, meshes of up to 16 million elements — four otherwise. Then
+/// come the counts (rewritten, appended, removed, moved: one byte each when
+/// all are below 256, four otherwise) and a flag byte `op | WIDE |
+/// BIG_COUNTS`; being last, they let the steps be read back from the end
+/// (the order [`to_progressive`] needs) without an index. Positions: the
+/// removed vertices', then the moved vertices' (before the step).
+/// `faces_after` is not stored: it is exactly the rewritten faces.
 #[derive(Clone, Debug, Default)]
 pub struct StepLogs {
-    ids: Chunked<u32>,
+    ids: Chunked<u8>,
     positions: Chunked<DVec3>,
     steps: usize,
+}
+
+/// Reads fixed-width little-endian ids forward from a byte arena.
+struct IdReader<'a> {
+    bytes: &'a Chunked<u8>,
+    at: usize,
+    width: usize,
+}
+
+impl IdReader<'_> {
+    fn next(&mut self) -> u32 {
+        let mut x = 0u32;
+        for k in 0..self.width {
+            x |= u32::from(self.bytes.get(self.at + k)) << (8 * k);
+        }
+        self.at += self.width;
+        if self.width == 3 && x == NARROW_NONE {
+            NONE
+        } else {
+            x
+        }
+    }
 }
 
 impl StepLogs {
@@ -163,39 +192,77 @@ impl StepLogs {
     pub fn is_empty(&self) -> bool {
         self.steps == 0
     }
+    /// Bytes held (ids, positions), for memory reports.
+    pub fn heap_bytes(&self) -> usize {
+        self.ids.chunks.iter().map(Vec::capacity).sum::<usize>()
+            + self.positions.chunks.iter().map(Vec::capacity).sum::<usize>()
+                * std::mem::size_of::<DVec3>()
+    }
 
     /// Appends one step. `log.faces_after` must be a subset of
     /// `log.faces_before` (true of every step: a step never creates a face
     /// id); faces in `faces_after` only are ignored, as the records do.
     pub fn push(&mut self, log: &StepLog) {
+        let all_ids = log
+            .faces_before
+            .iter()
+            .flat_map(|(f, q)| std::iter::once(f.0).chain(q.iter().map(|v| v.0)))
+            .chain(log.removed_vertices.iter().map(|r| r.0 .0))
+            .chain(log.moved.iter().map(|m| m.0 .0));
+        let wide = all_ids.filter(|&x| x != NONE).any(|x| x >= NARROW_NONE);
+        let width = if wide { 4 } else { 3 };
+        let ids = &mut self.ids;
+        let mut put = |x: u32| {
+            let x = if !wide && x == NONE { NARROW_NONE } else { x };
+            for &b in &x.to_le_bytes()[..width] {
+                ids.push(b);
+            }
+        };
         let rewritten = |f: &FaceId| log.faces_after.contains(f);
         let mut n_rewritten = 0u32;
         for pass_rewritten in [true, false] {
             for (f, q) in &log.faces_before {
                 if rewritten(f) == pass_rewritten {
-                    self.ids.push(f.0);
+                    put(f.0);
                     for v in q {
-                        self.ids.push(v.0);
+                        put(v.0);
                     }
                     n_rewritten += u32::from(pass_rewritten);
                 }
             }
         }
         for &(v, p) in &log.removed_vertices {
-            self.ids.push(v.0);
+            put(v.0);
             self.positions.push(p);
         }
         for &(v, p) in &log.moved {
-            self.ids.push(v.0);
+            put(v.0);
             self.positions.push(p);
         }
-        let n_appended = log.faces_before.len() as u32 - n_rewritten;
-        self.ids.push(n_rewritten);
-        self.ids.push(n_appended);
-        self.ids.push(log.removed_vertices.len() as u32);
-        // a mesh has far fewer than 2^30 vertices (ids are u32 and each
-        // vertex costs tens of bytes)
-        self.ids.push(((log.moved.len() as u32) << 2) | log.op as u32);
+        let counts = [
+            n_rewritten,
+            log.faces_before.len() as u32 - n_rewritten,
+            log.removed_vertices.len() as u32,
+            log.moved.len() as u32,
+        ];
+        let big = counts.iter().any(|&c| c > 255);
+        for c in counts {
+            if big {
+                for b in c.to_le_bytes() {
+                    self.ids.push(b);
+                }
+            } else {
+                self.ids.push(c as u8);
+            }
+        }
+        let mut flags = log.op as u8;
+        if wide {
+            flags |= WIDE;
+        }
+        if big {
+            flags |= BIG_COUNTS;
+        }
+        self.ids.push(flags);
         self.steps += 1;
     }
 
@@ -203,41 +270,45 @@ impl StepLogs {
     /// returns it with where its data starts. In `faces_before` the
     /// rewritten faces come first.
     fn read_back(&self, ids_end: usize, positions_end: usize) -> (StepLog, usize, usize) {
-        let t = ids_end - TRAILER;
-        let n_rewritten = self.ids.get(t) as usize;
-        let n_appended = self.ids.get(t + 1) as usize;
-        let n_removed = self.ids.get(t + 2) as usize;
-        let last = self.ids.get(t + 3);
-        let n_moved = (last >> 2) as usize;
-        let op = OpKind::from_code((last & 3) as u8).unwrap_or(OpKind::Smooth);
+        let flags = self.ids.get(ids_end - 1);
+        let op = OpKind::from_code(flags & 3).unwrap_or(OpKind::Smooth);
+        let count_width = if flags & BIG_COUNTS != 0 { 4 } else { 1 };
+        let counts_start = ids_end - 1 - 4 * count_width;
+        let mut counts = IdReader {
+            bytes: &self.ids,
+            at: counts_start,
+            width: count_width,
+        };
+        let [n_rewritten, n_appended, n_removed, n_moved] =
+            [(); 4].map(|_| counts.next() as usize);
+        let width = if flags & WIDE != 0 { 4 } else { 3 };
         let n_faces = n_rewritten + n_appended;
-        let ids_start = t - n_faces * 5 - n_removed - n_moved;
+        let ids_start = counts_start - (n_faces * 5 + n_removed + n_moved) * width;
         let positions_start = positions_end - n_removed - n_moved;
-        let mut i = ids_start;
-        let mut next = || {
-            let x = self.ids.get(i);
-            i += 1;
-            x
+        let mut r = IdReader {
+            bytes: &self.ids,
+            at: ids_start,
+            width,
         };
         let mut faces_before = Vec::with_capacity(n_faces);
         for _ in 0..n_faces {
-            let f = FaceId(next());
-            let q = [next(), next(), next(), next()].map(VertexId);
+            let f = FaceId(r.next());
+            let q = [(); 4].map(|_| VertexId(r.next()));
             faces_before.push((f, q));
         }
         let faces_after = faces_before[..n_rewritten].iter().map(|e| e.0).collect();
         let mut p = positions_start;
-        let mut vertices = |n: usize, next: &mut dyn FnMut() -> u32| -> Vec<(VertexId, DVec3)> {
+        let mut vertices = |n: usize| -> Vec<(VertexId, DVec3)> {
             (0..n)
                 .map(|_| {
-                    let v = (VertexId(next()), self.positions.get(p));
+                    let v = (VertexId(r.next()), self.positions.get(p));
                     p += 1;
                     v
                 })
                 .collect()
         };
-        let removed_vertices = vertices(n_removed, &mut next);
-        let moved = vertices(n_moved, &mut next);
+        let removed_vertices = vertices(n_removed);
+        let moved = vertices(n_moved);
         let log = StepLog {
             op,
             faces_before,
