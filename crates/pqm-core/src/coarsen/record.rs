@@ -77,8 +77,9 @@ impl StepLog {
 const NONE: u32 = u32::MAX;
 
 /// Elements per chunk of a [`Chunked`] arena (a power of two, so a first
-/// chunk grown by doubling stops exactly at it).
-const CHUNK: usize = 1 << 16;
+/// chunk grown by doubling stops exactly at it; tiny under unit tests so
+/// that steps straddle chunks).
+const CHUNK: usize = if cfg!(test) { 16 } else { 1 << 16 };
 
 /// An append-only array stored in chunks of [`CHUNK`] elements.
 ///
@@ -195,7 +196,12 @@ impl StepLogs {
     /// Bytes held (ids, positions), for memory reports.
     pub fn heap_bytes(&self) -> usize {
         self.ids.chunks.iter().map(Vec::capacity).sum::<usize>()
-            + self.positions.chunks.iter().map(Vec::capacity).sum::<usize>()
+            + self
+                .positions
+                .chunks
+                .iter()
+                .map(Vec::capacity)
+                .sum::<usize>()
                 * std::mem::size_of::<DVec3>()
     }
 
@@ -279,8 +285,7 @@ impl StepLogs {
             at: counts_start,
             width: count_width,
         };
-        let [n_rewritten, n_appended, n_removed, n_moved] =
-            [(); 4].map(|_| counts.next() as usize);
+        let [n_rewritten, n_appended, n_removed, n_moved] = [(); 4].map(|_| counts.next() as usize);
         let width = if flags & WIDE != 0 { 4 } else { 3 };
         let n_faces = n_rewritten + n_appended;
         let ids_start = counts_start - (n_faces * 5 + n_removed + n_moved) * width;
@@ -465,5 +470,92 @@ fn build(
         records,
         vertex_order,
         level_error,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A log in the form [`StepLogs`] gives back: rewritten faces first,
+    /// `faces_after` exactly those.
+    fn normalized(log: &StepLog) -> StepLog {
+        let (mut kept, gone): (Vec<(FaceId, [VertexId; 4])>, Vec<_>) = log
+            .faces_before
+            .iter()
+            .copied()
+            .partition(|(f, _)| log.faces_after.contains(f));
+        let faces_after = kept.iter().map(|e| e.0).collect();
+        kept.extend(gone);
+        StepLog {
+            faces_before: kept,
+            faces_after,
+            ..log.clone()
+        }
+    }
+
+    fn id(wide: bool) -> BoxedStrategy<u32> {
+        // narrow ids, the padding value, and (in wide steps) ids that need
+        // four bytes, including the narrow padding code itself
+        if wide {
+            prop_oneof![0..64u32, Just(NONE), Just(NARROW_NONE), any::<u32>()].boxed()
+        } else {
+            prop_oneof![0..64u32, Just(NONE), 0..NARROW_NONE].boxed()
+        }
+    }
+
+    fn log() -> impl Strategy<Value = StepLog> {
+        (any::<bool>(), 0..4u8, 0..300usize, 0..3usize).prop_flat_map(
+            |(wide, op, n_moved, n_faces)| {
+                let pos = (-1e3..1e3f64, -1e3..1e3f64, -1e3..1e3f64)
+                    .prop_map(|(x, y, z)| DVec3::new(x, y, z));
+                (
+                    Just(op),
+                    proptest::collection::vec(
+                        (
+                            id(wide),
+                            [id(wide), id(wide), id(wide), id(wide)],
+                            any::<bool>(),
+                        ),
+                        n_faces..n_faces * 4 + 1,
+                    ),
+                    proptest::collection::vec((id(wide), pos.clone()), 0..3),
+                    proptest::collection::vec((id(wide), pos), n_moved..=n_moved),
+                )
+                    .prop_map(|(op, faces, removed, moved)| StepLog {
+                        op: OpKind::from_code(op).unwrap_or(OpKind::Smooth),
+                        faces_after: faces.iter().filter(|e| e.2).map(|e| FaceId(e.0)).collect(),
+                        faces_before: faces
+                            .iter()
+                            .map(|e| (FaceId(e.0), e.1.map(VertexId)))
+                            .collect(),
+                        removed_vertices: removed
+                            .into_iter()
+                            .map(|(v, p)| (VertexId(v), p))
+                            .collect(),
+                        moved: moved.into_iter().map(|(v, p)| (VertexId(v), p)).collect(),
+                    })
+            },
+        )
+    }
+
+    proptest! {
+        /// Every step comes back, last first, both borrowed and popped, and
+        /// popping everything frees every chunk.
+        #[test]
+        fn step_logs_round_trip(logs in proptest::collection::vec(log(), 0..40)) {
+            let mut store = StepLogs::new();
+            for l in &logs {
+                store.push(l);
+            }
+            prop_assert_eq!(store.len(), logs.len());
+            let want: Vec<StepLog> = logs.iter().rev().map(normalized).collect();
+            let borrowed: Vec<StepLog> = store.iter_rev().collect();
+            prop_assert_eq!(&borrowed, &want);
+            let popped: Vec<StepLog> = std::iter::from_fn(|| store.pop()).collect();
+            prop_assert_eq!(&popped, &want);
+            prop_assert_eq!(store.heap_bytes(), 0);
+        }
     }
 }
