@@ -2,7 +2,9 @@
 //!
 //! While coarsening, every committed step (qvMerge, qeMerge, doublet removal,
 //! smoothing) is logged in the coarsener's own ids (which never get reused,
-//! so a log is unambiguous). [`to_progressive`] then replays the logs in
+//! so a log is unambiguous), packed into [`StepLogs`] as it is committed
+//! (the logs are most of the coarsener's memory growth). [`to_progressive`]
+//! then replays the logs in
 //! reverse — coarse to fine — and assigns the canonical numbering of
 //! [`crate::progressive`]: base vertices and faces in id order, each record's
 //! re-inserted vertices appended, each face kept at its slot.
@@ -15,8 +17,9 @@ use glam::DVec3;
 
 /// One committed coarsening step, in the coarsener's ids.
 ///
-/// Kept for every step until [`to_progressive`] runs, so it stores only what
-/// the records need, compactly (one allocation per list, quads inline).
+/// The form a step is logged and read back in; the coarsener keeps every
+/// step until [`to_progressive`] runs, so it stores them in [`StepLogs`]
+/// (packed, no allocation per step), not as these.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StepLog {
     /// The operator.
