@@ -93,6 +93,7 @@ fn main() {
     let after_run = phase();
     let (queue_peak, entry_bytes) = c.queue_peak();
     let reached = c.mesh().face_count();
+    let log_bytes = c.logs().heap_bytes();
     let pm = c.into_progressive();
     let after_records = phase();
     let t_pqm = t.elapsed().as_secs_f64();
@@ -154,6 +155,10 @@ fn main() {
     println!(
         "priority queue peak: {queue_peak} entries x {entry_bytes} bytes = {:.0} bytes per input quad (Vec capacity up to 2x that)",
         (queue_peak * entry_bytes) as f64 / n_quads as f64
+    );
+    println!(
+        "step logs (compact, held until the records are built): {:.0} bytes per input quad",
+        per(log_bytes)
     );
     println!(
         "stop: {:?}, {} qv, {} qe, {} doublets",

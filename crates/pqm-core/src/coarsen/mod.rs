@@ -53,7 +53,7 @@ use crate::qem::{self, Quadric};
 use features::{FeatureDelta, FeatureState, GroupConstraint};
 use glam::DVec3;
 use rayon::prelude::*;
-use record::StepLog;
+use record::{StepLog, StepLogs};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
@@ -264,7 +264,7 @@ pub struct Coarsener {
     /// whenever the topology allows (the error bound `max_error` stays).
     limit_deviation: bool,
     queue: BinaryHeap<Entry>,
-    logs: Vec<StepLog>,
+    logs: StepLogs,
     errors: Vec<f64>,
     report: CoarsenReport,
     input_faces: usize,
@@ -365,7 +365,7 @@ impl Coarsener {
             diag,
             error: 0.0,
             queue: BinaryHeap::new(),
-            logs: Vec::new(),
+            logs: StepLogs::new(),
             errors: vec![0.0],
             report: CoarsenReport::default(),
             input_faces,
@@ -395,7 +395,7 @@ impl Coarsener {
         &self.mesh
     }
     /// Steps logged so far (coarsening order).
-    pub fn logs(&self) -> &[StepLog] {
+    pub fn logs(&self) -> &StepLogs {
         &self.logs
     }
     /// Most entries the priority queue held at once, and the bytes of one
@@ -449,6 +449,12 @@ impl Coarsener {
                 self.report.stop = Some(StopReason::NothingLegal);
                 break;
             };
+            // The queue drains while the step logs grow: give its slack
+            // back so the two peaks do not add up (at most once per
+            // halving, so the copies are amortized; the order is unchanged).
+            if self.queue.capacity() > 4096 && self.queue.len() < self.queue.capacity() / 4 {
+                self.queue.shrink_to(self.queue.len() * 2);
+            }
             if !self.fresh(&e) {
                 continue;
             }
@@ -484,11 +490,14 @@ impl Coarsener {
     /// frees the queue, attributes and quadrics first, then each step log
     /// as soon as its record is built — the same result with a lower peak
     /// (logs and records are never both held in full).
-    pub fn into_progressive(self) -> ProgressiveMesh {
-        let Coarsener {
-            mesh, logs, errors, ..
-        } = self;
-        record::into_progressive(&mesh, logs, &errors)
+    pub fn into_progressive(mut self) -> ProgressiveMesh {
+        let logs = std::mem::take(&mut self.logs);
+        let errors = std::mem::take(&mut self.errors);
+        let base = record::Base::of(&self.mesh);
+        // everything else (mesh, queue, attributes, quadrics, features) is
+        // freed before the records are built, not at the end of this scope
+        drop(self);
+        record::into_progressive(base, logs, &errors)
     }
 
     // ------------------------------------------------------------- queue
@@ -1085,7 +1094,9 @@ impl Coarsener {
             .filter(|&&(v, before)| self.mesh.position(v) != before)
             .copied()
             .collect();
-        self.logs.push(StepLog::of_patch(
+        // the step's logs are completed here, then stored compactly
+        let mut step_logs = Vec::with_capacity(1 + doublet_logs.len());
+        step_logs.push(StepLog::of_patch(
             op,
             &patch,
             applied,
@@ -1096,7 +1107,7 @@ impl Coarsener {
         self.errors.push(self.error);
         for ((d, pos), a) in doublet_logs.iter().zip(&undo_stack[1..]) {
             let removed = vec![(d.merged[0].0, *pos)];
-            self.logs.push(StepLog::of_patch(
+            step_logs.push(StepLog::of_patch(
                 OpKind::Doublet,
                 d,
                 a,
@@ -1106,7 +1117,7 @@ impl Coarsener {
             self.errors.push(self.error);
             self.report.doublets += 1;
         }
-        if let Some(last) = self.logs.last_mut() {
+        if let Some(last) = step_logs.last_mut() {
             // the rescue may relax a vertex the op itself moved (a merge
             // target): one entry per vertex, from before the op to the end
             // (a log keeps the position before only: the one after is the
@@ -1116,6 +1127,9 @@ impl Coarsener {
                     last.moved.push((v, before));
                 }
             }
+        }
+        for log in &step_logs {
+            self.logs.push(log);
         }
         match op {
             OpKind::QvMerge => self.report.qv_merges += 1,
@@ -1341,7 +1355,7 @@ impl Coarsener {
                 continue;
             };
             let removed = vec![(v, pos)];
-            self.logs.push(StepLog::of_patch(
+            self.logs.push(&StepLog::of_patch(
                 OpKind::Doublet,
                 &d,
                 &a,
@@ -1410,7 +1424,7 @@ impl Coarsener {
         }
         let drift = self.drift_updates(&old, &[]);
         self.commit_drift(&drift, &[]);
-        self.logs.push(StepLog {
+        self.logs.push(&StepLog {
             op: OpKind::Smooth,
             faces_before: Vec::new(),
             faces_after: Vec::new(),

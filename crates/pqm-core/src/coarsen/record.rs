@@ -2,7 +2,9 @@
 //!
 //! While coarsening, every committed step (qvMerge, qeMerge, doublet removal,
 //! smoothing) is logged in the coarsener's own ids (which never get reused,
-//! so a log is unambiguous). [`to_progressive`] then replays the logs in
+//! so a log is unambiguous), packed into [`StepLogs`] as it is committed
+//! (the logs are most of the coarsener's memory growth). [`to_progressive`]
+//! then replays the logs in
 //! reverse — coarse to fine — and assigns the canonical numbering of
 //! [`crate::progressive`]: base vertices and faces in id order, each record's
 //! re-inserted vertices appended, each face kept at its slot.
@@ -15,8 +17,9 @@ use glam::DVec3;
 
 /// One committed coarsening step, in the coarsener's ids.
 ///
-/// Kept for every step until [`to_progressive`] runs, so it stores only what
-/// the records need, compactly (one allocation per list, quads inline).
+/// The form a step is logged and read back in; the coarsener keeps every
+/// step until [`to_progressive`] runs, so it stores them in [`StepLogs`]
+/// (packed, no allocation per step), not as these.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StepLog {
     /// The operator.
@@ -76,60 +79,350 @@ impl StepLog {
 
 const NONE: u32 = u32::MAX;
 
-/// Builds the progressive mesh from the coarsest mesh and the logs (in
-/// coarsening order). `errors[s]` is the error bound after `s` steps
-/// (`logs.len() + 1` entries).
-pub fn to_progressive(coarsest: &Mesh, logs: &[StepLog], errors: &[f64]) -> ProgressiveMesh {
-    build(coarsest, logs.len(), logs.iter().rev(), errors)
+/// Elements per chunk of a [`Chunked`] arena (a power of two, so a first
+/// chunk grown by doubling stops exactly at it; tiny under unit tests so
+/// that steps straddle chunks).
+const CHUNK: usize = if cfg!(test) { 16 } else { 1 << 16 };
+
+/// An append-only array stored in chunks of [`CHUNK`] elements.
+///
+/// Why not one `Vec`: growing a `Vec` by doubling holds the old and the new
+/// buffer at once (up to 3x the contents) and leaves up to 2x slack; the
+/// step logs are the biggest thing the coarsener keeps, so that slack would
+/// be a large part of the peak. Chunks bound the slack to one chunk and never
+/// copy. Every chunk but the last holds exactly `CHUNK` elements.
+#[derive(Clone, Debug, Default)]
+struct Chunked<T> {
+    chunks: Vec<Vec<T>>,
+    len: usize,
 }
 
-/// [`to_progressive`] that consumes the logs and frees each one as soon as
-/// its record is built, so the logs and the records are not both held in
-/// full (the same result).
-pub fn into_progressive(
-    coarsest: &Mesh,
-    mut logs: Vec<StepLog>,
-    errors: &[f64],
-) -> ProgressiveMesh {
-    let n = logs.len();
-    let fine_to_coarse = std::iter::from_fn(move || {
-        let log = logs.pop();
-        // the log array itself shrinks as it empties
-        if logs.len() < logs.capacity() / 4 {
-            logs.shrink_to_fit();
+impl<T: Copy> Chunked<T> {
+    fn push(&mut self, x: T) {
+        match self.chunks.last_mut() {
+            Some(c) if c.len() < CHUNK => c.push(x),
+            _ => {
+                // the first chunk grows by doubling (small inputs stay
+                // small); later ones are allocated whole
+                let mut c = if self.chunks.is_empty() {
+                    Vec::new()
+                } else {
+                    Vec::with_capacity(CHUNK)
+                };
+                c.push(x);
+                self.chunks.push(c);
+            }
         }
-        log
-    });
-    build(coarsest, n, fine_to_coarse, errors)
+        self.len += 1;
+    }
+    fn get(&self, i: usize) -> T {
+        self.chunks[i / CHUNK][i % CHUNK]
+    }
+    /// Drops the elements from `len` on, freeing emptied chunks.
+    fn truncate(&mut self, len: usize) {
+        let keep = len.div_ceil(CHUNK);
+        self.chunks.truncate(keep);
+        if let Some(c) = self.chunks.last_mut() {
+            c.truncate(len - (keep - 1) * CHUNK);
+        }
+        if self.chunks.len() < self.chunks.capacity() / 4 {
+            self.chunks.shrink_to_fit();
+        }
+        self.len = len;
+    }
+}
+
+/// An id in a narrow (3-byte) step is below this; `u32::MAX` (padding) is
+/// stored as it.
+const NARROW_NONE: u32 = 0xFF_FFFF;
+/// Flag bits of a step's last byte (its low two bits are the op code).
+const WIDE: u8 = 4;
+const BIG_COUNTS: u8 = 8;
+
+/// Every committed step's log, stored compactly as it is committed.
+///
+/// One chunked byte arena of ids and one of positions serve all steps (no
+/// per-step allocation or `Vec` headers). A step's ids are: for each face
+/// before it — rewritten faces first, then the ones it deleted (whose slots
+/// refinement appends) — the face id and its four vertex ids; then the
+/// removed vertices' ids; then the moved vertices' ids. Each id takes three
+/// bytes (little-endian) when every id of the step is below 2^24 - 1 — the
+/// usual case, meshes of up to 16 million elements — four otherwise. Then
+/// come the counts (rewritten, appended, removed, moved: one byte each when
+/// all are below 256, four otherwise) and a flag byte `op | WIDE |
+/// BIG_COUNTS`; being last, they let the steps be read back from the end
+/// (the order [`to_progressive`] needs) without an index. Positions: the
+/// removed vertices', then the moved vertices' (before the step).
+/// `faces_after` is not stored: it is exactly the rewritten faces.
+#[derive(Clone, Debug, Default)]
+pub struct StepLogs {
+    ids: Chunked<u8>,
+    positions: Chunked<DVec3>,
+    steps: usize,
+}
+
+/// Reads fixed-width little-endian ids forward from a byte arena.
+struct IdReader<'a> {
+    bytes: &'a Chunked<u8>,
+    at: usize,
+    width: usize,
+}
+
+impl IdReader<'_> {
+    fn next(&mut self) -> u32 {
+        let mut x = 0u32;
+        for k in 0..self.width {
+            x |= u32::from(self.bytes.get(self.at + k)) << (8 * k);
+        }
+        self.at += self.width;
+        if self.width == 3 && x == NARROW_NONE {
+            NONE
+        } else {
+            x
+        }
+    }
+}
+
+impl StepLogs {
+    /// No steps.
+    pub fn new() -> StepLogs {
+        StepLogs::default()
+    }
+    /// Number of steps logged.
+    pub fn len(&self) -> usize {
+        self.steps
+    }
+    /// Whether no step is logged.
+    pub fn is_empty(&self) -> bool {
+        self.steps == 0
+    }
+    /// Bytes held (ids, positions), for memory reports.
+    pub fn heap_bytes(&self) -> usize {
+        self.ids.chunks.iter().map(Vec::capacity).sum::<usize>()
+            + self
+                .positions
+                .chunks
+                .iter()
+                .map(Vec::capacity)
+                .sum::<usize>()
+                * std::mem::size_of::<DVec3>()
+    }
+
+    /// Appends one step. `log.faces_after` must be a subset of
+    /// `log.faces_before` (true of every step: a step never creates a face
+    /// id); faces in `faces_after` only are ignored, as the records do.
+    pub fn push(&mut self, log: &StepLog) {
+        let all_ids = log
+            .faces_before
+            .iter()
+            .flat_map(|(f, q)| std::iter::once(f.0).chain(q.iter().map(|v| v.0)))
+            .chain(log.removed_vertices.iter().map(|r| r.0 .0))
+            .chain(log.moved.iter().map(|m| m.0 .0));
+        let wide = all_ids.filter(|&x| x != NONE).any(|x| x >= NARROW_NONE);
+        let width = if wide { 4 } else { 3 };
+        let ids = &mut self.ids;
+        let mut put = |x: u32| {
+            let x = if !wide && x == NONE { NARROW_NONE } else { x };
+            for &b in &x.to_le_bytes()[..width] {
+                ids.push(b);
+            }
+        };
+        let rewritten = |f: &FaceId| log.faces_after.contains(f);
+        let mut n_rewritten = 0u32;
+        for pass_rewritten in [true, false] {
+            for (f, q) in &log.faces_before {
+                if rewritten(f) == pass_rewritten {
+                    put(f.0);
+                    for v in q {
+                        put(v.0);
+                    }
+                    n_rewritten += u32::from(pass_rewritten);
+                }
+            }
+        }
+        for &(v, p) in &log.removed_vertices {
+            put(v.0);
+            self.positions.push(p);
+        }
+        for &(v, p) in &log.moved {
+            put(v.0);
+            self.positions.push(p);
+        }
+        let counts = [
+            n_rewritten,
+            log.faces_before.len() as u32 - n_rewritten,
+            log.removed_vertices.len() as u32,
+            log.moved.len() as u32,
+        ];
+        let big = counts.iter().any(|&c| c > 255);
+        for c in counts {
+            if big {
+                for b in c.to_le_bytes() {
+                    self.ids.push(b);
+                }
+            } else {
+                self.ids.push(c as u8);
+            }
+        }
+        let mut flags = log.op as u8;
+        if wide {
+            flags |= WIDE;
+        }
+        if big {
+            flags |= BIG_COUNTS;
+        }
+        self.ids.push(flags);
+        self.steps += 1;
+    }
+
+    /// Decodes the step whose data ends at `(ids_end, positions_end)`;
+    /// returns it with where its data starts. In `faces_before` the
+    /// rewritten faces come first.
+    fn read_back(&self, ids_end: usize, positions_end: usize) -> (StepLog, usize, usize) {
+        let flags = self.ids.get(ids_end - 1);
+        let op = OpKind::from_code(flags & 3).unwrap_or(OpKind::Smooth);
+        let count_width = if flags & BIG_COUNTS != 0 { 4 } else { 1 };
+        let counts_start = ids_end - 1 - 4 * count_width;
+        let mut counts = IdReader {
+            bytes: &self.ids,
+            at: counts_start,
+            width: count_width,
+        };
+        let [n_rewritten, n_appended, n_removed, n_moved] = [(); 4].map(|_| counts.next() as usize);
+        let width = if flags & WIDE != 0 { 4 } else { 3 };
+        let n_faces = n_rewritten + n_appended;
+        let ids_start = counts_start - (n_faces * 5 + n_removed + n_moved) * width;
+        let positions_start = positions_end - n_removed - n_moved;
+        let mut r = IdReader {
+            bytes: &self.ids,
+            at: ids_start,
+            width,
+        };
+        let mut faces_before = Vec::with_capacity(n_faces);
+        for _ in 0..n_faces {
+            let f = FaceId(r.next());
+            let q = [(); 4].map(|_| VertexId(r.next()));
+            faces_before.push((f, q));
+        }
+        let faces_after = faces_before[..n_rewritten].iter().map(|e| e.0).collect();
+        let mut p = positions_start;
+        let mut vertices = |n: usize| -> Vec<(VertexId, DVec3)> {
+            (0..n)
+                .map(|_| {
+                    let v = (VertexId(r.next()), self.positions.get(p));
+                    p += 1;
+                    v
+                })
+                .collect()
+        };
+        let removed_vertices = vertices(n_removed);
+        let moved = vertices(n_moved);
+        let log = StepLog {
+            op,
+            faces_before,
+            faces_after,
+            removed_vertices,
+            moved,
+        };
+        (log, ids_start, positions_start)
+    }
+
+    /// The steps, last logged first.
+    pub fn iter_rev(&self) -> impl Iterator<Item = StepLog> + '_ {
+        let mut ends = (self.ids.len, self.positions.len);
+        (0..self.steps).map(move |_| {
+            let (log, i, p) = self.read_back(ends.0, ends.1);
+            ends = (i, p);
+            log
+        })
+    }
+
+    /// Removes and returns the last step, freeing its storage (chunk by
+    /// chunk).
+    pub fn pop(&mut self) -> Option<StepLog> {
+        if self.steps == 0 {
+            return None;
+        }
+        let (log, i, p) = self.read_back(self.ids.len, self.positions.len);
+        self.ids.truncate(i);
+        self.positions.truncate(p);
+        self.steps -= 1;
+        Some(log)
+    }
+}
+
+/// Builds the progressive mesh from the coarsest mesh and the logs.
+/// `errors[s]` is the error bound after `s` steps (`logs.len() + 1`
+/// entries).
+pub fn to_progressive(coarsest: &Mesh, logs: &StepLogs, errors: &[f64]) -> ProgressiveMesh {
+    build(Base::of(coarsest), logs.len(), logs.iter_rev(), errors)
+}
+
+/// [`to_progressive`] that consumes the logs and frees them as their records
+/// are built, so the logs and the records are not both held in full (the
+/// same result). `base` is [`Base::of`] the coarsest mesh: taking it first
+/// lets the caller free the mesh before the records are built.
+pub fn into_progressive(base: Base, mut logs: StepLogs, errors: &[f64]) -> ProgressiveMesh {
+    let n = logs.len();
+    build(base, n, std::iter::from_fn(move || logs.pop()), errors)
+}
+
+/// What the records are built from besides the logs: the coarsest mesh in
+/// canonical numbering and the maps from the coarsener's ids to it.
+#[derive(Clone, Debug)]
+pub struct Base {
+    /// Coarsener vertex id → canonical id (`u32::MAX`: not yet placed).
+    cv: Vec<u32>,
+    /// Coarsener face id → canonical slot (`u32::MAX`: not yet placed).
+    cf: Vec<u32>,
+    base: IndexedMesh,
+    vertex_order: Vec<u32>,
+}
+
+impl Base {
+    /// The base of `coarsest`: its vertices and faces in id order.
+    pub fn of(coarsest: &Mesh) -> Base {
+        let mut cv = vec![NONE; coarsest.vertex_capacity()];
+        let mut cf = vec![NONE; coarsest.face_capacity()];
+        let mut base = IndexedMesh::new();
+        let mut vertex_order = Vec::with_capacity(coarsest.vertex_capacity());
+        for v in coarsest.vertices() {
+            cv[v.idx()] = base.positions.len() as u32;
+            vertex_order.push(v.0);
+            base.positions.push(coarsest.position(v));
+        }
+        let mut buf = Vec::with_capacity(4);
+        for f in coarsest.faces() {
+            cf[f.idx()] = base.face_count() as u32;
+            buf.clear();
+            buf.extend(coarsest.face_vertices(f).map(|v| cv[v.idx()]));
+            base.push_face(&buf);
+        }
+        Base {
+            cv,
+            cf,
+            base,
+            vertex_order,
+        }
+    }
 }
 
 /// Replays `n` logs given last-logged first (coarse → fine).
-fn build<L: std::borrow::Borrow<StepLog>>(
-    coarsest: &Mesh,
+fn build(
+    start: Base,
     n: usize,
-    coarse_to_fine: impl Iterator<Item = L>,
+    coarse_to_fine: impl Iterator<Item = StepLog>,
     errors: &[f64],
 ) -> ProgressiveMesh {
-    let mut cv = vec![NONE; coarsest.vertex_capacity()];
-    let mut cf = vec![NONE; coarsest.face_capacity()];
-    let mut base = IndexedMesh::new();
-    let mut vertex_order = Vec::with_capacity(coarsest.vertex_capacity());
-    for v in coarsest.vertices() {
-        cv[v.idx()] = base.positions.len() as u32;
-        vertex_order.push(v.0);
-        base.positions.push(coarsest.position(v));
-    }
-    let mut buf = Vec::with_capacity(4);
-    for f in coarsest.faces() {
-        cf[f.idx()] = base.face_count() as u32;
-        buf.clear();
-        buf.extend(coarsest.face_vertices(f).map(|v| cv[v.idx()]));
-        base.push_face(&buf);
-    }
+    let Base {
+        mut cv,
+        mut cf,
+        base,
+        mut vertex_order,
+    } = start;
     let mut n_faces = base.face_count() as u32;
     let mut records = Vec::with_capacity(n);
     for log in coarse_to_fine {
-        let log = log.borrow();
         let mut rec = SplitRecord {
             op: log.op,
             new_vertices: Vec::new(),
@@ -137,7 +430,7 @@ fn build<L: std::borrow::Borrow<StepLog>>(
             rewritten: Vec::new(),
             appended_faces: Vec::new(),
         };
-        let mut removed = log.removed_vertices.clone();
+        let mut removed = log.removed_vertices;
         removed.sort_by_key(|r| r.0);
         for (v, p) in removed {
             cv[v.idx()] = vertex_order.len() as u32;
@@ -180,5 +473,92 @@ fn build<L: std::borrow::Borrow<StepLog>>(
         records,
         vertex_order,
         level_error,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A log in the form [`StepLogs`] gives back: rewritten faces first,
+    /// `faces_after` exactly those.
+    fn normalized(log: &StepLog) -> StepLog {
+        let (mut kept, gone): (Vec<(FaceId, [VertexId; 4])>, Vec<_>) = log
+            .faces_before
+            .iter()
+            .copied()
+            .partition(|(f, _)| log.faces_after.contains(f));
+        let faces_after = kept.iter().map(|e| e.0).collect();
+        kept.extend(gone);
+        StepLog {
+            faces_before: kept,
+            faces_after,
+            ..log.clone()
+        }
+    }
+
+    fn id(wide: bool) -> BoxedStrategy<u32> {
+        // narrow ids, the padding value, and (in wide steps) ids that need
+        // four bytes, including the narrow padding code itself
+        if wide {
+            prop_oneof![0..64u32, Just(NONE), Just(NARROW_NONE), any::<u32>()].boxed()
+        } else {
+            prop_oneof![0..64u32, Just(NONE), 0..NARROW_NONE].boxed()
+        }
+    }
+
+    fn log() -> impl Strategy<Value = StepLog> {
+        (any::<bool>(), 0..4u8, 0..300usize, 0..3usize).prop_flat_map(
+            |(wide, op, n_moved, n_faces)| {
+                let pos = (-1e3..1e3f64, -1e3..1e3f64, -1e3..1e3f64)
+                    .prop_map(|(x, y, z)| DVec3::new(x, y, z));
+                (
+                    Just(op),
+                    proptest::collection::vec(
+                        (
+                            id(wide),
+                            [id(wide), id(wide), id(wide), id(wide)],
+                            any::<bool>(),
+                        ),
+                        n_faces..n_faces * 4 + 1,
+                    ),
+                    proptest::collection::vec((id(wide), pos.clone()), 0..3),
+                    proptest::collection::vec((id(wide), pos), n_moved..=n_moved),
+                )
+                    .prop_map(|(op, faces, removed, moved)| StepLog {
+                        op: OpKind::from_code(op).unwrap_or(OpKind::Smooth),
+                        faces_after: faces.iter().filter(|e| e.2).map(|e| FaceId(e.0)).collect(),
+                        faces_before: faces
+                            .iter()
+                            .map(|e| (FaceId(e.0), e.1.map(VertexId)))
+                            .collect(),
+                        removed_vertices: removed
+                            .into_iter()
+                            .map(|(v, p)| (VertexId(v), p))
+                            .collect(),
+                        moved: moved.into_iter().map(|(v, p)| (VertexId(v), p)).collect(),
+                    })
+            },
+        )
+    }
+
+    proptest! {
+        /// Every step comes back, last first, both borrowed and popped, and
+        /// popping everything frees every chunk.
+        #[test]
+        fn step_logs_round_trip(logs in proptest::collection::vec(log(), 0..40)) {
+            let mut store = StepLogs::new();
+            for l in &logs {
+                store.push(l);
+            }
+            prop_assert_eq!(store.len(), logs.len());
+            let want: Vec<StepLog> = logs.iter().rev().map(normalized).collect();
+            let borrowed: Vec<StepLog> = store.iter_rev().collect();
+            prop_assert_eq!(&borrowed, &want);
+            let popped: Vec<StepLog> = std::iter::from_fn(|| store.pop()).collect();
+            prop_assert_eq!(&popped, &want);
+            prop_assert_eq!(store.heap_bytes(), 0);
+        }
     }
 }
