@@ -1317,6 +1317,63 @@ pub fn quad_triangles(q: [u32; 4]) -> [u32; 6] {
 /// (spec §1). zstd itself would decode concatenated frames as one payload,
 /// which small JavaScript decoders do not: refusing them keeps every reader
 /// in agreement.
+/// Spec §1: a block holds at most `min(window, 128 KiB)` bytes (RFC 8878's
+/// Block_Maximum_Size). libzstd accepts larger blocks in some frames, small
+/// decoders do not, so every reader rejects them (walks the 3-byte block
+/// headers without decoding: raw and compressed blocks carry `size` bytes,
+/// an RLE block one). Called after the magic and checksum flag are checked;
+/// anything malformed in the header is left to libzstd's own checks.
+fn check_block_sizes(data: &[u8]) -> Result<(), String> {
+    let Some(&fhd) = data.get(4) else {
+        return Ok(());
+    };
+    let single = (fhd >> 5) & 1 == 1;
+    let mut p = 5usize;
+    let mut window: u64 = 0;
+    if !single {
+        let Some(&wd) = data.get(p) else {
+            return Ok(());
+        };
+        p += 1;
+        let base = 1u64 << (10 + (wd >> 3));
+        window = base + (base / 8) * u64::from(wd & 7);
+    }
+    p += [0, 1, 2, 4][usize::from(fhd & 3)];
+    let fcs_len = match fhd >> 6 {
+        0 => usize::from(single),
+        f => 1 << f,
+    };
+    let Some(fcs_bytes) = data.get(p..p + fcs_len) else {
+        return Ok(());
+    };
+    let mut fcs = fcs_bytes
+        .iter()
+        .rev()
+        .fold(0u64, |a, &b| (a << 8) | u64::from(b));
+    if fcs_len == 2 {
+        fcs += 256;
+    }
+    p += fcs_len;
+    if single {
+        window = fcs;
+    }
+    let block_max = window.min(128 * 1024);
+    while let Some(h) = data.get(p..p + 3) {
+        let bh = u32::from(h[0]) | u32::from(h[1]) << 8 | u32::from(h[2]) << 16;
+        let (last, kind, size) = (bh & 1 == 1, (bh >> 1) & 3, bh >> 3);
+        if kind != 3 && u64::from(size) > block_max {
+            return Err(format!(
+                "zstd block of {size} bytes exceeds the frame's maximum block size {block_max} (window or 128 KiB)"
+            ));
+        }
+        p += 3 + if kind == 1 { 1 } else { size as usize };
+        if last {
+            break;
+        }
+    }
+    Ok(())
+}
+
 fn check_single_frame(data: &[u8], ulen: u32) -> Result<(), String> {
     const ZSTD_MAGIC: u32 = 0xFD2F_B528;
     if data.len() < 4 || LE::read_u32(data) != ZSTD_MAGIC {
@@ -1328,6 +1385,7 @@ fn check_single_frame(data: &[u8], ulen: u32) -> Result<(), String> {
             "zstd frame carries a content checksum (not allowed: the section CRC covers it)".into(),
         );
     }
+    check_block_sizes(data)?;
     let len = zstd::zstd_safe::find_frame_compressed_size(data)
         .map_err(|_| "zstd: cannot find the end of the frame".to_string())?;
     if len != data.len() {
@@ -1361,4 +1419,29 @@ pub fn decode_all(bytes: &[u8], limits: Limits) -> Result<Decoder, DecodeError> 
         .into());
     }
     Ok(d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check_block_sizes;
+
+    /// A single-segment frame of content size `fcs` whose only block is raw
+    /// and `size` bytes long.
+    fn frame(fcs: u8, size: u32) -> Vec<u8> {
+        let mut f = vec![0x28, 0xB5, 0x2F, 0xFD, 0x20, fcs];
+        let bh = 1 | (size << 3);
+        f.extend_from_slice(&bh.to_le_bytes()[..3]);
+        f.extend(std::iter::repeat_n(7u8, size as usize));
+        f
+    }
+
+    #[test]
+    fn blocks_larger_than_the_window_are_rejected() {
+        assert!(check_block_sizes(&frame(10, 10)).is_ok());
+        let e = check_block_sizes(&frame(10, 16)).expect_err("block of 16 > window 10");
+        assert!(
+            e.contains("16 bytes") && e.contains("maximum block size 10"),
+            "{e}"
+        );
+    }
 }
