@@ -199,117 +199,89 @@ fn undo_restores_ids_and_positions() {
     assert_eq!(canon(&back), canon(&src));
 }
 
+/// Runs random qvMerge / qeMerge steps (each followed by every doublet it
+/// made) on `src`: after each accepted step the mesh is structurally valid,
+/// quad-only and keeps its Euler characteristic; undoing every step in
+/// reverse gives the input back exactly. `kind` 0–1 is a qvMerge diagonal,
+/// then qeMerges: edge `(kind − 2) % 4` re-fanned on side combination
+/// `(kind − 2) / 4` (0 = neither endpoint crossing; 3 = both, which must be
+/// rejected).
+fn run_operator_sequence(src: &IndexedMesh, steps: &[(u32, usize)]) -> Result<(), TestCaseError> {
+    let mut m = Mesh::from_indexed(src).unwrap();
+    let chi = m.euler_characteristic();
+    let mut log = Vec::new();
+    for &(pick, kind) in steps {
+        let fs: Vec<FaceId> = m.faces().collect();
+        let f = fs[pick as usize % fs.len()];
+        let patch = if kind < 2 {
+            let q = m.quad_vertices(f).unwrap();
+            let p = midpoint(&m, q[kind], q[kind + 2]);
+            ops::can_qv_merge(&m, f, kind, false, p)
+        } else {
+            let (edge, side) = ((kind - 2) % 4, (kind - 2) / 4);
+            let cross = [side & 1 == 1, side & 2 == 2];
+            let h = m.face_halfedges(f).nth(edge).unwrap();
+            match ops::qe_merge::qe_site(&m, h) {
+                Ok(site) => {
+                    let pa = midpoint(&m, site.v[0], site.v[1]);
+                    let pd = midpoint(&m, site.v[3], site.v[2]);
+                    let r = if side == 0 {
+                        ops::can_qe_merge(&m, h, pa, pd)
+                    } else {
+                        ops::qe_merge::can_qe_merge_with(&m, h, pa, pd, cross)
+                    };
+                    prop_assert!(!(cross == [true, true] && r.is_ok()));
+                    r
+                }
+                Err(e) => Err(e),
+            }
+        };
+        let Ok(patch) = patch else { continue };
+        let before = m.face_count();
+        log.push(ops::apply_undoable(&mut m, &patch).unwrap());
+        prop_assert_eq!(m.face_count(), before - if kind < 2 { 1 } else { 4 });
+        // then every doublet it made
+        let touched: Vec<VertexId> = patch.add.iter().flatten().copied().collect();
+        for v in ops::find_doublets(&m, &touched) {
+            if let Ok(d) = ops::can_remove_doublet(&m, v) {
+                log.push(ops::apply_undoable(&mut m, &d).unwrap());
+            }
+        }
+        m.validate_structure().unwrap();
+        prop_assert!(quad_only(&m));
+        prop_assert_eq!(m.euler_characteristic(), chi);
+    }
+    while let Some(a) = log.pop() {
+        ops::undo(&mut m, &a).unwrap();
+    }
+    m.validate().unwrap();
+    let (back, _) = m.to_indexed();
+    prop_assert_eq!(&back.positions, &src.positions);
+    prop_assert_eq!(canon(&back), canon(src));
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
     /// As `random_operator_sequences`, with qeMerges re-fanning on any side
-    /// combination (including the rejected "both crossing"): every accepted
-    /// step keeps the mesh valid and quad-only; exact undo.
+    /// combination (including the rejected "both crossing").
     #[test]
     fn random_sequences_with_crossing_refans(
         shape in 0usize..2,
         steps in prop::collection::vec((0u32..400, 0usize..18), 1..30),
     ) {
         let src = if shape == 0 { quad_sphere(5) } else { torus(20, 14) };
-        let mut m = Mesh::from_indexed(&src).unwrap();
-        let chi = m.euler_characteristic();
-        let mut log = Vec::new();
-        for (pick, kind) in steps {
-            let fs: Vec<FaceId> = m.faces().collect();
-            let f = fs[pick as usize % fs.len()];
-            let patch = if kind < 2 {
-                let q = m.quad_vertices(f).unwrap();
-                let p = midpoint(&m, q[kind], q[kind + 2]);
-                ops::can_qv_merge(&m, f, kind, false, p)
-            } else {
-                let (edge, side) = ((kind - 2) % 4, (kind - 2) / 4);
-                let cross = [side & 1 == 1, side & 2 == 2];
-                let h = m.face_halfedges(f).nth(edge).unwrap();
-                match ops::qe_merge::qe_site(&m, h) {
-                    Ok(site) => {
-                        let pa = midpoint(&m, site.v[0], site.v[1]);
-                        let pd = midpoint(&m, site.v[3], site.v[2]);
-                        let r = ops::qe_merge::can_qe_merge_with(&m, h, pa, pd, cross);
-                        prop_assert!(!(cross == [true, true] && r.is_ok()));
-                        r
-                    }
-                    Err(e) => Err(e),
-                }
-            };
-            let Ok(patch) = patch else { continue };
-            let before = m.face_count();
-            log.push(ops::apply_undoable(&mut m, &patch).unwrap());
-            prop_assert_eq!(m.face_count(), before - if kind < 2 { 1 } else { 4 });
-            let touched: Vec<VertexId> = patch.add.iter().flatten().copied().collect();
-            for v in ops::find_doublets(&m, &touched) {
-                if let Ok(d) = ops::can_remove_doublet(&m, v) {
-                    log.push(ops::apply_undoable(&mut m, &d).unwrap());
-                }
-            }
-            m.validate_structure().unwrap();
-            prop_assert!(quad_only(&m));
-            prop_assert_eq!(m.euler_characteristic(), chi);
-        }
-        while let Some(a) = log.pop() {
-            ops::undo(&mut m, &a).unwrap();
-        }
-        m.validate().unwrap();
-        let (back, _) = m.to_indexed();
-        prop_assert_eq!(&back.positions, &src.positions);
-        prop_assert_eq!(canon(&back), canon(&src));
+        run_operator_sequence(&src, &steps)?;
     }
 
     /// Random qvMerge / qeMerge / doublet sequences on a quad sphere and a
-    /// torus: after each accepted step the mesh is structurally valid,
-    /// quad-only and keeps its Euler characteristic; undoing every step in
-    /// reverse gives the input back exactly.
+    /// torus (see `run_operator_sequence`).
     #[test]
     fn random_operator_sequences(
         shape in 0usize..2,
         steps in prop::collection::vec((0u32..400, 0usize..6), 1..30),
     ) {
         let src = if shape == 0 { quad_sphere(5) } else { torus(20, 14) };
-        let mut m = Mesh::from_indexed(&src).unwrap();
-        let chi = m.euler_characteristic();
-        let mut log = Vec::new();
-        for (pick, kind) in steps {
-            let fs: Vec<FaceId> = m.faces().collect();
-            let f = fs[pick as usize % fs.len()];
-            let patch = if kind < 2 {
-                let q = m.quad_vertices(f).unwrap();
-                let p = midpoint(&m, q[kind], q[kind + 2]);
-                ops::can_qv_merge(&m, f, kind, false, p)
-            } else {
-                let h = m.face_halfedges(f).nth(kind - 2).unwrap();
-                match ops::qe_merge::qe_site(&m, h) {
-                    Ok(site) => {
-                        let pa = midpoint(&m, site.v[0], site.v[1]);
-                        let pd = midpoint(&m, site.v[3], site.v[2]);
-                        ops::can_qe_merge(&m, h, pa, pd)
-                    }
-                    Err(e) => Err(e),
-                }
-            };
-            let Ok(patch) = patch else { continue };
-            let before = m.face_count();
-            log.push(ops::apply_undoable(&mut m, &patch).unwrap());
-            prop_assert_eq!(m.face_count(), before - if kind < 2 { 1 } else { 4 });
-            // then every doublet it made
-            let touched: Vec<VertexId> = patch.add.iter().flatten().copied().collect();
-            for v in ops::find_doublets(&m, &touched) {
-                if let Ok(d) = ops::can_remove_doublet(&m, v) {
-                    log.push(ops::apply_undoable(&mut m, &d).unwrap());
-                }
-            }
-            m.validate_structure().unwrap();
-            prop_assert!(quad_only(&m));
-            prop_assert_eq!(m.euler_characteristic(), chi);
-        }
-        while let Some(a) = log.pop() {
-            ops::undo(&mut m, &a).unwrap();
-        }
-        m.validate().unwrap();
-        let (back, _) = m.to_indexed();
-        prop_assert_eq!(&back.positions, &src.positions);
-        prop_assert_eq!(canon(&back), canon(&src));
+        run_operator_sequence(&src, &steps)?;
     }
 }
