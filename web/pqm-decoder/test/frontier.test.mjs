@@ -7,7 +7,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { Frontier } from '../src/codec.js';
-import { rng } from './helpers.mjs';
+import { rng, randomQuad, randomFrontierEdit } from './helpers.mjs';
 
 /** Brute force: slots holding m ascending, and m's corner in each. */
 function bruteStar(st, m) {
@@ -32,15 +32,6 @@ function walk(st, m) {
 }
 
 /** Four distinct random vertices below nv. */
-function randomQuad(rand, nv) {
-  const q = [];
-  while (q.length < 4) {
-    const v = Math.floor(rand() * nv);
-    if (!q.includes(v)) q.push(v);
-  }
-  return q;
-}
-
 for (const seed of [1, 2, 3, 4, 5]) {
   test(`seed ${seed}: stars equal a brute-force scan through rewrites, appends, walks and rebuilds`, () => {
     const rand = rng(seed);
@@ -63,27 +54,7 @@ for (const seed of [1, 2, 3, 4, 5]) {
       rebuild();
     };
     for (let step = 0; step < 4000; step++) {
-      const r = rand();
-      if (r < 0.6) {
-        // rewrite one corner (as the records do: f first, then the list)
-        const c = Math.floor(rand() * 4 * st.nf);
-        const s4 = c & ~3;
-        const v = Math.floor(rand() * st.nv);
-        const others = [0, 1, 2, 3].filter((k) => s4 + k !== c).map((k) => st.f[s4 + k]);
-        if (others.includes(v) || st.f[c] === v) continue;
-        st.f[c] = v;
-        st.link(c, v);
-      } else if (r < 0.7 && st.nf < maxF) {
-        const slot = st.nf;
-        st.reserve(st.nv, slot + 1);
-        st.f.set(randomQuad(rand, st.nv), 4 * slot);
-        st.nf = slot + 1;
-        for (let k = 0; k < 4; k++) st.link(4 * slot + k, st.f[4 * slot + k]);
-      } else if (r < 0.75 && st.nv < maxV) {
-        st.reserve(st.nv + 1, st.nf);
-        st.head[st.nv] = -1;
-        st.nv++;
-      } else {
+      if (!randomFrontierEdit(st, rand, maxF, maxV)) {
         const m = Math.floor(rand() * st.nv);
         assert.deepEqual(walk(st, m), bruteStar(st, m), `step ${step}: star of ${m}`);
       }

@@ -173,3 +173,49 @@ export async function serveBytes(bytes, { ranges = true, piece = 997, maxRange =
     close: () => new Promise((r) => server.close(r)),
   };
 }
+
+/** Four distinct random vertex ids below `nv`. */
+export function randomQuad(rand, nv) {
+  const q = [];
+  while (q.length < 4) {
+    const v = Math.floor(rand() * nv);
+    if (!q.includes(v)) q.push(v);
+  }
+  return q;
+}
+
+/**
+ * One random edit of a `Frontier` as records make them (f first, then the
+ * corner lists): 60 % rewrite a corner (corners move between vertices and
+ * come back: repeated nodes), 10 % append a quad, 5 % add a vertex. Returns
+ * false (nothing done) otherwise, so the caller checks something instead.
+ */
+export function randomFrontierEdit(st, rand, maxF, maxV) {
+  const r = rand();
+  if (r < 0.6) {
+    const c = Math.floor(rand() * 4 * st.nf);
+    const s4 = c & ~3;
+    const v = Math.floor(rand() * st.nv);
+    const others = [0, 1, 2, 3].filter((k) => s4 + k !== c).map((k) => st.f[s4 + k]);
+    if (!others.includes(v) && st.f[c] !== v) {
+      st.f[c] = v;
+      st.link(c, v);
+    }
+    return true;
+  }
+  if (r < 0.7 && st.nf < maxF) {
+    const slot = st.nf;
+    st.reserve(st.nv, slot + 1);
+    st.f.set(randomQuad(rand, st.nv), 4 * slot);
+    st.nf = slot + 1;
+    for (let k = 0; k < 4; k++) st.link(4 * slot + k, st.f[4 * slot + k]);
+    return true;
+  }
+  if (r < 0.75 && st.nv < maxV) {
+    st.reserve(st.nv + 1, st.nf);
+    st.head[st.nv] = -1;
+    st.nv++;
+    return true;
+  }
+  return false;
+}

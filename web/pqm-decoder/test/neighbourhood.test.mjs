@@ -8,7 +8,7 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { Frontier } from '../src/codec.js';
 import { neighbourhoodLists } from '../src/local.js';
-import { rng } from './helpers.mjs';
+import { rng, randomQuad, randomFrontierEdit } from './helpers.mjs';
 
 /** Spec §7.7 step 2 by brute force: {R, U} ascending, or an error kind. */
 function bruteNeighbourhood(st, m) {
@@ -35,15 +35,6 @@ function check(st, m, what) {
   }
 }
 
-function randomQuad(rand, nv) {
-  const q = [];
-  while (q.length < 4) {
-    const v = Math.floor(rand() * nv);
-    if (!q.includes(v)) q.push(v);
-  }
-  return q;
-}
-
 for (const seed of [11, 12, 13]) {
   test(`seed ${seed}: neighbourhoods equal the spec's definition through rewrites, appends and rebuilds`, () => {
     const rand = rng(seed);
@@ -59,27 +50,7 @@ for (const seed of [11, 12, 13]) {
     for (let s = 0; s < st.nf; s++) st.f.set(randomQuad(rand, st.nv), 4 * s);
     st.rebuild();
     for (let step = 0; step < 1500; step++) {
-      const r = rand();
-      if (r < 0.6) {
-        // corners move between vertices and come back (repeated nodes)
-        const c = Math.floor(rand() * 4 * st.nf);
-        const s4 = c & ~3;
-        const v = Math.floor(rand() * st.nv);
-        const others = [0, 1, 2, 3].filter((k) => s4 + k !== c).map((k) => st.f[s4 + k]);
-        if (others.includes(v) || st.f[c] === v) continue;
-        st.f[c] = v;
-        st.link(c, v);
-      } else if (r < 0.7 && st.nf < maxF) {
-        const slot = st.nf;
-        st.reserve(st.nv, slot + 1);
-        st.f.set(randomQuad(rand, st.nv), 4 * slot);
-        st.nf = slot + 1;
-        for (let k = 0; k < 4; k++) st.link(4 * slot + k, st.f[4 * slot + k]);
-      } else if (r < 0.75 && st.nv < maxV) {
-        st.reserve(st.nv + 1, st.nf);
-        st.head[st.nv] = -1;
-        st.nv++;
-      } else {
+      if (!randomFrontierEdit(st, rand, maxF, maxV)) {
         const m = Math.floor(rand() * st.nv);
         check(st, m, `step ${step}: neighbourhood of ${m}`);
       }
