@@ -16,7 +16,7 @@ use glam::DVec3;
 use pqm_core::attributes::{
     importance_from_scalars, load_field_sidecar, load_importance_sidecar, remap_importance, Field,
 };
-use pqm_core::coarsen::{Attributes, CoarsenOptions, Coarsener, Smoothing};
+use pqm_core::coarsen::{Attributes, CoarsenOptions, Coarsener, Placement, Smoothing};
 use pqm_core::features::{feature_edges_from_polylines, load_features, sharp_edges, FeatureCurves};
 use pqm_core::subdivide::{catmull_clark_split, SplitMode};
 use pqm_core::{io, IndexedMesh, Mesh, VertexId};
@@ -39,6 +39,28 @@ impl From<SmoothingArg> for Smoothing {
             SmoothingArg::None => Smoothing::None,
             SmoothingArg::Local => Smoothing::Local,
             SmoothingArg::Global => Smoothing::Global,
+        }
+    }
+}
+
+/// Placement on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlacementArg {
+    /// The paper's: QEM placement, relaxation and smoothing (best-shaped
+    /// coarse quads; refining a level also moves a few vertices).
+    Qem,
+    /// Merged vertices keep their input positions and nothing else moves
+    /// (Hoppe's half-edge collapse for quads): every level's vertices sit at
+    /// input positions, so a .pqm stores each position once (files about
+    /// half the size); coarse quads may have straight corners.
+    Subset,
+}
+
+impl From<PlacementArg> for Placement {
+    fn from(p: PlacementArg) -> Placement {
+        match p {
+            PlacementArg::Qem => Placement::Qem,
+            PlacementArg::Subset => Placement::Subset,
         }
     }
 }
@@ -79,9 +101,14 @@ pub struct CoarsenerArgs {
         help_heading = "Coarsener"
     )]
     pub sharp_angle: f64,
-    /// Where vertices are smoothed.
-    #[arg(long, value_enum, default_value = "global", help_heading = "Coarsener")]
-    pub smoothing: SmoothingArg,
+    /// Where merged vertices go. Default: `subset` for `pqm encode` (each
+    /// position stored once), `qem` for `pqm coarsen` (the paper's).
+    #[arg(long, value_enum, help_heading = "Coarsener")]
+    pub placement: Option<PlacementArg>,
+    /// Where vertices are smoothed (with `--placement qem`; default `global`,
+    /// the paper's). `subset` placement never moves a vertex.
+    #[arg(long, value_enum, help_heading = "Coarsener")]
+    pub smoothing: Option<SmoothingArg>,
     /// Refuse non-quad input instead of splitting each n-gon into n quads.
     #[arg(long, help_heading = "Coarsener")]
     pub no_subdivide: bool,
@@ -235,8 +262,23 @@ pub fn prepare(
         polylines.len()
     ));
     let quad_faces = mesh.face_count();
+    let placement = args.placement.map_or(opts.placement, Placement::from);
+    let smoothing = match (placement, args.smoothing) {
+        (Placement::Subset, Some(s @ (SmoothingArg::Local | SmoothingArg::Global))) => bail!(
+            "--smoothing {} moves vertices, which --placement subset never does \
+             (use --placement qem, or leave --smoothing out)",
+            if s == SmoothingArg::Local {
+                "local"
+            } else {
+                "global"
+            }
+        ),
+        (Placement::Subset, _) => Smoothing::None,
+        (Placement::Qem, s) => s.unwrap_or(SmoothingArg::Global).into(),
+    };
     let opts = CoarsenOptions {
-        smoothing: args.smoothing.into(),
+        smoothing,
+        placement,
         ..opts
     };
     let coarsener = Coarsener::new(mesh, attrs, &curves, opts);

@@ -224,7 +224,8 @@ impl Mesh {
                 mesh.h_face[h] = f as u32;
                 mesh.v_out[face[i] as usize] = h as u32;
             }
-            mesh.f_he.push(corner_he[base]);
+            // the half-edge entering corner 0, so the face reads from corner 0
+            mesh.f_he.push(corner_he[base + n - 1]);
         }
         mesh.n_faces = m.face_count();
         mesh.n_vertices = nv;
@@ -1081,7 +1082,8 @@ impl Mesh {
                 self.h_next[h as usize] = n;
                 self.h_prev[n as usize] = h;
             }
-            self.f_he[fid as usize] = hs[0];
+            // the half-edge entering corner 0: the face reads back as given
+            self.f_he[fid as usize] = hs[hs.len() - 1];
             result.faces.push(FaceId(fid));
         }
         for &f in remove.iter().skip(add.len()) {

@@ -3,10 +3,10 @@
 use crate::cmd::coarsen::run_with_bar;
 use crate::cmd::info::{level_error, level_rows, open};
 use crate::ctx::Ctx;
-use crate::pipeline::{prepare, CoarsenerArgs, SmoothingArg};
+use crate::pipeline::{prepare, CoarsenerArgs};
 use crate::util::{human_bytes, write_atomic};
 use anyhow::{anyhow, bail, Context};
-use pqm_core::coarsen::CoarsenOptions;
+use pqm_core::coarsen::{CoarsenOptions, Placement};
 use pqm_format::{EncodeOptions, Target};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -83,11 +83,16 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         field: None,
         features: None,
         sharp_angle: 60.0,
-        smoothing: SmoothingArg::Global,
+        placement: None,
+        smoothing: None,
         no_subdivide: false,
         repair: false,
     };
-    let mut p = prepare(&fixture, &cargs, CoarsenOptions::default(), ctx)?;
+    let opts = CoarsenOptions {
+        placement: Placement::Subset,
+        ..Default::default()
+    };
+    let mut p = prepare(&fixture, &cargs, opts, ctx)?;
     ctx.note(format!(
         "encoding {} ({} quads)",
         fixture.display(),

@@ -5,7 +5,7 @@ use crate::ctx::{usage, Ctx};
 use crate::pipeline::{prepare, CoarsenerArgs};
 use crate::util::{human_bytes, in_dir_with_ext, parse_nonneg, parse_ratio, write_atomic};
 use anyhow::Context;
-use pqm_core::coarsen::CoarsenOptions;
+use pqm_core::coarsen::{CoarsenOptions, Placement};
 use pqm_format::EncodeOptions;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -80,6 +80,8 @@ pub struct FileReport {
     pub record_bits_per_vertex: f64,
     pub bits: u8,
     pub subdivided: bool,
+    /// Where merged vertices went (`subset`: every level at input positions).
+    pub placement: Placement,
     pub stop: &'static str,
     pub error: f64,
     pub operators: Operators,
@@ -208,9 +210,11 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         target_faces: args.base_faces,
         target_ratio: args.base_ratio,
         max_error: args.max_error,
+        placement: Placement::Subset,
         ..Default::default()
     };
     let mut p = prepare(input, &args.coarsener, opts, ctx)?;
+    let placement = p.coarsener.options().placement;
     let target = target_faces(args.base_faces, args.base_ratio, p.quad_faces);
     let label = input
         .file_name()
@@ -243,6 +247,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         record_bits_per_vertex: enc.bits_per_vertex.total,
         bits: args.bits,
         subdivided: p.split,
+        placement,
         stop: stop_code(&r),
         error: r.error,
         operators: Operators::from(&r),

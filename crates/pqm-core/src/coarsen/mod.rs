@@ -123,7 +123,40 @@ pub struct CoarsenOptions {
     pub smoothing: Smoothing,
     /// Iterations of the final global smoothing.
     pub global_smoothing_iterations: u32,
+    /// Where merged vertices go (and whether anything else moves).
+    pub placement: Placement,
 }
+
+/// Where a merge puts the surviving vertex.
+///
+/// [`Placement::Qem`] is the paper's: QEM placement, the relaxation each
+/// operator needs and the chosen [`Smoothing`]; coarse levels have the best
+/// shaped quads, but refining a level moves ≈ 2–3 vertices besides the new
+/// ones, and each move costs a record a position.
+/// [`Placement::Subset`] is the half-collapse of Hoppe's progressive meshes
+/// carried over to quads: the survivor keeps its own input position (qvMerge
+/// keeps whichever diagonal vertex the summed quadric prefers, qeMerge keeps
+/// the shared edge's endpoints), nothing is relaxed or smoothed, so every
+/// level's vertices sit exactly at input positions and each vertex costs a
+/// record one position, once. Quads may then have straight corners (a
+/// re-fan leaves its middle vertices on a line), so the shape guard only
+/// refuses inverted corners ([`SUBSET_MIN_JACOBIAN`]); fold-over, topology
+/// and feature rules are unchanged. `pqm encode` uses it by default (files
+/// about half the size, see ARCHITECTURE.md); `pqm coarsen` uses `Qem`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Placement {
+    /// QEM placement plus relaxation and smoothing (the paper).
+    #[default]
+    Qem,
+    /// Survivors keep their input positions; nothing else moves.
+    Subset,
+}
+
+/// Smallest Scaled Jacobian a quad may have after a step under
+/// [`Placement::Subset`]: straight corners (0, up to rounding) are allowed,
+/// inverted ones are not.
+pub const SUBSET_MIN_JACOBIAN: f64 = -1e-9;
 
 /// Why coarsening stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -390,6 +423,11 @@ impl Coarsener {
         Ok(Coarsener::new(mesh, attrs, &curves, opts))
     }
 
+    /// The options it runs with.
+    pub fn options(&self) -> &CoarsenOptions {
+        &self.opts
+    }
+
     /// The mesh in its current state.
     pub fn mesh(&self) -> &Mesh {
         &self.mesh
@@ -472,7 +510,7 @@ impl Coarsener {
         if self.report.stop.is_none() {
             self.report.stop = Some(StopReason::TargetReached);
         }
-        if self.opts.smoothing == Smoothing::Global {
+        if self.opts.smoothing == Smoothing::Global && self.opts.placement == Placement::Qem {
             let iters = self.opts.global_smoothing_iterations.max(1);
             self.smooth_all(iters);
         }
@@ -621,11 +659,22 @@ impl Coarsener {
                 let (a, c) = (q[d as usize], q[d as usize + 2]);
                 let con = self.features.check_group(&[a, c])?;
                 // keep the pinned vertex's id, else the smaller id
-                let keep_second = match con {
+                let mut keep_second = match con {
                     GroupConstraint::Pinned(v) => v == c,
                     _ => c < a,
                 };
-                let pos = self.place(&[a, c], con);
+                let mut pos = self.place(&[a, c], con);
+                if self.opts.placement == Placement::Subset {
+                    // keep whichever vertex the summed quadric likes better
+                    // (a pinned one always), at its own position
+                    if !matches!(con, GroupConstraint::Pinned(_)) {
+                        let mut q = self.quadrics[a.idx()];
+                        q += self.quadrics[c.idx()];
+                        let (pa, pc) = (self.mesh.position(a), self.mesh.position(c));
+                        keep_second = q.evaluate(pc) < q.evaluate(pa);
+                    }
+                    pos = self.mesh.position(if keep_second { c } else { a });
+                }
                 ops::qv_merge::qv_merge_patch(&self.mesh, f, d as usize, keep_second, pos)
             }
             Cand::Qe(h, k) => {
@@ -633,8 +682,26 @@ impl Coarsener {
                 let [a, b, c, d, e, f] = site.v;
                 let ca = self.features.check_group(&[a, b, f])?;
                 let cd = self.features.check_group(&[d, c, e])?;
-                let pa = self.place(&[a, b, f], ca);
-                let pd = self.place(&[d, c, e], cd);
+                let (pa, pd) =
+                    if self.opts.placement == Placement::Subset {
+                        // the shared edge's endpoints keep their ids, so they
+                        // keep their positions: a constraint elsewhere (a pinned
+                        // or feature-edge vertex among the merged ones) would
+                        // have to move them, which this placement never does
+                        for (con, keep) in [(ca, a), (cd, d)] {
+                            match con {
+                                GroupConstraint::Free => {}
+                                GroupConstraint::Pinned(v) if v == keep => {}
+                                GroupConstraint::OnEdge(u, v) if u == keep || v == keep => {}
+                                _ => return Err(Reject::Feature(
+                                    "subset placement cannot move a feature vertex onto the edge",
+                                )),
+                            }
+                        }
+                        (self.mesh.position(a), self.mesh.position(d))
+                    } else {
+                        (self.place(&[a, b, f], ca), self.place(&[d, c, e], cd))
+                    };
                 let cross = QE_VARIANTS
                     .get(k as usize)
                     .copied()
@@ -946,7 +1013,12 @@ impl Coarsener {
                 }
             }
         }
-        let guard = GeometryGuard::capture(&self.mesh, &region);
+        let guard = match self.opts.placement {
+            Placement::Qem => GeometryGuard::capture(&self.mesh, &region),
+            Placement::Subset => {
+                GeometryGuard::capture_with(&self.mesh, &region, SUBSET_MIN_JACOBIAN)
+            }
+        };
         // valences before, for the cap after the whole step
         let mut valence_before: Vec<(VertexId, usize)> = Vec::with_capacity(32);
         for &f in &region {
@@ -1088,7 +1160,14 @@ impl Coarsener {
         let applied = &undo_stack[0];
         // the op's own moves are logged with it; the relaxation came last, so
         // it goes with the last log of the step (undone first when refining)
-        let moved: Vec<(VertexId, DVec3)> = positions_before.clone();
+        // (a merge target the op left where it was is not a move: logging it
+        // would cost a record a position for nothing)
+        let moved: Vec<(VertexId, DVec3)> = positions_before
+            .iter()
+            .zip(&patch.moved)
+            .filter(|(before, after)| before.1 != after.1)
+            .map(|(before, _)| *before)
+            .collect();
         let relax_moves: Vec<(VertexId, DVec3)> = relaxed
             .iter()
             .filter(|&&(v, before)| self.mesh.position(v) != before)
@@ -1171,6 +1250,9 @@ impl Coarsener {
     /// local smoothing, every vertex of the inserted quads. Feature vertices
     /// never move.
     fn relax_set(&self, patch: &Patch, inserted: &[VertexId], all: bool) -> Vec<VertexId> {
+        if self.opts.placement == Placement::Subset {
+            return Vec::new();
+        }
         let merged_into: Vec<VertexId> = patch.moved.iter().map(|m| m.0).collect();
         let local = all || self.opts.smoothing == Smoothing::Local;
         let mut set: Vec<VertexId> = Vec::new();

@@ -191,8 +191,14 @@ pub struct GeometryGuard {
 impl GeometryGuard {
     /// Records the faces of `region` (live faces only) before the step.
     pub fn capture(mesh: &Mesh, region: &[FaceId]) -> Self {
+        Self::capture_with(mesh, region, MIN_NEW_QUAD_JACOBIAN)
+    }
+
+    /// [`GeometryGuard::capture`] with another shape floor: new quads must
+    /// have a Scaled Jacobian of at least `min(min_jacobian, worst before)`.
+    pub fn capture_with(mesh: &Mesh, region: &[FaceId], min_jacobian: f64) -> Self {
         let mut g = GeometryGuard {
-            min_sj: MIN_NEW_QUAD_JACOBIAN,
+            min_sj: min_jacobian,
             ..Default::default()
         };
         for &f in region {
