@@ -473,7 +473,7 @@ impl Decoder {
         }
         let major = LE::read_u16(&b[8..]);
         let minor = LE::read_u16(&b[10..]);
-        if major != VERSION_MAJOR {
+        if !(MIN_VERSION_MAJOR..=VERSION_MAJOR).contains(&major) {
             return Err(FormatError::UnsupportedVersion {
                 major,
                 minor,
@@ -861,6 +861,7 @@ impl Decoder {
                 &mut cur,
                 h.final_vertex_count,
                 h.final_face_count,
+                h.version_major,
                 rec,
                 buffers,
             )
