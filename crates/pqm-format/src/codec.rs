@@ -120,7 +120,7 @@ pub struct MeshState {
 }
 
 /// Star of a vertex in canonical order (spec §7.5).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Star {
     /// Faces `f_0 … f_{K-1}` counter-clockwise.
     pub faces: Vec<u32>,
@@ -460,6 +460,17 @@ impl MeshState {
 
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
     pub fn star(&self, m: u32) -> Result<Star, String> {
+        let mut out = Star {
+            faces: Vec::new(),
+            link: Vec::new(),
+        };
+        self.star_into(m, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`MeshState::star`] into `out`, reusing its buffers (the decoder's
+    /// split-form path: no allocation per record).
+    pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
         // (slot, next of m, prev of m) per face, sorted by slot, on the
         // stack: the walk below is quadratic in the valence, so its inner
         // loop runs on a small array, and sorting makes "the smallest slot
@@ -516,34 +527,36 @@ impl MeshState {
             }
         }
         let start = start.ok_or_else(not_fan)?;
-        let mut order = Vec::with_capacity(n);
+        // The walk goes straight into `out` (ring index → slot / link
+        // vertex); `seen` holds ring indices, on the stack.
+        let Star { faces, link } = out;
+        faces.clear();
+        link.clear();
         let mut seen = [false; MAX_SPLIT_STAR];
-        order.push(start);
+        faces.push(ring[start].0);
+        link.push(ring[start].1);
         seen[start] = true;
         let mut f = start;
         loop {
             match succ(f) {
                 None if boundary => break,
                 Some(g) if g == start && !boundary => break,
-                Some(g) if !seen[g] && order.len() < n => {
-                    order.push(g);
+                Some(g) if !seen[g] && faces.len() < n => {
+                    faces.push(ring[g].0);
+                    link.push(ring[g].1);
                     seen[g] = true;
                     f = g;
                 }
                 _ => return Err(not_fan()),
             }
         }
-        if order.len() != n {
+        if faces.len() != n {
             return Err(not_fan());
         }
-        let mut link: Vec<u32> = order.iter().map(|&g| ring[g].1).collect();
         if boundary {
             link.push(ring[f].2);
         }
-        Ok(Star {
-            faces: order.iter().map(|&g| ring[g].0).collect(),
-            link,
-        })
+        Ok(())
     }
 }
 
@@ -569,6 +582,22 @@ fn build_split(
     j: usize,
     rot: usize,
 ) -> Result<(Rewrites, [u32; 4]), String> {
+    let mut rewritten = Vec::new();
+    let appended = build_split_into(st, m, star, i, j, rot, &mut rewritten)?;
+    Ok((rewritten, appended))
+}
+
+/// [`build_split`] with the rewritten slots into `rewritten` (cleared
+/// first; its buffer reused), returning the appended quad.
+fn build_split_into(
+    st: &MeshState,
+    m: u32,
+    star: &Star,
+    i: usize,
+    j: usize,
+    rot: usize,
+    rewritten: &mut Rewrites,
+) -> Result<[u32; 4], String> {
     let c = st.q.len() as u32;
     let (b, d) = (star.link[i], star.link[j]);
     if b == d {
@@ -583,15 +612,13 @@ fn build_split(
             t >= i || t < j
         }
     };
-    let mut rewritten: Vec<(u32, [u32; 4])> = (0..star.faces.len())
-        .filter(|&t| !in_a(t))
-        .map(|t| {
-            let s = star.faces[t];
-            (s, st.quads[s as usize].map(|x| if x == m { c } else { x }))
-        })
-        .collect();
+    rewritten.clear();
+    rewritten.extend((0..star.faces.len()).filter(|&t| !in_a(t)).map(|t| {
+        let s = star.faces[t];
+        (s, st.quads[s as usize].map(|x| if x == m { c } else { x }))
+    }));
     rewritten.sort_unstable_by_key(|r| r.0);
-    Ok((rewritten, appended))
+    Ok(appended)
 }
 
 /// The explicit quads of a face split (spec §7.9 steps 4–5): slot `s`
@@ -839,6 +866,8 @@ pub struct DecodeScratch {
     slots: Vec<u32>,
     extra: Vec<u32>,
     nf: NewFaces,
+    /// Star of the current split-form vertex.
+    star: Star,
 }
 
 impl DecodeScratch {
@@ -929,7 +958,8 @@ pub fn decode_record_into(
             }
             let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
             cur.vref = m;
-            let star = st.star(m)?;
+            st.star_into(m, &mut sc.star)?;
+            let star = &sc.star;
             let l = star.link.len();
             if l < 2 {
                 return Err(format!("vertex {m} has fewer than two link vertices"));
@@ -937,12 +967,11 @@ pub fn decode_record_into(
             let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
             let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
             let j = (i + 1 + e) % l;
-            let (rewritten, appended) = build_split(st, m, &star, i, j, rot)?;
-            r.rewritten = rewritten;
+            let appended = build_split_into(st, m, star, i, j, rot, &mut r.rewritten)?;
             r.appended.push(appended);
             let m_old = st.q[m as usize];
             if moved_flag {
-                let p = add_residual(predict_a(st, m, &star, i, j), &mut rd[POS], st.qmax)?;
+                let p = add_residual(predict_a(st, m, star, i, j), &mut rd[POS], st.qmax)?;
                 r.moved.push((m, p));
             }
             let pred = if reflect_c {
@@ -1004,6 +1033,7 @@ fn decode_patch(
         slots,
         extra,
         nf,
+        ..
     } = sc;
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;

@@ -1066,14 +1066,22 @@ impl Decoder {
             self.q.extend_from_slice(new);
             self.pos.extend(new.iter().map(|&c| f32_of(c)));
             for k in from..to {
+                // Only changes to what the caller already has are reported
+                // (ids below `v_from` / `f_from`): collecting the others
+                // only to drop them below cost a sort of every rewrite of a
+                // long refinement.
                 for &(v, p, _) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
                     self.q[v as usize] = p;
                     self.pos[v as usize] = f32_of(p);
-                    moved.push(v);
+                    if v < v_from {
+                        moved.push(v);
+                    }
                 }
                 for &(s, q, _) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
                     self.quads[s as usize] = q;
-                    rewritten.push(s);
+                    if s < f_from {
+                        rewritten.push(s);
+                    }
                 }
                 self.quads.extend_from_slice(
                     &r.appended[(r.f_at[k] - bf) as usize..(r.f_at[k + 1] - bf) as usize],
@@ -1087,11 +1095,15 @@ impl Decoder {
                 for &(v, _, o) in r.moved[r.moved_at[k]..r.moved_at[k + 1]].iter().rev() {
                     self.q[v as usize] = o;
                     self.pos[v as usize] = f32_of(o);
-                    moved.push(v);
+                    if v < v_to {
+                        moved.push(v);
+                    }
                 }
                 for &(s, _, o) in r.rw[r.rw_at[k]..r.rw_at[k + 1]].iter().rev() {
                     self.quads[s as usize] = o;
-                    rewritten.push(s);
+                    if s < f_to {
+                        rewritten.push(s);
+                    }
                 }
             }
         }
