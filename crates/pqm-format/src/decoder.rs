@@ -716,11 +716,35 @@ impl Decoder {
         Self::check_crc(Section::BaseMesh, b, h.base_crc32)?;
         let payload = self.decompress(Section::BaseMesh, b, h.base_uncompressed_len)?;
         let qmax = self.quant.map_or(0, |q| q.qmax());
-        let st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
+        let mut st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
             .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
-        self.q = st.q.clone();
-        self.pos = self.q.iter().map(|&c| self.f32_of(c)).collect();
-        self.quads = st.quads.clone();
+        // Room for the finest level up front: the header's counts were
+        // checked against the limits, and what is reserved here (52 bytes
+        // per vertex, 80 per face, 25 per record) stays within
+        // `Limits::estimate`. Growing these lists chunk by chunk copied them
+        // ~log2(final / base) times. Untouched capacity is address space,
+        // not memory: a client that stops early does not pay for it.
+        let (nv, nf) = (
+            (h.final_vertex_count - h.base_vertex_count) as usize,
+            (h.final_face_count - h.base_face_count) as usize,
+        );
+        st.reserve(nv, nf);
+        let r = &mut self.recs;
+        let n_rec = h.record_count as usize + 1;
+        r.op.reserve(n_rec);
+        r.v_at.reserve(n_rec);
+        r.f_at.reserve(n_rec);
+        r.moved_at.reserve(n_rec);
+        r.rw_at.reserve(n_rec);
+        r.new_pos.reserve(nv);
+        r.appended.reserve(nf);
+        let mut q = Vec::with_capacity(st.q.len() + nv);
+        q.extend_from_slice(&st.q);
+        let mut pos = Vec::with_capacity(st.q.len() + nv);
+        pos.extend(st.q.iter().map(|&c| self.f32_of(c)));
+        let mut quads = Vec::with_capacity(st.quads.len() + nf);
+        quads.extend_from_slice(&st.quads);
+        (self.q, self.pos, self.quads) = (q, pos, quads);
         self.level = 0;
         self.recs.v_at.push(st.q.len() as u32);
         self.recs.f_at.push(st.quads.len() as u32);
