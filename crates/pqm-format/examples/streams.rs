@@ -4,9 +4,12 @@
 //! new / moved / rewritten / appended counts, and the compressed bits per
 //! refined vertex each stream takes.
 //!
-//! `cargo run --release -p pqm-format --example streams -- [--no-local] FILE.pqm...`
+//! `cargo run --release -p pqm-format --example streams -- [--v1] [--no-local] [--no-face-split] FILE.pqm...`
 //! (write the files with `pqm encode`; re-encoding skips the coarsener;
-//! `--no-local` re-encodes without the local form, as version 1.0 did).
+//! `--v1` re-encodes as version 1.1 — version-1 prediction, no face-split
+//! form; `--no-local` without the local form, as version 1.0 did;
+//! `--no-face-split` without the face-split form; `--write` also saves the
+//! re-encoded file beside the input as `NAME.reencoded.pqm`).
 
 use pqm_format::{decode_all, write_to_vec, EncodeOptions, Limits};
 
@@ -14,8 +17,12 @@ const OPS: [&str; 4] = ["qvMerge", "qeMerge", "doublet", "smooth"];
 
 fn main() {
     let mut files: Vec<String> = std::env::args().skip(1).collect();
-    let local_form = !files.iter().any(|f| f == "--no-local");
-    files.retain(|f| f != "--no-local");
+    let flag = |name: &str| files.iter().any(|f| f == name);
+    let local_form = !flag("--no-local");
+    let face_split_form = !flag("--no-face-split");
+    let version_major = if flag("--v1") { 1 } else { 2 };
+    let write = flag("--write");
+    files.retain(|f| !f.starts_with("--"));
     if files.is_empty() {
         eprintln!("usage: streams FILE.pqm...");
         std::process::exit(2);
@@ -43,6 +50,8 @@ fn main() {
         let opts = EncodeOptions {
             bits,
             local_form,
+            face_split_form,
+            version_major,
             ..EncodeOptions::default()
         };
         let (out, r) = match write_to_vec(&pm, &opts) {
@@ -52,6 +61,12 @@ fn main() {
                 continue;
             }
         };
+        if write {
+            let to = std::path::Path::new(&f).with_extension("reencoded.pqm");
+            if let Err(e) = std::fs::write(&to, &out) {
+                eprintln!("{}: {e}", to.display());
+            }
+        }
         let n = r.refined_vertices.max(1) as f64;
         println!(
             "## {f}: {} → {} bytes; {} records, {} refined vertices; bits/refined vertex: conn {:.1} + pos {:.1} = {:.1} (file {:.1} bits/final vertex)",
@@ -64,7 +79,7 @@ fn main() {
             r.bits_per_vertex.total,
             r.file_bits_per_vertex
         );
-        println!("| op | records | forms g/s/l | avg new | avg moved | avg rewritten | avg appended | ops | conn | refs | slots | pos | total (bits/refined vertex) |");
+        println!("| op | records | forms g/s/l/f | avg new | avg moved | avg rewritten | avg appended | ops | conn | refs | slots | pos | total (bits/refined vertex) |");
         println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
         let mut tot = [0f64; 5];
         for (o, s) in r.per_op.iter().enumerate() {
@@ -77,12 +92,13 @@ fn main() {
                 tot[t] += b[t];
             }
             println!(
-                "| {} | {} | {}/{}/{} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+                "| {} | {} | {}/{}/{}/{} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
                 OPS[o],
                 s.records,
                 s.forms[0],
                 s.forms[1],
                 s.forms[2],
+                s.forms[3],
                 s.new as f64 / k,
                 s.moved as f64 / k,
                 s.rewritten as f64 / k,

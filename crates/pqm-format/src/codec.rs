@@ -120,7 +120,7 @@ pub struct MeshState {
 }
 
 /// Star of a vertex in canonical order (spec §7.5).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Star {
     /// Faces `f_0 … f_{K-1}` counter-clockwise.
     pub faces: Vec<u32>,
@@ -435,8 +435,42 @@ impl MeshState {
         Ok(())
     }
 
+    /// The slots whose quad contains `m`, ascending, into `out` (spec §7.9
+    /// step 2), or why the face-split form cannot name them: none, or more
+    /// than [`MAX_SPLIT_STAR`] (counting stops there, so a hostile fan costs
+    /// no more than 256 faces).
+    pub fn slots_at(&self, m: u32, out: &mut Vec<u32>) -> Result<(), String> {
+        out.clear();
+        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
+        while c != NIL {
+            if out.len() == MAX_SPLIT_STAR {
+                return Err(format!(
+                    "vertex {m} has more than {MAX_SPLIT_STAR} faces (face split needs 1..=255)"
+                ));
+            }
+            out.push(c >> 2);
+            c = self.next[c as usize];
+        }
+        if out.is_empty() {
+            return Err(format!("vertex {m} has 0 faces (face split needs 1..=255)"));
+        }
+        sort_distinct(out);
+        Ok(())
+    }
+
     /// Canonical star of `m` (spec §7.5), or why it is not a single fan.
     pub fn star(&self, m: u32) -> Result<Star, String> {
+        let mut out = Star {
+            faces: Vec::new(),
+            link: Vec::new(),
+        };
+        self.star_into(m, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`MeshState::star`] into `out`, reusing its buffers (the decoder's
+    /// split-form path: no allocation per record).
+    pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
         // (slot, next of m, prev of m) per face, sorted by slot, on the
         // stack: the walk below is quadratic in the valence, so its inner
         // loop runs on a small array, and sorting makes "the smallest slot
@@ -493,34 +527,36 @@ impl MeshState {
             }
         }
         let start = start.ok_or_else(not_fan)?;
-        let mut order = Vec::with_capacity(n);
+        // The walk goes straight into `out` (ring index → slot / link
+        // vertex); `seen` holds ring indices, on the stack.
+        let Star { faces, link } = out;
+        faces.clear();
+        link.clear();
         let mut seen = [false; MAX_SPLIT_STAR];
-        order.push(start);
+        faces.push(ring[start].0);
+        link.push(ring[start].1);
         seen[start] = true;
         let mut f = start;
         loop {
             match succ(f) {
                 None if boundary => break,
                 Some(g) if g == start && !boundary => break,
-                Some(g) if !seen[g] && order.len() < n => {
-                    order.push(g);
+                Some(g) if !seen[g] && faces.len() < n => {
+                    faces.push(ring[g].0);
+                    link.push(ring[g].1);
                     seen[g] = true;
                     f = g;
                 }
                 _ => return Err(not_fan()),
             }
         }
-        if order.len() != n {
+        if faces.len() != n {
             return Err(not_fan());
         }
-        let mut link: Vec<u32> = order.iter().map(|&g| ring[g].1).collect();
         if boundary {
             link.push(ring[f].2);
         }
-        Ok(Star {
-            faces: order.iter().map(|&g| ring[g].0).collect(),
-            link,
-        })
+        Ok(())
     }
 }
 
@@ -546,6 +582,22 @@ fn build_split(
     j: usize,
     rot: usize,
 ) -> Result<(Rewrites, [u32; 4]), String> {
+    let mut rewritten = Vec::new();
+    let appended = build_split_into(st, m, star, i, j, rot, &mut rewritten)?;
+    Ok((rewritten, appended))
+}
+
+/// [`build_split`] with the rewritten slots into `rewritten` (cleared
+/// first; its buffer reused), returning the appended quad.
+fn build_split_into(
+    st: &MeshState,
+    m: u32,
+    star: &Star,
+    i: usize,
+    j: usize,
+    rot: usize,
+    rewritten: &mut Rewrites,
+) -> Result<[u32; 4], String> {
     let c = st.q.len() as u32;
     let (b, d) = (star.link[i], star.link[j]);
     if b == d {
@@ -560,15 +612,31 @@ fn build_split(
             t >= i || t < j
         }
     };
-    let mut rewritten: Vec<(u32, [u32; 4])> = (0..star.faces.len())
-        .filter(|&t| !in_a(t))
-        .map(|t| {
-            let s = star.faces[t];
-            (s, st.quads[s as usize].map(|x| if x == m { c } else { x }))
-        })
-        .collect();
+    rewritten.clear();
+    rewritten.extend((0..star.faces.len()).filter(|&t| !in_a(t)).map(|t| {
+        let s = star.faces[t];
+        (s, st.quads[s as usize].map(|x| if x == m { c } else { x }))
+    }));
     rewritten.sort_unstable_by_key(|r| r.0);
-    Ok((rewritten, appended))
+    Ok(appended)
+}
+
+/// The explicit quads of a face split (spec §7.9 steps 4–5): slot `s`
+/// (whose quad contains `m`) is cut along its diagonal through `m` by the
+/// new vertex `c = V`; returns `(X', Y')`, the rewritten quad of `s` and the
+/// appended one, with the rotations of symbol bits 4–5 and 6–7.
+fn build_face_split(st: &MeshState, m: u32, s: u32, swap: bool, sym: u8) -> ([u32; 4], [u32; 4]) {
+    let c = st.q.len() as u32;
+    let f = st.quads[s as usize];
+    let k = f.iter().position(|&x| x == m).unwrap_or(0);
+    let (p, o, q) = (f[(k + 1) % 4], f[(k + 2) % 4], f[(k + 3) % 4]);
+    let (a, b) = ([m, p, o, c], [m, c, o, q]);
+    let (x, y) = if swap { (b, a) } else { (a, b) };
+    let (rx, ry) = (((sym >> 4) & 3) as usize, (sym >> 6) as usize);
+    (
+        [0, 1, 2, 3].map(|i| x[(i + rx) % 4]),
+        [0, 1, 2, 3].map(|i| y[(i + ry) % 4]),
+    )
 }
 
 /// Prediction of the split vertex `a` (spec §7.5): `m`'s old code plus a
@@ -622,10 +690,61 @@ fn residual_cost(pred: [u32; 3], p: [u32; 3]) -> u64 {
         .sum()
 }
 
+/// The record quads containing each new vertex (spec §7.6), as linked
+/// lists over *record corners*: record quad `i` is appended quad `i` for
+/// `i < n_app`, else rewritten quad `i − n_app` (the spec's order: appended,
+/// then rewritten by ascending slot); corner entry `4 i + k`. `head[t]` is
+/// the first entry of new vertex `V + t`, `next` links entries in record
+/// quad order. Built in one pass, so predicting every new vertex of a
+/// record is linear in its size (a hostile record with many new vertices
+/// and quads cannot make it quadratic) and allocates nothing once grown.
+#[derive(Clone, Debug, Default)]
+pub struct NewFaces {
+    head: Vec<u32>,
+    next: Vec<u32>,
+}
+
+impl NewFaces {
+    /// Lists for the `n_new` new vertices (`v0 ..`) of `r`'s quads.
+    pub fn build(&mut self, r: &QRecord, v0: u32, n_new: usize) {
+        let n_app = r.appended.len();
+        let nq = n_app + r.rewritten.len();
+        self.head.clear();
+        self.head.resize(n_new, NIL);
+        self.next.clear();
+        self.next.resize(4 * nq, NIL);
+        // Backwards, so that each list comes out in record quad order.
+        for i in (0..nq).rev() {
+            let quad = record_quad(r, i);
+            for (k, &u) in quad.iter().enumerate() {
+                let t = u.wrapping_sub(v0) as usize;
+                if u >= v0 && t < n_new {
+                    let e = (4 * i + k) as u32;
+                    self.next[e as usize] = self.head[t];
+                    self.head[t] = e;
+                }
+            }
+        }
+    }
+}
+
+/// Record quad `i` in the order of spec §7.6 (appended, then rewritten).
+#[inline]
+fn record_quad(r: &QRecord, i: usize) -> [u32; 4] {
+    if i < r.appended.len() {
+        r.appended[i]
+    } else {
+        r.rewritten[i - r.appended.len()].1
+    }
+}
+
 /// Prediction of the code of new vertex `x` (spec §7.6). `r.new_pos` holds
-/// the new vertices before `x`; `first` is the first record face (appended,
-/// then rewritten) containing `x`.
-fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>) -> [u32; 3] {
+/// the codes of the new vertices before `x` (`v0 ..= x − 1`), `r.moved` is
+/// sorted by id, and `nf` was built from `r`'s quads. `major` picks the
+/// rule: from version 2 on the mean of every parallelogram around `x`
+/// whose three other corners are known (the curvature errors of opposite
+/// parallelograms cancel), else the version-1 rule on the first quad.
+fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16, nf: &NewFaces) -> [u32; 3] {
     let known = |u: u32| -> Option<[u32; 3]> {
         if u < v0 {
             match r.moved.binary_search_by_key(&u, |m| m.0) {
@@ -638,13 +757,37 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>
             None
         }
     };
-    if let Some(face) = first {
-        let k = face.iter().position(|&u| u == x).unwrap_or(0);
+    let qmax = st.qmax as i64;
+    let head = nf.head.get((x - v0) as usize).copied().unwrap_or(NIL);
+    if major >= 2 {
+        let (mut sum, mut n) = ([0i64; 3], 0i64);
+        let mut e = head;
+        while e != NIL {
+            let quad = record_quad(r, (e >> 2) as usize);
+            let k = (e & 3) as usize;
+            let n1 = known(quad[(k + 1) % 4]);
+            let o = known(quad[(k + 2) % 4]);
+            let n3 = known(quad[(k + 3) % 4]);
+            if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
+                for t in 0..3 {
+                    sum[t] += a[t] as i64 + c[t] as i64 - b[t] as i64;
+                }
+                n += 1;
+            }
+            e = nf.next[e as usize];
+        }
+        if n > 0 {
+            // `div_euclid` by a positive count is the floor the spec asks for.
+            return sum.map(|s| s.div_euclid(n).clamp(0, qmax) as u32);
+        }
+    }
+    if head != NIL {
+        let face = record_quad(r, (head >> 2) as usize);
+        let k = (head & 3) as usize;
         let n1 = known(face[(k + 1) % 4]);
         let o = known(face[(k + 2) % 4]);
         let n3 = known(face[(k + 3) % 4]);
         if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
-            let qmax = st.qmax as i64;
             return [0, 1, 2]
                 .map(|t| (a[t] as i64 + c[t] as i64 - b[t] as i64).clamp(0, qmax) as u32);
         }
@@ -666,27 +809,6 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, first: Option<[u32; 4]>
         }
     }
     [st.qmax.div_ceil(2); 3]
-}
-
-/// First face (appended, then rewritten) containing each new vertex.
-fn first_faces(r: &QRecord, v0: u32, n_new: usize) -> Vec<Option<[u32; 4]>> {
-    let mut first = Vec::new();
-    first_faces_into(r, v0, n_new, &mut first);
-    first
-}
-
-/// [`first_faces`] into `first` (reusing its buffer).
-fn first_faces_into(r: &QRecord, v0: u32, n_new: usize, first: &mut Vec<Option<[u32; 4]>>) {
-    first.clear();
-    first.resize(n_new, None);
-    let faces = r.appended.iter().chain(r.rewritten.iter().map(|(_, q)| q));
-    for q in faces {
-        for &u in q {
-            if u >= v0 && ((u - v0) as usize) < n_new && first[(u - v0) as usize].is_none() {
-                first[(u - v0) as usize] = Some(*q);
-            }
-        }
-    }
 }
 
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
@@ -743,7 +865,9 @@ pub struct DecodeScratch {
     w: Vec<u32>,
     slots: Vec<u32>,
     extra: Vec<u32>,
-    first: Vec<Option<[u32; 4]>>,
+    nf: NewFaces,
+    /// Star of the current split-form vertex.
+    star: Star,
 }
 
 impl DecodeScratch {
@@ -754,7 +878,9 @@ impl DecodeScratch {
 }
 
 /// Decodes one record against `st` (level before the record). `max_v` /
-/// `max_f` are the file's final counts: no record may exceed them.
+/// `max_f` are the file's final counts: no record may exceed them; `major`
+/// is the file's major version (1: the 1.x rules, 2: multi-parallelogram
+/// prediction and the face-split form, spec §9).
 /// (Convenience over [`decode_record_into`] with per-thread buffers.)
 pub fn decode_record(
     st: &MeshState,
@@ -762,6 +888,7 @@ pub fn decode_record(
     cur: &mut Cursors,
     max_v: u32,
     max_f: u32,
+    major: u16,
 ) -> Result<QRecord, String> {
     thread_local! {
         static SCRATCH: std::cell::RefCell<DecodeScratch> =
@@ -769,7 +896,16 @@ pub fn decode_record(
     }
     let mut r = QRecord::default();
     SCRATCH.with(|cell| {
-        decode_record_into(st, rd, cur, max_v, max_f, &mut r, &mut cell.borrow_mut())
+        decode_record_into(
+            st,
+            rd,
+            cur,
+            max_v,
+            max_f,
+            major,
+            &mut r,
+            &mut cell.borrow_mut(),
+        )
     })?;
     Ok(r)
 }
@@ -777,12 +913,14 @@ pub fn decode_record(
 /// [`decode_record`] into `r` (its lists are cleared first and their
 /// buffers reused) with the caller's scratch buffers: the decoder's hot
 /// path, which allocates nothing per record.
+#[allow(clippy::too_many_arguments)]
 pub fn decode_record_into(
     st: &MeshState,
     rd: &mut [Reader; 5],
     cur: &mut Cursors,
     max_v: u32,
     max_f: u32,
+    major: u16,
     r: &mut QRecord,
     sc: &mut DecodeScratch,
 ) -> Result<(), String> {
@@ -812,7 +950,7 @@ pub fn decode_record_into(
                 cur.vref = m;
                 st.local_with(m, &mut sc.marks, &mut sc.local)?;
             }
-            decode_patch(st, rd, cur, max_v, max_f, local, sc, r)?;
+            decode_patch(st, rd, cur, max_v, max_f, local, major, sc, r)?;
         }
         1 => {
             if v0 >= max_v || f0 >= max_f {
@@ -820,7 +958,8 @@ pub fn decode_record_into(
             }
             let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
             cur.vref = m;
-            let star = st.star(m)?;
+            st.star_into(m, &mut sc.star)?;
+            let star = &sc.star;
             let l = star.link.len();
             if l < 2 {
                 return Err(format!("vertex {m} has fewer than two link vertices"));
@@ -828,23 +967,45 @@ pub fn decode_record_into(
             let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
             let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
             let j = (i + 1 + e) % l;
-            let (rewritten, appended) = build_split(st, m, &star, i, j, rot)?;
-            r.rewritten = rewritten;
+            let appended = build_split_into(st, m, star, i, j, rot, &mut r.rewritten)?;
             r.appended.push(appended);
             let m_old = st.q[m as usize];
             if moved_flag {
-                let p = add_residual(predict_a(st, m, &star, i, j), &mut rd[POS], st.qmax)?;
+                let p = add_residual(predict_a(st, m, star, i, j), &mut rd[POS], st.qmax)?;
                 r.moved.push((m, p));
             }
             let pred = if reflect_c {
                 reflect(st, m_old, r.moved.first().map_or(m_old, |mv| mv.1))
             } else {
-                predict(st, r, v0, v0, Some(appended))
+                sc.nf.build(r, v0, 1);
+                predict(st, r, v0, v0, major, &sc.nf)
             };
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
         }
-        _ => return Err(format!("unknown record form {form} in symbol {sym:#04x}")),
+        _ if major < 2 => {
+            return Err(format!(
+                "record form {form} (face split) in a version {major} file (symbol {sym:#04x}; version 2 only)"
+            ))
+        }
+        _ => {
+            // Face-split form (spec §7.9).
+            if v0 >= max_v || f0 >= max_f {
+                return Err("face split exceeds the final vertex or face count".into());
+            }
+            let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
+            cur.vref = m;
+            st.slots_at(m, &mut sc.slots)?;
+            let n = sc.slots.len() as u64;
+            let x = rd[CONN].u_max(2 * n - 1, "face-split index")?;
+            let s = sc.slots[(x >> 1) as usize];
+            let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
+            r.rewritten.push((s, rewritten));
+            r.appended.push(appended);
+            sc.nf.build(r, v0, 1);
+            let p = add_residual(predict(st, r, v0, v0, major, &sc.nf), &mut rd[POS], st.qmax)?;
+            r.new_pos.push(p);
+        }
     }
     Ok(())
 }
@@ -861,6 +1022,7 @@ fn decode_patch(
     max_v: u32,
     max_f: u32,
     local: bool,
+    major: u16,
     sc: &mut DecodeScratch,
     r: &mut QRecord,
 ) -> Result<(), String> {
@@ -870,7 +1032,8 @@ fn decode_patch(
         w,
         slots,
         extra,
-        first,
+        nf,
+        ..
     } = sc;
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
@@ -1003,9 +1166,9 @@ fn decode_patch(
         check_distinct(&q, || format!("appended face {a}"))?;
         r.appended.push(q);
     }
-    first_faces_into(r, v0, n_new, first);
-    for (t, &f) in first.iter().enumerate() {
-        let pred = predict(st, r, v0, v0 + t as u32, f);
+    nf.build(r, v0, n_new);
+    for t in 0..n_new {
+        let pred = predict(st, r, v0, v0 + t as u32, major, nf);
         let p = add_residual(pred, &mut rd[POS], st.qmax)?;
         r.new_pos.push(p);
     }
@@ -1128,30 +1291,111 @@ fn split_params(st: &MeshState, r: &QRecord) -> Option<SplitParams> {
     (rewritten == r.rewritten && appended == quad).then_some(SplitParams { m, star, i, j, rot })
 }
 
+/// Which rules and record forms [`encode_record`] may use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Coding {
+    /// Major version of the file (1: the 1.x rules — no face-split form,
+    /// version-1 prediction; 2: spec §7.6's multi-parallelogram prediction
+    /// and the face-split form).
+    pub major: u16,
+    /// Try the split form (§7.5).
+    pub split: bool,
+    /// Try the face-split form (§7.9; ignored when `major < 2`).
+    pub face_split: bool,
+    /// Try the local form (§7.7).
+    pub local: bool,
+}
+
+impl Default for Coding {
+    /// Version 2, every form.
+    fn default() -> Self {
+        Coding {
+            major: 2,
+            split: true,
+            face_split: true,
+            local: true,
+        }
+    }
+}
+
+/// The face-split parameters `(m, x, sym bits 4–7)` that reproduce `r`
+/// exactly (spec §7.9), with the anchor `m` among the corners of the
+/// rewritten slot's old quad whose reference and index take the fewest
+/// bytes; `None` when the record is not a face split.
+fn face_split_params(st: &MeshState, r: &QRecord, cur: &Cursors) -> Option<(u32, u64, u8)> {
+    if r.new_pos.len() != 1
+        || !r.moved.is_empty()
+        || r.rewritten.len() != 1
+        || r.appended.len() != 1
+    {
+        return None;
+    }
+    let (s, want_x) = r.rewritten[0];
+    let want_y = r.appended[0];
+    let rotation = |q: [u32; 4], want: [u32; 4]| {
+        (0..4u8).find(|&rot| [0, 1, 2, 3].map(|i| q[(i + rot as usize) % 4]) == want)
+    };
+    let mut best: Option<(usize, (u32, u64, u8))> = None;
+    let mut slots = Vec::new();
+    for m in st.quads[s as usize] {
+        if st.slots_at(m, &mut slots).is_err() {
+            continue;
+        }
+        let Ok(t) = slots.binary_search(&s) else {
+            continue;
+        };
+        for swap in [false, true] {
+            let (x, y) = build_face_split(st, m, s, swap, 0);
+            let (Some(rx), Some(ry)) = (rotation(x, want_x), rotation(y, want_y)) else {
+                continue;
+            };
+            let code = 2 * t as u64 + swap as u64;
+            let cost = varint_len(zigzag(m as i64 - cur.vref as i64)) + varint_len(code);
+            if !matches!(best, Some((c, _)) if c <= cost) {
+                best = Some((cost, (m, code, rx << 4 | ry << 6)));
+            }
+        }
+    }
+    best.map(|b| b.1)
+}
+
+/// Bytes of the LEB128 varint of `v`.
+fn varint_len(v: u64) -> usize {
+    (64 - (v | 1).leading_zeros() as usize).div_ceil(7)
+}
+
+/// Zigzag of `v` (spec §1).
+fn zigzag(v: i64) -> u64 {
+    ((v << 1) ^ (v >> 63)) as u64
+}
+
 /// Encodes `r` (normalized: moved ids and rewritten slots strictly
-/// ascending, indices valid against `st`) into `s`. Uses the split form when
-/// `allow_split` and it reproduces `r` exactly; else, when `allow_local`,
-/// the local form (spec §7.7) with the anchor that writes the fewest bytes,
-/// if that is no larger than the general form. Returns the form used (spec
-/// §7.3: 0 general, 1 split, 2 local).
+/// ascending, indices valid against `st`) into `s` under the rules of
+/// `coding`. Uses the split form when allowed and it reproduces `r`
+/// exactly; else the face-split form likewise; else, when allowed, the
+/// local form (spec §7.7) with the anchor that writes the fewest bytes, if
+/// that is no larger than the general form. Returns the form used (spec
+/// §7.3: 0 general, 1 split, 2 local, 3 face split).
 pub fn encode_record(
     st: &MeshState,
     r: &QRecord,
     cur: &mut Cursors,
     s: &mut [Vec<u8>; 5],
-    allow_split: bool,
-    allow_local: bool,
+    coding: Coding,
 ) -> u8 {
     let v0 = st.q.len() as u32;
     let op = r.op as u8;
-    if allow_split {
+    let major = coding.major;
+    let mut nf = NewFaces::default();
+    if coding.split {
         if let Some(SplitParams { m, star, i, j, rot }) = split_params(st, r) {
             let l = star.link.len();
             let m_old = st.q[m as usize];
             let a = r.moved.first().map_or(m_old, |mv| mv.1);
             let mut partial = r.clone();
             partial.new_pos.clear();
-            let by_quad = predict(st, &partial, v0, v0, Some(r.appended[0]));
+            nf.build(&partial, v0, 1);
+            let by_quad = predict(st, &partial, v0, v0, major, &nf);
             let by_reflection = reflect(st, m_old, a);
             let c = r.new_pos[0];
             let use_reflection = residual_cost(by_reflection, c) < residual_cost(by_quad, c);
@@ -1181,7 +1425,24 @@ pub fn encode_record(
             return 1;
         }
     }
-    if allow_local {
+    if coding.face_split && major >= 2 {
+        if let Some((m, x, rot_bits)) = face_split_params(st, r, cur) {
+            s[OPS].push(op | (3 << 2) | rot_bits);
+            put_s(&mut s[REFS], m as i64 - cur.vref as i64);
+            cur.vref = m;
+            put_u(&mut s[CONN], x);
+            let mut partial = r.clone();
+            partial.new_pos.clear();
+            nf.build(&partial, v0, 1);
+            put_residual(
+                &mut s[POS],
+                predict(st, &partial, v0, v0, major, &nf),
+                r.new_pos[0],
+            );
+            return 3;
+        }
+    }
+    if coding.local {
         let mut best: Option<([Vec<u8>; 5], Cursors)> = None;
         let mut best_len = usize::MAX;
         for m in local_candidates(st, r) {
@@ -1191,7 +1452,7 @@ pub fn encode_record(
             tmp[OPS].push(op | (2 << 2));
             put_s(&mut tmp[REFS], m as i64 - c2.vref as i64);
             c2.vref = m;
-            if !encode_patch(st, r, &mut c2, &mut tmp, Some(&local)) {
+            if !encode_patch(st, r, &mut c2, &mut tmp, Some(&local), major) {
                 continue;
             }
             let len: usize = tmp.iter().map(|x| x.len()).sum();
@@ -1203,7 +1464,7 @@ pub fn encode_record(
         let mut tmp: [Vec<u8>; 5] = Default::default();
         let mut c2 = *cur;
         tmp[OPS].push(op);
-        encode_patch(st, r, &mut c2, &mut tmp, None);
+        encode_patch(st, r, &mut c2, &mut tmp, None, major);
         let len: usize = tmp.iter().map(|x| x.len()).sum();
         let (form, (tmp, c2)) = match best {
             Some(b) if best_len <= len => (2, b),
@@ -1216,7 +1477,7 @@ pub fn encode_record(
         return form;
     }
     s[OPS].push(op);
-    encode_patch(st, r, cur, s, None);
+    encode_patch(st, r, cur, s, None, major);
     0
 }
 
@@ -1258,6 +1519,7 @@ fn encode_patch(
     cur: &mut Cursors,
     s: &mut [Vec<u8>; 5],
     local: Option<&Local>,
+    major: u16,
 ) -> bool {
     let v0 = st.q.len() as u32;
     let n_new = r.new_pos.len();
@@ -1368,11 +1630,12 @@ fn encode_patch(
             }
         }
     }
-    let first = first_faces(r, v0, n_new);
     let mut partial = r.clone();
     partial.new_pos.clear();
-    for (t, f) in first.into_iter().enumerate() {
-        let pred = predict(st, &partial, v0, v0 + t as u32, f);
+    let mut nf = NewFaces::default();
+    nf.build(&partial, v0, n_new);
+    for t in 0..n_new {
+        let pred = predict(st, &partial, v0, v0 + t as u32, major, &nf);
         put_residual(&mut s[POS], pred, r.new_pos[t]);
         partial.new_pos.push(r.new_pos[t]);
     }

@@ -473,7 +473,7 @@ impl Decoder {
         }
         let major = LE::read_u16(&b[8..]);
         let minor = LE::read_u16(&b[10..]);
-        if major != VERSION_MAJOR {
+        if !(MIN_VERSION_MAJOR..=VERSION_MAJOR).contains(&major) {
             return Err(FormatError::UnsupportedVersion {
                 major,
                 minor,
@@ -716,11 +716,35 @@ impl Decoder {
         Self::check_crc(Section::BaseMesh, b, h.base_crc32)?;
         let payload = self.decompress(Section::BaseMesh, b, h.base_uncompressed_len)?;
         let qmax = self.quant.map_or(0, |q| q.qmax());
-        let st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
+        let mut st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
             .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
-        self.q = st.q.clone();
-        self.pos = self.q.iter().map(|&c| self.f32_of(c)).collect();
-        self.quads = st.quads.clone();
+        // Room for the finest level up front: the header's counts were
+        // checked against the limits, and what is reserved here (52 bytes
+        // per vertex, 80 per face, 25 per record) stays within
+        // `Limits::estimate`. Growing these lists chunk by chunk copied them
+        // ~log2(final / base) times. Untouched capacity is address space,
+        // not memory: a client that stops early does not pay for it.
+        let (nv, nf) = (
+            (h.final_vertex_count - h.base_vertex_count) as usize,
+            (h.final_face_count - h.base_face_count) as usize,
+        );
+        st.reserve(nv, nf);
+        let r = &mut self.recs;
+        let n_rec = h.record_count as usize + 1;
+        r.op.reserve(n_rec);
+        r.v_at.reserve(n_rec);
+        r.f_at.reserve(n_rec);
+        r.moved_at.reserve(n_rec);
+        r.rw_at.reserve(n_rec);
+        r.new_pos.reserve(nv);
+        r.appended.reserve(nf);
+        let mut q = Vec::with_capacity(st.q.len() + nv);
+        q.extend_from_slice(&st.q);
+        let mut pos = Vec::with_capacity(st.q.len() + nv);
+        pos.extend(st.q.iter().map(|&c| self.f32_of(c)));
+        let mut quads = Vec::with_capacity(st.quads.len() + nf);
+        quads.extend_from_slice(&st.quads);
+        (self.q, self.pos, self.quads) = (q, pos, quads);
         self.level = 0;
         self.recs.v_at.push(st.q.len() as u32);
         self.recs.f_at.push(st.quads.len() as u32);
@@ -861,6 +885,7 @@ impl Decoder {
                 &mut cur,
                 h.final_vertex_count,
                 h.final_face_count,
+                h.version_major,
                 rec,
                 buffers,
             )
@@ -1065,14 +1090,22 @@ impl Decoder {
             self.q.extend_from_slice(new);
             self.pos.extend(new.iter().map(|&c| f32_of(c)));
             for k in from..to {
+                // Only changes to what the caller already has are reported
+                // (ids below `v_from` / `f_from`): collecting the others
+                // only to drop them below cost a sort of every rewrite of a
+                // long refinement.
                 for &(v, p, _) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
                     self.q[v as usize] = p;
                     self.pos[v as usize] = f32_of(p);
-                    moved.push(v);
+                    if v < v_from {
+                        moved.push(v);
+                    }
                 }
                 for &(s, q, _) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
                     self.quads[s as usize] = q;
-                    rewritten.push(s);
+                    if s < f_from {
+                        rewritten.push(s);
+                    }
                 }
                 self.quads.extend_from_slice(
                     &r.appended[(r.f_at[k] - bf) as usize..(r.f_at[k + 1] - bf) as usize],
@@ -1086,11 +1119,15 @@ impl Decoder {
                 for &(v, _, o) in r.moved[r.moved_at[k]..r.moved_at[k + 1]].iter().rev() {
                     self.q[v as usize] = o;
                     self.pos[v as usize] = f32_of(o);
-                    moved.push(v);
+                    if v < v_to {
+                        moved.push(v);
+                    }
                 }
                 for &(s, _, o) in r.rw[r.rw_at[k]..r.rw_at[k + 1]].iter().rev() {
                     self.quads[s as usize] = o;
-                    rewritten.push(s);
+                    if s < f_to {
+                        rewritten.push(s);
+                    }
                 }
             }
         }

@@ -5,12 +5,13 @@
 //! Steps: validate the mesh; compute the bounding box of every position it
 //! ever shows; quantize everything on that one grid; run the decoder's
 //! [`MeshState`] alongside and code each record in the split form when that
-//! reproduces it exactly, else in the local form when its changes lie around
-//! one vertex (nearly every coarsener record), else in the general form; cut
+//! reproduces it exactly, else in the face-split form likewise (version 2),
+//! else in the local form when its changes lie around one vertex (nearly
+//! every other coarsener record), else in the general form; cut
 //! chunks by record count or payload size; compress each chunk as an
 //! independent zstd frame.
 
-use crate::codec::{self, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
+use crate::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
 use crate::error::EncodeError;
 use crate::layout::*;
 use crate::quant::Quantizer;
@@ -39,6 +40,13 @@ pub struct EncodeOptions {
     /// Use the local form (spec §7.7) where it is smaller than the general
     /// form (default true).
     pub local_form: bool,
+    /// Use the face-split form (spec §7.9) where it applies (default true;
+    /// version 2 only).
+    pub face_split_form: bool,
+    /// Major version to write (default 2): 1 writes a 1.1 file with the
+    /// version-1 prediction and no face-split form, for readers that
+    /// predate 2.0 and to keep testing the 1.x rules.
+    pub version_major: u16,
     /// Write the `VORD` section when the mesh has a vertex order (default true).
     pub vertex_order: bool,
 }
@@ -53,6 +61,8 @@ impl Default for EncodeOptions {
             window_log: 21,
             split_form: true,
             local_form: true,
+            face_split_form: true,
+            version_major: VERSION_MAJOR,
             vertex_order: true,
         }
     }
@@ -92,6 +102,8 @@ pub struct EncodeReport {
     pub general_records: usize,
     /// Records coded in the local form.
     pub local_records: usize,
+    /// Records coded in the face-split form.
+    pub face_split_records: usize,
     /// Uncompressed bytes per stream (ops, conn, refs, slots, pos), all chunks.
     pub stream_raw_bytes: [u64; 5],
     /// Compressed chunk bytes attributed to each stream: every stream is also
@@ -167,6 +179,18 @@ pub fn write(
             opts.window_log
         )));
     }
+    if !(MIN_VERSION_MAJOR..=VERSION_MAJOR).contains(&opts.version_major) {
+        return Err(EncodeError::InvalidOptions(format!(
+            "version_major = {} (allowed {MIN_VERSION_MAJOR}..={VERSION_MAJOR})",
+            opts.version_major
+        )));
+    }
+    let coding = Coding {
+        major: opts.version_major,
+        split: opts.split_form,
+        face_split: opts.face_split_form,
+        local: opts.local_form,
+    };
     if opts.chunk_records == Some(0) || opts.chunk_bytes == 0 {
         return Err(EncodeError::InvalidOptions(
             "chunk size must be positive".into(),
@@ -298,18 +322,12 @@ pub fn write(
             appended: rec.appended_faces.clone(),
         };
         let before = [0, 1, 2, 3, 4].map(|t| streams[t].len());
-        let form = codec::encode_record(
-            &state,
-            &q,
-            &mut cursors,
-            &mut streams,
-            opts.split_form,
-            opts.local_form,
-        );
+        let form = codec::encode_record(&state, &q, &mut cursors, &mut streams, coding);
         match form {
             0 => report.general_records += 1,
             1 => report.split_records += 1,
-            _ => report.local_records += 1,
+            2 => report.local_records += 1,
+            _ => report.face_split_records += 1,
         }
         let st = &mut report.per_op[q.op as usize];
         st.records += 1;
@@ -383,8 +401,12 @@ pub fn write(
     table.extend_from_slice(&table_crc.to_le_bytes());
 
     let header = Header {
-        version_major: VERSION_MAJOR,
-        version_minor: VERSION_MINOR,
+        version_major: opts.version_major,
+        version_minor: if opts.version_major == 1 {
+            VERSION_1_MINOR
+        } else {
+            VERSION_MINOR
+        },
         header_len: HEADER_LEN,
         flags,
         quant_bits: opts.bits,

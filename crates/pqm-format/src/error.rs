@@ -42,13 +42,13 @@ pub enum FormatError {
     #[error("bad magic bytes: not a .pqm file")]
     BadMagic,
     /// A major version this decoder cannot read.
-    #[error("unsupported .pqm version {major}.{minor} (this decoder reads {supported}.x)")]
+    #[error("unsupported .pqm version {major}.{minor} (this decoder reads 1.x to {supported}.x)")]
     UnsupportedVersion {
         /// Major version in the file.
         major: u16,
         /// Minor version in the file.
         minor: u16,
-        /// Major version this decoder reads.
+        /// Newest major version this decoder reads (it reads 1 to this).
         supported: u16,
     },
     /// Stored and computed CRC-32 differ.

@@ -5,10 +5,15 @@ use byteorder::{ByteOrder, LittleEndian as LE};
 /// File signature: `\x89 P Q M \r \n \x1a \n` (PNG-style: catches 7-bit and
 /// newline-mangling transfers).
 pub const MAGIC: [u8; 8] = [0x89, b'P', b'Q', b'M', 0x0D, 0x0A, 0x1A, 0x0A];
-/// Major version this crate writes and reads.
-pub const VERSION_MAJOR: u16 = 1;
-/// Minor version this crate writes.
-pub const VERSION_MINOR: u16 = 1;
+/// Major version this crate writes by default, and the newest it reads.
+pub const VERSION_MAJOR: u16 = 2;
+/// Minor version this crate writes with [`VERSION_MAJOR`].
+pub const VERSION_MINOR: u16 = 0;
+/// Oldest major version this crate reads (and can write, for tests and old
+/// readers: 1.1, spec §9).
+pub const MIN_VERSION_MAJOR: u16 = 1;
+/// Minor version this crate writes with major version 1.
+pub const VERSION_1_MINOR: u16 = 1;
 /// Header length written by v1.0 (readers accept longer headers).
 pub const HEADER_LEN: u32 = 120;
 /// Bytes of the header needed to learn `header_len`.

@@ -3,8 +3,8 @@
 //! `tests/vectors.rs` (regenerates them in memory and compares).
 
 use crate::{write_to_vec, Decoder, EncodeOptions, Target};
-use pqm_core::progressive::testgen::{generate_with, BaseShape, GenOptions};
-use pqm_core::ProgressiveMesh;
+use pqm_core::progressive::testgen::{generate_with, BaseShape, GenOptions, Rng};
+use pqm_core::{OpKind, ProgressiveMesh, SplitRecord};
 use std::fmt::Write as _;
 
 /// One test vector: a file and the levels whose digests are recorded.
@@ -15,8 +15,8 @@ pub struct Vector {
     pub bytes: Vec<u8>,
     /// Levels recorded in the JSON digest (and as OBJ files).
     pub levels: Vec<usize>,
-    /// Records per form: general, split, local (spec §7.3).
-    pub forms: [usize; 3],
+    /// Records per form: general, split, local, face split (spec §7.3).
+    pub forms: [usize; 4],
 }
 
 /// Rotates the rewritten quads of every record by `(record + slot) mod 4`
@@ -32,6 +32,63 @@ pub fn rotate_rewritten(pm: &mut ProgressiveMesh) {
     }
 }
 
+/// Appends `n` random **face splits** to `pm` as `Doublet` records — the
+/// inverse of a doublet removal, the shape of spec §7.9: each cuts a random
+/// quad of the finest level along a random diagonal `m–o` by a new vertex
+/// `c` near the quad's centre, and stores the halves `(m, p, o, c)` and
+/// `(m, c, o, q)` in a random order (which one keeps the slot) and random
+/// rotations. A face split may cut a quad an earlier one made (so `c`
+/// chains), and about one in five records also moves `m` (no longer a pure
+/// face split: those fall back to the local or general form). Positions:
+/// the centroid plus up to 15 % of the diagonal per axis, so predictions
+/// are good but not exact. Deterministic in `seed`.
+pub fn add_face_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
+    let mut rng = Rng(seed ^ 0x5EED_FACE_5B11_7000);
+    let (mut pos, mut quads) = pm.level_quads(pm.records.len());
+    if quads.is_empty() {
+        return;
+    }
+    for _ in 0..n {
+        let s = rng.below(quads.len());
+        let f = quads[s];
+        let k = rng.below(4);
+        let (m, p, o, q) = (f[k], f[(k + 1) % 4], f[(k + 2) % 4], f[(k + 3) % 4]);
+        let c = pos.len() as u32;
+        let (a, b) = ([m, p, o, c], [m, c, o, q]);
+        let (x, y) = if rng.below(2) == 0 { (a, b) } else { (b, a) };
+        let (rx, ry) = (rng.below(4), rng.below(4));
+        let x = [0, 1, 2, 3].map(|i| x[(i + rx) % 4]);
+        let y = [0, 1, 2, 3].map(|i| y[(i + ry) % 4]);
+        let corners = f.map(|v| pos[v as usize]);
+        let centre = corners.iter().sum::<glam::DVec3>() / 4.0;
+        let size = corners[k].distance(corners[(k + 2) % 4]);
+        let jitter = glam::DVec3::new(rng.signed(), rng.signed(), rng.signed()) * 0.15 * size;
+        let new = centre + jitter;
+        let mut moved = Vec::new();
+        if rng.below(5) == 0 {
+            let to = pos[m as usize].lerp(new, 0.2);
+            moved.push((m, to));
+            pos[m as usize] = to;
+        }
+        pm.records.push(SplitRecord {
+            op: OpKind::Doublet,
+            new_vertices: vec![new],
+            moved,
+            rewritten: vec![(s as u32, x)],
+            appended_faces: vec![y],
+        });
+        pos.push(new);
+        quads[s] = x;
+        quads.push(y);
+        if !pm.vertex_order.is_empty() {
+            pm.vertex_order.push(c);
+        }
+        if let Some(&last) = pm.level_error.last() {
+            pm.level_error.push(last);
+        }
+    }
+}
+
 /// Every vector, generated deterministically.
 pub fn all() -> Vec<Vector> {
     let make = |name, gen: GenOptions, opts: EncodeOptions| {
@@ -39,13 +96,21 @@ pub fn all() -> Vec<Vector> {
         if name == "local_form" {
             rotate_rewritten(&mut pm);
         }
+        if name == "face_split" {
+            add_face_splits(&mut pm, 60, 6);
+        }
         let n = pm.records.len();
         let (bytes, r) = write_to_vec(&pm, &opts).expect("vector encodes");
         Vector {
             name,
             bytes,
             levels: vec![0, n / 3, 2 * n / 3, n],
-            forms: [r.general_records, r.split_records, r.local_records],
+            forms: [
+                r.general_records,
+                r.split_records,
+                r.local_records,
+                r.face_split_records,
+            ],
         }
     };
     vec![
@@ -110,6 +175,36 @@ pub fn all() -> Vec<Vector> {
                 bits: 24,
                 chunk_records: Some(16),
                 zstd_level: 3,
+                ..EncodeOptions::default()
+            },
+        ),
+        make(
+            "face_split",
+            GenOptions {
+                base: BaseShape::Box { n: 2 },
+                ..GenOptions::new(6, 30)
+            },
+            EncodeOptions {
+                chunk_records: Some(15),
+                ..EncodeOptions::default()
+            },
+        ),
+        // A 1.1 file (version-1 prediction, no face-split form): the bytes
+        // of `mixed_bits24` before format 2.0, kept so that every decoder
+        // keeps testing the 1.x rules (spec §9).
+        make(
+            "v1_1_mixed_bits24",
+            GenOptions {
+                base: BaseShape::Box { n: 3 },
+                fuse_prob: 0.3,
+                smooth_prob: 0.1,
+                ..GenOptions::new(4, 60)
+            },
+            EncodeOptions {
+                bits: 24,
+                chunk_records: Some(16),
+                zstd_level: 3,
+                version_major: 1,
                 ..EncodeOptions::default()
             },
         ),

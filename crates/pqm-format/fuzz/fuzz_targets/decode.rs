@@ -4,8 +4,8 @@
 //!   pushing it split at a point chosen by the input must give the same
 //!   outcome, the same events and the same deepest level and mesh.
 //! * Mode 1 (record streams): the input is the five record streams of a
-//!   chunk, decoded against a valid generated mesh (bypasses CRCs so the
-//!   record decoder itself is exercised).
+//!   chunk, decoded against a valid generated mesh under the 1.x or the 2.0
+//!   rules (bypasses CRCs so the record decoder itself is exercised).
 //!
 //! `cargo +nightly fuzz run decode` (or `cargo fuzz run decode -s none` on
 //! stable) from `crates/pqm-format`; seed corpus: `spec/vectors/*.pqm`.
@@ -84,7 +84,9 @@ fuzz_target!(|data: &[u8]| {
     } else {
         use pqm_format::codec::{decode_record, Cursors, MeshState};
         use pqm_format::varint::Reader;
-        let seed = (mode >> 1) as u64;
+        // Bit 1 picks the rules (1.x or 2.0), the rest the mesh.
+        let major = 1 + ((mode >> 1) & 1) as u16;
+        let seed = (mode >> 2) as u64;
         let pm = pqm_core::progressive::testgen::generate(seed, 30);
         let (pos, quads) = pm.level_quads(pm.records.len());
         let q = pqm_format::Quantizer::new([-2.0; 3], [6.0; 3], 12);
@@ -98,7 +100,7 @@ fuzz_target!(|data: &[u8]| {
         let mut cur = Cursors::default();
         let (mv, mf) = (st.q.len() as u32 + 50, st.quads.len() as u32 + 50);
         for _ in 0..20 {
-            match decode_record(&st, &mut rd, &mut cur, mv, mf) {
+            match decode_record(&st, &mut rd, &mut cur, mv, mf, major) {
                 Ok(r) => {
                     st.apply(&r);
                     assert!(st

@@ -1,0 +1,47 @@
+//! Decodes one `.pqm` file `N` times (push decoder to the finest level, as
+//! `decode_speed` does) and prints the best time: a steady loop to run
+//! under `perf record -e cpu-clock` or `perf stat -r 5`, whose CPU time
+//! (`task-clock`) is steadier than wall time on a shared machine.
+//!
+//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N]`
+
+use pqm_format::{decode_all, Limits, Target};
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let Some(f) = args.next() else {
+        eprintln!("usage: decode_loop FILE.pqm [N]");
+        std::process::exit(2);
+    };
+    let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
+    let bytes = match std::fs::read(&f) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("{f}: {e}");
+            std::process::exit(1);
+        }
+    };
+    let mut best = f64::MAX;
+    let mut faces = 0;
+    for _ in 0..n.max(1) {
+        let t = std::time::Instant::now();
+        let mut d = match decode_all(&bytes, Limits::none()) {
+            Ok(d) => d,
+            Err(e) => {
+                eprintln!("{f}: {e}");
+                std::process::exit(1);
+            }
+        };
+        if let Err(e) = d.set_level(Target::Level(usize::MAX)) {
+            eprintln!("{f}: {e}");
+            std::process::exit(1);
+        }
+        faces = d.quads().len();
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    println!(
+        "{f}: best of {n}: {:.2} ms, {:.2} M faces/s",
+        best * 1e3,
+        faces as f64 / best / 1e6
+    );
+}
