@@ -757,13 +757,57 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
 }
 
 /**
+ * predictNew for a record with one new vertex `V` (no grouping pass): every
+ * other corner of the record's quads is an existing vertex, so every quad
+ * holding `V` has its parallelogram — version 2 averages them all,
+ * version 1 takes the first (appended quads first, spec §7.6).
+ */
+function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
+  const q = ctx.st.q;
+  const qmax = ctx.qmax;
+  const all = ctx.v2;
+  let sx = 0, sy = 0, sz = 0, n = 0;
+  for (let pass = 0; pass < 2; pass++) {
+    const arr = pass === 0 ? app : rwNew;
+    const len = 4 * (pass === 0 ? nApp : nRw);
+    for (let i = 0; i < len; i++) {
+      if (arr[i] !== V) continue;
+      const o = i & ~3;
+      const c = i & 3;
+      const n1 = 3 * arr[o + ((c + 1) & 3)];
+      const op = 3 * arr[o + ((c + 2) & 3)];
+      const n3 = 3 * arr[o + ((c + 3) & 3)];
+      sx += q[n1] + q[n3] - q[op];
+      sy += q[n1 + 1] + q[n3 + 1] - q[op + 1];
+      sz += q[n1 + 2] + q[n3 + 2] - q[op + 2];
+      n++;
+      if (!all) break;
+    }
+    if (n > 0 && !all) break;
+  }
+  if (n === 0) {
+    ctx.px = ctx.py = ctx.pz = ctx.half;
+  } else {
+    ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
+    ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
+    ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+  }
+}
+
+/**
  * The end of a general- or local-form record (spec §7.4 steps 6 and the
  * apply of §7.1): new vertex codes against the §7.6 prediction, then the
  * rewritten slots (`slots`, ascending) and the appended quads.
  */
 export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
   const st = ctx.st;
-  if (nNew > 0) {
+  if (nNew === 1) {
+    // the common case: one new vertex, every other corner known
+    st.reserve(V + 1, NF);
+    predictOnly(ctx, V, nApp, app, nRw, rwNew);
+    readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V, '');
+    appendVertex(ctx);
+  } else if (nNew > 0) {
     st.reserve(V + nNew, NF);
     groupCorners(V, nNew, rwNew, nRw, app, nApp);
     for (let k = 0; k < nNew; k++) {
@@ -797,7 +841,9 @@ const sN = new Int32Array(256);
 const sP = new Int32Array(256);
 const sO = new Int32Array(256);
 const sList = new Int32Array(256);
-const sIn = new Uint8Array(256);
+// sIn[t] === sGen marks star face t as walked (a stamp per walk: no clearing)
+const sIn = new Int32Array(256);
+let sGen = 0;
 const sLink = new Int32Array(257);
 const sSideC = new Int32Array(256);
 
@@ -853,10 +899,14 @@ function decodeSplit(ctx, sym) {
   }
   if (start < 0) throw `the faces around vertex ${m} do not form a fan`;
   // Walk.
-  sIn.fill(0, 0, K);
+  if (++sGen === 0x7fffffff) {
+    sGen = 1;
+    sIn.fill(0);
+  }
+  const gen = sGen;
   let len = 0;
   sList[len++] = start;
-  sIn[start] = 1;
+  sIn[start] = gen;
   for (;;) {
     const last = sList[len - 1];
     const p = sP[last];
@@ -868,11 +918,11 @@ function decodeSplit(ctx, sym) {
       }
     }
     if (boundary ? g < 0 : g === start) break;
-    if (g < 0 || sIn[g] || len >= K) {
+    if (g < 0 || sIn[g] === gen || len >= K) {
       throw `the faces around vertex ${m} do not form a single fan`;
     }
     sList[len++] = g;
-    sIn[g] = 1;
+    sIn[g] = gen;
   }
   if (len !== K) throw `the fan around vertex ${m} holds ${len} of its ${K} faces`;
   // Link.
@@ -891,24 +941,31 @@ function decodeSplit(ctx, sym) {
   const d = sLink[j];
   if (b === d) throw `wings ${i} and ${j} of vertex ${m} are the same vertex ${b}`;
 
-  // 4. sides.
+  // 4. sides: the side-C slots (the side means of step 6 only when a
+  // moves: each is a random read of a code, most records skip them).
   let nC = 0;
+  const q = st.q;
+  const moves = (sym & 0x40) !== 0;
   let sax = 0, say = 0, saz = 0, nA = 0;
   let scx = 0, scy = 0, scz = 0;
-  const q = st.q;
   for (let t = 0; t < K; t++) {
     const sideA = i < j ? i <= t && t < j : t >= i || t < j;
     const idx = sList[t];
-    const o = 3 * sO[idx];
     if (sideA) {
-      sax += q[o];
-      say += q[o + 1];
-      saz += q[o + 2];
+      if (moves) {
+        const o = 3 * sO[idx];
+        sax += q[o];
+        say += q[o + 1];
+        saz += q[o + 2];
+      }
       nA++;
     } else {
-      scx += q[o];
-      scy += q[o + 1];
-      scz += q[o + 2];
+      if (moves) {
+        const o = 3 * sO[idx];
+        scx += q[o];
+        scy += q[o + 1];
+        scz += q[o + 2];
+      }
       sSideC[nC++] = S[idx];
     }
   }
@@ -917,7 +974,7 @@ function decodeSplit(ctx, sym) {
   const qmax = ctx.qmax;
   const mx = q[3 * m], my = q[3 * m + 1], mz = q[3 * m + 2];
   let ax = mx, ay = my, az = mz;
-  if (sym & 0x40) {
+  if (moves) {
     // side means (m's own code for an empty side), without temporaries
     const max = nA === 0 ? mx : Math.floor(sax / nA);
     const may = nA === 0 ? my : Math.floor(say / nA);
