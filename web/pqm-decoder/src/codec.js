@@ -623,7 +623,7 @@ let gOcc = new Int32Array(64);
 let gOccAt = new Int32Array(64);
 
 /** Fills gOcc / gOccAt for the new vertices V .. V + nNew. */
-function groupCorners(V, nNew, rwNew, nRw, app, nApp) {
+export function groupCorners(V, nNew, rwNew, nRw, app, nApp) {
   if (nNew + 2 > gOccAt.length) gOccAt = new Int32Array(2 * nNew + 2);
   const at = gOccAt;
   at.fill(0, 0, nNew + 2);
@@ -651,6 +651,35 @@ function groupCorners(V, nNew, rwNew, nRw, app, nApp) {
     const v = rwNew[i] - V;
     if (v >= 0) occ[at[v + 1]++] = na + i;
   }
+}
+
+/**
+ * Records with at most this many new vertices (a qeMerge inverse has 2)
+ * fill gOcc by one scan of the quads per new vertex: cheaper than the
+ * counting sort's passes and clearing for so few.
+ */
+const SCAN_NEW = 4;
+
+/** groupCorners by a scan per new vertex (nNew ≤ SCAN_NEW); same result. */
+export function scanCorners(V, nNew, rwNew, nRw, app, nApp) {
+  const na = 4 * nApp;
+  const nr = 4 * nRw;
+  if (na + nr > gOcc.length) gOcc = new Int32Array(2 * (na + nr));
+  const occ = gOcc;
+  const at = gOccAt;
+  let n = 0;
+  for (let k = 0; k < nNew; k++) {
+    at[k] = n;
+    const x = V + k;
+    for (let i = 0; i < na; i++) if (app[i] === x) occ[n++] = i;
+    for (let i = 0; i < nr; i++) if (rwNew[i] === x) occ[n++] = na + i;
+  }
+  at[nNew] = n;
+}
+
+/** The grouping gOcc / gOccAt as arrays (for tests): per new vertex, its corner indices. */
+export function groupedCorners(nNew) {
+  return Array.from({ length: nNew }, (_, k) => [...gOcc.subarray(gOccAt[k], gOccAt[k + 1])]);
 }
 
 /** ⌊s / c⌋ for integers s and c > 0, exact whatever the rounding of s / c. */
@@ -809,7 +838,8 @@ export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
     appendVertex(ctx);
   } else if (nNew > 0) {
     st.reserve(V + nNew, NF);
-    groupCorners(V, nNew, rwNew, nRw, app, nApp);
+    if (nNew <= SCAN_NEW) scanCorners(V, nNew, rwNew, nRw, app, nApp);
+    else groupCorners(V, nNew, rwNew, nRw, app, nApp);
     for (let k = 0; k < nNew; k++) {
       predictNew(ctx, V + k, V, nApp, app, rwNew);
       readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V + k, '');
