@@ -271,7 +271,7 @@ export function decodeBase(payload, nv, nf, qmax) {
  * file's final counts and the quantization range.
  */
 class ChunkContext {
-  constructor(streams, st, log, finalV, finalF, bits) {
+  constructor(streams, st, log, finalV, finalF, bits, versionMajor) {
     this.ops = streams[0];
     this.conn = streams[1];
     this.refs = streams[2];
@@ -290,6 +290,11 @@ class ChunkContext {
     this.cx = 0; // last code read by readCode
     this.cy = 0;
     this.cz = 0;
+    this.px = 0; // last prediction of predictNew
+    this.py = 0;
+    this.pz = 0;
+    /** Version-2 rules (spec §7.3 form 3, §7.6 multi-parallelogram). */
+    this.v2 = versionMajor >= 2;
   }
 }
 
@@ -320,7 +325,7 @@ function splitStreams(payload) {
  * @param {{recordCount:number, vertexCount:number, faceCount:number}} info chunk table entry
  * @param {Frontier} st
  * @param {RecordLog} log
- * @param {{finalVertexCount:number, finalFaceCount:number, quantBits:number}} h header
+ * @param {{finalVertexCount:number, finalFaceCount:number, quantBits:number, versionMajor:number}} h header
  */
 export function decodeChunk(payload, index, info, st, log, h) {
   const section = `chunk ${index}`;
@@ -331,7 +336,7 @@ export function decodeChunk(payload, index, info, st, log, h) {
     if (typeof e === 'string') throw invalid(section, e);
     throw e;
   }
-  const ctx = new ChunkContext(streams, st, log, h.finalVertexCount, h.finalFaceCount, h.quantBits);
+  const ctx = new ChunkContext(streams, st, log, h.finalVertexCount, h.finalFaceCount, h.quantBits, h.versionMajor);
   const saved = {
     nRecords: log.nRecords,
     levels: log.levels,
@@ -382,8 +387,10 @@ function decodeRecord(ctx) {
     decodeSplit(ctx, sym);
   } else if (form === 2) {
     decodeLocal(ctx, sym);
+  } else if (ctx.v2) {
+    decodeFaceSplit(ctx, sym);
   } else {
-    throw `record form ${form} is invalid (symbol 0x${sym.toString(16)})`;
+    throw `record form ${form} is invalid in a version 1 file (symbol 0x${sym.toString(16)})`;
   }
 }
 
@@ -508,7 +515,6 @@ let gSlots = new Int32Array(64);
 let gRw = new Int32Array(256);
 let gApp = new Int32Array(256);
 let gExtra = new Int32Array(64);
-let gFirst = new Int32Array(64);
 
 /** Resolves a corner code (spec §7.4) of the record being decoded. */
 function cornerCode(ctx, V, nNew, nRw, f) {
@@ -606,6 +612,217 @@ function decodeGeneral(ctx) {
   finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app);
 }
 
+// Corners of the record's quads grouped by new vertex (counting sort):
+// the corners of new vertex V + k are gOcc[gOccAt[k] .. gOccAt[k + 1]), in
+// the order of spec §7.6 (appended quads, then rewritten quads by ascending
+// slot). A corner index i < 4 nApp is corner i of the appended quads,
+// larger ones are corner i − 4 nApp of the rewritten quads. One pass over
+// the quads for every new vertex together: a hostile record with many new
+// vertices and many quads costs linear time, not their product.
+let gOcc = new Int32Array(64);
+let gOccAt = new Int32Array(64);
+
+/** Fills gOcc / gOccAt for the new vertices V .. V + nNew. */
+export function groupCorners(V, nNew, rwNew, nRw, app, nApp) {
+  if (nNew + 2 > gOccAt.length) gOccAt = new Int32Array(2 * nNew + 2);
+  const at = gOccAt;
+  at.fill(0, 0, nNew + 2);
+  const na = 4 * nApp;
+  const nr = 4 * nRw;
+  // count per vertex into at[k + 2], prefix sums, then place with at[k + 1]
+  // as the running cursor: afterwards at[k] is the start of vertex k
+  for (let i = 0; i < na; i++) {
+    const v = app[i] - V;
+    if (v >= 0) at[v + 2]++;
+  }
+  for (let i = 0; i < nr; i++) {
+    const v = rwNew[i] - V;
+    if (v >= 0) at[v + 2]++;
+  }
+  for (let k = 2; k < nNew + 2; k++) at[k] += at[k - 1];
+  const total = at[nNew + 1];
+  if (total > gOcc.length) gOcc = new Int32Array(2 * total);
+  const occ = gOcc;
+  for (let i = 0; i < na; i++) {
+    const v = app[i] - V;
+    if (v >= 0) occ[at[v + 1]++] = i;
+  }
+  for (let i = 0; i < nr; i++) {
+    const v = rwNew[i] - V;
+    if (v >= 0) occ[at[v + 1]++] = na + i;
+  }
+}
+
+/**
+ * Records with at most this many new vertices (a qeMerge inverse has 2)
+ * fill gOcc by one scan of the quads per new vertex: cheaper than the
+ * counting sort's passes and clearing for so few.
+ */
+const SCAN_NEW = 4;
+
+/** groupCorners by a scan per new vertex (nNew ≤ SCAN_NEW); same result. */
+export function scanCorners(V, nNew, rwNew, nRw, app, nApp) {
+  const na = 4 * nApp;
+  const nr = 4 * nRw;
+  if (na + nr > gOcc.length) gOcc = new Int32Array(2 * (na + nr));
+  const occ = gOcc;
+  const at = gOccAt;
+  let n = 0;
+  for (let k = 0; k < nNew; k++) {
+    at[k] = n;
+    const x = V + k;
+    for (let i = 0; i < na; i++) if (app[i] === x) occ[n++] = i;
+    for (let i = 0; i < nr; i++) if (rwNew[i] === x) occ[n++] = na + i;
+  }
+  at[nNew] = n;
+}
+
+/** The grouping gOcc / gOccAt as arrays (for tests): per new vertex, its corner indices. */
+export function groupedCorners(nNew) {
+  return Array.from({ length: nNew }, (_, k) => [...gOcc.subarray(gOccAt[k], gOccAt[k + 1])]);
+}
+
+/** ⌊s / c⌋ for integers s and c > 0, exact whatever the rounding of s / c. */
+export function floorDiv(s, c) {
+  let q = Math.floor(s / c);
+  if (q * c > s) q--;
+  else if ((q + 1) * c <= s) q++;
+  return q;
+}
+
+/**
+ * The prediction of new vertex `x` (spec §7.6) into ctx.px/py/pz, from the
+ * corners gOcc groups for it (groupCorners). Version 2: the floored mean
+ * of the parallelograms of every quad holding `x` whose three other corners
+ * are known (ids < x); version 1, and version 2 when no quad qualifies: the
+ * first quad's parallelogram, mean of its known corners, else the previous
+ * new vertex or the grid centre.
+ */
+function predictNew(ctx, x, V, nApp, app, rwNew) {
+  const q = ctx.st.q;
+  const qmax = ctx.qmax;
+  const k = x - V;
+  const from = gOccAt[k];
+  const to = gOccAt[k + 1];
+  const na = 4 * nApp;
+  if (ctx.v2) {
+    let sx = 0, sy = 0, sz = 0, n = 0;
+    for (let j = from; j < to; j++) {
+      const i = gOcc[j];
+      const arr = i < na ? app : rwNew;
+      const ci = i < na ? i : i - na;
+      const o = ci & ~3;
+      const c = ci & 3;
+      const n1 = arr[o + ((c + 1) & 3)];
+      const op = arr[o + ((c + 2) & 3)];
+      const n3 = arr[o + ((c + 3) & 3)];
+      if (n1 < x && op < x && n3 < x) {
+        sx += q[3 * n1] + q[3 * n3] - q[3 * op];
+        sy += q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1];
+        sz += q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2];
+        n++;
+      }
+    }
+    if (n > 0) {
+      ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
+      ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
+      ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+      return;
+    }
+  }
+  if (from < to) {
+    const i = gOcc[from];
+    const arr = i < na ? app : rwNew;
+    const ci = i < na ? i : i - na;
+    const o = ci & ~3;
+    const c = ci & 3;
+    const n1 = arr[o + ((c + 1) & 3)];
+    const op = arr[o + ((c + 2) & 3)];
+    const n3 = arr[o + ((c + 3) & 3)];
+    const k1 = n1 < x;
+    const ko = op < x;
+    const k3 = n3 < x;
+    if (k1 && ko && k3) {
+      // parallelogram
+      ctx.px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
+      ctx.py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
+      ctx.pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
+      return;
+    }
+    if (k1 || ko || k3) {
+      // mean of the known ones (codes are ≥ 0: floor = truncation)
+      let sx = 0, sy = 0, sz = 0, n = 0;
+      if (k1) {
+        sx += q[3 * n1];
+        sy += q[3 * n1 + 1];
+        sz += q[3 * n1 + 2];
+        n++;
+      }
+      if (ko) {
+        sx += q[3 * op];
+        sy += q[3 * op + 1];
+        sz += q[3 * op + 2];
+        n++;
+      }
+      if (k3) {
+        sx += q[3 * n3];
+        sy += q[3 * n3 + 1];
+        sz += q[3 * n3 + 2];
+        n++;
+      }
+      ctx.px = Math.floor(sx / n);
+      ctx.py = Math.floor(sy / n);
+      ctx.pz = Math.floor(sz / n);
+      return;
+    }
+  }
+  if (x > V) {
+    ctx.px = q[3 * (x - 1)];
+    ctx.py = q[3 * (x - 1) + 1];
+    ctx.pz = q[3 * (x - 1) + 2];
+  } else {
+    ctx.px = ctx.py = ctx.pz = ctx.half;
+  }
+}
+
+/**
+ * predictNew for a record with one new vertex `V` (no grouping pass): every
+ * other corner of the record's quads is an existing vertex, so every quad
+ * holding `V` has its parallelogram — version 2 averages them all,
+ * version 1 takes the first (appended quads first, spec §7.6).
+ */
+function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
+  const q = ctx.st.q;
+  const qmax = ctx.qmax;
+  const all = ctx.v2;
+  let sx = 0, sy = 0, sz = 0, n = 0;
+  for (let pass = 0; pass < 2; pass++) {
+    const arr = pass === 0 ? app : rwNew;
+    const len = 4 * (pass === 0 ? nApp : nRw);
+    for (let i = 0; i < len; i++) {
+      if (arr[i] !== V) continue;
+      const o = i & ~3;
+      const c = i & 3;
+      const n1 = 3 * arr[o + ((c + 1) & 3)];
+      const op = 3 * arr[o + ((c + 2) & 3)];
+      const n3 = 3 * arr[o + ((c + 3) & 3)];
+      sx += q[n1] + q[n3] - q[op];
+      sy += q[n1 + 1] + q[n3 + 1] - q[op + 1];
+      sz += q[n1 + 2] + q[n3 + 2] - q[op + 2];
+      n++;
+      if (!all) break;
+    }
+    if (n > 0 && !all) break;
+  }
+  if (n === 0) {
+    ctx.px = ctx.py = ctx.pz = ctx.half;
+  } else {
+    ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
+    ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
+    ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+  }
+}
+
 /**
  * The end of a general- or local-form record (spec §7.4 steps 6 and the
  * apply of §7.1): new vertex codes against the §7.6 prediction, then the
@@ -613,84 +830,19 @@ function decodeGeneral(ctx) {
  */
 export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
   const st = ctx.st;
-  // New vertex codes. First find, for each new vertex, the first quad
-  // containing it in the order "appended, then rewritten by slot" — one
-  // pass over the quads rather than one per vertex.
-  if (nNew > 0) {
-    if (nNew > gFirst.length) gFirst = new Int32Array(2 * nNew);
-    const firstHit = gFirst;
-    firstHit.fill(-1, 0, nNew);
-    // hit = index into the appended corners, or 4 nApp + index into the rewritten ones
-    for (let i = 0; i < 4 * nApp; i++) {
-      const v = app[i] - V;
-      if (v >= 0 && firstHit[v] < 0) firstHit[v] = i;
-    }
-    const base = 4 * nApp;
-    for (let i = 0; i < 4 * nRw; i++) {
-      const v = rwNew[i] - V;
-      if (v >= 0 && firstHit[v] < 0) firstHit[v] = base + i;
-    }
+  if (nNew === 1) {
+    // the common case: one new vertex, every other corner known
+    st.reserve(V + 1, NF);
+    predictOnly(ctx, V, nApp, app, nRw, rwNew);
+    readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V, '');
+    appendVertex(ctx);
+  } else if (nNew > 0) {
     st.reserve(V + nNew, NF);
-    const qmax = ctx.qmax;
+    if (nNew <= SCAN_NEW) scanCorners(V, nNew, rwNew, nRw, app, nApp);
+    else groupCorners(V, nNew, rwNew, nRw, app, nApp);
     for (let k = 0; k < nNew; k++) {
-      const x = V + k;
-      const q = st.q;
-      let px, py, pz;
-      const hit = firstHit[k];
-      let found = false;
-      if (hit >= 0) {
-        const arr = hit < base ? app : rwNew;
-        const o = hit < base ? hit & ~3 : (hit - base) & ~3;
-        const c = hit & 3; // base is a multiple of 4
-        const n1 = arr[o + ((c + 1) & 3)];
-        const op = arr[o + ((c + 2) & 3)];
-        const n3 = arr[o + ((c + 3) & 3)];
-        const k1 = n1 < x;
-        const ko = op < x;
-        const k3 = n3 < x;
-        if (k1 && ko && k3) {
-          // parallelogram
-          px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
-          py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
-          pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
-          found = true;
-        } else if (k1 || ko || k3) {
-          // mean of the known ones (codes are ≥ 0: floor = truncation)
-          let sx = 0, sy = 0, sz = 0, n = 0;
-          if (k1) {
-            sx += q[3 * n1];
-            sy += q[3 * n1 + 1];
-            sz += q[3 * n1 + 2];
-            n++;
-          }
-          if (ko) {
-            sx += q[3 * op];
-            sy += q[3 * op + 1];
-            sz += q[3 * op + 2];
-            n++;
-          }
-          if (k3) {
-            sx += q[3 * n3];
-            sy += q[3 * n3 + 1];
-            sz += q[3 * n3 + 2];
-            n++;
-          }
-          px = Math.floor(sx / n);
-          py = Math.floor(sy / n);
-          pz = Math.floor(sz / n);
-          found = true;
-        }
-      }
-      if (!found) {
-        if (x > V) {
-          px = q[3 * (x - 1)];
-          py = q[3 * (x - 1) + 1];
-          pz = q[3 * (x - 1) + 2];
-        } else {
-          px = py = pz = ctx.half;
-        }
-      }
-      readCode(ctx, px, py, pz, 'new vertex', x, '');
+      predictNew(ctx, V + k, V, nApp, app, rwNew);
+      readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V + k, '');
       appendVertex(ctx);
     }
   }
@@ -719,7 +871,9 @@ const sN = new Int32Array(256);
 const sP = new Int32Array(256);
 const sO = new Int32Array(256);
 const sList = new Int32Array(256);
-const sIn = new Uint8Array(256);
+// sIn[t] === sGen marks star face t as walked (a stamp per walk: no clearing)
+const sIn = new Int32Array(256);
+let sGen = 0;
 const sLink = new Int32Array(257);
 const sSideC = new Int32Array(256);
 
@@ -775,10 +929,14 @@ function decodeSplit(ctx, sym) {
   }
   if (start < 0) throw `the faces around vertex ${m} do not form a fan`;
   // Walk.
-  sIn.fill(0, 0, K);
+  if (++sGen === 0x7fffffff) {
+    sGen = 1;
+    sIn.fill(0);
+  }
+  const gen = sGen;
   let len = 0;
   sList[len++] = start;
-  sIn[start] = 1;
+  sIn[start] = gen;
   for (;;) {
     const last = sList[len - 1];
     const p = sP[last];
@@ -790,11 +948,11 @@ function decodeSplit(ctx, sym) {
       }
     }
     if (boundary ? g < 0 : g === start) break;
-    if (g < 0 || sIn[g] || len >= K) {
+    if (g < 0 || sIn[g] === gen || len >= K) {
       throw `the faces around vertex ${m} do not form a single fan`;
     }
     sList[len++] = g;
-    sIn[g] = 1;
+    sIn[g] = gen;
   }
   if (len !== K) throw `the fan around vertex ${m} holds ${len} of its ${K} faces`;
   // Link.
@@ -813,24 +971,31 @@ function decodeSplit(ctx, sym) {
   const d = sLink[j];
   if (b === d) throw `wings ${i} and ${j} of vertex ${m} are the same vertex ${b}`;
 
-  // 4. sides.
+  // 4. sides: the side-C slots (the side means of step 6 only when a
+  // moves: each is a random read of a code, most records skip them).
   let nC = 0;
+  const q = st.q;
+  const moves = (sym & 0x40) !== 0;
   let sax = 0, say = 0, saz = 0, nA = 0;
   let scx = 0, scy = 0, scz = 0;
-  const q = st.q;
   for (let t = 0; t < K; t++) {
     const sideA = i < j ? i <= t && t < j : t >= i || t < j;
     const idx = sList[t];
-    const o = 3 * sO[idx];
     if (sideA) {
-      sax += q[o];
-      say += q[o + 1];
-      saz += q[o + 2];
+      if (moves) {
+        const o = 3 * sO[idx];
+        sax += q[o];
+        say += q[o + 1];
+        saz += q[o + 2];
+      }
       nA++;
     } else {
-      scx += q[o];
-      scy += q[o + 1];
-      scz += q[o + 2];
+      if (moves) {
+        const o = 3 * sO[idx];
+        scx += q[o];
+        scy += q[o + 1];
+        scz += q[o + 2];
+      }
       sSideC[nC++] = S[idx];
     }
   }
@@ -839,7 +1004,7 @@ function decodeSplit(ctx, sym) {
   const qmax = ctx.qmax;
   const mx = q[3 * m], my = q[3 * m + 1], mz = q[3 * m + 2];
   let ax = mx, ay = my, az = mz;
-  if (sym & 0x40) {
+  if (moves) {
     // side means (m's own code for an empty side), without temporaries
     const max = nA === 0 ? mx : Math.floor(sax / nA);
     const may = nA === 0 ? my : Math.floor(say / nA);
@@ -868,9 +1033,33 @@ function decodeSplit(ctx, sym) {
     px = clamp(2 * mx - ax, qmax);
     py = clamp(2 * my - ay, qmax);
     pz = clamp(2 * mz - az, qmax);
+  } else if (ctx.v2 && nC > 0) {
+    // §7.6 version 2: c's quads are the appended (m, d, c, b) rotated —
+    // neighbours b and d, opposite m (code a) — and every side-C face with
+    // m replaced by c — neighbours n and p, opposite o, none of them m (a
+    // quad's corners are distinct), all existing: every parallelogram
+    // counts.
+    let sx = q[3 * b] + q[3 * d] - ax;
+    let sy = q[3 * b + 1] + q[3 * d + 1] - ay;
+    let sz = q[3 * b + 2] + q[3 * d + 2] - az;
+    for (let t = 0; t < K; t++) {
+      if (i < j ? i <= t && t < j : t >= i || t < j) continue; // side A
+      const idx = sList[t];
+      const n = 3 * sN[idx];
+      const p = 3 * sP[idx];
+      const o = 3 * sO[idx];
+      sx += q[n] + q[p] - q[o];
+      sy += q[n + 1] + q[p + 1] - q[o + 1];
+      sz += q[n + 2] + q[p + 2] - q[o + 2];
+    }
+    const n = nC + 1;
+    px = clamp(floorDiv(sx, n), qmax);
+    py = clamp(floorDiv(sy, n), qmax);
+    pz = clamp(floorDiv(sz, n), qmax);
   } else {
-    // §7.6: the appended quad (m, d, c, b) rotated is the first quad holding
-    // c; its neighbours there are b and d, its opposite corner m (code a).
+    // §7.6 (version 1; version 2 with side C empty): the appended quad
+    // (m, d, c, b) rotated is the first quad holding c; its neighbours
+    // there are b and d, its opposite corner m (code a).
     px = clamp(q[3 * b] + q[3 * d] - ax, qmax);
     py = clamp(q[3 * b + 1] + q[3 * d + 1] - ay, qmax);
     pz = clamp(q[3 * b + 2] + q[3 * d + 2] - az, qmax);
@@ -909,3 +1098,65 @@ function decodeSplit(ctx, sym) {
   else if (rot === 2) appendQuad(ctx, c, b, m, d);
   else appendQuad(ctx, b, m, d, c);
 }
+
+/**
+ * Face-split form (spec §7.9, version 2): vertex `m`, the `t`-th slot of
+ * its star by ascending slot, split along its diagonal through `m` by a
+ * new vertex `c` — the inverse of a doublet removal.
+ */
+function decodeFaceSplit(ctx, sym) {
+  const st = ctx.st;
+  const V = st.nv;
+  const NF = st.nf;
+  if (V >= ctx.VF || NF >= ctx.FF) {
+    throw `a face split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
+  }
+  const m = ctx.vcur + ctx.refs.s();
+  if (m < 0 || m >= V) throw `face-split vertex ${m} outside 0..${V}`;
+  ctx.vcur = m;
+  // 2. S ascending, no walk (Frontier.star sorts by slot).
+  const K = st.star(m, sS, sK);
+  if (K < 1) throw `vertex ${m} is in no face`;
+  // 3. the split slot
+  const x = ctx.conn.u();
+  const t = Math.floor(x / 2);
+  if (t >= K) throw `face index ${t} of vertex ${m} outside 0..${K}`;
+  const swap = x % 2;
+  const s = sS[t];
+  const k = sK[t];
+  // 4. the halves A = (m, p, o, c) and B = (m, c, o, q)
+  const f = st.f;
+  const s4 = 4 * s;
+  const p = f[s4 + ((k + 1) & 3)];
+  const o = f[s4 + ((k + 2) & 3)];
+  const qv = f[s4 + ((k + 3) & 3)];
+  const c = V;
+  // 7. c against §7.6 (version 2): it is in both halves with all three other
+  // corners known — A: n1 = m, o = p, n3 = o; B: n1 = o, o = q, n3 = m.
+  const q = st.q;
+  const qmax = ctx.qmax;
+  const m3 = 3 * m, p3 = 3 * p, o3 = 3 * o, q3 = 3 * qv;
+  readCode(
+    ctx,
+    clamp(floorDiv(2 * q[m3] + 2 * q[o3] - q[p3] - q[q3], 2), qmax),
+    clamp(floorDiv(2 * q[m3 + 1] + 2 * q[o3 + 1] - q[p3 + 1] - q[q3 + 1], 2), qmax),
+    clamp(floorDiv(2 * q[m3 + 2] + 2 * q[o3 + 2] - q[p3 + 2] - q[q3 + 2], 2), qmax),
+    'face-split vertex',
+    m,
+    ' (c)',
+  );
+  appendVertex(ctx);
+  // 5.–6. X' rewrites slot s, Y' is appended; rotations from symbol bits 4-7
+  const rotX = (sym >> 4) & 3;
+  const rotY = sym >> 6;
+  const fA = fsA;
+  const fB = fsB;
+  fA[0] = m; fA[1] = p; fA[2] = o; fA[3] = c;
+  fB[0] = m; fB[1] = c; fB[2] = o; fB[3] = qv;
+  const X = swap ? fB : fA;
+  const Y = swap ? fA : fB;
+  rewriteSlot(ctx, s, X[rotX], X[(rotX + 1) & 3], X[(rotX + 2) & 3], X[(rotX + 3) & 3]);
+  appendQuad(ctx, Y[rotY], Y[(rotY + 1) & 3], Y[(rotY + 2) & 3], Y[(rotY + 3) & 3]);
+}
+const fsA = new Int32Array(4);
+const fsB = new Int32Array(4);

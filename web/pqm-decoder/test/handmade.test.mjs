@@ -4,54 +4,20 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { decodeAll, PqmError } from '../src/index.js';
-import { testFiles } from './helpers.mjs';
-import { unpack, pack, setHeader, concat } from './repack.mjs';
+import { testFiles, handmadeFile } from './helpers.mjs';
+import { concat } from './repack.mjs';
 
 const grid = testFiles().find((f) => f.name === 'grid_small');
 const base = decodeAll(grid.bytes); // level 0: 16 vertices, 9 quads
 const Q = base.positionCodes.slice();
 const F = base.quads.slice();
 
-function varint(x) {
-  const out = [];
-  for (;;) {
-    const b = x % 128;
-    x = Math.floor(x / 128);
-    if (x === 0) {
-      out.push(b);
-      return out;
-    }
-    out.push(b | 0x80);
-  }
-}
-const svarint = (v) => varint(v >= 0 ? 2 * v : -2 * v - 1);
-/** A stream from items: numbers are varints, {s: v} svarints, {b: byte} raw bytes. */
-const stream = (items) => items.flatMap((x) => (typeof x === 'number' ? varint(x) : 's' in x ? svarint(x.s) : [x.b]));
-
 /**
- * A file: grid_small's base and one chunk of `records` records with the
- * given streams, reaching `v` vertices and `f` faces.
+ * A file: grid_small's base and one chunk with the given streams, reaching
+ * `v` vertices and `f` faces; a version 1.1 file (the version-1 prediction
+ * of spec §7.6, form 3 invalid) whatever version the vectors have.
  */
-function file({ ops, conn = [], refs = [], slots = [], pos = [] }, v, f) {
-  const parts = unpack(grid.bytes);
-  const streams = [ops.map((b) => ({ b })), conn, refs, slots, pos].map(stream);
-  parts.chunks = [Uint8Array.from(streams.flatMap((s) => [...varint(s.length), ...s]))];
-  const e = parts.entries[0].slice();
-  const dv = new DataView(e.buffer);
-  dv.setUint32(16, ops.length, true);
-  dv.setUint32(20, v, true);
-  dv.setUint32(24, f, true);
-  dv.setFloat32(28, 0, true);
-  parts.entries = [e];
-  parts.sections = [];
-  setHeader(parts, 16, 'Uint32', 0); // no VORD
-  setHeader(parts, 32, 'Uint32', v);
-  setHeader(parts, 36, 'Uint32', f);
-  setHeader(parts, 40, 'Uint32', ops.length);
-  setHeader(parts, 44, 'Uint32', 1);
-  setHeader(parts, 48, 'Uint32', 0);
-  return pack(parts);
-}
+const file = (streams, v, f) => handmadeFile(grid.bytes, streams, v, f, 1);
 
 const code = (v) => [Q[3 * v], Q[3 * v + 1], Q[3 * v + 2]];
 const qmax = base.grid.qmax;

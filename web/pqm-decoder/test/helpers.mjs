@@ -5,6 +5,7 @@ import { endianness } from 'node:os';
 import { fileURLToPath } from 'node:url';
 import path from 'node:path';
 import http from 'node:http';
+import { unpack, pack, setHeader } from './repack.mjs';
 
 if (endianness() !== 'LE') throw new Error('these tests read typed arrays as little-endian bytes');
 
@@ -218,4 +219,53 @@ export function randomFrontierEdit(st, rand, maxF, maxV) {
     return true;
   }
   return false;
+}
+
+/** An unsigned LEB128 varint (spec §1) as bytes. */
+export function varint(x) {
+  const out = [];
+  for (;;) {
+    const b = x % 128;
+    x = Math.floor(x / 128);
+    if (x === 0) {
+      out.push(b);
+      return out;
+    }
+    out.push(b | 0x80);
+  }
+}
+
+/** A zigzag svarint (spec §1) as bytes. */
+export const svarint = (v) => varint(v >= 0 ? 2 * v : -2 * v - 1);
+
+/** A stream from items: numbers are varints, {s: v} svarints, {b: byte} raw bytes. */
+export const stream = (items) => items.flatMap((x) => (typeof x === 'number' ? varint(x) : 's' in x ? svarint(x.s) : [x.b]));
+
+/**
+ * A file for hand-written records: the base mesh of `baseFile` (a test
+ * file's bytes) and one chunk holding the given streams, reaching `v`
+ * vertices and `f` faces, with `version_major` = `major` (the record rules
+ * of spec §7.3 and §7.6 depend on it, so tests say which they mean).
+ */
+export function handmadeFile(baseFile, { ops, conn = [], refs = [], slots = [], pos = [] }, v, f, major) {
+  const parts = unpack(baseFile);
+  const streams = [ops.map((b) => ({ b })), conn, refs, slots, pos].map(stream);
+  parts.chunks = [Uint8Array.from(streams.flatMap((s) => [...varint(s.length), ...s]))];
+  const e = parts.entries[0].slice();
+  const dv = new DataView(e.buffer);
+  dv.setUint32(16, ops.length, true);
+  dv.setUint32(20, v, true);
+  dv.setUint32(24, f, true);
+  dv.setFloat32(28, 0, true);
+  parts.entries = [e];
+  parts.sections = [];
+  setHeader(parts, 8, 'Uint16', major);
+  setHeader(parts, 10, 'Uint16', major === 1 ? 1 : 0);
+  setHeader(parts, 16, 'Uint32', 0); // no VORD
+  setHeader(parts, 32, 'Uint32', v);
+  setHeader(parts, 36, 'Uint32', f);
+  setHeader(parts, 40, 'Uint32', ops.length);
+  setHeader(parts, 44, 'Uint32', 1);
+  setHeader(parts, 48, 'Uint32', 0);
+  return pack(parts);
 }

@@ -15,7 +15,12 @@
 //!   of the finest level, or `err MESSAGE` (for differential tests against
 //!   the JavaScript decoder).
 //!
-//! `synth` and `mesh` print the counts as one JSON line and, when the
+//! * `make-pqm recode IN OUT` — decodes `IN` and writes its records again
+//!   with the default encoder options of the crate it is built against, on
+//!   the same quantization grid (e.g. a format 1.1 file as 2.0: the same
+//!   levels, to compare decoders on both versions without re-coarsening).
+//!
+//! `synth`, `mesh` and `recode` print the counts as one JSON line and, when the
 //! environment variable `DIGEST` names a file, write the spec §11 JSON digest
 //! of levels 0, n/3, 2n/3 and n there (the same as `spec/vectors/*.json`).
 use pqm_core::coarsen::{CoarsenOptions, Coarsener};
@@ -25,9 +30,10 @@ use pqm_format::{decode_all, vectors, write_to_vec, EncodeOptions, Limits, Targe
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let usage = "usage: make-pqm synth SPLITS OUT [SEED] | make-pqm mesh IN TARGET_FACES OUT | make-pqm digest FILE... | make-pqm check FILE...";
+    let usage = "usage: make-pqm synth SPLITS OUT [SEED] | make-pqm mesh IN TARGET_FACES OUT | make-pqm recode IN OUT | make-pqm digest FILE... | make-pqm check FILE...";
     let pm: ProgressiveMesh;
     let out: &str;
+    let mut bits = EncodeOptions::default().bits;
     match args.first().map(String::as_str) {
         Some("synth") if args.len() >= 3 => {
             let splits: usize = args[1].parse().expect("SPLITS");
@@ -56,6 +62,13 @@ fn main() {
             c.run(&mut |_| {});
             pm = c.to_progressive();
             out = &args[3];
+        }
+        Some("recode") if args.len() >= 3 => {
+            let bytes = std::fs::read(&args[1]).expect("read");
+            let dec = decode_all(&bytes, Limits::default()).expect("decodes");
+            pm = dec.to_progressive_mesh().expect("a decoded base mesh");
+            bits = dec.header().map_or(bits, |h| h.quant_bits);
+            out = &args[2];
         }
         Some("digest") => {
             // NAME.json next to each NAME.pqm (levels 0, n/3, 2n/3, n)
@@ -96,7 +109,11 @@ fn main() {
             std::process::exit(2);
         }
     }
-    let (bytes, report) = write_to_vec(&pm, &EncodeOptions::default()).expect("encode");
+    let opts = EncodeOptions {
+        bits,
+        ..EncodeOptions::default()
+    };
+    let (bytes, report) = write_to_vec(&pm, &opts).expect("encode");
     std::fs::write(out, &bytes).expect("write");
     if let Ok(digest) = std::env::var("DIGEST") {
         let n = pm.records.len();
