@@ -153,8 +153,12 @@ fn fandisk_with_sharp_features() {
         "quad/fandisk_quads.off",
         Bars {
             target: Target::Faces(250),
-            max_faces: 500,  // (target 250: the feature rules stop it earlier today)
-            min_ideal: 0.74, // (target 0.85; 75.3 % since feature steps keep a deviation limit in the last phase)
+            // (target 250: the feature rules stop it earlier today.) Raised
+            // from 500: the last phase no longer lets steps at feature
+            // vertices leave the surface, which is what took it from 509 to
+            // 488-500 faces at a Hausdorff of 1.9-3.9 % depending on the order
+            max_faces: 515,
+            min_ideal: 0.74, // (target 0.85; 74.6 % today)
             min_sj_median: 0.85,
             max_hausdorff: 0.02,
         },
