@@ -78,6 +78,14 @@ pub const RELAX_BELOW_JACOBIAN: f64 = 0.5;
 /// Fewer candidates than this are scored on the calling thread (a
 /// parallel split would cost more than it saves).
 const PARALLEL_MIN_CANDIDATES: usize = 32;
+/// Faces scored per batch when the whole mesh is queued: bounds the
+/// candidate and cost lists (which would otherwise add ≈ 100 bytes per
+/// input quad to the peak) without making the parallel batches small.
+const SCORE_CHUNK_FACES: usize = 8192;
+/// Default of [`Coarsener::set_prune_slack`].
+pub const DEFAULT_PRUNE_SLACK: f64 = 2.0;
+/// A queue buffer smaller than this (entries) grows without pruning first.
+const PRUNE_MIN_CAPACITY: usize = 4096;
 /// Iterations of the wider relaxation tried when a step fails only the
 /// geometry guard (0 = no second chance).
 pub const RESCUE_ITERATIONS: u32 = 6;
@@ -225,7 +233,7 @@ impl Attributes {
 /// noise (loki −0.5, makehuman +0.2, bunny +0.2 points, spot and fandisk
 /// unchanged); at 0.7 no crossing fan is ever taken.
 pub const QE_CROSSING_REFANS: bool = false;
-/// Re-fan sides of the qeMerge candidates, indexed by `Cand::Qe`'s second
+/// Re-fan sides of the qeMerge candidates, indexed by `Cand::Qe`'s third
 /// field: `[A crosses A–D, D crosses A–D]`. Both crossing is never legal
 /// (the two fans would share the faces on `A–D`), so three remain.
 /// Least Scaled Jacobian every quad of a crossing-side qeMerge must have
@@ -233,11 +241,32 @@ pub const QE_CROSSING_REFANS: bool = false;
 pub const QE_CROSSING_MIN_JACOBIAN: f64 = 0.5;
 const QE_VARIANTS: [[bool; 2]; 3] = [[false, false], [true, false], [false, true]];
 
+/// A candidate step, named by face ids and corner positions only.
+///
+/// Half-edge ids are not stable: undoing a rejected step re-creates the
+/// edges inside its patch from the free list, so the faces come back with
+/// the same ids and corners but possibly other half-edge ids. A queue entry
+/// naming a half-edge could then go stale without any change to its faces,
+/// and come back to life after a later undo — so whether it was popped
+/// depended on whether a pruning had dropped it in between. A face's
+/// corner order survives every undo, so `(face, edge index)` names the
+/// same edge for as long as the face's stamp is unchanged.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Cand {
+    /// The qvMerge of the face's diagonal 0 (corners 0–2) or 1 (1–3).
     Qv(FaceId, u8),
-    /// The qeMerge across the edge, with re-fan sides `QE_VARIANTS[k]`.
-    Qe(HalfedgeId, u8),
+    /// The qeMerge across the face's `i`-th half-edge (counted from its
+    /// stored one, [`Mesh::face_halfedges`] order), with re-fan sides
+    /// `QE_VARIANTS[k]`: `Qe(face, i, k)`.
+    Qe(FaceId, u8, u8),
+}
+
+/// The `i`-th half-edge of live face `f` in [`Mesh::face_halfedges`] order.
+fn face_edge(m: &Mesh, f: FaceId, i: u8) -> Option<HalfedgeId> {
+    if !m.is_face_alive(f) {
+        return None;
+    }
+    m.face_halfedges(f).nth(i as usize)
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -259,17 +288,22 @@ impl PartialOrd for Entry {
 }
 impl Ord for Entry {
     /// Reversed, so the `BinaryHeap` pops the lowest cost; ties by candidate
-    /// id, so the order never depends on anything but the input.
+    /// id, then by stamps: a total order on distinct entries, so the pop
+    /// order never depends on the heap's layout (and so not on when the
+    /// queue was pruned) or on anything but the input.
     fn cmp(&self, o: &Self) -> Ordering {
         o.cost
             .total_cmp(&self.cost)
             .then_with(|| cand_key(o.cand).cmp(&cand_key(self.cand)))
+            .then_with(|| o.stamps.cmp(&self.stamps))
     }
 }
+/// Candidate id for ties: the face, then the qvMerge diagonals before the
+/// qeMerges in edge order (distinct for distinct candidates).
 fn cand_key(c: Cand) -> (u32, u32) {
     match c {
         Cand::Qv(f, d) => (f.0, d as u32),
-        Cand::Qe(h, k) => (h.0, 2 + k as u32),
+        Cand::Qe(f, i, k) => (f.0, 2 + 8 * i as u32 + k as u32),
     }
 }
 
@@ -303,6 +337,10 @@ pub struct Coarsener {
     input_faces: usize,
     /// Most entries the queue held at once (for the memory benchmark).
     queue_peak: usize,
+    /// Stale-entry pruning besides the one at capacity: the queue is also
+    /// pruned after a commit when it holds more than this many times the
+    /// live bound (see [`Coarsener::set_prune_slack`]).
+    prune_slack: f64,
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
@@ -403,6 +441,7 @@ impl Coarsener {
             report: CoarsenReport::default(),
             input_faces,
             queue_peak: 0,
+            prune_slack: DEFAULT_PRUNE_SLACK,
         }
     }
 
@@ -444,6 +483,16 @@ impl Coarsener {
     /// The feature state (for tests and reports).
     pub fn features(&self) -> &FeatureState {
         &self.features
+    }
+    /// How many times its live bound (`4 × faces + 64` entries) the queue
+    /// may hold before a commit prunes its stale entries (default
+    /// [`DEFAULT_PRUNE_SLACK`]; 0 = after every commit). The queue is also
+    /// pruned whenever it is full, before its buffer would grow. Pruning
+    /// drops only entries that can never be popped fresh again and the pop
+    /// order is a total order, so the result does not depend on this: it
+    /// trades time (each pruning is linear in the queue) for memory.
+    pub fn set_prune_slack(&mut self, slack: f64) {
+        self.prune_slack = slack.max(0.0);
     }
 
     fn target_faces(&self) -> usize {
@@ -490,7 +539,9 @@ impl Coarsener {
             // The queue drains while the step logs grow: give its slack
             // back so the two peaks do not add up (at most once per
             // halving, so the copies are amortized; the order is unchanged).
-            if self.queue.capacity() > 4096 && self.queue.len() < self.queue.capacity() / 4 {
+            if self.queue.capacity() > PRUNE_MIN_CAPACITY
+                && self.queue.len() < self.queue.capacity() / 4
+            {
                 self.queue.shrink_to(self.queue.len() * 2);
             }
             if !self.fresh(&e) {
@@ -543,15 +594,18 @@ impl Coarsener {
     fn fresh(&self, e: &Entry) -> bool {
         match e.cand {
             Cand::Qv(f, _) => self.mesh.is_face_alive(f) && self.stamp[f.idx()] == e.stamps.0,
-            Cand::Qe(h, _) => {
-                if !self.mesh.is_halfedge_alive(h) {
+            Cand::Qe(f, i, _) => {
+                // the face's stamp first: it is unchanged only if its
+                // corners (and so its `i`-th edge) are
+                if !self.mesh.is_face_alive(f) || self.stamp[f.idx()] != e.stamps.0 {
                     return false;
                 }
-                match (self.mesh.face(h), self.mesh.face(self.mesh.twin(h))) {
-                    (Some(f), Some(g)) => {
-                        self.stamp[f.idx()] == e.stamps.0 && self.stamp[g.idx()] == e.stamps.1
-                    }
-                    _ => false,
+                let Some(h) = face_edge(&self.mesh, f, i) else {
+                    return false;
+                };
+                match self.mesh.face(self.mesh.twin(h)) {
+                    Some(g) => self.stamp[g.idx()] == e.stamps.1,
+                    None => false,
                 }
             }
         }
@@ -565,7 +619,7 @@ impl Coarsener {
         // to commit time: a candidate that fails it is dropped when popped
         // and comes back only when its neighbourhood changes.
         let patch = self.build(cand).ok()?;
-        if matches!(cand, Cand::Qe(_, k) if k != 0) {
+        if matches!(cand, Cand::Qe(_, _, k) if k != 0) {
             // A crossing fan spans A–D with quads that E does not judge by
             // shape: queue it only if every new quad starts out well shaped.
             let m = &self.mesh;
@@ -586,9 +640,44 @@ impl Coarsener {
     /// face with the smaller id — unless the other face is outside the batch
     /// (its entry for the edge went stale with this face's stamp and will not
     /// be pushed again), in which case this face pushes it. They are scored
-    /// in parallel, then pushed in that order: the queue ends up exactly as
-    /// with one push after the other.
+    /// in parallel, then pushed in that order (the pop order is a total
+    /// order, so only the set of entries matters). A long list (the whole
+    /// mesh) is scored in chunks of [`SCORE_CHUNK_FACES`] into a queue
+    /// buffer reserved for exactly its candidates: no candidate or cost
+    /// list of the whole mesh and no doubling slack.
     fn push_faces(&mut self, faces: &[FaceId], batch: &[FaceId]) {
+        if faces.len() > SCORE_CHUNK_FACES {
+            let n: usize = faces.iter().map(|&f| self.candidate_count(f, batch)).sum();
+            self.queue.reserve_exact(n);
+        }
+        for chunk in faces.chunks(SCORE_CHUNK_FACES) {
+            self.push_chunk(chunk, batch);
+        }
+    }
+
+    /// Candidates [`Coarsener::push_chunk`] lists for `f`.
+    fn candidate_count(&self, f: FaceId, batch: &[FaceId]) -> usize {
+        if !self.mesh.is_face_alive(f) {
+            return 0;
+        }
+        let per_edge = if QE_CROSSING_REFANS {
+            QE_VARIANTS.len()
+        } else {
+            1
+        };
+        let edges = self
+            .mesh
+            .face_halfedges(f)
+            .filter(|&h| {
+                self.mesh
+                    .face(self.mesh.twin(h))
+                    .is_some_and(|g| f < g || !batch.contains(&g))
+            })
+            .count();
+        2 + per_edge * edges
+    }
+
+    fn push_chunk(&mut self, faces: &[FaceId], batch: &[FaceId]) {
         let mut cands: Vec<Cand> = Vec::with_capacity(faces.len() * 4);
         for &f in faces {
             if !self.mesh.is_face_alive(f) {
@@ -596,7 +685,7 @@ impl Coarsener {
             }
             cands.push(Cand::Qv(f, 0));
             cands.push(Cand::Qv(f, 1));
-            for h in self.mesh.face_halfedges(f) {
+            for (i, h) in self.mesh.face_halfedges(f).enumerate() {
                 if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
                     if f < g || !batch.contains(&g) {
                         let n = if QE_CROSSING_REFANS {
@@ -604,7 +693,7 @@ impl Coarsener {
                         } else {
                             1
                         };
-                        cands.extend((0..n as u8).map(|k| Cand::Qe(h, k)));
+                        cands.extend((0..n as u8).map(|k| Cand::Qe(f, i as u8, k)));
                     }
                 }
             }
@@ -632,15 +721,25 @@ impl Coarsener {
     fn push_scored(&mut self, cand: Cand, cost: f64) {
         let stamps = match cand {
             Cand::Qv(f, _) => (self.stamp[f.idx()], 0),
-            Cand::Qe(h, _) => {
-                let f = self.mesh.face(h).map_or(0, |f| self.stamp[f.idx()]);
-                let g = self
-                    .mesh
-                    .face(self.mesh.twin(h))
+            Cand::Qe(f, i, _) => {
+                let g = face_edge(&self.mesh, f, i)
+                    .and_then(|h| self.mesh.face(self.mesh.twin(h)))
                     .map_or(0, |g| self.stamp[g.idx()]);
-                (f, g)
+                (self.stamp[f.idx()], g)
             }
         };
+        if self.queue.len() == self.queue.capacity() && self.queue.capacity() >= PRUNE_MIN_CAPACITY
+        {
+            // full: drop the stale entries before the buffer grows; grow
+            // by a quarter only if that freed less than an eighth (so a
+            // pruning is paid for by at least an eighth of a queue of
+            // pushes, and growth copies are amortized)
+            self.prune_stale();
+            let cap = self.queue.capacity();
+            if self.queue.len() > cap - cap / 8 {
+                self.queue.reserve_exact(cap / 4);
+            }
+        }
         self.queue.push(Entry { cost, cand, stamps });
         self.queue_peak = self.queue_peak.max(self.queue.len());
         self.report.peak_queue = self.report.peak_queue.max(self.queue.len());
@@ -677,7 +776,9 @@ impl Coarsener {
                 }
                 ops::qv_merge::qv_merge_patch(&self.mesh, f, d as usize, keep_second, pos)
             }
-            Cand::Qe(h, k) => {
+            Cand::Qe(face, i, k) => {
+                let h = face_edge(&self.mesh, face, i)
+                    .ok_or(Reject::NotApplicable("edge is deleted"))?;
                 let site = ops::qe_merge::qe_site(&self.mesh, h)?;
                 let [a, b, c, d, e, f] = site.v;
                 let ca = self.features.check_group(&[a, b, f])?;
@@ -931,7 +1032,10 @@ impl Coarsener {
                 let other = [q[(d as usize + 1) % 4], q[(d as usize + 3) % 4]];
                 (dist, [f, f], 1, [(keep, other[0]), (keep, other[1])], 2)
             }
-            Cand::Qe(h, _) => match ops::qe_merge::qe_site(m, h) {
+            Cand::Qe(face, i, _) => match face_edge(m, face, i)
+                .ok_or(Reject::NotApplicable("edge is deleted"))
+                .and_then(|h| ops::qe_merge::qe_site(m, h))
+            {
                 Ok(site) => {
                     let [a, b, c, d, e, f] = site.v;
                     let mid = (p(a) + p(d)) * 0.5;
@@ -1228,21 +1332,34 @@ impl Coarsener {
         true
     }
 
-    /// Drops stale entries once they outnumber the live ones: each face
-    /// has at most two qvMerge entries and owns at most two interior edges'
-    /// qeMerge entries on average, so `4 × faces` bounds the live count.
-    /// Only entries that would be skipped at pop time are dropped, but the
-    /// output is not independent of *when* pruning runs: pruning more often
-    /// (on every doubling) changed loki's output in a measurement, so ties
-    /// in pop order depend on the heap's layout somewhere. Until that is
-    /// understood the schedule below is part of the algorithm.
+    /// Drops stale entries once the queue holds more than `prune_slack`
+    /// times the live bound: each face has two qvMerge entries and owns
+    /// two interior edges' qeMerge entries on average, so `4 × faces`
+    /// bounds the live count (the default, 2, prunes once stale entries
+    /// outnumber live ones 2:1). Besides, [`Coarsener::push_scored`]
+    /// prunes whenever the buffer is full.
+    ///
+    /// *When* pruning runs cannot change the result: a stale entry never
+    /// becomes fresh again (stamps only grow; a candidate names faces and
+    /// corners, which an undo restores, not half-edges, which it may
+    /// renumber — see [`Cand`]) and [`Entry`]'s order is total, so the
+    /// heap's layout does not matter. (Before candidates were named that
+    /// way, an entry whose half-edge an undo had renumbered was stale
+    /// until a later undo happened to give the id back: a pruning in
+    /// between dropped it for good, which is how a pruning schedule once
+    /// changed loki's output.)
     fn prune_queue(&mut self) {
         let live_bound = 4 * self.mesh.face_count() + 64;
-        if self.queue.len() > 2 * live_bound {
-            let mut q = std::mem::take(&mut self.queue);
-            q.retain(|e| self.fresh(e));
-            self.queue = q;
+        if self.queue.len() as f64 > self.prune_slack * live_bound as f64 {
+            self.prune_stale();
         }
+    }
+
+    /// Removes every stale entry (in place: the buffer is kept).
+    fn prune_stale(&mut self) {
+        let mut q = std::mem::take(&mut self.queue);
+        q.retain(|e| self.fresh(e));
+        self.queue = q;
     }
 
     /// Vertices the step relaxes: the middle vertices of the re-fans (odd
