@@ -376,6 +376,15 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<ScoreScratch> = std::cell::RefCell::new(ScoreScratch::default());
 }
 
+/// Frees every thread's [`ScoreScratch`] (the calling thread's and those of
+/// the current rayon pool): they are sized by the whole mesh and would
+/// otherwise outlive the coarsening.
+fn free_score_scratch() {
+    let free = || SCRATCH.with(|s| *s.borrow_mut() = ScoreScratch::default());
+    free();
+    rayon::broadcast(|_| free());
+}
+
 impl ScoreScratch {
     /// Empties the lists and starts a new epoch for a mesh of `vertices`
     /// vertex ids and `faces` face ids.
@@ -558,6 +567,9 @@ impl Coarsener {
         // The queue's slack (and, when nothing legal was left, the whole
         // queue) is not needed any more: free it before the records are built.
         self.queue.shrink_to_fit();
+        // so are the scoring scratches (12 bytes per input vertex on each
+        // thread that scored)
+        free_score_scratch();
         if self.report.stop.is_none() {
             self.report.stop = Some(StopReason::TargetReached);
         }
@@ -642,42 +654,19 @@ impl Coarsener {
     /// be pushed again), in which case this face pushes it. They are scored
     /// in parallel, then pushed in that order (the pop order is a total
     /// order, so only the set of entries matters). A long list (the whole
-    /// mesh) is scored in chunks of [`SCORE_CHUNK_FACES`] into a queue
-    /// buffer reserved for exactly its candidates: no candidate or cost
-    /// list of the whole mesh and no doubling slack.
+    /// mesh) is scored in chunks of [`SCORE_CHUNK_FACES`], each chunk's
+    /// queueable entries added to a buffer grown to exactly fit them: no
+    /// candidate or cost list of the whole mesh and no doubling slack (only
+    /// about a third of the candidates are queueable at the start, so
+    /// reserving for all of them would triple the queue).
     fn push_faces(&mut self, faces: &[FaceId], batch: &[FaceId]) {
-        if faces.len() > SCORE_CHUNK_FACES {
-            let n: usize = faces.iter().map(|&f| self.candidate_count(f, batch)).sum();
-            self.queue.reserve_exact(n);
-        }
+        let bulk = faces.len() > SCORE_CHUNK_FACES;
         for chunk in faces.chunks(SCORE_CHUNK_FACES) {
-            self.push_chunk(chunk, batch);
+            self.push_chunk(chunk, batch, bulk);
         }
     }
 
-    /// Candidates [`Coarsener::push_chunk`] lists for `f`.
-    fn candidate_count(&self, f: FaceId, batch: &[FaceId]) -> usize {
-        if !self.mesh.is_face_alive(f) {
-            return 0;
-        }
-        let per_edge = if QE_CROSSING_REFANS {
-            QE_VARIANTS.len()
-        } else {
-            1
-        };
-        let edges = self
-            .mesh
-            .face_halfedges(f)
-            .filter(|&h| {
-                self.mesh
-                    .face(self.mesh.twin(h))
-                    .is_some_and(|g| f < g || !batch.contains(&g))
-            })
-            .count();
-        2 + per_edge * edges
-    }
-
-    fn push_chunk(&mut self, faces: &[FaceId], batch: &[FaceId]) {
+    fn push_chunk(&mut self, faces: &[FaceId], batch: &[FaceId], exact: bool) {
         let mut cands: Vec<Cand> = Vec::with_capacity(faces.len() * 4);
         for &f in faces {
             if !self.mesh.is_face_alive(f) {
@@ -711,6 +700,10 @@ impl Coarsener {
                 .map(|&c| SCRATCH.with(|s| this.score(c, &mut s.borrow_mut())))
                 .collect()
         };
+        if exact {
+            let n = costs.iter().filter(|c| c.is_some()).count();
+            self.queue.reserve_exact(n);
+        }
         for (c, cost) in cands.into_iter().zip(costs) {
             if let Some(cost) = cost {
                 self.push_scored(c, cost);
@@ -1595,10 +1588,11 @@ impl Coarsener {
         // Keep a vertex's move only where it makes no quad worse than
         // min(0.2, before): put back the vertices of any quad it would spoil,
         // a few rounds (putting one back can spoil a neighbour).
-        let mut start: Vec<Option<DVec3>> = vec![None; self.mesh.vertex_capacity()];
-        for &(v, p) in &old {
-            start[v.idx()] = Some(p);
-        }
+        // (`old` is in vertex id order, so a vertex's start is found by
+        // bisection: a per-id table would cost 32 bytes per *input* vertex
+        // at the very end of coarsening, when the step logs are largest)
+        debug_assert!(old.windows(2).all(|w| w[0].0 < w[1].0));
+        let start = |v: VertexId| old.binary_search_by_key(&v, |o| o.0).ok().map(|i| old[i].1);
         for _ in 0..8 {
             let mut spoiled = false;
             for (i, &f) in faces.iter().enumerate() {
@@ -1606,7 +1600,7 @@ impl Coarsener {
                     spoiled = true;
                     let vs: Vec<VertexId> = self.mesh.face_vertices(f).collect();
                     for v in vs {
-                        if let Some(p) = start[v.idx()] {
+                        if let Some(p) = start(v) {
                             self.mesh.set_position(v, p);
                         }
                     }
