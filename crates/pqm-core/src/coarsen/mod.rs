@@ -370,6 +370,8 @@ struct ScoreScratch {
     /// the next corner at the same vertex (`u32::MAX` ends a list).
     corner_head: Vec<u32>,
     corner_next: Vec<u32>,
+    /// The candidate's patch (its buffers reused).
+    patch: Patch,
 }
 
 thread_local! {
@@ -630,7 +632,17 @@ impl Coarsener {
         // Scoring builds the patch but leaves the (costlier) topology check
         // to commit time: a candidate that fails it is dropped when popped
         // and comes back only when its neighbourhood changes.
-        let patch = self.build(cand).ok()?;
+        let mut patch = std::mem::take(&mut s.patch);
+        let cost = self
+            .build_into(cand, &mut patch)
+            .ok()
+            .and_then(|()| self.score_patch(cand, &patch, s));
+        s.patch = patch;
+        cost
+    }
+
+    /// [`Coarsener::score`] of a built patch.
+    fn score_patch(&self, cand: Cand, patch: &Patch, s: &mut ScoreScratch) -> Option<f64> {
         if matches!(cand, Cand::Qe(_, _, k) if k != 0) {
             // A crossing fan spans A–D with quads that E does not judge by
             // shape: queue it only if every new quad starts out well shaped.
@@ -643,7 +655,7 @@ impl Coarsener {
                 return None;
             }
         }
-        self.cost(cand, &patch, s)
+        self.cost(cand, patch, s)
     }
 
     /// Queues the candidates of `faces` (live ones): both qvMerge diagonals
@@ -742,6 +754,14 @@ impl Coarsener {
 
     /// Builds the candidate's patch, with feature rule 1 and placement.
     fn build(&self, cand: Cand) -> Result<Patch, Reject> {
+        let mut patch = Patch::default();
+        self.build_into(cand, &mut patch)?;
+        Ok(patch)
+    }
+
+    /// [`Coarsener::build`] into `out`, reusing its buffers (scoring builds
+    /// a patch for every candidate).
+    fn build_into(&self, cand: Cand, out: &mut Patch) -> Result<(), Reject> {
         match cand {
             Cand::Qv(f, d) => {
                 let q = self
@@ -767,7 +787,7 @@ impl Coarsener {
                     }
                     pos = self.mesh.position(if keep_second { c } else { a });
                 }
-                ops::qv_merge::qv_merge_patch(&self.mesh, f, d as usize, keep_second, pos)
+                ops::qv_merge::qv_merge_patch_into(&self.mesh, f, d as usize, keep_second, pos, out)
             }
             Cand::Qe(face, i, k) => {
                 let h = face_edge(&self.mesh, face, i)
@@ -800,7 +820,7 @@ impl Coarsener {
                     .get(k as usize)
                     .copied()
                     .unwrap_or([false, false]);
-                ops::qe_merge::qe_merge_patch_with(&self.mesh, h, pa, pd, cross)
+                ops::qe_merge::qe_merge_patch_into(&self.mesh, h, pa, pd, cross, out)
             }
         }
     }
