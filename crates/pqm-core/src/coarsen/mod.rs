@@ -33,11 +33,15 @@
 //! all faces and all time (ids are recycled, so a per-face counter could
 //! match an entry scored for another face); after a commit only the
 //! candidates of the faces around the touched vertices are re-scored, and
-//! the heap is rebuilt without stale entries when they outnumber the live
-//! ones (see [`CoarsenReport::peak_queue`]). Scoring only reads the mesh,
-//! so a batch of candidates is scored in parallel (rayon, per-thread
-//! scratch) and pushed in candidate order: the output does not depend on
-//! the thread count.
+//! the heap is rebuilt without stale entries whenever its buffer is full
+//! and when they outnumber the live ones (see
+//! [`Coarsener::set_prune_slack`], [`CoarsenReport::peak_queue`]). A
+//! candidate is named by face and corner (never by half-edge id, which an
+//! undo may renumber) and the pop order is a total order, so the output
+//! does not depend on when pruning runs. Scoring only reads the mesh, so a
+//! batch of candidates is scored in parallel (rayon, per-thread scratch)
+//! and pushed in candidate order: the output does not depend on the thread
+//! count either.
 
 pub mod features;
 pub mod record;
