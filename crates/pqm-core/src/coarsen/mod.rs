@@ -739,14 +739,14 @@ impl Coarsener {
         };
         if self.queue.len() == self.queue.capacity() && self.queue.capacity() >= PRUNE_MIN_CAPACITY
         {
-            // full: drop the stale entries before the buffer grows; grow
-            // by a quarter only if that freed less than an eighth (so a
-            // pruning is paid for by at least an eighth of a queue of
-            // pushes, and growth copies are amortized)
+            // full: drop the stale entries before the buffer grows; if
+            // that freed less than half, make room for another half (so a
+            // pruning, linear in the queue, is paid for by at least half a
+            // queue of pushes, and growth copies are amortized)
             self.prune_stale();
             let cap = self.queue.capacity();
-            if self.queue.len() > cap - cap / 8 {
-                self.queue.reserve_exact(cap / 4);
+            if self.queue.len() > cap / 2 {
+                self.queue.reserve_exact(cap / 2);
             }
         }
         self.queue.push(Entry { cost, cand, stamps });
