@@ -7,7 +7,9 @@
 //! table: times, their ratio, collapses per second and the coarsener's peak
 //! heap per input quad (a counting allocator). Under `cargo test` the same
 //! code runs on a small procedural mesh, as a smoke test.
-//! `PQM_BENCH_MESH=path PQM_BENCH_TARGET=n` picks another input.
+//! `PQM_BENCH_MESH=path PQM_BENCH_TARGET=n` picks another input;
+//! `PQM_BENCH_TRACE=1` prints the live heap and the peak so far (bytes per
+//! input quad) as the face count drops, to see where the peak is.
 
 use pqm_core::coarsen::{CoarsenOptions, Coarsener};
 use pqm_core::subdivide::{catmull_clark_split, SplitMode};
@@ -89,7 +91,19 @@ fn main() {
         (peak - base, now - base)
     };
     let after_setup = phase();
-    let report = c.run(&mut |_| {});
+    let trace = std::env::var_os("PQM_BENCH_TRACE").is_some();
+    let mut next_trace = n_quads;
+    let report = c.run(&mut |faces| {
+        if trace && faces <= next_trace {
+            next_trace = faces.saturating_sub(n_quads / 20);
+            let per = |b: usize| b.saturating_sub(base) as f64 / n_quads as f64;
+            eprintln!(
+                "trace: {faces} faces, live {:.0}, peak so far {:.0} B/quad",
+                per(CURRENT.load(Ordering::Relaxed)),
+                per(PEAK.load(Ordering::Relaxed))
+            );
+        }
+    });
     let after_run = phase();
     let (queue_peak, entry_bytes) = c.queue_peak();
     let reached = c.mesh().face_count();

@@ -3,6 +3,11 @@
 //! decides — the report, the progressive mesh (base, every record, vertex
 //! order, level errors; floats hashed through their exact `Debug` text) and
 //! the coarsest mesh. A speed-up must leave every line unchanged.
+//! The report's `peak_queue` is left out of the hash (printed beside it):
+//! it measures the queue's memory, which the pruning schedule changes by
+//! design while the result must not.
+//! `PQM_PRUNE_SLACK=x` sets [`Coarsener::set_prune_slack`] (0 = prune
+//! after every commit): every hash must stay the same.
 //!
 //! `cargo run --release -p pqm-core --example coarsen_identity [-- CASE…]`
 //! Cases: `spot` (spot_quadrangulated → 700), `spot-local` (same, local
@@ -45,7 +50,14 @@ fn run(name: &str, mut im: IndexedMesh, target: usize, smoothing: Smoothing) {
         ..Default::default()
     };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
-    let report = c.run(&mut |_| {});
+    if let Some(slack) = std::env::var("PQM_PRUNE_SLACK")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        c.set_prune_slack(slack);
+    }
+    let mut report = c.run(&mut |_| {});
+    let peak_queue = std::mem::take(&mut report.peak_queue);
     let coarsest = c.mesh().to_indexed().0;
     // `PQM_TO_PROGRESSIVE=1`: the borrowing variant (must hash the same)
     let pm = if std::env::var_os("PQM_TO_PROGRESSIVE").is_some() {
@@ -57,7 +69,7 @@ fn run(name: &str, mut im: IndexedMesh, target: usize, smoothing: Smoothing) {
     let mut h = HashWriter(Default::default());
     write!(h, "{report:?}|{pm:?}|{coarsest:?}").expect("hash");
     println!(
-        "{name:<11} {:>7} -> {:>5} faces, {:>6} records, hash {:016x}  ({dt:.2} s)",
+        "{name:<11} {:>7} -> {:>5} faces, {:>6} records, hash {:016x}  ({dt:.2} s, queue peak {peak_queue})",
         im.face_count(),
         coarsest.face_count(),
         pm.records.len(),

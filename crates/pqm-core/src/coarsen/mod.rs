@@ -34,11 +34,15 @@
 //! all faces and all time (ids are recycled, so a per-face counter could
 //! match an entry scored for another face); after a commit only the
 //! candidates of the faces around the touched vertices are re-scored, and
-//! the heap is rebuilt without stale entries when they outnumber the live
-//! ones (see [`CoarsenReport::peak_queue`]). Scoring only reads the mesh,
-//! so a batch of candidates is scored in parallel (rayon, per-thread
-//! scratch) and pushed in candidate order: the output does not depend on
-//! the thread count.
+//! the heap is rebuilt without stale entries whenever its buffer is full
+//! and when they outnumber the live ones (see
+//! [`Coarsener::set_prune_slack`], [`CoarsenReport::peak_queue`]). A
+//! candidate is named by face and corner (never by half-edge id, which an
+//! undo may renumber) and the pop order is a total order, so the output
+//! does not depend on when pruning runs. Scoring only reads the mesh, so a
+//! batch of candidates is scored in parallel (rayon, per-thread scratch)
+//! and pushed in candidate order: the output does not depend on the thread
+//! count either.
 
 pub mod features;
 pub mod record;
@@ -79,6 +83,14 @@ pub const RELAX_BELOW_JACOBIAN: f64 = 0.5;
 /// Fewer candidates than this are scored on the calling thread (a
 /// parallel split would cost more than it saves).
 const PARALLEL_MIN_CANDIDATES: usize = 32;
+/// Faces scored per batch when the whole mesh is queued: bounds the
+/// candidate and cost lists (which would otherwise add ≈ 100 bytes per
+/// input quad to the peak) without making the parallel batches small.
+const SCORE_CHUNK_FACES: usize = 8192;
+/// Default of [`Coarsener::set_prune_slack`].
+pub const DEFAULT_PRUNE_SLACK: f64 = 2.0;
+/// A queue buffer smaller than this (entries) grows without pruning first.
+const PRUNE_MIN_CAPACITY: usize = 4096;
 /// Iterations of the wider relaxation tried when a step fails only the
 /// geometry guard (0 = no second chance).
 pub const RESCUE_ITERATIONS: u32 = 6;
@@ -226,7 +238,7 @@ impl Attributes {
 /// noise (loki −0.5, makehuman +0.2, bunny +0.2 points, spot and fandisk
 /// unchanged); at 0.7 no crossing fan is ever taken.
 pub const QE_CROSSING_REFANS: bool = false;
-/// Re-fan sides of the qeMerge candidates, indexed by `Cand::Qe`'s second
+/// Re-fan sides of the qeMerge candidates, indexed by `Cand::Qe`'s third
 /// field: `[A crosses A–D, D crosses A–D]`. Both crossing is never legal
 /// (the two fans would share the faces on `A–D`), so three remain.
 /// Least Scaled Jacobian every quad of a crossing-side qeMerge must have
@@ -234,11 +246,32 @@ pub const QE_CROSSING_REFANS: bool = false;
 pub const QE_CROSSING_MIN_JACOBIAN: f64 = 0.5;
 const QE_VARIANTS: [[bool; 2]; 3] = [[false, false], [true, false], [false, true]];
 
+/// A candidate step, named by face ids and corner positions only.
+///
+/// Half-edge ids are not stable: undoing a rejected step re-creates the
+/// edges inside its patch from the free list, so the faces come back with
+/// the same ids and corners but possibly other half-edge ids. A queue entry
+/// naming a half-edge could then go stale without any change to its faces,
+/// and come back to life after a later undo — so whether it was popped
+/// depended on whether a pruning had dropped it in between. A face's
+/// corner order survives every undo, so `(face, edge index)` names the
+/// same edge for as long as the face's stamp is unchanged.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Cand {
+    /// The qvMerge of the face's diagonal 0 (corners 0–2) or 1 (1–3).
     Qv(FaceId, u8),
-    /// The qeMerge across the edge, with re-fan sides `QE_VARIANTS[k]`.
-    Qe(HalfedgeId, u8),
+    /// The qeMerge across the face's `i`-th half-edge (counted from its
+    /// stored one, [`Mesh::face_halfedges`] order), with re-fan sides
+    /// `QE_VARIANTS[k]`: `Qe(face, i, k)`.
+    Qe(FaceId, u8, u8),
+}
+
+/// The `i`-th half-edge of live face `f` in [`Mesh::face_halfedges`] order.
+fn face_edge(m: &Mesh, f: FaceId, i: u8) -> Option<HalfedgeId> {
+    if !m.is_face_alive(f) {
+        return None;
+    }
+    m.face_halfedges(f).nth(i as usize)
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -260,17 +293,22 @@ impl PartialOrd for Entry {
 }
 impl Ord for Entry {
     /// Reversed, so the `BinaryHeap` pops the lowest cost; ties by candidate
-    /// id, so the order never depends on anything but the input.
+    /// id, then by stamps: a total order on distinct entries, so the pop
+    /// order never depends on the heap's layout (and so not on when the
+    /// queue was pruned) or on anything but the input.
     fn cmp(&self, o: &Self) -> Ordering {
         o.cost
             .total_cmp(&self.cost)
             .then_with(|| cand_key(o.cand).cmp(&cand_key(self.cand)))
+            .then_with(|| o.stamps.cmp(&self.stamps))
     }
 }
+/// Candidate id for ties: the face, then the qvMerge diagonals before the
+/// qeMerges in edge order (distinct for distinct candidates).
 fn cand_key(c: Cand) -> (u32, u32) {
     match c {
         Cand::Qv(f, d) => (f.0, d as u32),
-        Cand::Qe(h, k) => (h.0, 2 + k as u32),
+        Cand::Qe(f, i, k) => (f.0, 2 + 8 * i as u32 + k as u32),
     }
 }
 
@@ -306,6 +344,10 @@ pub struct Coarsener {
     input_faces: usize,
     /// Most entries the queue held at once (for the memory benchmark).
     queue_peak: usize,
+    /// Stale-entry pruning besides the one at capacity: the queue is also
+    /// pruned after a commit when it holds more than this many times the
+    /// live bound (see [`Coarsener::set_prune_slack`]).
+    prune_slack: f64,
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
@@ -335,10 +377,21 @@ struct ScoreScratch {
     /// the next corner at the same vertex (`u32::MAX` ends a list).
     corner_head: Vec<u32>,
     corner_next: Vec<u32>,
+    /// The candidate's patch (its buffers reused).
+    patch: Patch,
 }
 
 thread_local! {
     static SCRATCH: std::cell::RefCell<ScoreScratch> = std::cell::RefCell::new(ScoreScratch::default());
+}
+
+/// Frees every thread's [`ScoreScratch`] (the calling thread's and those of
+/// the current rayon pool): they are sized by the whole mesh and would
+/// otherwise outlive the coarsening.
+fn free_score_scratch() {
+    let free = || SCRATCH.with(|s| *s.borrow_mut() = ScoreScratch::default());
+    free();
+    rayon::broadcast(|_| free());
 }
 
 impl ScoreScratch {
@@ -406,6 +459,7 @@ impl Coarsener {
             report: CoarsenReport::default(),
             input_faces,
             queue_peak: 0,
+            prune_slack: DEFAULT_PRUNE_SLACK,
         }
     }
 
@@ -447,6 +501,16 @@ impl Coarsener {
     /// The feature state (for tests and reports).
     pub fn features(&self) -> &FeatureState {
         &self.features
+    }
+    /// How many times its live bound (`4 × faces + 64` entries) the queue
+    /// may hold before a commit prunes its stale entries (default
+    /// [`DEFAULT_PRUNE_SLACK`]; 0 = after every commit). The queue is also
+    /// pruned whenever it is full, before its buffer would grow. Pruning
+    /// drops only entries that can never be popped fresh again and the pop
+    /// order is a total order, so the result does not depend on this: it
+    /// trades time (each pruning is linear in the queue) for memory.
+    pub fn set_prune_slack(&mut self, slack: f64) {
+        self.prune_slack = slack.max(0.0);
     }
 
     fn target_faces(&self) -> usize {
@@ -493,7 +557,9 @@ impl Coarsener {
             // The queue drains while the step logs grow: give its slack
             // back so the two peaks do not add up (at most once per
             // halving, so the copies are amortized; the order is unchanged).
-            if self.queue.capacity() > 4096 && self.queue.len() < self.queue.capacity() / 4 {
+            if self.queue.capacity() > PRUNE_MIN_CAPACITY
+                && self.queue.len() < self.queue.capacity() / 4
+            {
                 self.queue.shrink_to(self.queue.len() * 2);
             }
             if !self.fresh(&e) {
@@ -510,6 +576,9 @@ impl Coarsener {
         // The queue's slack (and, when nothing legal was left, the whole
         // queue) is not needed any more: free it before the records are built.
         self.queue.shrink_to_fit();
+        // so are the scoring scratches (12 bytes per input vertex on each
+        // thread that scored)
+        free_score_scratch();
         if self.report.stop.is_none() {
             self.report.stop = Some(StopReason::TargetReached);
         }
@@ -546,15 +615,18 @@ impl Coarsener {
     fn fresh(&self, e: &Entry) -> bool {
         match e.cand {
             Cand::Qv(f, _) => self.mesh.is_face_alive(f) && self.stamp[f.idx()] == e.stamps.0,
-            Cand::Qe(h, _) => {
-                if !self.mesh.is_halfedge_alive(h) {
+            Cand::Qe(f, i, _) => {
+                // the face's stamp first: it is unchanged only if its
+                // corners (and so its `i`-th edge) are
+                if !self.mesh.is_face_alive(f) || self.stamp[f.idx()] != e.stamps.0 {
                     return false;
                 }
-                match (self.mesh.face(h), self.mesh.face(self.mesh.twin(h))) {
-                    (Some(f), Some(g)) => {
-                        self.stamp[f.idx()] == e.stamps.0 && self.stamp[g.idx()] == e.stamps.1
-                    }
-                    _ => false,
+                let Some(h) = face_edge(&self.mesh, f, i) else {
+                    return false;
+                };
+                match self.mesh.face(self.mesh.twin(h)) {
+                    Some(g) => self.stamp[g.idx()] == e.stamps.1,
+                    None => false,
                 }
             }
         }
@@ -567,8 +639,18 @@ impl Coarsener {
         // Scoring builds the patch but leaves the (costlier) topology check
         // to commit time: a candidate that fails it is dropped when popped
         // and comes back only when its neighbourhood changes.
-        let patch = self.build(cand).ok()?;
-        if matches!(cand, Cand::Qe(_, k) if k != 0) {
+        let mut patch = std::mem::take(&mut s.patch);
+        let cost = self
+            .build_into(cand, &mut patch)
+            .ok()
+            .and_then(|()| self.score_patch(cand, &patch, s));
+        s.patch = patch;
+        cost
+    }
+
+    /// [`Coarsener::score`] of a built patch.
+    fn score_patch(&self, cand: Cand, patch: &Patch, s: &mut ScoreScratch) -> Option<f64> {
+        if matches!(cand, Cand::Qe(_, _, k) if k != 0) {
             // A crossing fan spans A–D with quads that E does not judge by
             // shape: queue it only if every new quad starts out well shaped.
             let m = &self.mesh;
@@ -580,7 +662,7 @@ impl Coarsener {
                 return None;
             }
         }
-        self.cost(cand, &patch, s)
+        self.cost(cand, patch, s)
     }
 
     /// Queues the candidates of `faces` (live ones): both qvMerge diagonals
@@ -589,9 +671,21 @@ impl Coarsener {
     /// face with the smaller id — unless the other face is outside the batch
     /// (its entry for the edge went stale with this face's stamp and will not
     /// be pushed again), in which case this face pushes it. They are scored
-    /// in parallel, then pushed in that order: the queue ends up exactly as
-    /// with one push after the other.
+    /// in parallel, then pushed in that order (the pop order is a total
+    /// order, so only the set of entries matters). A long list (the whole
+    /// mesh) is scored in chunks of [`SCORE_CHUNK_FACES`], each chunk's
+    /// queueable entries added to a buffer grown to exactly fit them: no
+    /// candidate or cost list of the whole mesh and no doubling slack (only
+    /// about a third of the candidates are queueable at the start, so
+    /// reserving for all of them would triple the queue).
     fn push_faces(&mut self, faces: &[FaceId], batch: &[FaceId]) {
+        let bulk = faces.len() > SCORE_CHUNK_FACES;
+        for chunk in faces.chunks(SCORE_CHUNK_FACES) {
+            self.push_chunk(chunk, batch, bulk);
+        }
+    }
+
+    fn push_chunk(&mut self, faces: &[FaceId], batch: &[FaceId], exact: bool) {
         let mut cands: Vec<Cand> = Vec::with_capacity(faces.len() * 4);
         for &f in faces {
             if !self.mesh.is_face_alive(f) {
@@ -599,7 +693,7 @@ impl Coarsener {
             }
             cands.push(Cand::Qv(f, 0));
             cands.push(Cand::Qv(f, 1));
-            for h in self.mesh.face_halfedges(f) {
+            for (i, h) in self.mesh.face_halfedges(f).enumerate() {
                 if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
                     if f < g || !batch.contains(&g) {
                         let n = if QE_CROSSING_REFANS {
@@ -607,7 +701,7 @@ impl Coarsener {
                         } else {
                             1
                         };
-                        cands.extend((0..n as u8).map(|k| Cand::Qe(h, k)));
+                        cands.extend((0..n as u8).map(|k| Cand::Qe(f, i as u8, k)));
                     }
                 }
             }
@@ -625,6 +719,10 @@ impl Coarsener {
                 .map(|&c| SCRATCH.with(|s| this.score(c, &mut s.borrow_mut())))
                 .collect()
         };
+        if exact {
+            let n = costs.iter().filter(|c| c.is_some()).count();
+            self.queue.reserve_exact(n);
+        }
         for (c, cost) in cands.into_iter().zip(costs) {
             if let Some(cost) = cost {
                 self.push_scored(c, cost);
@@ -635,15 +733,25 @@ impl Coarsener {
     fn push_scored(&mut self, cand: Cand, cost: f64) {
         let stamps = match cand {
             Cand::Qv(f, _) => (self.stamp[f.idx()], 0),
-            Cand::Qe(h, _) => {
-                let f = self.mesh.face(h).map_or(0, |f| self.stamp[f.idx()]);
-                let g = self
-                    .mesh
-                    .face(self.mesh.twin(h))
+            Cand::Qe(f, i, _) => {
+                let g = face_edge(&self.mesh, f, i)
+                    .and_then(|h| self.mesh.face(self.mesh.twin(h)))
                     .map_or(0, |g| self.stamp[g.idx()]);
-                (f, g)
+                (self.stamp[f.idx()], g)
             }
         };
+        if self.queue.len() == self.queue.capacity() && self.queue.capacity() >= PRUNE_MIN_CAPACITY
+        {
+            // full: drop the stale entries before the buffer grows; if
+            // that freed less than half, make room for another half (so a
+            // pruning, linear in the queue, is paid for by at least half a
+            // queue of pushes, and growth copies are amortized)
+            self.prune_stale();
+            let cap = self.queue.capacity();
+            if self.queue.len() > cap / 2 {
+                self.queue.reserve_exact(cap / 2);
+            }
+        }
         self.queue.push(Entry { cost, cand, stamps });
         self.queue_peak = self.queue_peak.max(self.queue.len());
         self.report.peak_queue = self.report.peak_queue.max(self.queue.len());
@@ -653,6 +761,14 @@ impl Coarsener {
 
     /// Builds the candidate's patch, with feature rule 1 and placement.
     fn build(&self, cand: Cand) -> Result<Patch, Reject> {
+        let mut patch = Patch::default();
+        self.build_into(cand, &mut patch)?;
+        Ok(patch)
+    }
+
+    /// [`Coarsener::build`] into `out`, reusing its buffers (scoring builds
+    /// a patch for every candidate).
+    fn build_into(&self, cand: Cand, out: &mut Patch) -> Result<(), Reject> {
         match cand {
             Cand::Qv(f, d) => {
                 let q = self
@@ -678,9 +794,11 @@ impl Coarsener {
                     }
                     pos = self.mesh.position(if keep_second { c } else { a });
                 }
-                ops::qv_merge::qv_merge_patch(&self.mesh, f, d as usize, keep_second, pos)
+                ops::qv_merge::qv_merge_patch_into(&self.mesh, f, d as usize, keep_second, pos, out)
             }
-            Cand::Qe(h, k) => {
+            Cand::Qe(face, i, k) => {
+                let h = face_edge(&self.mesh, face, i)
+                    .ok_or(Reject::NotApplicable("edge is deleted"))?;
                 let site = ops::qe_merge::qe_site(&self.mesh, h)?;
                 let [a, b, c, d, e, f] = site.v;
                 let ca = self.features.check_group(&[a, b, f])?;
@@ -709,7 +827,7 @@ impl Coarsener {
                     .get(k as usize)
                     .copied()
                     .unwrap_or([false, false]);
-                ops::qe_merge::qe_merge_patch_with(&self.mesh, h, pa, pd, cross)
+                ops::qe_merge::qe_merge_patch_into(&self.mesh, h, pa, pd, cross, out)
             }
         }
     }
@@ -934,7 +1052,10 @@ impl Coarsener {
                 let other = [q[(d as usize + 1) % 4], q[(d as usize + 3) % 4]];
                 (dist, [f, f], 1, [(keep, other[0]), (keep, other[1])], 2)
             }
-            Cand::Qe(h, _) => match ops::qe_merge::qe_site(m, h) {
+            Cand::Qe(face, i, _) => match face_edge(m, face, i)
+                .ok_or(Reject::NotApplicable("edge is deleted"))
+                .and_then(|h| ops::qe_merge::qe_site(m, h))
+            {
                 Ok(site) => {
                     let [a, b, c, d, e, f] = site.v;
                     let mid = (p(a) + p(d)) * 0.5;
@@ -1232,21 +1353,34 @@ impl Coarsener {
         true
     }
 
-    /// Drops stale entries once they outnumber the live ones: each face
-    /// has at most two qvMerge entries and owns at most two interior edges'
-    /// qeMerge entries on average, so `4 × faces` bounds the live count.
-    /// Only entries that would be skipped at pop time are dropped, but the
-    /// output is not independent of *when* pruning runs: pruning more often
-    /// (on every doubling) changed loki's output in a measurement, so ties
-    /// in pop order depend on the heap's layout somewhere. Until that is
-    /// understood the schedule below is part of the algorithm.
+    /// Drops stale entries once the queue holds more than `prune_slack`
+    /// times the live bound: each face has two qvMerge entries and owns
+    /// two interior edges' qeMerge entries on average, so `4 × faces`
+    /// bounds the live count (the default, 2, prunes once stale entries
+    /// outnumber live ones 2:1). Besides, [`Coarsener::push_scored`]
+    /// prunes whenever the buffer is full.
+    ///
+    /// *When* pruning runs cannot change the result: a stale entry never
+    /// becomes fresh again (stamps only grow; a candidate names faces and
+    /// corners, which an undo restores, not half-edges, which it may
+    /// renumber — see [`Cand`]) and [`Entry`]'s order is total, so the
+    /// heap's layout does not matter. (Before candidates were named that
+    /// way, an entry whose half-edge an undo had renumbered was stale
+    /// until a later undo happened to give the id back: a pruning in
+    /// between dropped it for good, which is how a pruning schedule once
+    /// changed loki's output.)
     fn prune_queue(&mut self) {
         let live_bound = 4 * self.mesh.face_count() + 64;
-        if self.queue.len() > 2 * live_bound {
-            let mut q = std::mem::take(&mut self.queue);
-            q.retain(|e| self.fresh(e));
-            self.queue = q;
+        if self.queue.len() as f64 > self.prune_slack * live_bound as f64 {
+            self.prune_stale();
         }
+    }
+
+    /// Removes every stale entry (in place: the buffer is kept).
+    fn prune_stale(&mut self) {
+        let mut q = std::mem::take(&mut self.queue);
+        q.retain(|e| self.fresh(e));
+        self.queue = q;
     }
 
     /// Vertices the step relaxes: the middle vertices of the re-fans (odd
@@ -1514,10 +1648,11 @@ impl Coarsener {
         // Keep a vertex's move only where it makes no quad worse than
         // min(0.2, before): put back the vertices of any quad it would spoil,
         // a few rounds (putting one back can spoil a neighbour).
-        let mut start: Vec<Option<DVec3>> = vec![None; self.mesh.vertex_capacity()];
-        for &(v, p) in &old {
-            start[v.idx()] = Some(p);
-        }
+        // (`old` is in vertex id order, so a vertex's start is found by
+        // bisection: a per-id table would cost 32 bytes per *input* vertex
+        // at the very end of coarsening, when the step logs are largest)
+        debug_assert!(old.windows(2).all(|w| w[0].0 < w[1].0));
+        let start = |v: VertexId| old.binary_search_by_key(&v, |o| o.0).ok().map(|i| old[i].1);
         for _ in 0..8 {
             let mut spoiled = false;
             for (i, &f) in faces.iter().enumerate() {
@@ -1525,7 +1660,7 @@ impl Coarsener {
                     spoiled = true;
                     let vs: Vec<VertexId> = self.mesh.face_vertices(f).collect();
                     for v in vs {
-                        if let Some(p) = start[v.idx()] {
+                        if let Some(p) = start(v) {
                             self.mesh.set_position(v, p);
                         }
                     }

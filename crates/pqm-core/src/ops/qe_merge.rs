@@ -129,11 +129,79 @@ pub fn qe_merge_patch_with(
     pos_d: DVec3,
     cross: [bool; 2],
 ) -> Result<Patch, Reject> {
+    let mut patch = Patch::default();
+    qe_merge_patch_into(mesh, h, pos_a, pos_d, cross, &mut patch)?;
+    Ok(patch)
+}
+
+/// Reused buffers of [`qe_merge_patch_into`] (one per thread: the
+/// coarsener builds patches on every scoring thread).
+#[derive(Default)]
+struct Scratch {
+    faces: Vec<FaceId>,
+    mapped: Vec<(FaceId, FaceVerts, bool)>,
+    buf: Vec<VertexId>,
+    fan_old: [Vec<FaceId>; 2],
+    fan_new: [Vec<[VertexId; 4]>; 2],
+    deleted: Vec<FaceId>,
+    refan: RefanScratch,
+}
+
+/// Reused buffers of [`refan`].
+#[derive(Default)]
+struct RefanScratch {
+    corners: Vec<(VertexId, VertexId, usize)>,
+    tris: Vec<usize>,
+    chain: Vec<usize>,
+    path: Vec<VertexId>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// [`qe_merge_patch_with`] into `out` (cleared first; its buffers are
+/// reused, and so are per-thread working buffers: the coarsener builds a
+/// patch for every candidate it scores). On an error `out` holds no usable
+/// patch.
+pub fn qe_merge_patch_into(
+    mesh: &Mesh,
+    h: HalfedgeId,
+    pos_a: DVec3,
+    pos_d: DVec3,
+    cross: [bool; 2],
+    out: &mut Patch,
+) -> Result<(), Reject> {
+    SCRATCH.with(|s| match s.try_borrow_mut() {
+        Ok(mut s) => build_into(mesh, h, pos_a, pos_d, cross, out, &mut s),
+        // (re-entered on this thread: cannot happen, but fresh buffers
+        // are always correct)
+        Err(_) => build_into(mesh, h, pos_a, pos_d, cross, out, &mut Scratch::default()),
+    })
+}
+
+fn build_into(
+    mesh: &Mesh,
+    h: HalfedgeId,
+    pos_a: DVec3,
+    pos_d: DVec3,
+    cross: [bool; 2],
+    patch: &mut Patch,
+    s: &mut Scratch,
+) -> Result<(), Reject> {
+    patch.remove.clear();
+    patch.add.clear();
+    patch.merged.clear();
+    patch.moved.clear();
     let site = qe_site(mesh, h)?;
     let [a, b, c, d, e, f] = site.v;
-    let merged = vec![(b, a), (f, a), (c, d), (e, d)];
+    patch
+        .merged
+        .extend_from_slice(&[(b, a), (f, a), (c, d), (e, d)]);
+    let merged = &patch.merged;
     // Every face touching the six vertices, except the two collapsing quads.
-    let mut faces: Vec<FaceId> = Vec::with_capacity(24);
+    let faces = &mut s.faces;
+    faces.clear();
     for v in site.v {
         for g in mesh.vertex_faces(v) {
             if g != site.q1 && g != site.q2 && !faces.contains(&g) {
@@ -143,10 +211,11 @@ pub fn qe_merge_patch_with(
     }
     // Their vertex lists after the collapse.
     // (vertex lists inline: this runs for every re-scored candidate)
-    let mut mapped: Vec<(FaceId, FaceVerts, bool)> = Vec::with_capacity(faces.len());
-    let mut buf = Vec::with_capacity(8);
-    for &g in &faces {
-        let changed = map_face(mesh, g, &merged, &mut buf);
+    let mapped = &mut s.mapped;
+    mapped.clear();
+    let buf = &mut s.buf;
+    for &g in faces.iter() {
+        let changed = map_face(mesh, g, merged, buf);
         if buf.len() < 3 {
             return Err(Reject::NotApplicable(
                 "a face degenerates (valence-3 endpoint)",
@@ -159,22 +228,21 @@ pub fn qe_merge_patch_with(
         }
         mapped.push((g, buf.iter().copied().collect(), changed));
     }
-    let mut patch = Patch {
-        merged,
-        moved: vec![(a, pos_a), (d, pos_d)],
-        remove: Vec::with_capacity(mapped.len() + 2),
-        add: Vec::with_capacity(mapped.len()),
-    };
-    let mut fan_old: [Vec<FaceId>; 2] = Default::default();
-    let mut fan_new: [Vec<[VertexId; 4]>; 2] = Default::default();
+    patch.moved.extend_from_slice(&[(a, pos_a), (d, pos_d)]);
+    let (fan_old, fan_new) = (&mut s.fan_old, &mut s.fan_new);
+    for side in 0..2 {
+        fan_old[side].clear();
+        fan_new[side].clear();
+    }
     for (side, (x, y)) in [(a, d), (d, a)].into_iter().enumerate() {
         refan(
-            &mapped,
+            mapped,
             x,
             y,
             cross[side],
             &mut fan_old[side],
             &mut fan_new[side],
+            &mut s.refan,
         )?;
     }
     // Crossing fans take the faces on A–D; two fans must not share one.
@@ -184,7 +252,7 @@ pub fn qe_merge_patch_with(
     // Rewritten faces first (each keeps its id), then the fans (k + 1 new
     // quads take the ids of the first k + 1 old fan faces), then the deleted
     // faces: the last old face of each fan and the two collapsed quads.
-    for (g, vs, changed) in &mapped {
+    for (g, vs, changed) in mapped.iter() {
         if !changed || fan_old.iter().any(|fan| fan.contains(g)) {
             continue;
         }
@@ -194,7 +262,8 @@ pub fn qe_merge_patch_with(
         patch.remove.push(*g);
         patch.add.push([vs[0], vs[1], vs[2], vs[3]]);
     }
-    let mut deleted = Vec::with_capacity(4);
+    let deleted = &mut s.deleted;
+    deleted.clear();
     for side in 0..2 {
         let n_new = fan_new[side].len();
         for (i, &g) in fan_old[side].iter().enumerate() {
@@ -207,10 +276,10 @@ pub fn qe_merge_patch_with(
         patch.add.extend_from_slice(&fan_new[side]);
     }
     // Deletions trail, so that `remove[i]` lines up with `add[i]`.
-    patch.remove.extend(deleted);
+    patch.remove.extend_from_slice(deleted);
     patch.remove.push(site.q1);
     patch.remove.push(site.q2);
-    Ok(patch)
+    Ok(())
 }
 
 /// Re-fans the faces around `x` between its two triangles on the side that
@@ -224,10 +293,13 @@ fn refan(
     cross: bool,
     old: &mut Vec<FaceId>,
     new: &mut Vec<[VertexId; 4]>,
+    s: &mut RefanScratch,
 ) -> Result<(), Reject> {
     // Corners at x: (vertex before x, vertex after x, index into mapped).
-    let mut corners: Vec<(VertexId, VertexId, usize)> = Vec::with_capacity(12);
-    let mut tris = Vec::with_capacity(2);
+    let corners = &mut s.corners;
+    corners.clear();
+    let tris = &mut s.tris;
+    tris.clear();
     for (i, (_, vs, _)) in mapped.iter().enumerate() {
         if let Some(k) = vs.iter().position(|&v| v == x) {
             let n = vs.len();
@@ -246,37 +318,43 @@ fn refan(
     // Walk forward (corner A → B when A.after == B.before) from one triangle
     // to the other; the walk must step across edge x–y exactly when `cross`
     // (going round x, it does so at most once).
-    let walk = |from: usize, to: usize| -> Option<Vec<usize>> {
-        let mut chain = vec![from];
+    let corners = &*corners;
+    let walk = |from: usize, to: usize, chain: &mut Vec<usize>| -> bool {
+        chain.clear();
+        chain.push(from);
         let mut cur = from;
         let mut crossed = false;
         while cur != to {
             if corners[cur].1 == y {
                 if !cross {
-                    return None;
+                    return false;
                 }
                 crossed = true;
             }
-            let next = corners.iter().position(|c| c.0 == corners[cur].1)?;
+            let Some(next) = corners.iter().position(|c| c.0 == corners[cur].1) else {
+                return false;
+            };
             if chain.contains(&next) {
-                return None;
+                return false;
             }
             chain.push(next);
             cur = next;
         }
-        (crossed == cross).then_some(chain)
+        crossed == cross
     };
-    let chain = walk(tris[0], tris[1])
-        .or_else(|| walk(tris[1], tris[0]))
-        .ok_or(Reject::NotApplicable(if cross {
+    let chain = &mut s.chain;
+    if !walk(tris[0], tris[1], chain) && !walk(tris[1], tris[0], chain) {
+        return Err(Reject::NotApplicable(if cross {
             "no re-fan side crosses the merged edge"
         } else {
             "no re-fan side avoids the merged edge"
-        }))?;
+        }));
+    }
     // Outer path in walk order: each face contributes its link from the
     // vertex before x to the vertex after x (reverse of its ccw order).
-    let mut path: Vec<VertexId> = Vec::with_capacity(2 * chain.len() + 1);
-    for &ci in &chain {
+    let path = &mut s.path;
+    path.clear();
+    for &ci in chain.iter() {
         let vs = &mapped[corners[ci].2].1;
         let n = vs.len();
         let k = vs.iter().position(|&v| v == x).unwrap_or(0);

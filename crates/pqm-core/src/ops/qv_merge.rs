@@ -43,6 +43,47 @@ pub fn qv_merge_patch(
     keep_second: bool,
     position: DVec3,
 ) -> Result<Patch, Reject> {
+    let mut patch = Patch::default();
+    qv_merge_patch_into(mesh, f, diag, keep_second, position, &mut patch)?;
+    Ok(patch)
+}
+
+thread_local! {
+    /// A face's vertex list after the merge (reused: the coarsener builds
+    /// a patch for every candidate it scores).
+    static BUF: std::cell::RefCell<Vec<crate::mesh::VertexId>> =
+        std::cell::RefCell::new(Vec::with_capacity(8));
+}
+
+/// [`qv_merge_patch`] into `out` (cleared first, its buffers reused). On an
+/// error `out` holds no usable patch.
+pub fn qv_merge_patch_into(
+    mesh: &Mesh,
+    f: FaceId,
+    diag: usize,
+    keep_second: bool,
+    position: DVec3,
+    out: &mut Patch,
+) -> Result<(), Reject> {
+    BUF.with(|b| match b.try_borrow_mut() {
+        Ok(mut buf) => build_into(mesh, f, diag, keep_second, position, out, &mut buf),
+        Err(_) => build_into(mesh, f, diag, keep_second, position, out, &mut Vec::new()),
+    })
+}
+
+fn build_into(
+    mesh: &Mesh,
+    f: FaceId,
+    diag: usize,
+    keep_second: bool,
+    position: DVec3,
+    patch: &mut Patch,
+    buf: &mut Vec<crate::mesh::VertexId>,
+) -> Result<(), Reject> {
+    patch.remove.clear();
+    patch.add.clear();
+    patch.merged.clear();
+    patch.moved.clear();
     if !mesh.is_face_alive(f) {
         return Err(Reject::NotApplicable("face is deleted"));
     }
@@ -53,20 +94,13 @@ pub fn qv_merge_patch(
     if keep_second {
         std::mem::swap(&mut keep, &mut gone);
     }
-    let merged = vec![(gone, keep)];
-    // (sized for a regular vertex: scoring builds this for every candidate)
-    let mut patch = Patch {
-        merged,
-        moved: vec![(keep, position)],
-        remove: Vec::with_capacity(8),
-        add: Vec::with_capacity(8),
-    };
-    let mut buf = Vec::with_capacity(8);
+    patch.merged.push((gone, keep));
+    patch.moved.push((keep, position));
     for g in mesh.vertex_faces(gone) {
         if g == f {
             continue;
         }
-        map_face(mesh, g, &patch.merged, &mut buf);
+        map_face(mesh, g, &patch.merged, buf);
         if buf.len() != 4 || mesh.face_vertices(g).any(|v| v == keep) {
             // `keep` and `gone` share a second face: merging them pinches it.
             return Err(Reject::NotApplicable(
@@ -77,7 +111,7 @@ pub fn qv_merge_patch(
         patch.add.push([buf[0], buf[1], buf[2], buf[3]]);
     }
     patch.remove.push(f);
-    Ok(patch)
+    Ok(())
 }
 
 /// Applies a qvMerge patch accepted by [`can_qv_merge`].
