@@ -1025,6 +1025,11 @@ impl Coarsener {
         .max(V_FLOOR);
         s.vmark = vmark;
         s.fmark = fmark;
+        // over the cap: illegal whatever D and A are (about half of all
+        // scorings), so skip computing them
+        if over_cap {
+            return None;
+        }
         let m = &self.mesh;
         // --- D: importance-weighted moved distance
         let imp = |vs: &[VertexId]| {
