@@ -845,3 +845,46 @@ fn checked_in_procedural_fixtures_are_what_the_command_generates() {
         load_valid(&generated(name));
     }
 }
+
+#[test]
+fn encode_without_vertex_order_is_smaller_and_the_same_mesh_up_to_renumbering() {
+    let d = TempDir::new().unwrap();
+    let (with, without) = (d.path().join("a.pqm"), d.path().join("b.pqm"));
+    let a = json_ok(&["encode", s(&spot()), "-o", s(&with)]);
+    let b = json_ok(&["encode", s(&spot()), "-o", s(&without), "--no-vertex-order"]);
+    let (ba, bb) = (
+        a["files"][0]["bytes"].as_u64().unwrap(),
+        b["files"][0]["bytes"].as_u64().unwrap(),
+    );
+    assert!(bb < ba, "no smaller without the order: {bb} vs {ba}");
+    assert_eq!(json_ok(&["info", s(&with)])["has_vertex_order"], true);
+    assert_eq!(json_ok(&["info", s(&without)])["has_vertex_order"], false);
+    // the full levels are the same mesh: map each vertex to its position
+    // and compare the faces as position tuples
+    let full = |file: &Path, name: &str| {
+        let out = d.path().join(name);
+        json_ok(&["decode", s(file), "-o", s(&out)]);
+        let im = io::read_mesh(&out).unwrap();
+        let key = |v: u32| {
+            let p = im.positions[v as usize];
+            [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+        };
+        let mut faces: Vec<Vec<[u64; 3]>> = face_set(&im)
+            .iter()
+            .map(|f| {
+                let k: Vec<[u64; 3]> = f.iter().map(|&v| key(v)).collect();
+                let i = (0..k.len()).min_by_key(|&i| k[i]).unwrap();
+                k[i..].iter().chain(&k[..i]).copied().collect()
+            })
+            .collect();
+        faces.sort();
+        (im.vertex_count(), faces)
+    };
+    let (na, fa) = full(&with, "a.obj");
+    let (nb, fb) = full(&without, "b.obj");
+    assert_eq!(na, nb);
+    assert!(
+        fa == fb,
+        "the two full levels differ beyond vertex numbering"
+    );
+}
