@@ -1,0 +1,741 @@
+//! Design study for issue 4 (≤ 30 bits/vertex): where could the next halving
+//! of `.pqm` bits come from? No format or encoder change — this example only
+//! measures.
+//!
+//! `cargo run --release -p pqm-format --example entropy_study -- FILE.pqm...`
+//!
+//! For each file it decodes the records (public API), re-encodes them one by
+//! one with [`codec::encode_record`] (default [`codec::Coding`], one cursor
+//! run over the whole file — the real encoder resets the cursors at every
+//! chunk, a negligible difference) and parses every record's five streams
+//! back into named fields. It then prints, on the same records:
+//!
+//! 1. **Today's bits** (zstd-19 per chunk of zigzag varints, from the
+//!    encoder's report, as `examples/streams.rs`) against the **ideal cost
+//!    under simple adaptive models** — what a range coder would reach within
+//!    ~1–3 %: every field has its own adaptive order-0 frequency table
+//!    (Krichevsky–Trofimov estimate, counts start empty, so learning cost is
+//!    included). Small integers are coded directly (alphabet 0..31, larger
+//!    values escape to the next scheme); counts, deltas and residuals use an
+//!    Elias-gamma *bucket* (bit length of |v|+1, adaptive) + a sign bit (when
+//!    ≠ 0) + raw low bits. Position residuals are priced with several
+//!    contexts for the bucket: none; the previous coordinate's bucket; the
+//!    record form × moved/new × axis; the level fraction (tenths of the
+//!    record sequence); and all three combined (`pos.ctx-all`, the one used in
+//!    the totals). All figures are bits per refined vertex (vertices
+//!    appended by records).
+//! 2. **Anchors if records were reordered**: consecutive records are grouped
+//!    greedily (file order) into batches whose touched vertex sets (anchor,
+//!    old and new corners of rewritten faces, appended faces' corners, moved
+//!    vertices) are disjoint; inside a batch the anchors are sorted and coded
+//!    as gaps (Elias-gamma ideal, and adaptive gamma buckets), the first one
+//!    of a batch as its absolute id. Also `log2 C(V, k)` per batch, the cost of
+//!    naming an unordered set of k anchors among V vertices. This estimates
+//!    what a batched coarsener (each batch an independent set, decoded in id
+//!    order) would pay; it ignores that reordering records renumbers the
+//!    vertices they append.
+//! 3. **Position prediction alternatives** for the new vertex of every
+//!    record, each priced by the same adaptive model (context: previous
+//!    coordinate's bucket, one model per predictor): today's §7.6 prediction
+//!    (the residual in the file), the mean of the vertex's known edge
+//!    neighbours in the record's quads, the mean of all parallelograms
+//!    `a + b − d` with known corners, and their average ("butterfly-like").
+//!
+//! ## Figures (14-bit positions, files by `pqm encode`, 2026-11-22)
+//!
+//! See the report / the tables printed by the example; summary in the
+//! `FIGURES` section at the end of this comment once measured.
+
+use pqm_format::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
+use pqm_format::varint::Reader;
+use pqm_format::{decode_all, write_to_vec, EncodeOptions, Limits};
+use std::collections::{BTreeMap, HashMap, HashSet};
+
+const OP_NAMES: [&str; 4] = ["qvMerge", "qeMerge", "doublet", "smooth"];
+const FORM_NAMES: [&str; 4] = ["general", "split", "local", "face-split"];
+
+/// Adaptive frequency table over `0..n` (KT estimator: each symbol starts
+/// at ½). `cost` returns the ideal code length in bits and then counts it.
+#[derive(Clone)]
+struct Freq {
+    c: Vec<f64>,
+    total: f64,
+}
+
+impl Freq {
+    fn new(n: usize) -> Self {
+        Freq {
+            c: vec![0.5; n],
+            total: 0.5 * n as f64,
+        }
+    }
+    fn cost(&mut self, s: usize) -> f64 {
+        let b = -(self.c[s] / self.total).log2();
+        self.c[s] += 1.0;
+        self.total += 1.0;
+        b
+    }
+}
+
+/// Bit length of `v + 1` (1 for 0): the Elias-gamma bucket.
+fn bucket(v: u64) -> usize {
+    (64 - (v + 1).leading_zeros()) as usize
+}
+
+/// Magnitudes: adaptive bucket per context + raw low bits.
+#[derive(Default)]
+struct Gamma {
+    ctx: HashMap<u64, Freq>,
+}
+
+impl Gamma {
+    fn cost(&mut self, ctx: u64, v: u64) -> f64 {
+        let b = bucket(v);
+        self.ctx.entry(ctx).or_insert_with(|| Freq::new(65)).cost(b) + (b - 1) as f64
+    }
+    fn cost_signed(&mut self, ctx: u64, v: i64) -> f64 {
+        self.cost(ctx, v.unsigned_abs()) + if v != 0 { 1.0 } else { 0.0 }
+    }
+}
+
+/// Small integers: direct adaptive symbol below `DIRECT`, else escape + gamma.
+const DIRECT: usize = 32;
+#[derive(Default)]
+struct Small {
+    ctx: HashMap<u64, Freq>,
+    esc: Gamma,
+}
+
+impl Small {
+    fn cost(&mut self, ctx: u64, v: u64) -> f64 {
+        let f = self.ctx.entry(ctx).or_insert_with(|| Freq::new(DIRECT + 1));
+        if (v as usize) < DIRECT {
+            f.cost(v as usize)
+        } else {
+            f.cost(DIRECT) + self.esc.cost(ctx, v - DIRECT as u64)
+        }
+    }
+}
+
+/// Ideal Elias-gamma length of `v ≥ 0` (coded as v + 1).
+fn gamma_len(v: u64) -> f64 {
+    (2 * bucket(v) - 1) as f64
+}
+
+/// log2 of the binomial coefficient C(n, k).
+fn log2_binom(n: u64, k: u64) -> f64 {
+    let mut s = 0.0;
+    for i in 0..k {
+        s += ((n - i) as f64).log2() - ((i + 1) as f64).log2();
+    }
+    s
+}
+
+/// All models and accumulators of one file.
+#[derive(Default)]
+struct Study {
+    small: HashMap<&'static str, Small>,
+    gamma: HashMap<&'static str, Gamma>,
+    /// Ideal bits per (stream, field).
+    field: BTreeMap<(usize, &'static str), f64>,
+    /// Ideal bits per op kind and stream.
+    per_op: [[f64; 5]; 4],
+    /// Bits of the current record per stream.
+    rec: [f64; 5],
+}
+
+impl Study {
+    fn small(&mut self, stream: usize, name: &'static str, ctx: u64, v: u64) {
+        let b = self.small.entry(name).or_default().cost(ctx, v);
+        self.add(stream, name, b);
+    }
+    fn signed(&mut self, stream: usize, name: &'static str, ctx: u64, v: i64) {
+        let b = self.gamma.entry(name).or_default().cost_signed(ctx, v);
+        self.add(stream, name, b);
+    }
+    fn add(&mut self, stream: usize, name: &'static str, b: f64) {
+        *self.field.entry((stream, name)).or_default() += b;
+        self.rec[stream] += b;
+    }
+    /// A field priced only for the field table (alternative models).
+    fn side(&mut self, stream: usize, name: &'static str, ctx: u64, v: i64) {
+        let b = self.gamma.entry(name).or_default().cost_signed(ctx, v);
+        *self.field.entry((stream, name)).or_default() += b;
+    }
+}
+
+/// Everything one record's streams say, by field.
+struct Parsed {
+    form: u8,
+    anchor: Option<u32>,
+    /// Position residuals of moved vertices, then of new vertices.
+    moved_res: Vec<[i64; 3]>,
+    new_res: Vec<[i64; 3]>,
+}
+
+fn parse(
+    s: &[Vec<u8>; 5],
+    st: &MeshState,
+    cur_before: u32,
+    r: &QRecord,
+    level: f64,
+    prev_sym: &mut u8,
+    y: &mut Study,
+) -> Result<Parsed, String> {
+    let mut rd = [0, 1, 2, 3, 4].map(|t| Reader::new(&s[t], codec::STREAM_NAMES[t]));
+    let sym = rd[OPS].byte()?;
+    let form = (sym >> 2) & 3;
+    let opf = (sym & 3) as u64 | (form as u64) << 2;
+    y.small(OPS, "symbol", 0, sym as u64);
+    // Order-1 alternative (previous symbol's op and form), table only.
+    {
+        let b = y
+            .small
+            .entry("symbol|prev")
+            .or_default()
+            .cost((*prev_sym & 15) as u64, sym as u64);
+        *y.field.entry((OPS, "symbol|prev (alt)")).or_default() += b;
+    }
+    *prev_sym = sym;
+    let mut anchor = None;
+    let mut n_moved = 0usize;
+    let n_new = r.new_pos.len();
+    match form {
+        1 | 3 => {
+            let d = rd[REFS].s()?;
+            let m = (cur_before as i64 + d) as u32;
+            anchor = Some(m);
+            y.signed(REFS, "anchor delta", form as u64, d);
+            if form == 1 {
+                let l = st.star(m)?.link.len() as u64;
+                let i = rd[CONN].u()?;
+                let e = rd[CONN].u()?;
+                y.small(CONN, "split i", l.min(16), i);
+                y.small(CONN, "split e", l.min(16), e);
+                if sym & 0x40 != 0 {
+                    n_moved = 1;
+                }
+            } else {
+                let x = rd[CONN].u()?;
+                y.small(CONN, "face-split x", 0, x);
+            }
+        }
+        _ => {
+            let local = form == 2;
+            if local {
+                let d = rd[REFS].s()?;
+                anchor = Some((cur_before as i64 + d) as u32);
+                y.signed(REFS, "anchor delta", 2, d);
+            }
+            let c = [0, 1, 2, 3].map(|_| rd[CONN].u());
+            let [nn, nm, nr, na] = [c[0].clone()?, c[1].clone()?, c[2].clone()?, c[3].clone()?];
+            y.small(CONN, "count new", opf, nn);
+            y.small(CONN, "count moved", opf, nm);
+            y.small(CONN, "count rewritten", opf, nr);
+            y.small(CONN, "count appended", opf, na);
+            n_moved = nm as usize;
+            if local {
+                for t in 0..nr {
+                    let v = rd[SLOTS].u()?;
+                    y.small(
+                        SLOTS,
+                        if t == 0 {
+                            "local rw first"
+                        } else {
+                            "local rw gap"
+                        },
+                        0,
+                        v,
+                    );
+                }
+                for t in 0..nm {
+                    let v = rd[SLOTS].u()?;
+                    y.small(
+                        SLOTS,
+                        if t == 0 {
+                            "local moved first"
+                        } else {
+                            "local moved gap"
+                        },
+                        0,
+                        v,
+                    );
+                }
+            } else {
+                for _ in 0..nm {
+                    let d = rd[REFS].s()?;
+                    y.signed(REFS, "general moved ref", 0, d);
+                }
+                for t in 0..nr {
+                    if t == 0 {
+                        let d = rd[SLOTS].s()?;
+                        y.signed(SLOTS, "general slot first", 0, d);
+                    } else {
+                        let g = rd[SLOTS].u()?;
+                        y.small(SLOTS, "general slot gap", 0, g);
+                    }
+                }
+            }
+            let mut last_code = 0u64;
+            let mut corner =
+                |y: &mut Study, rd: &mut [Reader; 5], slot: u64| -> Result<(), String> {
+                    let x = rd[CONN].u()?;
+                    y.small(CONN, "corner code", form as u64, x);
+                    // Alternative: context = form, corner position, previous code.
+                    let b = y
+                        .small
+                        .entry("corner|ctx")
+                        .or_default()
+                        .cost((form as u64) << 12 | slot << 8 | last_code.min(31), x);
+                    *y.field
+                        .entry((CONN, "corner code|form,pos,prev (alt)"))
+                        .or_default() += b;
+                    last_code = x;
+                    if x == 0 {
+                        if local {
+                            let i = rd[SLOTS].u()?;
+                            y.small(SLOTS, "local corner index", 0, i);
+                        } else {
+                            let d = rd[REFS].s()?;
+                            y.signed(REFS, "general corner ref", 0, d);
+                        }
+                    }
+                    Ok(())
+                };
+            for _ in 0..nr {
+                let mask = rd[CONN].u()?;
+                y.small(CONN, "mask", form as u64, mask);
+                for c in 0..4 {
+                    if mask & (1 << c) != 0 {
+                        corner(y, &mut rd, c)?;
+                    }
+                }
+            }
+            for c in 0..4 * na {
+                corner(y, &mut rd, 4 + c % 4)?;
+            }
+        }
+    }
+    let mut res = Vec::with_capacity(n_moved + n_new);
+    for _ in 0..n_moved + n_new {
+        let mut p = [0i64; 3];
+        for x in p.iter_mut() {
+            *x = rd[POS].s()?;
+        }
+        res.push(p);
+    }
+    for (t, &remain) in rd
+        .iter()
+        .map(|r| r.remaining())
+        .collect::<Vec<_>>()
+        .iter()
+        .enumerate()
+    {
+        if remain != 0 {
+            return Err(format!(
+                "stream {} has {remain} bytes left after parsing a record",
+                codec::STREAM_NAMES[t]
+            ));
+        }
+    }
+    let dec = (level * 10.0).min(9.0) as u64;
+    for (k, p) in res.iter().enumerate() {
+        let is_new = (k >= n_moved) as u64;
+        let kind = (form as u64) << 1 | is_new;
+        let mut prev = 99u64;
+        for (a, &v) in p.iter().enumerate() {
+            y.side(POS, "pos ctx-none (alt)", 0, v);
+            y.side(POS, "pos ctx-form (alt)", kind << 2 | a as u64, v);
+            y.side(POS, "pos ctx-level (alt)", dec, v);
+            y.side(POS, "pos ctx-all (alt)", prev << 8 | kind << 4 | dec, v);
+            let name = if is_new == 1 {
+                "pos new, ctx-prev"
+            } else {
+                "pos moved, ctx-prev"
+            };
+            y.signed(POS, name, prev, v);
+            prev = bucket(v.unsigned_abs()) as u64;
+        }
+    }
+    let moved_res = res[..n_moved].to_vec();
+    let new_res = res[n_moved..].to_vec();
+    Ok(Parsed {
+        form,
+        anchor,
+        moved_res,
+        new_res,
+    })
+}
+
+/// Alternative predictions for new vertex `v` of `r` (level `st` before it;
+/// `known(u)` gives the position of a vertex the decoder has before `v`):
+/// (mean of edge neighbours, mean of parallelograms).
+fn alt_predictions(
+    r: &QRecord,
+    v: u32,
+    known: &dyn Fn(u32) -> Option<[i64; 3]>,
+) -> (Option<[f64; 3]>, Option<[f64; 3]>) {
+    let quads = r
+        .rewritten
+        .iter()
+        .map(|x| x.1)
+        .chain(r.appended.iter().copied());
+    let mut nb: Vec<u32> = Vec::new();
+    let (mut par, mut np) = ([0f64; 3], 0usize);
+    for q in quads {
+        let Some(k) = q.iter().position(|&x| x == v) else {
+            continue;
+        };
+        let (a, b, d) = (q[(k + 1) % 4], q[(k + 3) % 4], q[(k + 2) % 4]);
+        for u in [a, b] {
+            if known(u).is_some() && !nb.contains(&u) {
+                nb.push(u);
+            }
+        }
+        if let (Some(pa), Some(pb), Some(pd)) = (known(a), known(b), known(d)) {
+            for t in 0..3 {
+                par[t] += (pa[t] + pb[t] - pd[t]) as f64;
+            }
+            np += 1;
+        }
+    }
+    let mean = (!nb.is_empty()).then(|| {
+        let mut m = [0f64; 3];
+        for &u in &nb {
+            let p = known(u).unwrap_or_default();
+            for t in 0..3 {
+                m[t] += p[t] as f64 / nb.len() as f64;
+            }
+        }
+        m
+    });
+    let par = (np > 0).then(|| par.map(|x| x / np as f64));
+    (mean, par)
+}
+
+/// Prices the anchors of each batch as ascending gaps: (Elias-gamma ideal,
+/// adaptive gamma buckets, Σ log2 C(V, k)), `V` = vertices before the batch.
+fn price_batches(batches: &[Vec<u32>], v0s: &[u32]) -> (f64, f64, f64) {
+    let (mut gam, mut enumer) = (0.0, 0.0);
+    let mut adaptive = Gamma::default();
+    let mut adaptive_bits = 0.0;
+    for (b, &v0) in batches.iter().zip(v0s) {
+        if b.is_empty() {
+            continue;
+        }
+        let mut a = b.clone();
+        a.sort_unstable();
+        let mut prev: Option<u32> = None;
+        for &m in &a {
+            let g = match prev {
+                None => m as u64,
+                Some(p) => (m - p - 1) as u64,
+            };
+            gam += gamma_len(g);
+            adaptive_bits += adaptive.cost(prev.is_none() as u64, g);
+            prev = Some(m);
+        }
+        enumer += log2_binom(v0 as u64, a.len() as u64);
+    }
+    (gam, adaptive_bits, enumer)
+}
+
+fn main() {
+    let files: Vec<String> = std::env::args().skip(1).collect();
+    if files.is_empty() {
+        eprintln!("usage: entropy_study FILE.pqm...");
+        std::process::exit(2);
+    }
+    for f in files {
+        if let Err(e) = study(&f) {
+            eprintln!("{f}: {e}");
+        }
+    }
+}
+
+fn study(f: &str) -> Result<(), String> {
+    let bytes = std::fs::read(f).map_err(|e| e.to_string())?;
+    let dec = decode_all(&bytes, Limits::none()).map_err(|e| e.to_string())?;
+    let pm = dec.to_progressive_mesh().ok_or("nothing decoded")?;
+    let quant = dec.quantizer().ok_or("no quantizer")?;
+    let bits = dec.header().map_or(14, |h| h.quant_bits);
+    let opts = EncodeOptions {
+        bits,
+        ..EncodeOptions::default()
+    };
+    let (out, rep) = write_to_vec(&pm, &opts).map_err(|e| e.to_string())?;
+    let n = rep.refined_vertices.max(1) as f64;
+
+    let base_q: Vec<[u32; 3]> = pm
+        .base
+        .positions
+        .iter()
+        .map(|p| quant.quantize(*p))
+        .collect();
+    let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
+    let mut st = MeshState::new(quant.qmax(), base_q, base_quads);
+    let coding = Coding::default();
+    let mut cur = Cursors::default();
+    let mut y = Study::default();
+    let mut prev_sym = 0u8;
+    let nrec = pm.records.len();
+    let mut forms = [0usize; 4];
+
+    // Part 2 state.
+    let mut batches: Vec<Vec<u32>> = vec![Vec::new()];
+    let mut batch_set: HashSet<u32> = HashSet::new();
+    let mut batch_v0: Vec<u32> = vec![st.q.len() as u32];
+    let mut anchor_today = Gamma::default();
+    // Layering: each record goes one layer after the last record that
+    // touched any of its vertices (the fewest batches that keep every
+    // dependency in order).
+    let mut last_layer: HashMap<u32, usize> = HashMap::new();
+    let mut layers: Vec<Vec<u32>> = Vec::new();
+    let mut layer_v0: Vec<u32> = Vec::new();
+    let mut anchor_today_bits = 0.0;
+
+    // Part 3: (name, class) → bits; class 0 split, 1 face split, 2 local/general.
+    let mut pred_models: HashMap<(&str, usize), Gamma> = HashMap::new();
+    let mut pred_bits: BTreeMap<(usize, &str), f64> = BTreeMap::new();
+    let mut pred_count = [0usize; 3];
+
+    for (k, rec) in pm.records.iter().enumerate() {
+        let mut moved: Vec<(u32, [u32; 3])> = rec
+            .moved
+            .iter()
+            .map(|(v, p)| (*v, quant.quantize(*p)))
+            .collect();
+        moved.sort_unstable_by_key(|m| m.0);
+        let r = QRecord {
+            op: rec.op,
+            new_pos: rec
+                .new_vertices
+                .iter()
+                .map(|p| quant.quantize(*p))
+                .collect(),
+            moved,
+            rewritten: rec.rewritten.clone(),
+            appended: rec.appended_faces.clone(),
+        };
+        let mut s: [Vec<u8>; 5] = Default::default();
+        let cur_before = cur.vref;
+        codec::encode_record(&st, &r, &mut cur, &mut s, coding);
+        y.rec = [0.0; 5];
+        let p = parse(
+            &s,
+            &st,
+            cur_before,
+            &r,
+            k as f64 / nrec as f64,
+            &mut prev_sym,
+            &mut y,
+        )
+        .map_err(|e| format!("record {k}: {e}"))?;
+        forms[p.form as usize] += 1;
+        for t in 0..5 {
+            y.per_op[r.op as usize][t] += y.rec[t];
+        }
+        let _ = &p.moved_res;
+
+        // Part 2: touched set and greedy batches.
+        let v0 = st.q.len() as u32;
+        let mut touched: Vec<u32> = Vec::new();
+        touched.extend(p.anchor);
+        for &(sl, q) in &r.rewritten {
+            touched.extend(st.quads[sl as usize]);
+            touched.extend(q);
+        }
+        for q in &r.appended {
+            touched.extend(q);
+        }
+        touched.extend(r.moved.iter().map(|m| m.0));
+        if touched.iter().any(|v| batch_set.contains(v)) {
+            batches.push(Vec::new());
+            batch_v0.push(v0);
+            batch_set.clear();
+        }
+        let layer = touched
+            .iter()
+            .filter_map(|v| last_layer.get(v))
+            .max()
+            .map_or(0, |&l| l + 1);
+        for &v in &touched {
+            last_layer.insert(v, layer);
+        }
+        if let Some(m) = p.anchor {
+            if layers.len() <= layer {
+                layers.resize(layer + 1, Vec::new());
+                layer_v0.resize(layer + 1, v0);
+            }
+            layers[layer].push(m);
+            layer_v0[layer] = layer_v0[layer].min(v0);
+        }
+        batch_set.extend(touched);
+        if let Some(m) = p.anchor {
+            if let Some(b) = batches.last_mut() {
+                b.push(m);
+            }
+            anchor_today_bits += anchor_today.cost_signed(0, m as i64 - cur_before as i64);
+        }
+
+        // Part 3: alternative predictions of the new vertices.
+        let class = match p.form {
+            1 => 0,
+            3 => 1,
+            _ => 2,
+        };
+        for (t, &res) in p.new_res.iter().enumerate() {
+            let v = v0 + t as u32;
+            let known = |u: u32| -> Option<[i64; 3]> {
+                if u < v0 {
+                    let q = r
+                        .moved
+                        .iter()
+                        .find(|m| m.0 == u)
+                        .map_or(st.q[u as usize], |m| m.1);
+                    Some(q.map(|x| x as i64))
+                } else if u < v {
+                    Some(r.new_pos[(u - v0) as usize].map(|x| x as i64))
+                } else {
+                    None
+                }
+            };
+            let actual = r.new_pos[t].map(|x| x as i64);
+            let today_pred = [0, 1, 2].map(|a| actual[a] - res[a]);
+            let (mean, par) = alt_predictions(&r, v, &known);
+            let tp = today_pred.map(|x| x as f64);
+            let mean = mean.unwrap_or(tp);
+            let par = par.unwrap_or(tp);
+            let blend = [0, 1, 2].map(|a| 0.5 * (mean[a] + par[a]));
+            let preds: [(&str, [f64; 3]); 4] = [
+                ("today §7.6", tp),
+                ("edge mean", mean),
+                ("parallelograms", par),
+                ("½ mean + ½ par", blend),
+            ];
+            pred_count[class] += 1;
+            for (name, pr) in preds {
+                let g = pred_models.entry((name, class)).or_default();
+                let mut prev = 99u64;
+                let mut b = 0.0;
+                for a in 0..3 {
+                    let rr = actual[a] - pr[a].round() as i64;
+                    b += g.cost_signed(prev, rr);
+                    prev = bucket(rr.unsigned_abs()) as u64;
+                }
+                *pred_bits.entry((class, name)).or_default() += b;
+            }
+        }
+        st.apply(&r);
+    }
+
+    // ---- Output ----
+    println!(
+        "## {f}: {} bytes ({} re-encoded); {} records (forms g/s/l/f {}/{}/{}/{}), {} refined vertices; file {:.1} bits/final vertex",
+        bytes.len(),
+        out.len(),
+        nrec,
+        forms[0],
+        forms[1],
+        forms[2],
+        forms[3],
+        rep.refined_vertices,
+        rep.file_bits_per_vertex
+    );
+    println!("\n### 1. today (varint + zstd 19) vs ideal adaptive, bits/refined vertex\n");
+    println!("| stream | today | ideal | saving |");
+    println!("|---|---:|---:|---:|");
+    let (mut tt, mut ti) = (0.0, 0.0);
+    for t in 0..5 {
+        let today = 8.0 * rep.stream_bytes[t] / n;
+        let ideal: f64 = y.per_op.iter().map(|o| o[t]).sum::<f64>() / n;
+        tt += today;
+        ti += ideal;
+        println!(
+            "| {} | {today:.2} | {ideal:.2} | {:.2} |",
+            codec::STREAM_NAMES[t],
+            today - ideal
+        );
+    }
+    println!("| all records | {tt:.2} | {ti:.2} | {:.2} |", tt - ti);
+    println!("\n| op | records | today | ideal (ops/conn/refs/slots/pos) | ideal |");
+    println!("|---|---:|---:|---|---:|");
+    for (o, s) in rep.per_op.iter().enumerate() {
+        if s.records == 0 {
+            continue;
+        }
+        let today: f64 = s.bytes.iter().sum::<f64>() * 8.0 / n;
+        let i = y.per_op[o].map(|b| b / n);
+        println!(
+            "| {} | {} | {today:.2} | {:.2} / {:.2} / {:.2} / {:.2} / {:.2} | {:.2} |",
+            OP_NAMES[o],
+            s.records,
+            i[0],
+            i[1],
+            i[2],
+            i[3],
+            i[4],
+            i.iter().sum::<f64>()
+        );
+    }
+    println!("\n| stream | field (ideal adaptive; `(alt)` = alternative model, not in totals) | bits/refined vertex |");
+    println!("|---|---|---:|");
+    for (&(t, name), &b) in &y.field {
+        println!("| {} | {name} | {:.2} |", codec::STREAM_NAMES[t], b / n);
+    }
+
+    // Part 2.
+    println!("\n### 2. anchors if records were reordered into independent batches\n");
+    let anchors: usize = batches.iter().map(|b| b.len()).sum();
+    let na = anchors.max(1) as f64;
+    println!(
+        "today: {anchors} anchors, signed delta vs cursor, ideal adaptive gamma: {:.2} bits/refined vertex ({:.2} bits/anchor)\n",
+        anchor_today_bits / n,
+        anchor_today_bits / na
+    );
+    println!("| batching | batches | mean anchors/batch | sorted gaps, Elias-gamma | sorted gaps, adaptive gamma | log2 C(V, k) set bound |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    for (name, bs, v0s) in [
+        ("greedy, consecutive records", &batches, &batch_v0),
+        ("layered (dependency depth)", &layers, &layer_v0),
+    ] {
+        let nb = bs.iter().filter(|b| !b.is_empty()).count();
+        let (gam, adaptive_bits, enumer) = price_batches(bs, v0s);
+        println!(
+            "| {name} | {nb} | {:.2} | {:.2} ({:.1}) | {:.2} ({:.1}) | {:.2} ({:.1}) |",
+            anchors as f64 / nb.max(1) as f64,
+            gam / n,
+            gam / na,
+            adaptive_bits / n,
+            adaptive_bits / na,
+            enumer / n,
+            enumer / na
+        );
+    }
+    println!("(bits/refined vertex, bits/anchor in brackets)");
+
+    // Part 3.
+    println!("\n### 3. new-vertex position prediction, ideal adaptive bits/refined vertex (bits per predicted vertex)\n");
+    println!("| class | vertices | today §7.6 | edge mean | parallelograms | ½ mean + ½ par |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    for (c, cname) in ["split", "face split", "local/general"].iter().enumerate() {
+        if pred_count[c] == 0 {
+            continue;
+        }
+        let cell = |name: &str| {
+            let b = pred_bits.get(&(c, name)).copied().unwrap_or(0.0);
+            format!("{:.2} ({:.1})", b / n, b / pred_count[c] as f64)
+        };
+        println!(
+            "| {cname} | {} | {} | {} | {} | {} |",
+            pred_count[c],
+            cell("today §7.6"),
+            cell("edge mean"),
+            cell("parallelograms"),
+            cell("½ mean + ½ par")
+        );
+    }
+    let _ = FORM_NAMES;
+    println!();
+    Ok(())
+}
