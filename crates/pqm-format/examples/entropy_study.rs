@@ -52,6 +52,18 @@ use pqm_format::{decode_all, write_to_vec, EncodeOptions, Limits};
 use std::collections::{BTreeMap, HashMap, HashSet};
 
 const OP_NAMES: [&str; 4] = ["qvMerge", "qeMerge", "doublet", "smooth"];
+/// Residual models of part 3.
+const MODELS: [&str; 3] = [
+    "ctx prev bucket",
+    "ctx prev bucket + neighbourhood scale",
+    "ctx prev + scale, 1 modelled mantissa bit",
+];
+const PREDICTORS: [&str; 4] = [
+    "today §7.6",
+    "edge mean",
+    "parallelograms",
+    "½ mean + ½ par",
+];
 const FORM_NAMES: [&str; 4] = ["general", "split", "local", "face-split"];
 
 /// Adaptive frequency table over `0..n` (KT estimator: each symbol starts
@@ -95,6 +107,24 @@ impl Gamma {
     }
     fn cost_signed(&mut self, ctx: u64, v: i64) -> f64 {
         self.cost(ctx, v.unsigned_abs()) + if v != 0 { 1.0 } else { 0.0 }
+    }
+    /// [`Gamma::cost_signed`] with the first bit below the leading one
+    /// modelled adaptively (context: `ctx` and the bucket) — residuals are
+    /// roughly Laplacian, so values low in their bucket are more likely.
+    fn cost_signed_m(&mut self, ctx: u64, v: i64) -> f64 {
+        let a = v.unsigned_abs();
+        let b = bucket(a);
+        let mut bits = self.ctx.entry(ctx).or_insert_with(|| Freq::new(65)).cost(b);
+        if b >= 2 {
+            let bit = (((a + 1) >> (b - 2)) & 1) as usize;
+            bits += self
+                .ctx
+                .entry(ctx << 8 | 0x80 | b as u64)
+                .or_insert_with(|| Freq::new(2))
+                .cost(bit);
+            bits += (b - 2) as f64;
+        }
+        bits + if v != 0 { 1.0 } else { 0.0 }
     }
 }
 
@@ -374,7 +404,7 @@ fn alt_predictions(
     r: &QRecord,
     v: u32,
     known: &dyn Fn(u32) -> Option<[i64; 3]>,
-) -> (Option<[f64; 3]>, Option<[f64; 3]>) {
+) -> (Option<[f64; 3]>, Option<[f64; 3]>, f64) {
     let quads = r
         .rewritten
         .iter()
@@ -410,7 +440,18 @@ fn alt_predictions(
         m
     });
     let par = (np > 0).then(|| par.map(|x| x / np as f64));
-    (mean, par)
+    // Scale of the neighbourhood: mean L∞ distance of the known edge
+    // neighbours from their mean (grid steps) — a context for residual size.
+    let scale = mean.map_or(0.0, |m| {
+        nb.iter()
+            .map(|&u| {
+                let p = known(u).unwrap_or_default();
+                (0..3).map(|t| (p[t] as f64 - m[t]).abs()).fold(0.0, f64::max)
+            })
+            .sum::<f64>()
+            / nb.len() as f64
+    });
+    (mean, par, scale)
 }
 
 /// Prices the anchors of each batch as ascending gaps: (Elias-gamma ideal,
@@ -495,8 +536,9 @@ fn study(f: &str) -> Result<(), String> {
     let mut anchor_today_bits = 0.0;
 
     // Part 3: (name, class) → bits; class 0 split, 1 face split, 2 local/general.
-    let mut pred_models: HashMap<(&str, usize), Gamma> = HashMap::new();
-    let mut pred_bits: BTreeMap<(usize, &str), f64> = BTreeMap::new();
+    // (predictor, model, class) → model / bits.
+    let mut pred_models: HashMap<(usize, usize, usize), Gamma> = HashMap::new();
+    let mut pred_bits: BTreeMap<(usize, usize, usize), f64> = BTreeMap::new();
     let mut pred_count = [0usize; 3];
 
     for (k, rec) in pm.records.iter().enumerate() {
@@ -602,7 +644,8 @@ fn study(f: &str) -> Result<(), String> {
             };
             let actual = r.new_pos[t].map(|x| x as i64);
             let today_pred = [0, 1, 2].map(|a| actual[a] - res[a]);
-            let (mean, par) = alt_predictions(&r, v, &known);
+            let (mean, par, scale) = alt_predictions(&r, v, &known);
+            let sc = bucket(scale as u64) as u64;
             let tp = today_pred.map(|x| x as f64);
             let mean = mean.unwrap_or(tp);
             let par = par.unwrap_or(tp);
@@ -614,16 +657,22 @@ fn study(f: &str) -> Result<(), String> {
                 ("½ mean + ½ par", blend),
             ];
             pred_count[class] += 1;
-            for (name, pr) in preds {
-                let g = pred_models.entry((name, class)).or_default();
-                let mut prev = 99u64;
-                let mut b = 0.0;
-                for a in 0..3 {
-                    let rr = actual[a] - pr[a].round() as i64;
-                    b += g.cost_signed(prev, rr);
-                    prev = bucket(rr.unsigned_abs()) as u64;
+            for (pi, (_, pr)) in preds.iter().enumerate() {
+                for (mi, _) in MODELS.iter().enumerate() {
+                    let g = pred_models.entry((pi, mi, class)).or_default();
+                    let mut prev = 99u64;
+                    let mut b = 0.0;
+                    for a in 0..3 {
+                        let rr = actual[a] - pr[a].round() as i64;
+                        b += match mi {
+                            0 => g.cost_signed(prev, rr),
+                            1 => g.cost_signed(prev << 8 | sc, rr),
+                            _ => g.cost_signed_m(prev << 8 | sc, rr),
+                        };
+                        prev = bucket(rr.unsigned_abs()) as u64;
+                    }
+                    *pred_bits.entry((pi, mi, class)).or_default() += b;
                 }
-                *pred_bits.entry((class, name)).or_default() += b;
             }
         }
         st.apply(&r);
@@ -715,25 +764,26 @@ fn study(f: &str) -> Result<(), String> {
     println!("(bits/refined vertex, bits/anchor in brackets)");
 
     // Part 3.
-    println!("\n### 3. new-vertex position prediction, ideal adaptive bits/refined vertex (bits per predicted vertex)\n");
-    println!("| class | vertices | today §7.6 | edge mean | parallelograms | ½ mean + ½ par |");
-    println!("|---|---:|---:|---:|---:|---:|");
-    for (c, cname) in ["split", "face split", "local/general"].iter().enumerate() {
-        if pred_count[c] == 0 {
-            continue;
+    println!("\n### 3. new-vertex positions, ideal adaptive bits/refined vertex by predictor and residual model\n");
+    println!(
+        "| predictor | residual model | split ({}) | face split ({}) | local/general ({}) | all | bits/predicted vertex |",
+        pred_count[0], pred_count[1], pred_count[2]
+    );
+    println!("|---|---|---:|---:|---:|---:|---:|");
+    let nv = pred_count.iter().sum::<usize>().max(1) as f64;
+    for (pi, pname) in PREDICTORS.iter().enumerate() {
+        for (mi, mname) in MODELS.iter().enumerate() {
+            let b = [0, 1, 2].map(|c| pred_bits.get(&(pi, mi, c)).copied().unwrap_or(0.0));
+            let all: f64 = b.iter().sum();
+            println!(
+                "| {pname} | {mname} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} |",
+                b[0] / n,
+                b[1] / n,
+                b[2] / n,
+                all / n,
+                all / nv
+            );
         }
-        let cell = |name: &str| {
-            let b = pred_bits.get(&(c, name)).copied().unwrap_or(0.0);
-            format!("{:.2} ({:.1})", b / n, b / pred_count[c] as f64)
-        };
-        println!(
-            "| {cname} | {} | {} | {} | {} | {} |",
-            pred_count[c],
-            cell("today §7.6"),
-            cell("edge mean"),
-            cell("parallelograms"),
-            cell("½ mean + ½ par")
-        );
     }
     let _ = FORM_NAMES;
     println!();
