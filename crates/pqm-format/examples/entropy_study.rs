@@ -41,10 +41,50 @@
 //!    neighbours in the record's quads, the mean of all parallelograms
 //!    `a + b − d` with known corners, and their average ("butterfly-like").
 //!
-//! ## Figures (14-bit positions, files by `pqm encode`, 2026-11-22)
+//! ## Figures (14-bit positions; files by `pqm encode` of main at 4a27f4a; 2026-11-22)
 //!
-//! See the report / the tables printed by the example; summary in the
-//! `FIGURES` section at the end of this comment once measured.
+//! Record streams, bits per refined vertex, today (zstd) → ideal adaptive:
+//!
+//! | file | ops | conn | refs | slots | pos | records |
+//! |---|---|---|---|---|---|---|
+//! | loki | 2.27 → 2.63 | 27.33 → 22.94 | 7.09 → 5.82 | 3.15 → 2.69 | 26.10 → 22.71 | 65.95 → 56.79 |
+//! | makehuman_base | 2.67 → 2.98 | 25.84 → 20.72 | 7.51 → 6.23 | 2.82 → 2.38 | 28.51 → 25.30 | 67.35 → 57.62 |
+//! | spot_quadrangulated | 2.36 → 2.70 | 26.38 → 22.90 | 6.31 → 5.19 | 3.09 → 2.69 | 33.34 → 29.26 | 71.48 → 62.74 |
+//! | bunny (tri) | 2.96 → 4.98 | 14.84 → 11.10 | 12.22 → 9.98 | 1.37 → 1.10 | 24.72 → 21.51 | 56.10 → 48.68 |
+//!
+//! (ops: zstd beats an order-0 model — symbol sequences repeat; keep it in
+//! zstd or give the symbol an order-2 context.) Per record, ideal, loki:
+//! qvMerge 5.0 ops + 3.3 conn + 11.2 anchor + 24.5 pos bits; qeMerge (4 new
+//! vertices) 2.1 + **134.8 conn** + 10.6 + **16.7 slots** + 86.0 pos; the
+//! local-form corner codes alone are 17.1 bits/refined vertex (13.9 with a
+//! context of form × corner position × previous code), masks 4.5.
+//!
+//! Whole file per final vertex: the optional `VORD` section is 11.9 (loki),
+//! 7.5 (makehuman), 10.8 (spot), 19.0 (bunny); the base mesh costs 74, 50,
+//! 82, 93 bits per *base* vertex (5.4, 12.6, 7.3, 0.5 per final vertex).
+//!
+//! Anchors (loki): today 11.4 bits/anchor (ideal adaptive); greedy batches
+//! of consecutive records are tiny (1.24 records, worse: 14.0); layering by
+//! dependency depth gives 575 batches of 22.9 anchors: 10.8 bits/anchor with
+//! adaptive gamma gaps, 9.2 as the `log2 C(V, k)` set bound (bunny: 12.5 →
+//! 10.0 / 7.5 with 187 anchors per batch).
+//!
+//! New-vertex positions (loki, bits/new vertex, same model): today 22.7,
+//! edge mean 22.1, parallelograms 22.8, blend 22.2; bunny 21.3 / 18.9 /
+//! 21.3 / 19.8. A neighbourhood-scale context and a modelled mantissa bit
+//! gain < 0.3 (and lose on the small files: context dilution).
+//!
+//! Ranked (bits per *final* vertex, loki / makehuman / spot / bunny; file
+//! today 78.7 / 70.8 / 83.8 / 75.5): drop `VORD` (an encoder option) −11.9 /
+//! −7.5 / −10.8 / −19.0; range coder with adaptive models on conn, refs,
+//! slots, pos −8.8 / −7.5 / −8.3 / −9.4; a qeMerge edge-split form
+//! (operators.md's inverse: half-edge + 4 wing indices + 2 fan sides, ≈ 22
+//! bits instead of ≈ 162 per record — an *estimate*, not measured; it also
+//! makes the corner-code context moot, which alone gives −3.0 / −1.2 / −1.7 /
+//! −1.1) −20.9 / −14.9 / −20.2 / −9.2; single-rate base mesh at ≈ 25 bits
+//! per base vertex (estimate) −3.6 / −6.3 / −5.0 / −0.4; edge-mean
+//! prediction −0.6 / −0.4 / −0.4 / −2.4; batched anchors −0.3 / −0.3 /
+//! −0.4 / −2.0. All together ≈ 33 / 34 / 39 / 33 bits per final vertex.
 
 use pqm_format::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
 use pqm_format::varint::Reader;
@@ -446,7 +486,9 @@ fn alt_predictions(
         nb.iter()
             .map(|&u| {
                 let p = known(u).unwrap_or_default();
-                (0..3).map(|t| (p[t] as f64 - m[t]).abs()).fold(0.0, f64::max)
+                (0..3)
+                    .map(|t| (p[t] as f64 - m[t]).abs())
+                    .fold(0.0, f64::max)
             })
             .sum::<f64>()
             / nb.len() as f64
@@ -707,24 +749,47 @@ fn study(f: &str) -> Result<(), String> {
         );
     }
     println!("| all records | {tt:.2} | {ti:.2} | {:.2} |", tt - ti);
-    println!("\n| op | records | today | ideal (ops/conn/refs/slots/pos) | ideal |");
-    println!("|---|---:|---:|---|---:|");
+    // Whole-file budget per *final* vertex (what issue 4 counts).
+    let nfinal = (st.q.len() as f64).max(1.0);
+    let per_final = |bytes: u64| 8.0 * bytes as f64 / nfinal;
+    println!(
+        "\nwhole file per final vertex ({} vertices): header+table {:.2}, base mesh {:.2} ({} base vertices, {:.1} bits each), optional sections (VORD) {:.2}, records {:.2} (ideal adaptive: {:.2}); total {:.2}",
+        st.q.len(),
+        per_final(rep.header_bytes + rep.table_bytes),
+        per_final(rep.base_bytes),
+        pm.base.positions.len(),
+        8.0 * rep.base_bytes as f64 / pm.base.positions.len().max(1) as f64,
+        per_final(rep.section_bytes),
+        per_final(rep.chunk_bytes),
+        ti * n / nfinal,
+        per_final(rep.total_bytes)
+    );
+    println!("\n| op | records | avg new | today | ideal (ops/conn/refs/slots/pos) | ideal | ideal bits/record (ops/conn/refs/slots/pos) |");
+    println!("|---|---:|---:|---:|---|---:|---|");
     for (o, s) in rep.per_op.iter().enumerate() {
         if s.records == 0 {
             continue;
         }
         let today: f64 = s.bytes.iter().sum::<f64>() * 8.0 / n;
         let i = y.per_op[o].map(|b| b / n);
+        let k = s.records as f64;
+        let pr = y.per_op[o].map(|b| b / k);
         println!(
-            "| {} | {} | {today:.2} | {:.2} / {:.2} / {:.2} / {:.2} / {:.2} | {:.2} |",
+            "| {} | {} | {:.2} | {today:.2} | {:.2} / {:.2} / {:.2} / {:.2} / {:.2} | {:.2} | {:.1} / {:.1} / {:.1} / {:.1} / {:.1} |",
             OP_NAMES[o],
             s.records,
+            s.new as f64 / k,
             i[0],
             i[1],
             i[2],
             i[3],
             i[4],
-            i.iter().sum::<f64>()
+            i.iter().sum::<f64>(),
+            pr[0],
+            pr[1],
+            pr[2],
+            pr[3],
+            pr[4]
         );
     }
     println!("\n| stream | field (ideal adaptive; `(alt)` = alternative model, not in totals) | bits/refined vertex |");
