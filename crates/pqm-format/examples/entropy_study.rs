@@ -52,8 +52,10 @@
 //! | spot_quadrangulated | 2.36 → 2.70 | 26.38 → 22.90 | 6.31 → 5.19 | 3.09 → 2.69 | 33.34 → 29.26 | 71.48 → 62.74 |
 //! | bunny (tri) | 2.96 → 4.98 | 14.84 → 11.10 | 12.22 → 9.98 | 1.37 → 1.10 | 24.72 → 21.51 | 56.10 → 48.68 |
 //!
-//! (ops: zstd beats an order-0 model — symbol sequences repeat; keep it in
-//! zstd or give the symbol an order-2 context.) Per record, ideal, loki:
+//! (ops: zstd beats order-0, order-1 and order-2 symbol models, by 0.3 —
+//! 1.6; keep the symbols in zstd or find a better context. "Today" per
+//! stream is the encoder's attribution — each stream compressed alone, the
+//! chunk's real size shared in proportion — not an exact split.) Per record, ideal, loki:
 //! qvMerge 5.0 ops + 3.3 conn + 11.2 anchor + 24.5 pos bits; qeMerge (4 new
 //! vertices) 2.1 + **134.8 conn** + 10.6 + **16.7 slots** + 86.0 pos; the
 //! local-form corner codes alone are 17.1 bits/refined vertex (13.9 with a
@@ -72,7 +74,8 @@
 //! New-vertex positions (loki, bits/new vertex, same model): today 22.7,
 //! edge mean 22.1, parallelograms 22.8, blend 22.2; bunny 21.3 / 18.9 /
 //! 21.3 / 19.8. A neighbourhood-scale context and a modelled mantissa bit
-//! gain < 0.3 (and lose on the small files: context dilution).
+//! gain < 0.15 on the quad meshes (and lose up to 1.2 on spot: context
+//! dilution), 0.6–0.8 on bunny.
 //!
 //! Ranked (bits per *final* vertex, loki / makehuman / spot / bunny; file
 //! today 78.7 / 70.8 / 83.8 / 75.5): drop `VORD` (an encoder option) −11.9 /
@@ -250,6 +253,7 @@ fn parse(
     r: &QRecord,
     level: f64,
     prev_sym: &mut u8,
+    prev2: &mut u64,
     y: &mut Study,
 ) -> Result<Parsed, String> {
     let mut rd = [0, 1, 2, 3, 4].map(|t| Reader::new(&s[t], codec::STREAM_NAMES[t]));
@@ -265,7 +269,14 @@ fn parse(
             .or_default()
             .cost((*prev_sym & 15) as u64, sym as u64);
         *y.field.entry((OPS, "symbol|prev (alt)")).or_default() += b;
+        let b = y
+            .small
+            .entry("symbol|prev2")
+            .or_default()
+            .cost(*prev2 << 8 | (*prev_sym & 15) as u64, sym as u64);
+        *y.field.entry((OPS, "symbol|prev 2 (alt)")).or_default() += b;
     }
+    *prev2 = (*prev_sym & 15) as u64;
     *prev_sym = sym;
     let mut anchor = None;
     let mut n_moved = 0usize;
@@ -561,6 +572,7 @@ fn study(f: &str) -> Result<(), String> {
     let mut cur = Cursors::default();
     let mut y = Study::default();
     let mut prev_sym = 0u8;
+    let mut prev2 = 0u64;
     let nrec = pm.records.len();
     let mut forms = [0usize; 4];
 
@@ -612,6 +624,7 @@ fn study(f: &str) -> Result<(), String> {
             &r,
             k as f64 / nrec as f64,
             &mut prev_sym,
+            &mut prev2,
             &mut y,
         )
         .map_err(|e| format!("record {k}: {e}"))?;
