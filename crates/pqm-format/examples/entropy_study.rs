@@ -215,6 +215,10 @@ struct Study {
     per_op: [[f64; 5]; 4],
     /// Bits of the current record per stream.
     rec: [f64; 5],
+    /// Previous symbol byte and the op/form bits of the one before it
+    /// (contexts of the order-1 / order-2 symbol models).
+    prev_sym: u8,
+    prev2: u64,
 }
 
 impl Study {
@@ -252,8 +256,6 @@ fn parse(
     cur_before: u32,
     r: &QRecord,
     level: f64,
-    prev_sym: &mut u8,
-    prev2: &mut u64,
     y: &mut Study,
 ) -> Result<Parsed, String> {
     let mut rd = [0, 1, 2, 3, 4].map(|t| Reader::new(&s[t], codec::STREAM_NAMES[t]));
@@ -267,17 +269,17 @@ fn parse(
             .small
             .entry("symbol|prev")
             .or_default()
-            .cost((*prev_sym & 15) as u64, sym as u64);
+            .cost((y.prev_sym & 15) as u64, sym as u64);
         *y.field.entry((OPS, "symbol|prev (alt)")).or_default() += b;
         let b = y
             .small
             .entry("symbol|prev2")
             .or_default()
-            .cost(*prev2 << 8 | (*prev_sym & 15) as u64, sym as u64);
+            .cost(y.prev2 << 8 | (y.prev_sym & 15) as u64, sym as u64);
         *y.field.entry((OPS, "symbol|prev 2 (alt)")).or_default() += b;
     }
-    *prev2 = (*prev_sym & 15) as u64;
-    *prev_sym = sym;
+    y.prev2 = (y.prev_sym & 15) as u64;
+    y.prev_sym = sym;
     let mut anchor = None;
     let mut n_moved = 0usize;
     let n_new = r.new_pos.len();
@@ -571,8 +573,6 @@ fn study(f: &str) -> Result<(), String> {
     let coding = Coding::default();
     let mut cur = Cursors::default();
     let mut y = Study::default();
-    let mut prev_sym = 0u8;
-    let mut prev2 = 0u64;
     let nrec = pm.records.len();
     let mut forms = [0usize; 4];
 
@@ -617,17 +617,8 @@ fn study(f: &str) -> Result<(), String> {
         let cur_before = cur.vref;
         codec::encode_record(&st, &r, &mut cur, &mut s, coding);
         y.rec = [0.0; 5];
-        let p = parse(
-            &s,
-            &st,
-            cur_before,
-            &r,
-            k as f64 / nrec as f64,
-            &mut prev_sym,
-            &mut prev2,
-            &mut y,
-        )
-        .map_err(|e| format!("record {k}: {e}"))?;
+        let p = parse(&s, &st, cur_before, &r, k as f64 / nrec as f64, &mut y)
+            .map_err(|e| format!("record {k}: {e}"))?;
         forms[p.form as usize] += 1;
         for t in 0..5 {
             y.per_op[r.op as usize][t] += y.rec[t];
