@@ -542,10 +542,15 @@ fn main() {
         eprintln!("usage: entropy_study FILE.pqm...");
         std::process::exit(2);
     }
+    let mut failed = false;
     for f in files {
         if let Err(e) = study(&f) {
             eprintln!("{f}: {e}");
+            failed = true;
         }
+    }
+    if failed {
+        std::process::exit(1);
     }
 }
 
