@@ -1858,8 +1858,74 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::sort_distinct;
+    use super::{sort_distinct, MeshState, MAX_SPLIT_STAR};
     use proptest::prelude::*;
+
+    /// A fan of `n` quads `[0, a_i, a_i + 1, a_{i+1}]` around vertex 0
+    /// (closed, or open when `open`: the last quad left out), quad `i` in
+    /// slot `(i * step) % n` (`step` coprime with `n`: the slot order is
+    /// shuffled against the fan order). Returns the state and the slot of
+    /// each fan quad.
+    fn fan(n: u32, step: u32, open: bool) -> (MeshState, Vec<u32>) {
+        let a = |i: u32| 1 + 2 * (i % n);
+        let kept = if open { n - 1 } else { n };
+        let slot_of: Vec<u32> = (0..kept).map(|i| (i * step) % n).collect();
+        let mut order: Vec<u32> = slot_of.clone();
+        order.sort_unstable();
+        let mut quads = vec![[0u32; 4]; kept as usize];
+        for i in 0..kept {
+            // Dense slots 0..kept: rank of `slot_of[i]` among the kept ones.
+            let s = order.binary_search(&slot_of[i as usize]).unwrap_or(0);
+            quads[s] = [0, a(i), a(i) + 1, a(i + 1)];
+        }
+        let dense: Vec<u32> = slot_of
+            .iter()
+            .map(|s| order.binary_search(s).unwrap_or(0) as u32)
+            .collect();
+        (
+            MeshState::new(1, vec![[0; 3]; 1 + 2 * n as usize], quads),
+            dense,
+        )
+    }
+
+    /// The canonical star (spec §7.5) of a shuffled fan, on both sides of
+    /// `star_into`'s on-stack limit and up to the split form's 255: an
+    /// interior star starts at its smallest slot, a boundary one at the
+    /// face without predecessor, and both go counter-clockwise.
+    #[test]
+    fn canonical_star_of_shuffled_fans() {
+        for n in [3u32, 4, 15, 16, 17, 40, 254, 255] {
+            let step = (1..n).rev().find(|s| gcd(*s, n) == 1).unwrap_or(1);
+            for open in [false, true] {
+                let (st, slot) = fan(n, step, open);
+                let star = st.star(0).unwrap();
+                let kept = slot.len();
+                let first = if open {
+                    0
+                } else {
+                    (0..kept).min_by_key(|&i| slot[i]).unwrap_or(0)
+                };
+                let want: Vec<u32> = (0..kept).map(|t| slot[(first + t) % kept]).collect();
+                assert_eq!(star.faces, want, "n = {n}, open = {open}");
+                let want_link: Vec<u32> = (0..kept + open as usize)
+                    .map(|t| 1 + 2 * ((first + t) as u32 % n))
+                    .collect();
+                assert_eq!(star.link, want_link, "n = {n}, open = {open}");
+            }
+        }
+        // One face more than the split form allows.
+        let (st, _) = fan(MAX_SPLIT_STAR as u32 + 1, 1, false);
+        let e = st.star(0).unwrap_err();
+        assert!(e.contains("more than 255"), "{e}");
+    }
+
+    fn gcd(a: u32, b: u32) -> u32 {
+        if b == 0 {
+            a
+        } else {
+            gcd(b, a % b)
+        }
+    }
 
     proptest! {
         /// The rank sort agrees with the standard sort on distinct values,
