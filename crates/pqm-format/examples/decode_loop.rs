@@ -3,6 +3,10 @@
 //! under `perf record -e cpu-clock` or `perf stat -r 5`, whose CPU time
 //! (`task-clock`) is steadier than wall time on a shared machine.
 //!
+//! Also prints a checksum (FNV-1a) of the finest level's quads and position
+//! codes, so that an A/B pair of builds can be checked to decode the same
+//! mesh.
+//!
 //! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N]`
 
 use pqm_format::{decode_all, Limits, Target};
@@ -23,6 +27,7 @@ fn main() {
     };
     let mut best = f64::MAX;
     let mut faces = 0;
+    let mut sum = 0xcbf2_9ce4_8422_2325u64;
     for _ in 0..n.max(1) {
         let t = std::time::Instant::now();
         let mut d = match decode_all(&bytes, Limits::none()) {
@@ -38,9 +43,19 @@ fn main() {
         }
         faces = d.quads().len();
         best = best.min(t.elapsed().as_secs_f64());
+        // Outside the timed part.
+        sum = 0xcbf2_9ce4_8422_2325u64;
+        let words = d
+            .quads()
+            .iter()
+            .flatten()
+            .chain(d.position_codes().iter().flatten());
+        for &w in words {
+            sum = (sum ^ w as u64).wrapping_mul(0x100_0000_01b3);
+        }
     }
     println!(
-        "{f}: best of {n}: {:.2} ms, {:.2} M faces/s",
+        "{f}: best of {n}: {:.2} ms, {:.2} M faces/s, checksum {sum:016x}",
         best * 1e3,
         faces as f64 / best / 1e6
     );

@@ -369,16 +369,21 @@ impl MeshState {
         MARKS.with(|cell| self.local_with(m, &mut cell.borrow_mut(), out))
     }
 
-    /// [`MeshState::local_into`] with the caller's stamps. Duplicates are
-    /// dropped with generation stamps instead of sorting every raw entry:
-    /// only the distinct faces and vertices get sorted. The corners of a
-    /// face are read as soon as the face is found: on a large mesh these
-    /// reads miss the cache, and issued next to the corner-list walk (a
-    /// chain of dependent loads) their misses overlap with it instead of
-    /// being paid one after another in a second pass.
+    /// [`MeshState::local_into`] with the caller's stamps: the faces, then
+    /// their vertices.
     fn local_with(&self, m: u32, mk: &mut Marks, out: &mut Local) -> Result<(), String> {
+        self.local_faces_with(m, mk, out)?;
+        self.local_verts_with(mk, out);
+        Ok(())
+    }
+
+    /// The faces of [`MeshState::local`] into `out.faces` (`out.verts` is
+    /// cleared: the decoder builds it only for the records that name a
+    /// vertex by local index, see [`MeshState::local_verts_with`]).
+    /// Duplicates are dropped with generation stamps instead of sorting
+    /// every raw entry: only the distinct faces get sorted.
+    fn local_faces_with(&self, m: u32, mk: &mut Marks, out: &mut Local) -> Result<(), String> {
         let (gv, gf) = mk.next_gen(self.q.len(), self.quads.len());
-        let gu = gv + 1;
         let Marks { v, f, star, .. } = mk;
         let Local { faces, verts } = out;
         star.clear();
@@ -420,19 +425,32 @@ impl MeshState {
                 if f[s as usize] != gf {
                     f[s as usize] = gf;
                     faces.push(s);
-                    for &x in &self.quads[s as usize] {
-                        if v[x as usize] != gu {
-                            v[x as usize] = gu;
-                            verts.push(x);
-                        }
-                    }
                 }
                 c = self.next[c as usize];
             }
         }
         sort_distinct(faces);
-        sort_distinct(verts);
         Ok(())
+    }
+
+    /// The vertices of [`MeshState::local`] (the distinct corners of
+    /// `out.faces`, ascending) into `out.verts`. Separate from the faces
+    /// because most decoded local-form records (no moved vertex, no
+    /// explicit corner) never index them: skipping them saves reading the
+    /// quads of the whole 2-ring and sorting ~30 vertices per record.
+    fn local_verts_with(&self, mk: &mut Marks, out: &mut Local) {
+        let gu = mk.next_v_gen(self.q.len());
+        let Local { faces, verts } = out;
+        verts.clear();
+        for &s in faces.iter() {
+            for &x in &self.quads[s as usize] {
+                if mk.v[x as usize] != gu {
+                    mk.v[x as usize] = gu;
+                    verts.push(x);
+                }
+            }
+        }
+        sort_distinct(verts);
     }
 
     /// The slots whose quad contains `m`, ascending, into `out` (spec §7.9
@@ -471,21 +489,37 @@ impl MeshState {
     /// [`MeshState::star`] into `out`, reusing its buffers (the decoder's
     /// split-form path: no allocation per record).
     pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
-        // (slot, next of m, prev of m) per face, sorted by slot, on the
-        // stack: the walk below is quadratic in the valence, so its inner
-        // loop runs on a small array, and sorting makes "the smallest slot
-        // with …" the first match. Counting stops past the limit, so a
-        // vertex in a million faces costs no more than one in 256.
-        let mut ring = [(0u32, 0u32, 0u32); MAX_SPLIT_STAR];
+        // (slot, next of m, prev of m) per face, sorted by slot (insertion
+        // sort: stable, so repeated slots keep list order), on the stack
+        // for the usual valences (a 255-entry array would be zeroed per
+        // record: that memset cost more than the walk), in a Vec beyond.
+        // The walk below is quadratic in the valence, so its inner loop
+        // runs on a small array, and sorting makes "the smallest slot with
+        // …" the first match. Counting stops past the limit, so a vertex in
+        // a million faces costs no more than one in 256.
+        const SMALL: usize = 16;
+        let mut small = [(0u32, 0u32, 0u32); SMALL];
+        let mut big: Vec<(u32, u32, u32)> = Vec::new();
         let mut n = 0usize;
-        for (f, k) in self.corners(m) {
+        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
+        while c != NIL {
             if n == MAX_SPLIT_STAR {
                 return Err(format!(
                     "vertex {m} has more than {MAX_SPLIT_STAR} faces (split form needs 1..=255)"
                 ));
             }
+            let (f, k) = (c >> 2, (c & 3) as usize);
             let q = &self.quads[f as usize];
             let e = (f, q[(k + 1) % 4], q[(k + 3) % 4]);
+            if n == SMALL {
+                big.extend_from_slice(&small);
+            }
+            let ring: &mut [(u32, u32, u32)] = if n < SMALL {
+                &mut small[..=n]
+            } else {
+                big.push(e);
+                &mut big[..]
+            };
             let mut i = n;
             while i > 0 && ring[i - 1].0 > f {
                 ring[i] = ring[i - 1];
@@ -493,11 +527,12 @@ impl MeshState {
             }
             ring[i] = e;
             n += 1;
+            c = self.next[c as usize];
         }
         if n == 0 {
             return Err(format!("vertex {m} has 0 faces (split form needs 1..=255)"));
         }
-        let ring = &ring[..n];
+        let ring: &[(u32, u32, u32)] = if n <= SMALL { &small[..n] } else { &big };
         let not_fan = || format!("star of vertex {m} is not a single fan");
         // Index (into `ring`) of the smallest slot g != ring[f] with
         // next(g) == key (want_next) or prev(g) == key.
@@ -532,19 +567,20 @@ impl MeshState {
         let Star { faces, link } = out;
         faces.clear();
         link.clear();
-        let mut seen = [false; MAX_SPLIT_STAR];
+        // Ring indices already walked, as a bit set (n <= 255).
+        let mut seen = [0u64; MAX_SPLIT_STAR.div_ceil(64)];
         faces.push(ring[start].0);
         link.push(ring[start].1);
-        seen[start] = true;
+        seen[start / 64] |= 1 << (start % 64);
         let mut f = start;
         loop {
             match succ(f) {
                 None if boundary => break,
                 Some(g) if g == start && !boundary => break,
-                Some(g) if !seen[g] && faces.len() < n => {
+                Some(g) if seen[g / 64] & (1 << (g % 64)) == 0 && faces.len() < n => {
                     faces.push(ring[g].0);
                     link.push(ring[g].1);
-                    seen[g] = true;
+                    seen[g / 64] |= 1 << (g % 64);
                     f = g;
                 }
                 _ => return Err(not_fan()),
@@ -745,8 +781,60 @@ fn record_quad(r: &QRecord, i: usize) -> [u32; 4] {
 /// whose three other corners are known (the curvature errors of opposite
 /// parallelograms cancel), else the version-1 rule on the first quad.
 fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16, nf: &NewFaces) -> [u32; 3] {
+    let head = nf.head.get((x - v0) as usize).copied().unwrap_or(NIL);
+    let mut e = head;
+    let entries = std::iter::from_fn(move || {
+        (e != NIL).then(|| {
+            let out = (record_quad(r, (e >> 2) as usize), (e & 3) as usize);
+            e = nf.next[e as usize];
+            out
+        })
+    });
+    predict_from(st, r, v0, x, major, entries)
+}
+
+/// [`predict`] without [`NewFaces`], for the usual new vertex in a handful
+/// of record quads: the record quads containing `x` are collected by one
+/// scan, in the order [`NewFaces`] lists them (record quad order; within a
+/// quad, corners descending), into a stack buffer — which gives the same
+/// prediction without building the lists. `None` when `x` is in more than
+/// [`SCAN_MAX`] record quads (the caller then builds the lists, which keep
+/// a hostile record linear).
+fn predict_scan(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16) -> Option<[u32; 3]> {
+    let mut buf = [([0u32; 4], 0usize); SCAN_MAX];
+    let mut n = 0usize;
+    let quads = r.appended.iter().chain(r.rewritten.iter().map(|w| &w.1));
+    for quad in quads {
+        for k in (0..4).rev() {
+            if quad[k] == x {
+                *buf.get_mut(n)? = (*quad, k);
+                n += 1;
+            }
+        }
+    }
+    Some(predict_from(st, r, v0, x, major, buf[..n].iter().copied()))
+}
+
+/// Most record quads containing one new vertex that [`predict_scan`]
+/// handles.
+const SCAN_MAX: usize = 8;
+
+/// The prediction of spec §7.6 for new vertex `x`, given the record quads
+/// containing `x` with the corner index of `x` in each (`entries`, in
+/// record quad order; cloned to walk them twice).
+fn predict_from(
+    st: &MeshState,
+    r: &QRecord,
+    v0: u32,
+    x: u32,
+    major: u16,
+    entries: impl Iterator<Item = ([u32; 4], usize)> + Clone,
+) -> [u32; 3] {
     let known = |u: u32| -> Option<[u32; 3]> {
         if u < v0 {
+            if r.moved.is_empty() {
+                return Some(st.q[u as usize]);
+            }
             match r.moved.binary_search_by_key(&u, |m| m.0) {
                 Ok(i) => Some(r.moved[i].1),
                 Err(_) => Some(st.q[u as usize]),
@@ -758,13 +846,9 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16, nf: &NewFac
         }
     };
     let qmax = st.qmax as i64;
-    let head = nf.head.get((x - v0) as usize).copied().unwrap_or(NIL);
     if major >= 2 {
         let (mut sum, mut n) = ([0i64; 3], 0i64);
-        let mut e = head;
-        while e != NIL {
-            let quad = record_quad(r, (e >> 2) as usize);
-            let k = (e & 3) as usize;
+        for (quad, k) in entries.clone() {
             let n1 = known(quad[(k + 1) % 4]);
             let o = known(quad[(k + 2) % 4]);
             let n3 = known(quad[(k + 3) % 4]);
@@ -774,16 +858,14 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16, nf: &NewFac
                 }
                 n += 1;
             }
-            e = nf.next[e as usize];
         }
         if n > 0 {
             // `div_euclid` by a positive count is the floor the spec asks for.
             return sum.map(|s| s.div_euclid(n).clamp(0, qmax) as u32);
         }
     }
-    if head != NIL {
-        let face = record_quad(r, (head >> 2) as usize);
-        let k = (head & 3) as usize;
+    let mut entries = entries;
+    if let Some((face, k)) = entries.next() {
         let n1 = known(face[(k + 1) % 4]);
         let o = known(face[(k + 2) % 4]);
         let n3 = known(face[(k + 3) % 4]);
@@ -948,7 +1030,7 @@ pub fn decode_record_into(
             if local {
                 let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
                 cur.vref = m;
-                st.local_with(m, &mut sc.marks, &mut sc.local)?;
+                st.local_faces_with(m, &mut sc.marks, &mut sc.local)?;
             }
             decode_patch(st, rd, cur, max_v, max_f, local, major, sc, r)?;
         }
@@ -977,8 +1059,10 @@ pub fn decode_record_into(
             let pred = if reflect_c {
                 reflect(st, m_old, r.moved.first().map_or(m_old, |mv| mv.1))
             } else {
-                sc.nf.build(r, v0, 1);
-                predict(st, r, v0, v0, major, &sc.nf)
+                predict_scan(st, r, v0, v0, major).unwrap_or_else(|| {
+                    sc.nf.build(r, v0, 1);
+                    predict(st, r, v0, v0, major, &sc.nf)
+                })
             };
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
@@ -1002,8 +1086,11 @@ pub fn decode_record_into(
             let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
             r.rewritten.push((s, rewritten));
             r.appended.push(appended);
-            sc.nf.build(r, v0, 1);
-            let p = add_residual(predict(st, r, v0, v0, major, &sc.nf), &mut rd[POS], st.qmax)?;
+            let pred = predict_scan(st, r, v0, v0, major).unwrap_or_else(|| {
+                sc.nf.build(r, v0, 1);
+                predict(st, r, v0, v0, major, &sc.nf)
+            });
+            let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
         }
     }
@@ -1039,11 +1126,28 @@ fn decode_patch(
     let f0 = st.quads.len() as u32;
     let n_new = rd[CONN].u_max((max_v - v0) as u64, "new vertex count")? as usize;
     let (max_moved, max_rw) = if local {
-        (l.verts.len(), l.faces.len())
+        (0, l.faces.len())
     } else {
         (v0 as usize, f0 as usize)
     };
-    let n_moved = rd[CONN].u_max(max_moved as u64, "moved vertex count")? as usize;
+    // The local form's vertex list is built only when the record indexes
+    // it (a moved vertex or an explicit corner); it is never empty once
+    // built (the anchor has a face).
+    let n_moved = if local {
+        let n = rd[CONN].u()?;
+        if n > 0 && l.verts.is_empty() {
+            st.local_verts_with(marks, l);
+        }
+        if n > l.verts.len() as u64 {
+            return Err(format!(
+                "moved vertex count = {n} exceeds {}",
+                l.verts.len()
+            ));
+        }
+        n as usize
+    } else {
+        rd[CONN].u_max(max_moved as u64, "moved vertex count")? as usize
+    };
     let n_rw = rd[CONN].u_max(max_rw as u64, "rewritten face count")? as usize;
     let n_app = rd[CONN].u_max((max_f - f0) as u64, "appended face count")? as usize;
     let v1 = v0 + n_new as u32;
@@ -1116,6 +1220,9 @@ fn decode_patch(
         let x = rd[CONN].u()?;
         if x == 0 {
             let v = if local {
+                if l.verts.is_empty() {
+                    st.local_verts_with(marks, l);
+                }
                 let i = rd[SLOTS].u_max(l.verts.len() as u64 - 1, "local corner index")?;
                 l.verts[i as usize]
             } else {
@@ -1166,9 +1273,28 @@ fn decode_patch(
         check_distinct(&q, || format!("appended face {a}"))?;
         r.appended.push(q);
     }
-    nf.build(r, v0, n_new);
+    // Few new vertices (most records): each found by a scan of the record
+    // quads; the lists are built only for the others (at most `SCAN_NEW`
+    // scans per record, so a hostile record stays linear).
+    const SCAN_NEW: usize = 8;
+    let mut built = false;
     for t in 0..n_new {
-        let pred = predict(st, r, v0, v0 + t as u32, major, nf);
+        let x = v0 + t as u32;
+        let scanned = if n_new <= SCAN_NEW {
+            predict_scan(st, r, v0, x, major)
+        } else {
+            None
+        };
+        let pred = match scanned {
+            Some(p) => p,
+            None => {
+                if !built {
+                    nf.build(r, v0, n_new);
+                    built = true;
+                }
+                predict(st, r, v0, x, major, nf)
+            }
+        };
         let p = add_residual(pred, &mut rd[POS], st.qmax)?;
         r.new_pos.push(p);
     }
@@ -1732,8 +1858,74 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::sort_distinct;
+    use super::{sort_distinct, MeshState, MAX_SPLIT_STAR};
     use proptest::prelude::*;
+
+    /// A fan of `n` quads `[0, a_i, a_i + 1, a_{i+1}]` around vertex 0
+    /// (closed, or open when `open`: the last quad left out), quad `i` in
+    /// slot `(i * step) % n` (`step` coprime with `n`: the slot order is
+    /// shuffled against the fan order). Returns the state and the slot of
+    /// each fan quad.
+    fn fan(n: u32, step: u32, open: bool) -> (MeshState, Vec<u32>) {
+        let a = |i: u32| 1 + 2 * (i % n);
+        let kept = if open { n - 1 } else { n };
+        let slot_of: Vec<u32> = (0..kept).map(|i| (i * step) % n).collect();
+        let mut order: Vec<u32> = slot_of.clone();
+        order.sort_unstable();
+        let mut quads = vec![[0u32; 4]; kept as usize];
+        for i in 0..kept {
+            // Dense slots 0..kept: rank of `slot_of[i]` among the kept ones.
+            let s = order.binary_search(&slot_of[i as usize]).unwrap_or(0);
+            quads[s] = [0, a(i), a(i) + 1, a(i + 1)];
+        }
+        let dense: Vec<u32> = slot_of
+            .iter()
+            .map(|s| order.binary_search(s).unwrap_or(0) as u32)
+            .collect();
+        (
+            MeshState::new(1, vec![[0; 3]; 1 + 2 * n as usize], quads),
+            dense,
+        )
+    }
+
+    /// The canonical star (spec §7.5) of a shuffled fan, on both sides of
+    /// `star_into`'s on-stack limit and up to the split form's 255: an
+    /// interior star starts at its smallest slot, a boundary one at the
+    /// face without predecessor, and both go counter-clockwise.
+    #[test]
+    fn canonical_star_of_shuffled_fans() {
+        for n in [3u32, 4, 15, 16, 17, 40, 254, 255] {
+            let step = (1..n).rev().find(|s| gcd(*s, n) == 1).unwrap_or(1);
+            for open in [false, true] {
+                let (st, slot) = fan(n, step, open);
+                let star = st.star(0).unwrap();
+                let kept = slot.len();
+                let first = if open {
+                    0
+                } else {
+                    (0..kept).min_by_key(|&i| slot[i]).unwrap_or(0)
+                };
+                let want: Vec<u32> = (0..kept).map(|t| slot[(first + t) % kept]).collect();
+                assert_eq!(star.faces, want, "n = {n}, open = {open}");
+                let want_link: Vec<u32> = (0..kept + open as usize)
+                    .map(|t| 1 + 2 * ((first + t) as u32 % n))
+                    .collect();
+                assert_eq!(star.link, want_link, "n = {n}, open = {open}");
+            }
+        }
+        // One face more than the split form allows.
+        let (st, _) = fan(MAX_SPLIT_STAR as u32 + 1, 1, false);
+        let e = st.star(0).unwrap_err();
+        assert!(e.contains("more than 255"), "{e}");
+    }
+
+    fn gcd(a: u32, b: u32) -> u32 {
+        if b == 0 {
+            a
+        } else {
+            gcd(b, a % b)
+        }
+    }
 
     proptest! {
         /// The rank sort agrees with the standard sort on distinct values,
