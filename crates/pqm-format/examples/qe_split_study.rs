@@ -1,0 +1,646 @@
+//! Design study for issue 4: a compact "edge split" record form for qeMerge
+//! inverses. No format, spec or encoder change — this example only derives
+//! parameters from real records, rebuilds the records from them and prices
+//! them.
+//!
+//! `cargo run --release -p pqm-format --example qe_split_study -- FILE.pqm...`
+//!
+//! DESIGN-PLACEHOLDER
+//!
+//! FIGURES-PLACEHOLDER
+
+use pqm_format::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, REFS, SLOTS};
+use pqm_format::varint::Reader;
+use pqm_format::{decode_all, Limits};
+use std::collections::{BTreeMap, HashMap};
+
+/// qeMerge's op code (spec §7.3).
+const QE: u8 = 1;
+
+/// Adaptive frequency table over `0..n` (KT estimator, as entropy_study).
+#[derive(Clone)]
+struct Freq {
+    c: Vec<f64>,
+    total: f64,
+}
+
+impl Freq {
+    fn new(n: usize) -> Self {
+        Freq {
+            c: vec![0.5; n],
+            total: 0.5 * n as f64,
+        }
+    }
+    fn cost(&mut self, s: usize) -> f64 {
+        let b = -(self.c[s] / self.total).log2();
+        self.c[s] += 1.0;
+        self.total += 1.0;
+        b
+    }
+}
+
+/// Bit length of `v + 1`: the Elias-gamma bucket.
+fn bucket(v: u64) -> usize {
+    (64 - (v + 1).leading_zeros()) as usize
+}
+
+/// Small integers: direct adaptive symbol below 32 (per context), else an
+/// escape + adaptive gamma bucket + raw low bits (entropy_study's model).
+#[derive(Default)]
+struct Small {
+    ctx: HashMap<u64, Freq>,
+    esc: HashMap<u64, Freq>,
+}
+
+impl Small {
+    fn cost(&mut self, ctx: u64, v: u64) -> f64 {
+        const DIRECT: u64 = 32;
+        let f = self.ctx.entry(ctx).or_insert_with(|| Freq::new(33));
+        if v < DIRECT {
+            f.cost(v as usize)
+        } else {
+            let b = bucket(v - DIRECT);
+            f.cost(32)
+                + self.esc.entry(ctx).or_insert_with(|| Freq::new(65)).cost(b)
+                + (b - 1) as f64
+        }
+    }
+}
+
+/// Field prices (ideal adaptive bits), summed per field name.
+#[derive(Default)]
+struct Prices {
+    models: HashMap<&'static str, Small>,
+    sum: BTreeMap<&'static str, f64>,
+}
+
+impl Prices {
+    fn add(&mut self, name: &'static str, ctx: u64, v: u64) -> f64 {
+        let b = self.models.entry(name).or_default().cost(ctx, v);
+        *self.sum.entry(name).or_default() += b;
+        b
+    }
+}
+
+/// Placeholder ids of the four new vertices before the permutation is
+/// applied: `U[2 x + s]` is new vertex `s` (0: first sector, 1: second) of
+/// endpoint `x`.
+const U: [u32; 4] = [u32::MAX - 4, u32::MAX - 3, u32::MAX - 2, u32::MAX - 1];
+
+/// Parameters of one endpoint `X` (the other one is `Y`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Side {
+    /// Faces of the first sector after `F[r]` (`n1 ≥ 0`).
+    n1: usize,
+    /// Fan faces (`m = k + 1 ≥ 1`).
+    m: usize,
+}
+
+/// The whole parameter set of one edge split.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Params {
+    /// Anchor `A` (the smaller id of the two endpoints).
+    a: u32,
+    /// Index of `D` in `A`'s canonical link (§7.5).
+    r: usize,
+    /// Per endpoint `[A, D]`.
+    side: [Side; 2],
+    /// New vertex id offset (0..4) of each placeholder `U[i]`.
+    perm_v: [u8; 4],
+    /// Appended slot offset (0..4) of each canonical appended quad
+    /// `[q1, q2, tri(A), tri(D)]`.
+    perm_f: [u8; 4],
+    /// Rotation of each rebuilt fan quad and appended quad (canonical quad
+    /// rotated left by this), in rebuild order.
+    rot_fan: Vec<u8>,
+    rot_app: [u8; 4],
+}
+
+/// A canonical (unpermuted, unrotated) rebuild: rewritten (slot, quad,
+/// is-fan) and the four appended quads `[q1, q2, tri(A), tri(D)]`.
+struct Canon {
+    rewritten: Vec<(u32, [u32; 4], bool)>,
+    appended: [[u32; 4]; 4],
+}
+
+/// Rebuilds the fine neighbourhood from the coarse state (design steps 1–4
+/// of the doc comment) in canonical form; `None` when the parameters do not
+/// fit the star (the decoder would reject the record).
+fn canon(st: &MeshState, a: u32, r: usize, side: [Side; 2]) -> Option<Canon> {
+    let sa = st.star(a).ok()?;
+    if sa.link.len() != sa.faces.len() {
+        return None; // boundary star: not covered by this design
+    }
+    let d = *sa.link.get(r)?;
+    let mut sub: BTreeMap<u32, [u32; 4]> = BTreeMap::new();
+    let mut fan: BTreeMap<u32, [u32; 4]> = BTreeMap::new();
+    let mut tri = [[0u32; 4]; 2];
+    for (x, (xv, yv)) in [(a, d), (d, a)].into_iter().enumerate() {
+        let s = st.star(xv).ok()?;
+        let k = s.faces.len();
+        if s.link.len() != k {
+            return None;
+        }
+        let rx = s.link.iter().position(|&v| v == yv)?;
+        let Side { n1, m } = side[x];
+        if m == 0 || 1 + n1 + m >= k {
+            return None;
+        }
+        let (u1, u2) = (U[2 * x], U[2 * x + 1]);
+        let f = |i: usize| s.faces[(rx + i) % k];
+        let l = |i: usize| s.link[(rx + i) % k];
+        // Sectors: X → u1 on F[r] … F[r+n1], X → u2 after the fan.
+        for i in 0..k {
+            let u = if i <= n1 {
+                u1
+            } else if i > n1 + m {
+                u2
+            } else {
+                continue;
+            };
+            let g = f(i);
+            let q = sub.entry(g).or_insert(st.quads[g as usize]);
+            for c in q.iter_mut() {
+                if *c == xv {
+                    *c = u;
+                }
+            }
+        }
+        // Fan path P0 … P2m in star order.
+        let mut p = Vec::with_capacity(2 * m + 1);
+        for j in 0..m {
+            let g = f(n1 + 1 + j);
+            let q = st.quads[g as usize];
+            let c = q.iter().position(|&v| v == xv)?;
+            if q[(c + 1) % 4] != l(n1 + 1 + j) {
+                return None;
+            }
+            p.push(q[(c + 1) % 4]);
+            p.push(q[(c + 2) % 4]);
+        }
+        p.push(l(n1 + 1 + m));
+        for j in 0..m {
+            let g = f(n1 + 1 + j);
+            let q = if j + 1 < m {
+                [xv, p[2 * j + 1], p[2 * j + 2], p[2 * j + 3]]
+            } else {
+                [xv, p[2 * m - 1], p[2 * m], u2]
+            };
+            if fan.insert(g, q).is_some() {
+                return None;
+            }
+        }
+        tri[x] = [xv, u1, p[0], p[1]];
+    }
+    // A face both re-fanned and substituted: not this operator's shape.
+    if fan.keys().any(|g| sub.contains_key(g)) {
+        return None;
+    }
+    let mut rewritten: Vec<(u32, [u32; 4], bool)> = sub
+        .into_iter()
+        .map(|(g, q)| (g, q, false))
+        .chain(fan.into_iter().map(|(g, q)| (g, q, true)))
+        .collect();
+    rewritten.sort_by_key(|x| x.0);
+    // q1 = (a, b, c, d), q2 = (a, d, e, f) with b = u2(A), f = u1(A),
+    // c = u1(D), e = u2(D).
+    let q1 = [a, U[1], U[2], d];
+    let q2 = [a, d, U[3], U[0]];
+    Some(Canon {
+        rewritten,
+        appended: [q1, q2, tri[0], tri[1]],
+    })
+}
+
+fn rotl(q: [u32; 4], t: u8) -> [u32; 4] {
+    let t = t as usize;
+    [q[t % 4], q[(t + 1) % 4], q[(t + 2) % 4], q[(t + 3) % 4]]
+}
+
+/// The independent reconstruction: explicit rewritten and appended quads
+/// from the coarse state and a full parameter set.
+fn reconstruct(st: &MeshState, p: &Params) -> Option<(Vec<(u32, [u32; 4])>, Vec<[u32; 4]>)> {
+    let c = canon(st, p.a, p.r, p.side)?;
+    let v0 = st.q.len() as u32;
+    let map = |q: [u32; 4]| {
+        q.map(|v| match U.iter().position(|&u| u == v) {
+            Some(i) => v0 + p.perm_v[i] as u32,
+            None => v,
+        })
+    };
+    let mut fi = 0;
+    let mut rw = Vec::with_capacity(c.rewritten.len());
+    for (g, q, is_fan) in c.rewritten {
+        let q = if is_fan {
+            fi += 1;
+            rotl(q, *p.rot_fan.get(fi - 1)?)
+        } else {
+            q
+        };
+        rw.push((g, map(q)));
+    }
+    let mut app = vec![[0u32; 4]; 4];
+    for (i, q) in c.appended.into_iter().enumerate() {
+        app[p.perm_f[i] as usize] = map(rotl(q, p.rot_app[i]));
+    }
+    Some((rw, app))
+}
+
+/// Rotation `t` with `rotl(q, t) == target`, if any.
+fn rotation(q: [u32; 4], target: [u32; 4]) -> Option<u8> {
+    (0..4u8).find(|&t| rotl(q, t) == target)
+}
+
+/// Why a record's parameters could not be derived.
+fn derive(st: &MeshState, r: &QRecord) -> Result<Params, &'static str> {
+    if r.new_pos.len() != 4 || r.appended.len() != 4 {
+        return Err("not 4 new / 4 appended");
+    }
+    // A and D: the old vertices in at least two appended quads (q1 and q2
+    // hold both; placement may leave them unmoved, so `moved` is no guide).
+    let v0 = st.q.len() as u32;
+    let mut cand: Vec<u32> = Vec::new();
+    for q in &r.appended {
+        for &v in q {
+            if v < v0
+                && !cand.contains(&v)
+                && r.appended.iter().filter(|p| p.contains(&v)).count() >= 2
+            {
+                cand.push(v);
+            }
+        }
+    }
+    cand.sort_unstable();
+    let mut last = Err("no pair of old vertices shared by appended quads");
+    for (i, &a) in cand.iter().enumerate() {
+        for &d in &cand[i + 1..] {
+            match derive_ad(st, r, a, d) {
+                Ok(p) => return Ok(p),
+                Err(e) => last = Err(e),
+            }
+        }
+    }
+    last
+}
+
+/// [`derive`] for a given anchor `a` and other endpoint `d`.
+fn derive_ad(st: &MeshState, r: &QRecord, a: u32, d: u32) -> Result<Params, &'static str> {
+    let sa = st.star(a).map_err(|_| "star of A not a fan")?;
+    let sd = st.star(d).map_err(|_| "star of D not a fan")?;
+    if sa.link.len() != sa.faces.len() || sd.link.len() != sd.faces.len() {
+        return Err("boundary endpoint");
+    }
+    let rr = sa
+        .link
+        .iter()
+        .position(|&v| v == d)
+        .ok_or("A and D not adjacent")?;
+    let v0 = st.q.len() as u32;
+    let (ka, kd) = (sa.faces.len(), sd.faces.len());
+    let mut shape_fit = false;
+    for m0 in 1..ka {
+        for n0 in 0..ka {
+            for m1 in 1..kd {
+                for n1 in 0..kd {
+                    let side = [Side { n1: n0, m: m0 }, Side { n1, m: m1 }];
+                    let Some(c) = canon(st, a, rr, side) else {
+                        continue;
+                    };
+                    if c.rewritten.len() != r.rewritten.len()
+                        || c.rewritten
+                            .iter()
+                            .zip(&r.rewritten)
+                            .any(|(x, y)| x.0 != y.0)
+                    {
+                        continue;
+                    }
+                    shape_fit = true;
+                    // Vertex permutation: read it off the substituted
+                    // (unrotated) faces and the fans.
+                    let mut perm_v = [u8::MAX; 4];
+                    let mut ok = true;
+                    let mut rot_fan = Vec::new();
+                    let bind = |cq: [u32; 4], rq: [u32; 4], perm_v: &mut [u8; 4]| {
+                        for (x, y) in cq.iter().zip(rq) {
+                            if let Some(i) = U.iter().position(|u| u == x) {
+                                if y < v0 || y >= v0 + 4 {
+                                    return false;
+                                }
+                                let o = (y - v0) as u8;
+                                if perm_v[i] != u8::MAX && perm_v[i] != o {
+                                    return false;
+                                }
+                                perm_v[i] = o;
+                            } else if *x != y {
+                                return false;
+                            }
+                        }
+                        true
+                    };
+                    for (cw, rw) in c.rewritten.iter().zip(&r.rewritten) {
+                        if cw.2 {
+                            // fans: any rotation that binds
+                            let t = (0..4u8).find(|&t| {
+                                let mut pv = perm_v;
+                                bind(rotl(cw.1, t), rw.1, &mut pv)
+                            });
+                            match t {
+                                Some(t) => {
+                                    bind(rotl(cw.1, t), rw.1, &mut perm_v);
+                                    rot_fan.push(t);
+                                }
+                                None => ok = false,
+                            }
+                        } else if !bind(cw.1, rw.1, &mut perm_v) {
+                            ok = false;
+                        }
+                    }
+                    if !ok {
+                        continue;
+                    }
+                    // Unbound new vertices (only in appended quads): try
+                    // all completions with the appended quads.
+                    let mut best = None;
+                    'perm: for p in perms4() {
+                        if (0..4).any(|i| perm_v[i] != u8::MAX && perm_v[i] != p[i]) {
+                            continue;
+                        }
+                        let map = |q: [u32; 4]| {
+                            q.map(|v| match U.iter().position(|&u| u == v) {
+                                Some(i) => v0 + p[i] as u32,
+                                None => v,
+                            })
+                        };
+                        let mut perm_f = [0u8; 4];
+                        let mut rot_app = [0u8; 4];
+                        let mut used = [false; 4];
+                        for (i, q) in c.appended.iter().enumerate() {
+                            let q = map(*q);
+                            let hit = (0..4).find_map(|j| {
+                                (!used[j])
+                                    .then(|| rotation(q, r.appended[j]).map(|t| (j, t)))
+                                    .flatten()
+                            });
+                            let Some((j, t)) = hit else { continue 'perm };
+                            used[j] = true;
+                            perm_f[i] = j as u8;
+                            rot_app[i] = t;
+                        }
+                        best = Some((p, perm_f, rot_app));
+                        break;
+                    }
+                    if let Some((perm_v, perm_f, rot_app)) = best {
+                        return Ok(Params {
+                            a,
+                            r: rr,
+                            side,
+                            perm_v,
+                            perm_f,
+                            rot_fan,
+                            rot_app,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    Err(if shape_fit {
+        "slots fit, contents differ"
+    } else {
+        "no sector/fan split fits the rewritten slots"
+    })
+}
+
+fn perms4() -> Vec<[u8; 4]> {
+    let mut out = Vec::with_capacity(24);
+    for a in 0..4u8 {
+        for b in 0..4u8 {
+            for c in 0..4u8 {
+                for d in 0..4u8 {
+                    let p = [a, b, c, d];
+                    if (0..4).all(|i| (0..i).all(|j| p[i] != p[j])) {
+                        out.push(p);
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Index of a permutation of 0..4 in [`perms4`] order.
+fn perm_index(p: [u8; 4]) -> u64 {
+    perms4().iter().position(|&q| q == p).unwrap_or(0) as u64
+}
+
+/// Today's local-form (§7.7) connectivity + slots bits of one record,
+/// priced with entropy_study's models (fields and contexts the same, models
+/// fed with qeMerge records only).
+fn price_today(s: &[Vec<u8>; 5], y: &mut Prices) -> Result<(u8, f64), String> {
+    let mut rd = [0, 1, 2, 3, 4].map(|t| Reader::new(&s[t], codec::STREAM_NAMES[t]));
+    let sym = rd[0].byte()?;
+    let form = (sym >> 2) & 3;
+    let opf = (sym & 3) as u64 | (form as u64) << 2;
+    if form != 2 {
+        return Ok((form, 0.0));
+    }
+    let mut b = 0.0;
+    let _anchor = rd[REFS].s()?;
+    let mut c = [0u64; 4];
+    for x in c.iter_mut() {
+        *x = rd[CONN].u()?;
+    }
+    let [_nn, nm, nr, na] = c;
+    b += y.add("today count new", opf, c[0]);
+    b += y.add("today count moved", opf, nm);
+    b += y.add("today count rewritten", opf, nr);
+    b += y.add("today count appended", opf, na);
+    for t in 0..nr {
+        let v = rd[SLOTS].u()?;
+        b += y.add(
+            if t == 0 {
+                "today rw first"
+            } else {
+                "today rw gap"
+            },
+            0,
+            v,
+        );
+    }
+    for t in 0..nm {
+        let v = rd[SLOTS].u()?;
+        b += y.add(
+            if t == 0 {
+                "today moved first"
+            } else {
+                "today moved gap"
+            },
+            0,
+            v,
+        );
+    }
+    let corner = |y: &mut Prices, rd: &mut [Reader; 5]| -> Result<f64, String> {
+        let x = rd[CONN].u()?;
+        let mut b = y.add("today corner code", 2, x);
+        if x == 0 {
+            let i = rd[SLOTS].u()?;
+            b += y.add("today corner index", 0, i);
+        }
+        Ok(b)
+    };
+    for _ in 0..nr {
+        let mask = rd[CONN].u()?;
+        b += y.add("today mask", 2, mask);
+        for k in 0..4 {
+            if mask & (1 << k) != 0 {
+                b += corner(y, &mut rd)?;
+            }
+        }
+    }
+    for _ in 0..4 * na {
+        b += corner(y, &mut rd)?;
+    }
+    Ok((form, b))
+}
+
+fn main() {
+    let files: Vec<String> = std::env::args().skip(1).collect();
+    if files.is_empty() {
+        eprintln!("usage: qe_split_study FILE.pqm...");
+        std::process::exit(2);
+    }
+    let mut failed = false;
+    for f in files {
+        if let Err(e) = study(&f) {
+            eprintln!("{f}: {e}");
+            failed = true;
+        }
+    }
+    if failed {
+        std::process::exit(1);
+    }
+}
+
+fn study(f: &str) -> Result<(), String> {
+    let bytes = std::fs::read(f).map_err(|e| e.to_string())?;
+    let dec = decode_all(&bytes, Limits::none()).map_err(|e| e.to_string())?;
+    let pm = dec.to_progressive_mesh().ok_or("nothing decoded")?;
+    let quant = dec.quantizer().ok_or("no quantizer")?;
+    let base_q: Vec<[u32; 3]> = pm
+        .base
+        .positions
+        .iter()
+        .map(|p| quant.quantize(*p))
+        .collect();
+    let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
+    let mut st = MeshState::new(quant.qmax(), base_q, base_quads);
+    let mut cur = Cursors::default();
+    let coding = Coding::default();
+    let mut today = Prices::default();
+    let mut new = Prices::default();
+    let (mut n_qe, mut n_exact, mut n_new_all) = (0usize, 0usize, 0usize);
+    let mut fails: BTreeMap<&'static str, usize> = BTreeMap::new();
+    let mut forms = [0usize; 4];
+    let (mut today_bits, mut new_bits) = (0.0, 0.0);
+    // Deviations from the canonical rule (identity / rotation 0).
+    let (mut dev_v, mut dev_f, mut dev_rf, mut dev_ra, mut n_fan) = (0, 0, 0, 0, 0);
+    for rec in &pm.records {
+        let mut moved: Vec<(u32, [u32; 3])> = rec
+            .moved
+            .iter()
+            .map(|(v, p)| (*v, quant.quantize(*p)))
+            .collect();
+        moved.sort_unstable_by_key(|m| m.0);
+        let r = QRecord {
+            op: rec.op,
+            new_pos: rec
+                .new_vertices
+                .iter()
+                .map(|p| quant.quantize(*p))
+                .collect(),
+            moved,
+            rewritten: rec.rewritten.clone(),
+            appended: rec.appended_faces.clone(),
+        };
+        n_new_all += r.new_pos.len();
+        let mut s: [Vec<u8>; 5] = Default::default();
+        codec::encode_record(&st, &r, &mut cur, &mut s, coding);
+        if r.op as u8 == QE {
+            n_qe += 1;
+            match derive(&st, &r) {
+                Err(why) => *fails.entry(why).or_default() += 1,
+                Ok(p) => match reconstruct(&st, &p) {
+                    Some((rw, app)) if rw == r.rewritten && app == r.appended => {
+                        n_exact += 1;
+                        let (form, tb) = price_today(&s, &mut today)?;
+                        forms[form as usize] += 1;
+                        today_bits += tb;
+                        new_bits += price_new(&st, &p, &mut new);
+                        dev_v += (p.perm_v != [0, 1, 2, 3]) as usize;
+                        dev_f += (p.perm_f != [0, 1, 2, 3]) as usize;
+                        dev_ra += p.rot_app.iter().filter(|&&t| t != 0).count();
+                        dev_rf += p.rot_fan.iter().filter(|&&t| t != 0).count();
+                        n_fan += p.rot_fan.len();
+                    }
+                    _ => *fails.entry("rebuild differs from the record").or_default() += 1,
+                },
+            }
+        }
+        st.apply(&r);
+    }
+    let n = n_exact.max(1) as f64;
+    println!(
+        "## {f}: {} records, {n_qe} qeMerge, {n_new_all} refined vertices",
+        pm.records.len()
+    );
+    println!(
+        "reproduced exactly: {n_exact} / {n_qe} ({:.1} %); failures: {fails:?}",
+        100.0 * n_exact as f64 / n_qe.max(1) as f64
+    );
+    println!(
+        "deviations from the canonical rule on reproduced records: vertex order {dev_v} ({:.1} %), appended order {dev_f} ({:.1} %), appended rotation {dev_ra} of {} quads, fan rotation {dev_rf} of {n_fan} quads",
+        100.0 * dev_v as f64 / n,
+        100.0 * dev_f as f64 / n,
+        4 * n_exact,
+    );
+    println!("today's forms of these records (general/split/local/face-split): {forms:?}");
+    println!("\n| field | bits/qe record |\n|---|---:|");
+    for (k, v) in today.sum.iter().chain(new.sum.iter()) {
+        println!("| {k} | {:.2} |", v / n);
+    }
+    let nv = n_new_all.max(1) as f64;
+    println!(
+        "\ntoday local form conn+slots: {:.1} bits/qe record; edge-split form: {:.1} bits/qe record; saving {:.1} bits/record = {:.2} bits per refined vertex (all records' new vertices, reproduced records only)\n",
+        today_bits / n,
+        new_bits / n,
+        (today_bits - new_bits) / n,
+        (today_bits - new_bits) / nv
+    );
+    Ok(())
+}
+
+/// Prices one parameter set (anchor excluded: both forms name one vertex).
+fn price_new(st: &MeshState, p: &Params, y: &mut Prices) -> f64 {
+    let ka = st.star(p.a).map_or(0, |s| s.faces.len()) as u64;
+    let d = st.star(p.a).ok().and_then(|s| s.link.get(p.r).copied());
+    let kd = d.and_then(|d| st.star(d).ok()).map_or(0, |s| s.faces.len()) as u64;
+    let mut b = y.add("new: r (D in A's link)", ka.min(16), p.r as u64);
+    for (x, k) in [ka, kd].into_iter().enumerate() {
+        let s = p.side[x];
+        b += y.add("new: fan length m", k.min(16), s.m as u64 - 1);
+        b += y.add(
+            "new: first sector n1",
+            (k - 1 - s.m as u64).min(16),
+            s.n1 as u64,
+        );
+    }
+    b += y.add("new: vertex order (perm)", 0, perm_index(p.perm_v));
+    b += y.add("new: appended order (perm)", 0, perm_index(p.perm_f));
+    for (i, &t) in p.rot_app.iter().enumerate() {
+        b += y.add("new: appended rotation", i as u64, t as u64);
+    }
+    for &t in &p.rot_fan {
+        b += y.add("new: fan rotation", 0, t as u64);
+    }
+    b
+}
