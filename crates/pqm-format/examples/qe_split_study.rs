@@ -99,7 +99,7 @@ struct Side {
 /// The whole parameter set of one edge split.
 #[derive(Clone, Debug, PartialEq, Eq)]
 struct Params {
-    /// Anchor `A` (the smaller id of the two endpoints).
+    /// Anchor `A` (the endpoint nearer to the anchor cursor).
     a: u32,
     /// Index of `D` in `A`'s canonical link (§7.5).
     r: usize,
@@ -252,7 +252,7 @@ fn rotation(q: [u32; 4], target: [u32; 4]) -> Option<u8> {
 }
 
 /// Why a record's parameters could not be derived.
-fn derive(st: &MeshState, r: &QRecord) -> Result<Params, &'static str> {
+fn derive(st: &MeshState, r: &QRecord, cursor: u32) -> Result<Params, &'static str> {
     if r.new_pos.len() != 4 || r.appended.len() != 4 {
         return Err("not 4 new / 4 appended");
     }
@@ -274,6 +274,10 @@ fn derive(st: &MeshState, r: &QRecord) -> Result<Params, &'static str> {
     let mut last = Err("no pair of old vertices shared by appended quads");
     for (i, &a) in cand.iter().enumerate() {
         for &d in &cand[i + 1..] {
+            // The operator is symmetric in its endpoints: anchor the one
+            // nearer to the cursor (cheaper delta), no bit needed.
+            let dist = |v: u32| (v as i64 - cursor as i64).unsigned_abs();
+            let (a, d) = if dist(d) < dist(a) { (d, a) } else { (a, d) };
             match derive_ad(st, r, a, d) {
                 Ok(p) => return Ok(p),
                 Err(e) => last = Err(e),
@@ -436,16 +440,16 @@ fn perm_index(p: [u8; 4]) -> u64 {
 /// Today's local-form (§7.7) connectivity + slots bits of one record,
 /// priced with entropy_study's models (fields and contexts the same, models
 /// fed with qeMerge records only).
-fn price_today(s: &[Vec<u8>; 5], y: &mut Prices) -> Result<(u8, f64), String> {
+fn price_today(s: &[Vec<u8>; 5], y: &mut Prices) -> Result<(u8, f64, f64), String> {
     let mut rd = [0, 1, 2, 3, 4].map(|t| Reader::new(&s[t], codec::STREAM_NAMES[t]));
     let sym = rd[0].byte()?;
     let form = (sym >> 2) & 3;
     let opf = (sym & 3) as u64 | (form as u64) << 2;
     if form != 2 {
-        return Ok((form, 0.0));
+        return Ok((form, 0.0, 0.0));
     }
     let mut b = 0.0;
-    let _anchor = rd[REFS].s()?;
+    let anchor = y.add("today anchor delta (zigzag)", 0, zigzag(rd[REFS].s()?));
     let mut c = [0u64; 4];
     for x in c.iter_mut() {
         *x = rd[CONN].u()?;
@@ -500,7 +504,7 @@ fn price_today(s: &[Vec<u8>; 5], y: &mut Prices) -> Result<(u8, f64), String> {
     for _ in 0..4 * na {
         b += corner(y, &mut rd)?;
     }
-    Ok((form, b))
+    Ok((form, b, anchor))
 }
 
 fn main() {
@@ -541,7 +545,8 @@ fn study(f: &str) -> Result<(), String> {
     let (mut n_qe, mut n_exact, mut n_new_all) = (0usize, 0usize, 0usize);
     let mut fails: BTreeMap<&'static str, usize> = BTreeMap::new();
     let mut forms = [0usize; 4];
-    let (mut today_bits, mut new_bits) = (0.0, 0.0);
+    let (mut today_bits, mut new_bits, mut new_canon) = (0.0, 0.0, 0.0);
+    let (mut today_anchor, mut new_anchor, mut n_priced) = (0.0, 0.0, 0usize);
     // Deviations from the canonical rule (identity / rotation 0).
     let (mut dev_v, mut dev_f, mut dev_rf, mut dev_ra, mut n_fan) = (0, 0, 0, 0, 0);
     for rec in &pm.records {
@@ -564,18 +569,31 @@ fn study(f: &str) -> Result<(), String> {
         };
         n_new_all += r.new_pos.len();
         let mut s: [Vec<u8>; 5] = Default::default();
+        let cursor = cur.vref;
         codec::encode_record(&st, &r, &mut cur, &mut s, coding);
         if r.op as u8 == QE {
             n_qe += 1;
-            match derive(&st, &r) {
+            match derive(&st, &r, cursor) {
                 Err(why) => *fails.entry(why).or_default() += 1,
                 Ok(p) => match reconstruct(&st, &p) {
                     Some((rw, app)) if rw == r.rewritten && app == r.appended => {
                         n_exact += 1;
-                        let (form, tb) = price_today(&s, &mut today)?;
+                        let (form, tb, ta) = price_today(&s, &mut today)?;
                         forms[form as usize] += 1;
-                        today_bits += tb;
-                        new_bits += price_new(&st, &p, &mut new);
+                        // (priced only where today's form is the local one)
+                        if form == 2 {
+                            n_priced += 1;
+                            today_bits += tb;
+                            today_anchor += ta;
+                            let (nb, canon_b) = price_new(&st, &p, &mut new);
+                            new_bits += nb;
+                            new_canon += canon_b;
+                            new_anchor += new.add(
+                                "new: anchor A delta (zigzag)",
+                                0,
+                                zigzag(p.a as i64 - cursor as i64),
+                            );
+                        }
                         dev_v += (p.perm_v != [0, 1, 2, 3]) as usize;
                         dev_f += (p.perm_f != [0, 1, 2, 3]) as usize;
                         dev_ra += p.rot_app.iter().filter(|&&t| t != 0).count();
@@ -589,9 +607,11 @@ fn study(f: &str) -> Result<(), String> {
         st.apply(&r);
     }
     let n = n_exact.max(1) as f64;
+    let nfinal = st.q.len() as f64;
     println!(
-        "## {f}: {} records, {n_qe} qeMerge, {n_new_all} refined vertices",
-        pm.records.len()
+        "## {f}: {} records, {n_qe} qeMerge, {n_new_all} refined vertices, {} final vertices",
+        pm.records.len(),
+        st.q.len()
     );
     println!(
         "reproduced exactly: {n_exact} / {n_qe} ({:.1} %); failures: {fails:?}",
@@ -603,24 +623,44 @@ fn study(f: &str) -> Result<(), String> {
         100.0 * dev_f as f64 / n,
         4 * n_exact,
     );
-    println!("today's forms of these records (general/split/local/face-split): {forms:?}");
-    println!("\n| field | bits/qe record |\n|---|---:|");
+    println!(
+        "today's forms of the reproduced records (general/split/local/face-split): {forms:?}; {n_priced} local-form records priced below"
+    );
+    let np = n_priced.max(1) as f64;
+    println!("\n| field | bits/priced qe record |\n|---|---:|");
     for (k, v) in today.sum.iter().chain(new.sum.iter()) {
-        println!("| {k} | {:.2} |", v / n);
+        println!("| {k} | {:.2} |", v / np);
     }
     let nv = n_new_all.max(1) as f64;
+    println!("\n| per priced qe record | today (local form) | edge split | edge split, canonical recorder |");
+    println!("|---|---:|---:|---:|");
     println!(
-        "\ntoday local form conn+slots: {:.1} bits/qe record; edge-split form: {:.1} bits/qe record; saving {:.1} bits/record = {:.2} bits per refined vertex (all records' new vertices, reproduced records only)\n",
-        today_bits / n,
-        new_bits / n,
-        (today_bits - new_bits) / n,
-        (today_bits - new_bits) / nv
+        "| conn + slots bits | {:.1} | {:.1} | {:.1} |",
+        today_bits / np,
+        new_bits / np,
+        new_canon / np
     );
+    println!(
+        "| anchor bits | {:.1} | {:.1} | {:.1} |",
+        today_anchor / np,
+        new_anchor / np,
+        new_anchor / np
+    );
+    for (name, div) in [("refined", nv), ("final", nfinal)] {
+        println!(
+            "| saving, bits per {name} vertex of the file | | {:.2} | {:.2} |",
+            (today_bits + today_anchor - new_bits - new_anchor) / div,
+            (today_bits + today_anchor - new_canon - new_anchor) / div
+        );
+    }
+    println!();
     Ok(())
 }
 
-/// Prices one parameter set (anchor excluded: both forms name one vertex).
-fn price_new(st: &MeshState, p: &Params, y: &mut Prices) -> f64 {
+/// Prices one parameter set without its anchor (priced by the caller):
+/// (all fields, the shape fields alone — what is left when the recorder
+/// emits the canonical order and rotations).
+fn price_new(st: &MeshState, p: &Params, y: &mut Prices) -> (f64, f64) {
     let ka = st.star(p.a).map_or(0, |s| s.faces.len()) as u64;
     let d = st.star(p.a).ok().and_then(|s| s.link.get(p.r).copied());
     let kd = d.and_then(|d| st.star(d).ok()).map_or(0, |s| s.faces.len()) as u64;
@@ -634,6 +674,7 @@ fn price_new(st: &MeshState, p: &Params, y: &mut Prices) -> f64 {
             s.n1 as u64,
         );
     }
+    let shape = b;
     b += y.add("new: vertex order (perm)", 0, perm_index(p.perm_v));
     b += y.add("new: appended order (perm)", 0, perm_index(p.perm_f));
     for (i, &t) in p.rot_app.iter().enumerate() {
@@ -642,5 +683,10 @@ fn price_new(st: &MeshState, p: &Params, y: &mut Prices) -> f64 {
     for &t in &p.rot_fan {
         b += y.add("new: fan rotation", 0, t as u64);
     }
-    b
+    (b, shape)
+}
+
+/// Zigzag map of a signed delta (0, -1, 1, -2, … → 0, 1, 2, 3, …).
+fn zigzag(v: i64) -> u64 {
+    ((v << 1) ^ (v >> 63)) as u64
 }
