@@ -219,7 +219,10 @@ fn rotl(q: [u32; 4], t: u8) -> [u32; 4] {
 
 /// The independent reconstruction: explicit rewritten and appended quads
 /// from the coarse state and a full parameter set.
-fn reconstruct(st: &MeshState, p: &Params) -> Option<(Vec<(u32, [u32; 4])>, Vec<[u32; 4]>)> {
+/// Explicit connectivity of a record: rewritten (slot, quad), appended quads.
+type Explicit = (Vec<(u32, [u32; 4])>, Vec<[u32; 4]>);
+
+fn reconstruct(st: &MeshState, p: &Params) -> Option<Explicit> {
     let c = canon(st, p.a, p.r, p.side)?;
     let v0 = st.q.len() as u32;
     let map = |q: [u32; 4]| {
@@ -545,7 +548,7 @@ fn study(f: &str) -> Result<(), String> {
     let (mut n_qe, mut n_exact, mut n_new_all) = (0usize, 0usize, 0usize);
     let mut fails: BTreeMap<&'static str, usize> = BTreeMap::new();
     let mut forms = [0usize; 4];
-    let (mut today_bits, mut new_bits, mut new_canon) = (0.0, 0.0, 0.0);
+    let (mut today_bits, mut new_bits, mut new_canon, mut new_rot) = (0.0, 0.0, 0.0, 0.0);
     let (mut today_anchor, mut new_anchor, mut n_priced) = (0.0, 0.0, 0usize);
     // Deviations from the canonical rule (identity / rotation 0).
     let (mut dev_v, mut dev_f, mut dev_rf, mut dev_ra, mut n_fan) = (0, 0, 0, 0, 0);
@@ -585,13 +588,23 @@ fn study(f: &str) -> Result<(), String> {
                             n_priced += 1;
                             today_bits += tb;
                             today_anchor += ta;
-                            let (nb, canon_b) = price_new(&st, &p, &mut new);
+                            let (nb, canon_b, rot_b) = price_new(&st, &p, &mut new);
                             new_bits += nb;
                             new_canon += canon_b;
+                            new_rot += rot_b;
                             new_anchor += new.add(
                                 "new: anchor A delta (zigzag)",
                                 0,
                                 zigzag(p.a as i64 - cursor as i64),
+                            );
+                            // Alternative: always the smaller endpoint id
+                            // (a recorder-side canonical anchor).
+                            let d = st.star(p.a).ok().and_then(|s| s.link.get(p.r).copied());
+                            let lo = d.map_or(p.a, |d| d.min(p.a));
+                            new.add(
+                                "(alt) anchor = smaller endpoint id (zigzag)",
+                                0,
+                                zigzag(lo as i64 - cursor as i64),
                             );
                         }
                         dev_v += (p.perm_v != [0, 1, 2, 3]) as usize;
@@ -632,25 +645,30 @@ fn study(f: &str) -> Result<(), String> {
         println!("| {k} | {:.2} |", v / np);
     }
     let nv = n_new_all.max(1) as f64;
-    println!("\n| per priced qe record | today (local form) | edge split | edge split, canonical recorder |");
-    println!("|---|---:|---:|---:|");
+    println!("\n| per priced qe record | today (local form) | edge split, today's recorder | canonical orders, input rotations kept | fully canonical |");
+    println!("|---|---:|---:|---:|---:|");
+    let new_keep = new_canon + new_rot;
     println!(
-        "| conn + slots bits | {:.1} | {:.1} | {:.1} |",
+        "| conn + slots bits | {:.1} | {:.1} | {:.1} | {:.1} |",
         today_bits / np,
         new_bits / np,
+        new_keep / np,
         new_canon / np
     );
     println!(
-        "| anchor bits | {:.1} | {:.1} | {:.1} |",
+        "| anchor bits | {:.1} | {:.1} | {:.1} | {:.1} |",
         today_anchor / np,
+        new_anchor / np,
         new_anchor / np,
         new_anchor / np
     );
     for (name, div) in [("refined", nv), ("final", nfinal)] {
+        let save = |x: f64| (today_bits + today_anchor - x - new_anchor) / div;
         println!(
-            "| saving, bits per {name} vertex of the file | | {:.2} | {:.2} |",
-            (today_bits + today_anchor - new_bits - new_anchor) / div,
-            (today_bits + today_anchor - new_canon - new_anchor) / div
+            "| saving, bits per {name} vertex of the file | | {:.2} | {:.2} | {:.2} |",
+            save(new_bits),
+            save(new_keep),
+            save(new_canon)
         );
     }
     println!();
@@ -660,7 +678,7 @@ fn study(f: &str) -> Result<(), String> {
 /// Prices one parameter set without its anchor (priced by the caller):
 /// (all fields, the shape fields alone — what is left when the recorder
 /// emits the canonical order and rotations).
-fn price_new(st: &MeshState, p: &Params, y: &mut Prices) -> (f64, f64) {
+fn price_new(st: &MeshState, p: &Params, y: &mut Prices) -> (f64, f64, f64) {
     let ka = st.star(p.a).map_or(0, |s| s.faces.len()) as u64;
     let d = st.star(p.a).ok().and_then(|s| s.link.get(p.r).copied());
     let kd = d.and_then(|d| st.star(d).ok()).map_or(0, |s| s.faces.len()) as u64;
@@ -675,15 +693,65 @@ fn price_new(st: &MeshState, p: &Params, y: &mut Prices) -> (f64, f64) {
         );
     }
     let shape = b;
+    let mut rots = 0.0;
     b += y.add("new: vertex order (perm)", 0, perm_index(p.perm_v));
     b += y.add("new: appended order (perm)", 0, perm_index(p.perm_f));
     for (i, &t) in p.rot_app.iter().enumerate() {
-        b += y.add("new: appended rotation", i as u64, t as u64);
+        rots += y.add("new: appended rotation", i as u64, t as u64);
     }
     for &t in &p.rot_fan {
-        b += y.add("new: fan rotation", 0, t as u64);
+        rots += y.add("new: fan rotation", 0, t as u64);
     }
-    (b, shape)
+    // Alternative rotation models (not in the totals): context = corner of
+    // the smallest / largest vertex id in the canonical quad (new vertices
+    // with their ids) — would the input's corner order follow the ids?
+    if let Some(c) = canon(st, p.a, p.r, p.side) {
+        let v0 = st.q.len() as u32;
+        let map = |q: [u32; 4]| {
+            q.map(|v| match U.iter().position(|&u| u == v) {
+                Some(i) => v0 + p.perm_v[i] as u32,
+                None => v,
+            })
+        };
+        let rewritten: Vec<u32> = c.rewritten.iter().map(|x| x.0).collect();
+        let fans = c.rewritten.iter().filter(|x| x.2).map(|x| x.1);
+        let rots = p.rot_fan.iter().chain(p.rot_app.iter());
+        for (q, &t) in fans.chain(c.appended).zip(rots) {
+            let q = map(q);
+            let lo = (0..4).min_by_key(|&i| q[i]).unwrap_or(0) as u64;
+            let hi = (0..4).max_by_key(|&i| q[i]).unwrap_or(0) as u64;
+            y.add("(alt) fan+appended rotation, no context", 0, t as u64);
+            y.add(
+                "(alt) fan+appended rotation given smallest-id corner",
+                lo,
+                t as u64,
+            );
+            y.add(
+                "(alt) fan+appended rotation given largest-id corner",
+                hi,
+                t as u64,
+            );
+            // Context: across the first edge of the canonical quad with an
+            // untouched neighbour, which edge of that neighbour it is (a
+            // mesh whose quads start "in the same direction" would make
+            // (edge here, edge there) predict the rotation).
+            let nb = (0..4).find_map(|e| {
+                let (u, w) = (q[e], q[(e + 1) % 4]);
+                st.corners(w).find_map(|(g, k)| {
+                    let gq = st.quads[g as usize];
+                    (gq[(k + 1) % 4] == u && !rewritten.contains(&g))
+                        .then_some((e as u64, k as u64))
+                })
+            });
+            let ctx = nb.map_or(99, |(e, k)| (4 + k - e) % 4);
+            y.add(
+                "(alt) fan+appended rotation given neighbour edge index",
+                ctx,
+                t as u64,
+            );
+        }
+    }
+    (b + rots, shape, rots)
 }
 
 /// Zigzag map of a signed delta (0, -1, 1, -2, … → 0, 1, 2, 3, …).
