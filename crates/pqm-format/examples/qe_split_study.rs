@@ -5,9 +5,127 @@
 //!
 //! `cargo run --release -p pqm-format --example qe_split_study -- FILE.pqm...`
 //!
-//! DESIGN-PLACEHOLDER
+//! For every qeMerge record (op code 1) of each file it replays the records
+//! on a [`MeshState`] (public API, as `entropy_study`), and on the state
+//! before the record:
 //!
-//! FIGURES-PLACEHOLDER
+//! 1. **derives** the parameter set below from the coarse state + the
+//!    explicit record (`derive`: a search over the few sector/fan splits
+//!    the stars allow, then reading the vertex/face orders and rotations
+//!    off the record);
+//! 2. **rebuilds** the explicit record from the coarse state + parameters
+//!    alone (`reconstruct`, which never sees the record) and compares it
+//!    exactly — rewritten slots and quads, appended quads in order with
+//!    their rotation, new-vertex ids;
+//! 3. **prices** the parameters with ideal adaptive models (entropy_study's
+//!    `Small` model: KT order-0 table per field and context, escape to an
+//!    adaptive gamma bucket) and today's local form (§7.7) of the same
+//!    records with entropy_study's field models (counts, slot gaps, masks,
+//!    corner codes, corner indices; fed with qeMerge records only).
+//!
+//! Derivation and rebuild share the geometric core (`canon`); what the
+//! comparison proves is that the coarse state plus this parameter set
+//! determine the record, bit for bit.
+//!
+//! # Design: the edge-split form (inverse of qeMerge)
+//!
+//! Notation as in `pqm-core/src/ops/qe_merge.rs`: fine quads
+//! `q1 = (a, b, c, d)`, `q2 = (a, d, e, f)`; coarsening collapses b, f → A
+//! and c, e → D and re-fans each endpoint over the non-crossing side.
+//! Stars are the canonical stars of spec §7.5 (faces `F_i`, link `l_i`,
+//! `l_i` = the vertex after the centre in `F_i`, `F_{i+1}` follows `F_i`
+//! counter-clockwise).
+//!
+//! **Shape observed in every record.** Around an endpoint `X` with other
+//! endpoint `Y`, let `ρ` be the index with `l_ρ = Y`. Reading `X`'s star
+//! from `ρ`, the faces are: `F_ρ` (the face on X–Y whose next vertex is Y),
+//! then `n1 ≥ 0` more faces of the *first sector*, then the `m = k + 1 ≥ 1`
+//! fan quads, then the *second sector* (`≥ 1` faces, ending with
+//! `F_{ρ−1}`, the other face on X–Y). With `u1`, `u2` the new vertices of
+//! the first and second sector (at `A`: `u1 = f`, `u2 = b`; at `D`:
+//! `u1 = c`, `u2 = e`):
+//!
+//! * every sector face keeps its slot and its rotation, with `X` replaced
+//!   by `u1` (first sector, including `F_ρ`) or `u2` (second sector,
+//!   including `F_{ρ−1}`); a face in both endpoints' sectors (the two faces
+//!   on A–D) gets both replacements;
+//! * the fan path: fan quad `j` (`j = 0 … m−1`, star order) reads
+//!   `(X, P_2j, P_2j+1, P_2j+2)` from `X`, giving `P_0 … P_2m`; fan slot
+//!   `j < m−1` becomes `(X, P_2j+1, P_2j+2, P_2j+3)`, slot `m−1` becomes
+//!   `(X, P_2m−1, P_2m, u2)`, and the first-sector triangle
+//!   `(X, u1, P_0, P_1)` is appended (the coarsener's fan keeps the old ids
+//!   in walk order, which always runs from the second-sector triangle, so
+//!   the first-sector one is the deleted face);
+//! * appended also: `q1 = (A, u2(A), u1(D), D)` and `q2 = (A, D, u2(D), u1(A))`.
+//!
+//! **Parameters** (anchor excluded — named as today by a cursor delta):
+//! `r` = index of `D` in `A`'s link (alphabet `K_A`); per endpoint the
+//! first-sector count `n1` and fan length `m − 1` (alphabets given by `K`);
+//! then, as today's recorder emits them, the order of the four new vertices
+//! (a permutation of 4), the order of the four appended quads (a
+//! permutation of 4) and a 2-bit rotation per appended and per fan quad.
+//! The operator is symmetric in A and D, so the encoder anchors the
+//! endpoint nearer to the cursor at no cost.
+//!
+//! **Decoding** (given anchor `A`): build `A`'s star; `D = l_r`; build `D`'s
+//! star; for each endpoint apply the three rules above with placeholder
+//! vertices; map placeholders to ids `V + π_v(i)`; rotate fan and appended
+//! quads; write appended quads at slots `NF + π_f(i)`. Reject when
+//! `1 + n1 + m ≥ K`, a star is open (boundary) or not a fan, a fan face
+//! does not hold `X` followed by its link vertex, or a slot is both
+//! re-fanned and substituted.
+//!
+//! **Canonical rules and deviations.** Canonical = identity orders
+//! (`[u1(A), u2(A), u1(D), u2(D)]`, appended `[q1, q2, tri(A), tri(D)]`)
+//! and rotation 0 (quads as written above, starting at the endpoint). Real
+//! records deviate almost always (92–97 % of vertex and appended orders,
+//! ~75 % of rotations: the orders come from the coarsener's ids, the
+//! rotations from the input's corner order) and the deviations are
+//! incompressible (4.3–4.5 bits per permutation ≈ log2 24; 2 bits per
+//! rotation; contexts tried — smallest / largest id corner, the untouched
+//! neighbour's edge index — gain at most 1.1 bits per record, listed as
+//! `(alt)` rows). Recommendation: **make the recorder canonical**
+//! (`coarsen/record.rs`: emit a qeMerge's new vertices and appended quads
+//! in the canonical order, defined relative to the smaller endpoint id so
+//! the encoder's anchor choice does not interact) — free for vertices (the
+//! `VORD` section restores the input order) and for appended order (face
+//! order is not kept anyway: slots are canonical). The rotations carry
+//! the input's corner order ("faces keep their corner order"), so dropping
+//! them (≈ 12 bits per record) is an encoder option like
+//! `--no-vertex-order`, not a free change.
+//!
+//! **Not covered** (none occurred on these files): an endpoint on the
+//! boundary (open star, or no triangle → no re-fan) and crossing-side fans
+//! (`qe_merge_patch_with`'s `cross`); both would need a case bit and their
+//! own rule.
+//!
+//! # Figures (14-bit positions; files by `pqm encode` of main at db70092; 2026-11-22)
+//!
+//! `cargo run --release -p pqm-format --example qe_split_study --
+//! /tmp/qed/{loki,makehuman_base,spot_quadrangulated}.pqm` (0.4 s for all).
+//! Rebuilt exactly: **4115 / 4115 (loki), 2036 / 2036 (makehuman_base),
+//! 422 / 422 (spot) — 100 %**, no failure kind. One loki record is in the
+//! general form today and is left out of the prices.
+//!
+//! Ideal adaptive bits per qeMerge record:
+//!
+//! | file | today local form conn+slots | edge split, today's recorder | canonical orders, rotations kept | fully canonical | anchor today → edge split |
+//! |---|---:|---:|---:|---:|---:|
+//! | loki | 151.5 | 24.5 | 15.6 | 3.5 | 10.6 → 12.4 |
+//! | makehuman_base | 152.5 | 24.7 | 16.0 | 3.7 | 10.2 → 11.8 |
+//! | spot_quadrangulated | 153.0 | 26.6 | 17.8 | 4.8 | 9.7 → 10.6 |
+//!
+//! Of the 24.5 (loki): shape 3.5 (`r` 2.2, `n1` 1.1, `m` 0.2), vertex
+//! order 4.4, appended order 4.5, appended rotations 8.1, fan rotations
+//! 4.0. (Anchor: today's local form may anchor any vertex near the record
+//! and picks the cheapest; the edge split must name an endpoint, +0.9–1.8
+//! bits; priced against today's cursor, an approximation.)
+//!
+//! Saving, anchor included, bits per refined / per final vertex (today's
+//! recorder → fully canonical): loki 20.2 / 18.7 → 23.6 / 21.9;
+//! makehuman_base 17.9 / 13.4 → 20.9 / 15.6; spot 19.8 / 18.1 → 23.3 /
+//! 21.2 — in line with entropy_study's estimate (−20.9 / −14.9 / −20.2
+//! per final vertex), now measured on rebuilt records.
 
 use pqm_format::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, REFS, SLOTS};
 use pqm_format::varint::Reader;
@@ -217,11 +335,13 @@ fn rotl(q: [u32; 4], t: u8) -> [u32; 4] {
     [q[t % 4], q[(t + 1) % 4], q[(t + 2) % 4], q[(t + 3) % 4]]
 }
 
-/// The independent reconstruction: explicit rewritten and appended quads
-/// from the coarse state and a full parameter set.
 /// Explicit connectivity of a record: rewritten (slot, quad), appended quads.
 type Explicit = (Vec<(u32, [u32; 4])>, Vec<[u32; 4]>);
 
+/// The independent reconstruction (decoding steps of the doc comment):
+/// explicit rewritten and appended quads from the coarse state and a full
+/// parameter set. It shares only [`canon`] with [`derive`]; the comparison
+/// against the real record is what checks both.
 fn reconstruct(st: &MeshState, p: &Params) -> Option<Explicit> {
     let c = canon(st, p.a, p.r, p.side)?;
     let v0 = st.q.len() as u32;
