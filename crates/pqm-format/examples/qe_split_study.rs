@@ -87,9 +87,13 @@
 //! `(alt)` rows). Recommendation: **make the recorder canonical**
 //! (`coarsen/record.rs`: emit a qeMerge's new vertices and appended quads
 //! in the canonical order, defined relative to the smaller endpoint id so
-//! the encoder's anchor choice does not interact) — free for vertices (the
-//! `VORD` section restores the input order) and for appended order (face
-//! order is not kept anyway: slots are canonical). The rotations carry
+//! the encoder's anchor choice does not interact). Free for the appended
+//! order (the format keeps no input face order: slots are canonical) and
+//! for vertices without `VORD` (`--no-vertex-order`); with `VORD`, the
+//! order moves there — today a record's new vertices are ascending in input
+//! index, which an ideal `VORD` coder would exploit, so up to log2 24 ≈ 4.6
+//! bits per record may reappear in `VORD` (not measured; `VORD` is
+//! zstd-coded deltas, far from ideal today). The rotations carry
 //! the input's corner order ("faces keep their corner order"), so dropping
 //! them (≈ 12 bits per record) is an encoder option like
 //! `--no-vertex-order`, not a free change.
