@@ -107,7 +107,7 @@
 //! (`qe_merge_patch_with`'s `cross`); both would need a case bit and their
 //! own rule.
 //!
-//! # Figures (14-bit positions; files by `pqm encode` of main at db70092; 2026-11-22)
+//! # Figures (14-bit positions; files by the `pqm encode` binary built from main at 07:50 UTC, 2026-11-22)
 //!
 //! `cargo run --release -p pqm-format --example qe_split_study --
 //! /tmp/qed/{loki,makehuman_base,spot_quadrangulated}.pqm` (0.4 s for all).
