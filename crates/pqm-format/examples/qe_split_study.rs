@@ -143,55 +143,9 @@ use std::collections::{BTreeMap, HashMap};
 /// qeMerge's op code (spec §7.3).
 const QE: u8 = 1;
 
-/// Adaptive frequency table over `0..n` (KT estimator, as entropy_study).
-#[derive(Clone)]
-struct Freq {
-    c: Vec<f64>,
-    total: f64,
-}
-
-impl Freq {
-    fn new(n: usize) -> Self {
-        Freq {
-            c: vec![0.5; n],
-            total: 0.5 * n as f64,
-        }
-    }
-    fn cost(&mut self, s: usize) -> f64 {
-        let b = -(self.c[s] / self.total).log2();
-        self.c[s] += 1.0;
-        self.total += 1.0;
-        b
-    }
-}
-
-/// Bit length of `v + 1`: the Elias-gamma bucket.
-fn bucket(v: u64) -> usize {
-    (64 - (v + 1).leading_zeros()) as usize
-}
-
-/// Small integers: direct adaptive symbol below 32 (per context), else an
-/// escape + adaptive gamma bucket + raw low bits (entropy_study's model).
-#[derive(Default)]
-struct Small {
-    ctx: HashMap<u64, Freq>,
-    esc: HashMap<u64, Freq>,
-}
-
-impl Small {
-    fn cost(&mut self, ctx: u64, v: u64) -> f64 {
-        const DIRECT: u64 = 32;
-        let f = self.ctx.entry(ctx).or_insert_with(|| Freq::new(33));
-        if v < DIRECT {
-            f.cost(v as usize)
-        } else {
-            let b = bucket(v - DIRECT);
-            f.cost(32)
-                + self.esc.entry(ctx).or_insert_with(|| Freq::new(65)).cost(b)
-                + (b - 1) as f64
-        }
-    }
-}
+#[path = "common/models.rs"]
+mod models;
+use models::Small;
 
 /// Field prices (ideal adaptive bits), summed per field name.
 #[derive(Default)]

@@ -224,6 +224,20 @@ struct Records {
     appended: Vec<[u32; 4]>,
 }
 
+impl Records {
+    /// Room for `records` more records adding `vertices` vertices and
+    /// `faces` appended quads.
+    fn reserve(&mut self, records: usize, vertices: usize, faces: usize) {
+        self.op.reserve(records);
+        self.v_at.reserve(records);
+        self.f_at.reserve(records);
+        self.moved_at.reserve(records);
+        self.rw_at.reserve(records);
+        self.new_pos.reserve(vertices);
+        self.appended.reserve(faces);
+    }
+}
+
 /// The push decoder (see the module docs).
 pub struct Decoder {
     limits: Limits,
@@ -729,15 +743,7 @@ impl Decoder {
             (h.final_face_count - h.base_face_count) as usize,
         );
         st.reserve(nv, nf);
-        let r = &mut self.recs;
-        let n_rec = h.record_count as usize + 1;
-        r.op.reserve(n_rec);
-        r.v_at.reserve(n_rec);
-        r.f_at.reserve(n_rec);
-        r.moved_at.reserve(n_rec);
-        r.rw_at.reserve(n_rec);
-        r.new_pos.reserve(nv);
-        r.appended.reserve(nf);
+        self.recs.reserve(h.record_count as usize + 1, nv, nf);
         let mut q = Vec::with_capacity(st.q.len() + nv);
         q.extend_from_slice(&st.q);
         let mut pos = Vec::with_capacity(st.q.len() + nv);
@@ -818,13 +824,7 @@ impl Decoder {
         let n_f = (info.face_count as usize)
             .saturating_sub(st.quads.len())
             .min(cap);
-        r.op.reserve(n_rec);
-        r.v_at.reserve(n_rec);
-        r.f_at.reserve(n_rec);
-        r.moved_at.reserve(n_rec);
-        r.rw_at.reserve(n_rec);
-        r.new_pos.reserve(n_v);
-        r.appended.reserve(n_f);
+        r.reserve(n_rec, n_v, n_f);
         st.reserve(n_v, n_f);
         let result = Self::decode_chunk_records(
             i,

@@ -113,6 +113,20 @@ pub fn all() -> Vec<Vector> {
             ],
         }
     };
+    // `mixed_bits24` is written twice: as 2.0 and, for the 1.x rules, as 1.1
+    let mixed_gen = || GenOptions {
+        base: BaseShape::Box { n: 3 },
+        fuse_prob: 0.3,
+        smooth_prob: 0.1,
+        ..GenOptions::new(4, 60)
+    };
+    let mixed_encode = |version_major| EncodeOptions {
+        bits: 24,
+        chunk_records: Some(16),
+        zstd_level: 3,
+        version_major,
+        ..EncodeOptions::default()
+    };
     vec![
         make(
             "grid_small",
@@ -163,21 +177,7 @@ pub fn all() -> Vec<Vector> {
                 ..EncodeOptions::default()
             },
         ),
-        make(
-            "mixed_bits24",
-            GenOptions {
-                base: BaseShape::Box { n: 3 },
-                fuse_prob: 0.3,
-                smooth_prob: 0.1,
-                ..GenOptions::new(4, 60)
-            },
-            EncodeOptions {
-                bits: 24,
-                chunk_records: Some(16),
-                zstd_level: 3,
-                ..EncodeOptions::default()
-            },
-        ),
+        make("mixed_bits24", mixed_gen(), mixed_encode(2)),
         make(
             "face_split",
             GenOptions {
@@ -192,22 +192,7 @@ pub fn all() -> Vec<Vector> {
         // A 1.1 file (version-1 prediction, no face-split form): the bytes
         // of `mixed_bits24` before format 2.0, kept so that every decoder
         // keeps testing the 1.x rules (spec §9).
-        make(
-            "v1_1_mixed_bits24",
-            GenOptions {
-                base: BaseShape::Box { n: 3 },
-                fuse_prob: 0.3,
-                smooth_prob: 0.1,
-                ..GenOptions::new(4, 60)
-            },
-            EncodeOptions {
-                bits: 24,
-                chunk_records: Some(16),
-                zstd_level: 3,
-                version_major: 1,
-                ..EncodeOptions::default()
-            },
-        ),
+        make("v1_1_mixed_bits24", mixed_gen(), mixed_encode(1)),
     ]
 }
 
