@@ -798,18 +798,7 @@ fn hostile_local_form_records_are_rejected() {
     let e = decode_record(&st2, &mut rd, &mut Cursors::default(), 20, 20, 2).unwrap_err();
     assert!(e.contains("no face"), "{e}");
     // A fan of 300 faces around one vertex: refused (more than 255).
-    let n = 300u32;
-    let mut q = vec![[0u32, 0, 0]];
-    let mut quads = Vec::new();
-    for i in 0..n {
-        q.push([i, 1, 0]);
-        q.push([i, 2, 0]);
-    }
-    for i in 0..n {
-        let (a, b) = (1 + 2 * i, 1 + 2 * ((i + 1) % n));
-        quads.push([0, a, a + 1, b]);
-    }
-    let big = MeshState::new((1 << 14) - 1, q, quads);
+    let big = fan_of_300();
     s = payload(&[sym], &[0, 0, 0, 0], &[0], &[], &[]);
     rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
     let e = decode_record(&big, &mut rd, &mut Cursors::default(), 20_000, 20_000, 2).unwrap_err();
@@ -873,18 +862,7 @@ fn face_split_records_decode_and_hostile_ones_are_rejected() {
     let e = decode_record(&st2, &mut rd, &mut Cursors::default(), 20, 20, 2).unwrap_err();
     assert!(e.contains("0 faces"), "{e}");
     // A fan of 300 faces: refused.
-    let n = 300u32;
-    let mut q = vec![[0u32, 0, 0]];
-    let mut quads = Vec::new();
-    for i in 0..n {
-        q.push([i, 1, 0]);
-        q.push([i, 2, 0]);
-    }
-    for i in 0..n {
-        let (a, b) = (1 + 2 * i, 1 + 2 * ((i + 1) % n));
-        quads.push([0, a, a + 1, b]);
-    }
-    let big = MeshState::new((1 << 14) - 1, q, quads);
+    let big = fan_of_300();
     let s = payload(&[sym], &[0], &[0], &[], &[0, 0, 0]);
     let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
     let e = decode_record(&big, &mut rd, &mut Cursors::default(), 20_000, 20_000, 2).unwrap_err();
@@ -1361,4 +1339,21 @@ proptest! {
             }
         }
     }
+}
+
+/// A closed fan of 300 quads around vertex 0: more faces than a star may
+/// have (255), so every form that walks or lists a star must refuse it.
+fn fan_of_300() -> pqm_format::codec::MeshState {
+    let n = 300u32;
+    let mut q = vec![[0u32, 0, 0]];
+    let mut quads = Vec::new();
+    for i in 0..n {
+        q.push([i, 1, 0]);
+        q.push([i, 2, 0]);
+    }
+    for i in 0..n {
+        let (a, b) = (1 + 2 * i, 1 + 2 * ((i + 1) % n));
+        quads.push([0, a, a + 1, b]);
+    }
+    pqm_format::codec::MeshState::new((1 << 14) - 1, q, quads)
 }
