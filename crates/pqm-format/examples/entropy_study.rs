@@ -460,21 +460,7 @@ fn price_batches(batches: &[Vec<u32>], v0s: &[u32]) -> (f64, f64, f64) {
 }
 
 fn main() {
-    let files: Vec<String> = std::env::args().skip(1).collect();
-    if files.is_empty() {
-        eprintln!("usage: entropy_study FILE.pqm...");
-        std::process::exit(2);
-    }
-    let mut failed = false;
-    for f in files {
-        if let Err(e) = study(&f) {
-            eprintln!("{f}: {e}");
-            failed = true;
-        }
-    }
-    if failed {
-        std::process::exit(1);
-    }
+    models::study_files("entropy_study", study);
 }
 
 fn study(f: &str) -> Result<(), String> {

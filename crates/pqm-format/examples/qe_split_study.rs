@@ -593,21 +593,7 @@ fn price_today(s: &[Vec<u8>; 5], y: &mut Prices) -> Result<(u8, f64, f64), Strin
 }
 
 fn main() {
-    let files: Vec<String> = std::env::args().skip(1).collect();
-    if files.is_empty() {
-        eprintln!("usage: qe_split_study FILE.pqm...");
-        std::process::exit(2);
-    }
-    let mut failed = false;
-    for f in files {
-        if let Err(e) = study(&f) {
-            eprintln!("{f}: {e}");
-            failed = true;
-        }
-    }
-    if failed {
-        std::process::exit(1);
-    }
+    models::study_files("qe_split_study", study);
 }
 
 fn study(f: &str) -> Result<(), String> {

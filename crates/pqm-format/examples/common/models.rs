@@ -1,6 +1,7 @@
 //! Ideal adaptive code lengths shared by the coding studies
 //! (`entropy_study`, `qe_split_study`): what a range coder with these
-//! adaptive models would spend, within ~1–3 %. Included with `#[path]`.
+//! adaptive models would spend, within ~1–3 %, and their `main`. Included
+//! with `#[path]`.
 #![allow(dead_code)]
 
 use std::collections::HashMap;
@@ -83,5 +84,25 @@ impl Small {
         } else {
             f.cost(DIRECT) + self.esc.cost(ctx, v - DIRECT as u64)
         }
+    }
+}
+
+/// The studies' `main`: runs `study` on every file named on the command
+/// line; exit code 2 without files, 1 when one failed (named on stderr).
+pub fn study_files(name: &str, study: fn(&str) -> Result<(), String>) {
+    let files: Vec<String> = std::env::args().skip(1).collect();
+    if files.is_empty() {
+        eprintln!("usage: {name} FILE.pqm...");
+        std::process::exit(2);
+    }
+    let mut failed = false;
+    for f in files {
+        if let Err(e) = study(&f) {
+            eprintln!("{f}: {e}");
+            failed = true;
+        }
+    }
+    if failed {
+        std::process::exit(1);
     }
 }
