@@ -9,7 +9,7 @@
 //! average of their face), and each feature polyline step `a → b` becomes
 //! `a → edge point → b`. Original vertices keep their indices in the split.
 
-use crate::ctx::Ctx;
+use crate::ctx::{usage, Ctx};
 use crate::util::mesh_input_format;
 use anyhow::{anyhow, bail, Context};
 use glam::DVec3;
@@ -116,6 +116,32 @@ pub struct CoarsenerArgs {
     /// non-manifold vertices, re-orient) and report what changed.
     #[arg(long, help_heading = "Coarsener")]
     pub repair: bool,
+}
+
+/// The placement (`default` unless `--placement` is given) and the smoothing
+/// it allows: `subset` never moves a vertex, so `--smoothing local|global`
+/// with it is a usage error (exit code 2).
+pub fn placement_and_smoothing(
+    args: &CoarsenerArgs,
+    default: Placement,
+) -> anyhow::Result<(Placement, Smoothing)> {
+    let placement = args.placement.map_or(default, Placement::from);
+    let smoothing = match (placement, args.smoothing) {
+        (Placement::Subset, Some(s @ (SmoothingArg::Local | SmoothingArg::Global))) => {
+            let name = if s == SmoothingArg::Local {
+                "local"
+            } else {
+                "global"
+            };
+            return Err(usage(format!(
+                "--smoothing {name} moves vertices, which --placement subset never does \
+                 (use --placement qem, or leave --smoothing out)"
+            )));
+        }
+        (Placement::Subset, _) => Smoothing::None,
+        (Placement::Qem, s) => s.unwrap_or(SmoothingArg::Global).into(),
+    };
+    Ok((placement, smoothing))
 }
 
 /// Name of the vertex properties used to carry user attributes through the split.
@@ -262,20 +288,7 @@ pub fn prepare(
         polylines.len()
     ));
     let quad_faces = mesh.face_count();
-    let placement = args.placement.map_or(opts.placement, Placement::from);
-    let smoothing = match (placement, args.smoothing) {
-        (Placement::Subset, Some(s @ (SmoothingArg::Local | SmoothingArg::Global))) => bail!(
-            "--smoothing {} moves vertices, which --placement subset never does \
-             (use --placement qem, or leave --smoothing out)",
-            if s == SmoothingArg::Local {
-                "local"
-            } else {
-                "global"
-            }
-        ),
-        (Placement::Subset, _) => Smoothing::None,
-        (Placement::Qem, s) => s.unwrap_or(SmoothingArg::Global).into(),
-    };
+    let (placement, smoothing) = placement_and_smoothing(args, opts.placement)?;
     let opts = CoarsenOptions {
         smoothing,
         placement,

@@ -888,3 +888,49 @@ fn encode_without_vertex_order_is_smaller_and_the_same_mesh_up_to_renumbering() 
         "the two full levels differ beyond vertex numbering"
     );
 }
+
+#[test]
+fn smoothing_with_subset_placement_is_a_usage_error() {
+    let d = TempDir::new().unwrap();
+    let out = d.path().join("x.pqm");
+    let mesh_out = d.path().join("x.obj");
+    for args in [
+        vec!["encode", s(&spot()), "-o", s(&out), "--smoothing", "global"],
+        vec![
+            "coarsen",
+            s(&spot()),
+            "-o",
+            s(&mesh_out),
+            "--placement",
+            "subset",
+            "--smoothing",
+            "local",
+        ],
+    ] {
+        pqm()
+            .args(&args)
+            .assert()
+            .code(2)
+            .stderr(predicate::str::contains("--placement subset never does"));
+    }
+    assert!(
+        !out.exists() && !mesh_out.exists(),
+        "nothing written on a usage error"
+    );
+    // the same smoothing with the paper's placement is fine
+    pqm()
+        .args([
+            "-q",
+            "encode",
+            s(&spot()),
+            "-o",
+            s(&out),
+            "--placement",
+            "qem",
+            "--smoothing",
+            "global",
+        ])
+        .assert()
+        .success();
+    assert!(out.exists());
+}

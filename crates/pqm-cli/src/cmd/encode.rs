@@ -2,7 +2,7 @@
 
 use crate::cmd::coarsen::{run_with_bar, stop_code, target_faces, Operators};
 use crate::ctx::{usage, Ctx};
-use crate::pipeline::{prepare, CoarsenerArgs};
+use crate::pipeline::{placement_and_smoothing, prepare, CoarsenerArgs};
 use crate::util::{human_bytes, in_dir_with_ext, parse_nonneg, parse_ratio, write_atomic};
 use anyhow::Context;
 use pqm_core::coarsen::{CoarsenOptions, Placement};
@@ -110,6 +110,8 @@ struct Report {
 
 /// Runs the command.
 pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
+    // a usage conflict is reported once, before any input is read
+    placement_and_smoothing(&args.coarsener, Placement::Subset)?;
     let outputs = output_paths(args)?;
     if let Some(dir) = &args.out_dir {
         std::fs::create_dir_all(dir)
