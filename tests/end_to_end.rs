@@ -90,3 +90,40 @@ fn every_level_of_real_meshes_decodes_exactly() {
         }
     }
 }
+
+/// A chunk that closes because of its size ends on a step boundary: after an
+/// operator's record, never between a step's doublet re-insertions and its
+/// operator (those levels can hold folded quads), unless a doublet run
+/// outgrows twice the chunk size.
+#[test]
+fn size_triggered_chunks_end_between_steps() {
+    let src = shapes::noisy(&shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.3, 5), 0.01, 3);
+    let pm = coarsen(&src, 150);
+    let doublets = pm
+        .records
+        .iter()
+        .filter(|r| r.op == pqm::core::OpKind::Doublet)
+        .count();
+    assert!(doublets > 20, "the test needs doublet records: {doublets}");
+    let opts = EncodeOptions {
+        chunk_bytes: 256,
+        ..EncodeOptions::default()
+    };
+    let (bytes, _) = write_to_vec(&pm, &opts).unwrap();
+    let dec = decode_all(&bytes, Limits::default()).unwrap();
+    let chunks = dec.chunks();
+    assert!(chunks.len() > 10, "want many chunks: {}", chunks.len());
+    let mut end = 0usize;
+    for (i, c) in chunks.iter().enumerate() {
+        end += c.record_count as usize;
+        if i + 1 < chunks.len() {
+            assert_ne!(
+                pm.records[end - 1].op,
+                pqm::core::OpKind::Doublet,
+                "chunk {i} ends inside a step (record {})",
+                end - 1
+            );
+        }
+    }
+    assert_eq!(end, pm.records.len());
+}

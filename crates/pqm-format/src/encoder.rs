@@ -27,7 +27,9 @@ pub struct EncodeOptions {
     /// Close a chunk after this many records (`None`: only `chunk_bytes` decides).
     pub chunk_records: Option<usize>,
     /// Close a chunk once its uncompressed payload reaches this many bytes
-    /// (default 16 KiB: a few thousand splits, so a client can stop often).
+    /// (default 16 KiB: a few thousand splits, so a client can stop often),
+    /// at the next step boundary (after a record that is not a doublet
+    /// re-insertion; at most twice this size).
     pub chunk_bytes: usize,
     /// zstd compression level, 1..=22 (default 19).
     pub zstd_level: i32,
@@ -344,7 +346,15 @@ pub fn write(
         state.apply(&q);
         in_chunk += 1;
         let size: usize = streams.iter().map(|s| s.len()).sum();
-        if opts.chunk_records.is_some_and(|n| in_chunk as usize >= n) || size >= opts.chunk_bytes {
+        // A coarsening step is logged as its doublet removals' records and
+        // then its operator's (refinement order): a size-triggered chunk
+        // ends after a record that is not a doublet re-insertion, so a
+        // client stopping at a chunk never shows the doublets in the middle
+        // of a step (their quads can fold); a run of doublets longer than
+        // the chunk (the input's own doublets) closes at twice the size.
+        let ends_step = rec.op != pqm_core::OpKind::Doublet;
+        let by_size = size >= opts.chunk_bytes && (ends_step || size >= 2 * opts.chunk_bytes);
+        if opts.chunk_records.is_some_and(|n| in_chunk as usize >= n) || by_size {
             close(
                 &mut streams,
                 &mut op_raw,
