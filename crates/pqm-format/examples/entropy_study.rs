@@ -510,23 +510,7 @@ fn study(f: &str) -> Result<(), String> {
     let mut pred_count = [0usize; 3];
 
     for (k, rec) in pm.records.iter().enumerate() {
-        let mut moved: Vec<(u32, [u32; 3])> = rec
-            .moved
-            .iter()
-            .map(|(v, p)| (*v, quant.quantize(*p)))
-            .collect();
-        moved.sort_unstable_by_key(|m| m.0);
-        let r = QRecord {
-            op: rec.op,
-            new_pos: rec
-                .new_vertices
-                .iter()
-                .map(|p| quant.quantize(*p))
-                .collect(),
-            moved,
-            rewritten: rec.rewritten.clone(),
-            appended: rec.appended_faces.clone(),
-        };
+        let r = QRecord::quantized(rec, &quant);
         let mut s: [Vec<u8>; 5] = Default::default();
         let cur_before = cur.vref;
         codec::encode_record(&st, &r, &mut cur, &mut s, coding);

@@ -622,23 +622,7 @@ fn study(f: &str) -> Result<(), String> {
     // Deviations from the canonical rule (identity / rotation 0).
     let (mut dev_v, mut dev_f, mut dev_rf, mut dev_ra, mut n_fan) = (0, 0, 0, 0, 0);
     for rec in &pm.records {
-        let mut moved: Vec<(u32, [u32; 3])> = rec
-            .moved
-            .iter()
-            .map(|(v, p)| (*v, quant.quantize(*p)))
-            .collect();
-        moved.sort_unstable_by_key(|m| m.0);
-        let r = QRecord {
-            op: rec.op,
-            new_pos: rec
-                .new_vertices
-                .iter()
-                .map(|p| quant.quantize(*p))
-                .collect(),
-            moved,
-            rewritten: rec.rewritten.clone(),
-            appended: rec.appended_faces.clone(),
-        };
+        let r = QRecord::quantized(rec, &quant);
         n_new_all += r.new_pos.len();
         let mut s: [Vec<u8>; 5] = Default::default();
         let cursor = cur.vref;

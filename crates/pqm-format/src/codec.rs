@@ -49,6 +49,30 @@ pub struct QRecord {
     pub appended: Vec<[u32; 4]>,
 }
 
+impl QRecord {
+    /// The coarsener's record on the quantization grid: positions quantized,
+    /// moved vertices sorted by id (the form every coding reads).
+    pub fn quantized(rec: &pqm_core::SplitRecord, quant: &crate::quant::Quantizer) -> Self {
+        let mut moved: Vec<(u32, [u32; 3])> = rec
+            .moved
+            .iter()
+            .map(|(v, p)| (*v, quant.quantize(*p)))
+            .collect();
+        moved.sort_unstable_by_key(|m| m.0);
+        QRecord {
+            op: rec.op,
+            new_pos: rec
+                .new_vertices
+                .iter()
+                .map(|p| quant.quantize(*p))
+                .collect(),
+            moved,
+            rewritten: rec.rewritten.clone(),
+            appended: rec.appended_faces.clone(),
+        }
+    }
+}
+
 impl Default for QRecord {
     /// An empty record (a buffer for [`decode_record_into`]).
     fn default() -> Self {

@@ -314,15 +314,7 @@ pub fn write(
     };
 
     for (k, rec) in mesh.records.iter().enumerate() {
-        let mut moved: Vec<(u32, [u32; 3])> = rec.moved.iter().map(|(v, p)| (*v, qp(p))).collect();
-        moved.sort_unstable_by_key(|m| m.0);
-        let q = QRecord {
-            op: rec.op,
-            new_pos: rec.new_vertices.iter().map(qp).collect(),
-            moved,
-            rewritten: rec.rewritten.clone(),
-            appended: rec.appended_faces.clone(),
-        };
+        let q = QRecord::quantized(rec, &quant);
         let before = [0, 1, 2, 3, 4].map(|t| streams[t].len());
         let form = codec::encode_record(&state, &q, &mut cursors, &mut streams, coding);
         match form {
