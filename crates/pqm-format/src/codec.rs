@@ -1182,8 +1182,9 @@ fn decode_edge_split(
             .push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
     }
     crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
-    // One pass lists the record quads of all four new vertices (four
-    // scans of the ~11 record quads cost more).
+    // One pass lists the record quads of all four new vertices, instead of
+    // a scan of the record per vertex (measured: the same speed on loki;
+    // linear in the record for any input).
     sc.nf.build(r, v0, 4);
     for t in 0..4 {
         let pred = predict(st, r, v0, v0 + t, major, &sc.nf);

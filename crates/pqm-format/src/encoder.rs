@@ -6,7 +6,8 @@
 //! ever shows; quantize everything on that one grid; run the decoder's
 //! [`MeshState`] alongside and code each record in the split form when that
 //! reproduces it exactly, else in the face-split form likewise (version 2),
-//! else in the edge-split form likewise (version 3), else in the local form when its changes lie around one vertex (nearly
+//! else in the edge-split form likewise (version 3), else in the local
+//! form when its changes lie around one vertex (nearly
 //! every other coarsener record), else in the general form; cut
 //! chunks by record count or payload size; compress each chunk as an
 //! independent zstd frame.
@@ -43,7 +44,7 @@ pub struct EncodeOptions {
     /// form (default true).
     pub local_form: bool,
     /// Use the face-split form (spec §7.9) where it applies (default true;
-    /// version 2 only).
+    /// version 2 and later).
     pub face_split_form: bool,
     /// Use the edge-split form (spec §7.10) where it applies (default true;
     /// version 3 only).

@@ -98,8 +98,9 @@ pub fn add_face_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
 /// takes the explicit record the edge-split form's own builder makes
 /// (attempts that do not fit are skipped). New vertices sit 30 % of the
 /// way from their endpoint to the centroid of their sector's link
-/// vertices. Deterministic in `seed`; independent of the coarsener, so the
-/// vectors stay fixed when it changes.
+/// vertices. Every level stays a closed, oriented manifold (it may hold
+/// doublets: two faces sharing two edges). Deterministic in `seed`;
+/// independent of the coarsener, so the vectors stay fixed when it changes.
 pub fn add_edge_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
     use crate::codec::{MeshState, QRecord};
     use crate::edge_split::{anchor_star, build, stars, Scratch};

@@ -267,3 +267,31 @@ fn coarsener_qe_merges_use_the_edge_split_form_and_decode_exactly() {
         assert_eq!(dec.position_codes(), &want[..], "level {k}");
     }
 }
+
+/// The generator of the edge-split vector and proptests
+/// (`vectors::add_edge_splits`: random fields on random interior edges)
+/// keeps every level a closed, oriented, manifold quad mesh — the fields
+/// may be anything in range, the result is always a valid refinement
+/// (`validate_structure`: unconstrained fields can make two faces share two
+/// edges, a doublet, which the coarsener would not leave but the format
+/// does not care about).
+#[test]
+fn random_edge_splits_keep_the_mesh_valid() {
+    use pqm_core::progressive::testgen::{generate_with, BaseShape, GenOptions};
+    for seed in 0..6 {
+        let mut pm = generate_with(&GenOptions {
+            base: BaseShape::Box { n: 2 },
+            ..GenOptions::new(seed, 10)
+        });
+        let before = pm.records.len();
+        vectors::add_edge_splits(&mut pm, 25, seed);
+        assert_eq!(pm.records.len(), before + 25);
+        pm.validate().unwrap();
+        for k in before..=pm.records.len() {
+            let m = Mesh::from_indexed(&pm.level(k)).unwrap();
+            m.validate_structure()
+                .unwrap_or_else(|e| panic!("seed {seed} level {k}: {e:?}"));
+            assert_eq!(m.genus(), 0);
+        }
+    }
+}
