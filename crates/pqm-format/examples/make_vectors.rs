@@ -22,7 +22,7 @@ fn main() {
             .expect("write obj");
         }
         println!(
-            "{}: {} bytes, levels {:?}, records per form (general, split, local, face split) {:?}",
+            "{}: {} bytes, levels {:?}, records per form (general, split, local, face split, edge split) {:?}",
             v.name,
             v.bytes.len(),
             v.levels,

@@ -4,10 +4,10 @@
 //! new / moved / rewritten / appended counts, and the compressed bits per
 //! refined vertex each stream takes.
 //!
-//! `cargo run --release -p pqm-format --example streams -- [--v1] [--no-local] [--no-face-split] FILE.pqm...`
+//! `cargo run --release -p pqm-format --example streams -- [--v1|--v2] [--no-local] [--no-face-split] FILE.pqm...`
 //! (write the files with `pqm encode`; re-encoding skips the coarsener;
-//! `--v1` re-encodes as version 1.1 — version-1 prediction, no face-split
-//! form; `--no-local` without the local form, as version 1.0 did;
+//! `--v2` re-encodes as version 2.0 — no edge-split form; `--v1` as
+//! version 1.1 — version-1 prediction, no face-split form; `--no-local` without the local form, as version 1.0 did;
 //! `--no-face-split` without the face-split form; `--write` also saves the
 //! re-encoded file beside the input as `NAME.reencoded.pqm`).
 
@@ -20,7 +20,13 @@ fn main() {
     let flag = |name: &str| files.iter().any(|f| f == name);
     let local_form = !flag("--no-local");
     let face_split_form = !flag("--no-face-split");
-    let version_major = if flag("--v1") { 1 } else { 2 };
+    let version_major = if flag("--v1") {
+        1
+    } else if flag("--v2") {
+        2
+    } else {
+        3
+    };
     let write = flag("--write");
     files.retain(|f| !f.starts_with("--"));
     if files.is_empty() {
@@ -79,7 +85,7 @@ fn main() {
             r.bits_per_vertex.total,
             r.file_bits_per_vertex
         );
-        println!("| op | records | forms g/s/l/f | avg new | avg moved | avg rewritten | avg appended | ops | conn | refs | slots | pos | total (bits/refined vertex) |");
+        println!("| op | records | forms g/s/l/f/e | avg new | avg moved | avg rewritten | avg appended | ops | conn | refs | slots | pos | total (bits/refined vertex) |");
         println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
         let mut tot = [0f64; 5];
         for (o, s) in r.per_op.iter().enumerate() {
@@ -92,13 +98,14 @@ fn main() {
                 tot[t] += b[t];
             }
             println!(
-                "| {} | {} | {}/{}/{}/{} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+                "| {} | {} | {}/{}/{}/{}/{} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
                 OPS[o],
                 s.records,
                 s.forms[0],
                 s.forms[1],
                 s.forms[2],
                 s.forms[3],
+                s.forms[4],
                 s.new as f64 / k,
                 s.moved as f64 / k,
                 s.rewritten as f64 / k,

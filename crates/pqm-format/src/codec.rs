@@ -974,6 +974,10 @@ pub struct DecodeScratch {
     nf: NewFaces,
     /// Star of the current split-form vertex.
     star: Star,
+    /// Stars and lists of the edge-split form.
+    edge: crate::edge_split::Scratch,
+    /// Fan rotations of the current edge-split record.
+    rots: Vec<u8>,
 }
 
 impl DecodeScratch {
@@ -1034,7 +1038,20 @@ pub fn decode_record_into(
     let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
     let op = OpKind::from_code(sym & 3).ok_or("bad op")?;
-    let form = (sym >> 2) & 3;
+    let mut form = (sym >> 2) & 3;
+    if form == 0 && sym >> 4 != 0 {
+        // Bits 2-3 = 0: bits 4-7 select the general (0) or edge-split (1)
+        // form (spec §7.3).
+        if sym >> 4 != 1 {
+            return Err(format!("symbol {sym:#04x}: unknown record form"));
+        }
+        if major < 3 {
+            return Err(format!(
+                "record form 4 (edge split) in a version {major} file (symbol {sym:#04x}; version 3 only)"
+            ));
+        }
+        form = 4;
+    }
     let rot = ((sym >> 4) & 3) as usize;
     let moved_flag = sym & 0x40 != 0;
     let reflect_c = sym & 0x80 != 0;
@@ -1044,6 +1061,7 @@ pub fn decode_record_into(
     r.rewritten.clear();
     r.appended.clear();
     match form {
+        4 => decode_edge_split(st, rd, cur, max_v, max_f, major, r, sc)?,
         0 | 2 => {
             if sym & 0xf0 != 0 {
                 return Err(format!(
@@ -1117,6 +1135,61 @@ pub fn decode_record_into(
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
         }
+    }
+    Ok(())
+}
+
+/// Decodes an edge-split record (spec §7.10) after its symbol.
+#[allow(clippy::too_many_arguments)]
+fn decode_edge_split(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
+    if v0 as u64 + 4 > max_v as u64 || f0 as u64 + 4 > max_f as u64 {
+        return Err("edge split exceeds the final vertex or face count".into());
+    }
+    let a = vref(cur.vref, rd[REFS].s()?, v0, "edge split")?;
+    cur.vref = a;
+    // The anchor's star first: `r` is bounded by its size.
+    let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
+    let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
+    let (ends, rho) = crate::edge_split::stars(st, a, link, &mut sc.edge)?;
+    let (mut n1, mut m) = ([0usize; 2], [0usize; 2]);
+    for x in 0..2 {
+        let k = sc.edge.stars[x].faces.len() as u64;
+        if k < 3 {
+            return Err(format!(
+                "edge split: endpoint {} has {k} faces (needs at least 3)",
+                ends[x]
+            ));
+        }
+        n1[x] = rd[CONN].u_max(k - 3, "edge-split first sector")? as usize;
+        m[x] = 1 + rd[CONN].u_max(k - 3 - n1[x] as u64, "edge-split fan length")? as usize;
+    }
+    let p = rd[CONN].u_max(crate::edge_split::MAX_P, "edge-split permutations")? as usize;
+    let ra = rd[CONN].u_max(255, "edge-split appended rotations")? as u8;
+    sc.rots.clear();
+    for _ in 0..m[0] + m[1] {
+        sc.rots
+            .push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
+    }
+    crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
+    for t in 0..4 {
+        let x = v0 + t;
+        let pred = predict_scan(st, r, v0, x, major).unwrap_or_else(|| {
+            sc.nf.build(r, v0, 4);
+            predict(st, r, v0, x, major, &sc.nf)
+        });
+        let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+        r.new_pos.push(p);
     }
     Ok(())
 }
@@ -1454,16 +1527,19 @@ pub struct Coding {
     pub face_split: bool,
     /// Try the local form (§7.7).
     pub local: bool,
+    /// Try the edge-split form (§7.10; ignored when `major < 3`).
+    pub edge_split: bool,
 }
 
 impl Default for Coding {
-    /// Version 2, every form.
+    /// Version 3, every form.
     fn default() -> Self {
         Coding {
-            major: 2,
+            major: 3,
             split: true,
             face_split: true,
             local: true,
+            edge_split: true,
         }
     }
 }
@@ -1524,8 +1600,10 @@ fn zigzag(v: i64) -> u64 {
 /// `coding`. Uses the split form when allowed and it reproduces `r`
 /// exactly; else the face-split form likewise; else, when allowed, the
 /// local form (spec §7.7) with the anchor that writes the fewest bytes, if
-/// that is no larger than the general form. Returns the form used (spec
-/// §7.3: 0 general, 1 split, 2 local, 3 face split).
+/// that is no larger than the general form. The edge-split form (version 3)
+/// is tried after the face split and before the local form. Returns the
+/// form used (spec §7.3: 0 general, 1 split, 2 local, 3 face split, 4 edge
+/// split).
 pub fn encode_record(
     st: &MeshState,
     r: &QRecord,
@@ -1590,6 +1668,33 @@ pub fn encode_record(
                 r.new_pos[0],
             );
             return 3;
+        }
+    }
+    if coding.edge_split && major >= 3 {
+        let mut sc = crate::edge_split::Scratch::default();
+        if let Some(e) = crate::edge_split::derive(st, r, cur.vref, &mut sc) {
+            s[OPS].push(op | 0x10);
+            put_s(&mut s[REFS], e.a as i64 - cur.vref as i64);
+            cur.vref = e.a;
+            put_u(&mut s[CONN], e.r as u64);
+            for x in 0..2 {
+                put_u(&mut s[CONN], e.n1[x] as u64);
+                put_u(&mut s[CONN], e.m[x] as u64 - 1);
+            }
+            put_u(&mut s[CONN], e.p as u64);
+            put_u(&mut s[CONN], e.ra as u64);
+            for &t in &e.rots {
+                put_u(&mut s[CONN], t as u64);
+            }
+            let mut partial = r.clone();
+            partial.new_pos.clear();
+            nf.build(&partial, v0, 4);
+            for t in 0..4 {
+                let pred = predict(st, &partial, v0, v0 + t as u32, major, &nf);
+                put_residual(&mut s[POS], pred, r.new_pos[t]);
+                partial.new_pos.push(r.new_pos[t]);
+            }
+            return 4;
         }
     }
     if coding.local {

@@ -6,7 +6,7 @@
 //! ever shows; quantize everything on that one grid; run the decoder's
 //! [`MeshState`] alongside and code each record in the split form when that
 //! reproduces it exactly, else in the face-split form likewise (version 2),
-//! else in the local form when its changes lie around one vertex (nearly
+//! else in the edge-split form likewise (version 3), else in the local form when its changes lie around one vertex (nearly
 //! every other coarsener record), else in the general form; cut
 //! chunks by record count or payload size; compress each chunk as an
 //! independent zstd frame.
@@ -45,7 +45,11 @@ pub struct EncodeOptions {
     /// Use the face-split form (spec §7.9) where it applies (default true;
     /// version 2 only).
     pub face_split_form: bool,
-    /// Major version to write (default 2): 1 writes a 1.1 file with the
+    /// Use the edge-split form (spec §7.10) where it applies (default true;
+    /// version 3 only).
+    pub edge_split_form: bool,
+    /// Major version to write (default 3): 2 writes a 2.0 file (no
+    /// edge-split form) for readers that predate 3.0; 1 a 1.1 file with the
     /// version-1 prediction and no face-split form, for readers that
     /// predate 2.0 and to keep testing the 1.x rules.
     pub version_major: u16,
@@ -64,6 +68,7 @@ impl Default for EncodeOptions {
             split_form: true,
             local_form: true,
             face_split_form: true,
+            edge_split_form: true,
             version_major: VERSION_MAJOR,
             vertex_order: true,
         }
@@ -106,6 +111,8 @@ pub struct EncodeReport {
     pub local_records: usize,
     /// Records coded in the face-split form.
     pub face_split_records: usize,
+    /// Records coded in the edge-split form.
+    pub edge_split_records: usize,
     /// Uncompressed bytes per stream (ops, conn, refs, slots, pos), all chunks.
     pub stream_raw_bytes: [u64; 5],
     /// Compressed chunk bytes attributed to each stream: every stream is also
@@ -129,7 +136,7 @@ pub struct OpStats {
     /// Records of this kind.
     pub records: usize,
     /// Of them, coded in each form (index = form number, spec §7.3).
-    pub forms: [usize; 4],
+    pub forms: [usize; 5],
     /// Sums over the records of new vertices, moved vertices, rewritten
     /// slots and appended quads (divide by `records` for the average).
     pub new: u64,
@@ -192,6 +199,7 @@ pub fn write(
         split: opts.split_form,
         face_split: opts.face_split_form,
         local: opts.local_form,
+        edge_split: opts.edge_split_form,
     };
     if opts.chunk_records == Some(0) || opts.chunk_bytes == 0 {
         return Err(EncodeError::InvalidOptions(
@@ -321,7 +329,8 @@ pub fn write(
             0 => report.general_records += 1,
             1 => report.split_records += 1,
             2 => report.local_records += 1,
-            _ => report.face_split_records += 1,
+            3 => report.face_split_records += 1,
+            _ => report.edge_split_records += 1,
         }
         let st = &mut report.per_op[q.op as usize];
         st.records += 1;

@@ -6,7 +6,7 @@ use byteorder::{ByteOrder, LittleEndian as LE};
 /// newline-mangling transfers).
 pub const MAGIC: [u8; 8] = [0x89, b'P', b'Q', b'M', 0x0D, 0x0A, 0x1A, 0x0A];
 /// Major version this crate writes by default, and the newest it reads.
-pub const VERSION_MAJOR: u16 = 2;
+pub const VERSION_MAJOR: u16 = 3;
 /// Minor version this crate writes with [`VERSION_MAJOR`].
 pub const VERSION_MINOR: u16 = 0;
 /// Oldest major version this crate reads (and can write, for tests and old

@@ -46,6 +46,7 @@
 
 pub mod codec;
 pub mod decoder;
+pub mod edge_split;
 pub mod encoder;
 pub mod error;
 pub mod layout;

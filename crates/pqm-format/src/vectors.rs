@@ -15,8 +15,9 @@ pub struct Vector {
     pub bytes: Vec<u8>,
     /// Levels recorded in the JSON digest (and as OBJ files).
     pub levels: Vec<usize>,
-    /// Records per form: general, split, local, face split (spec §7.3).
-    pub forms: [usize; 4],
+    /// Records per form: general, split, local, face split, edge split
+    /// (spec §7.3).
+    pub forms: [usize; 5],
 }
 
 /// Rotates the rewritten quads of every record by `(record + slot) mod 4`
@@ -89,15 +90,125 @@ pub fn add_face_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
     }
 }
 
-/// Every vector, generated deterministically.
+/// Appends up to `n` random **edge splits** to `pm` as `QeMerge` records —
+/// the inverse of a qeMerge, the shape of spec §7.10: each picks a random
+/// interior vertex `A` of the finest level, a random link neighbour `D`
+/// (also interior), random first-sector and fan lengths per endpoint, a
+/// random new-vertex and appended-quad order and random rotations, and
+/// takes the explicit record the edge-split form's own builder makes
+/// (attempts that do not fit are skipped). New vertices sit 30 % of the
+/// way from their endpoint to the centroid of their sector's link
+/// vertices. Deterministic in `seed`; independent of the coarsener, so the
+/// vectors stay fixed when it changes.
+pub fn add_edge_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
+    use crate::codec::{MeshState, QRecord};
+    use crate::edge_split::{anchor_star, build, stars, Scratch};
+    let mut rng = Rng(seed ^ 0xED6E_5B11_7000_0004);
+    let (mut pos, quads) = pm.level_quads(pm.records.len());
+    if quads.is_empty() {
+        return;
+    }
+    // Only connectivity matters to the builder: zero codes.
+    let mut st = MeshState::new(1, vec![[0; 3]; pos.len()], quads);
+    let mut sc = Scratch::default();
+    let mut out = QRecord::default();
+    let mut done = 0;
+    for _ in 0..50 * n {
+        if done == n {
+            break;
+        }
+        let a = rng.below(pos.len()) as u32;
+        if anchor_star(&st, a, &mut sc).is_err() {
+            continue;
+        }
+        let r = rng.below(sc.stars[0].faces.len());
+        let Ok((ends, rho)) = stars(&st, a, r, &mut sc) else {
+            continue;
+        };
+        let (mut n1, mut m) = ([0; 2], [0; 2]);
+        let mut fits = true;
+        for x in 0..2 {
+            let k = sc.stars[x].faces.len();
+            if k < 3 {
+                fits = false;
+                break;
+            }
+            n1[x] = rng.below(k - 2);
+            m[x] = 1 + rng.below(k - 2 - n1[x]);
+        }
+        if !fits {
+            continue;
+        }
+        let p = rng.below(576);
+        let ra = rng.below(256) as u8;
+        let rots: Vec<u8> = (0..m[0] + m[1]).map(|_| rng.below(4) as u8).collect();
+        // New vertex positions, canonical order U_0..U_3, before π_v.
+        let mut canon_pos = [glam::DVec3::ZERO; 4];
+        for x in 0..2 {
+            let s = &sc.stars[x];
+            let k = s.faces.len();
+            let xp = pos[ends[x] as usize];
+            for (half, range) in [(0, 0..n1[x] + 1), (1, n1[x] + m[x] + 1..k)] {
+                let len = range.len() as f64;
+                let c = range
+                    .map(|i| pos[s.link[(rho[x] + i) % k] as usize])
+                    .sum::<glam::DVec3>()
+                    / len;
+                canon_pos[2 * x + half] = xp.lerp(c, 0.3);
+            }
+        }
+        if build(&st, ends, rho, n1, m, p, ra, &rots, &mut sc, &mut out).is_err() {
+            continue;
+        }
+        let pv = crate::edge_split::PERMS[p / 24];
+        let mut new = [glam::DVec3::ZERO; 4];
+        for i in 0..4 {
+            new[pv[i] as usize] = canon_pos[i];
+        }
+        out.new_pos = vec![[0; 3]; 4];
+        st.apply(&out);
+        let v0 = pos.len() as u32;
+        pos.extend_from_slice(&new);
+        pm.records.push(SplitRecord {
+            op: OpKind::QeMerge,
+            new_vertices: new.to_vec(),
+            moved: Vec::new(),
+            rewritten: out.rewritten.clone(),
+            appended_faces: out.appended.clone(),
+        });
+        if !pm.vertex_order.is_empty() {
+            pm.vertex_order.extend(v0..v0 + 4);
+        }
+        if let Some(&last) = pm.level_error.last() {
+            pm.level_error.push(last);
+        }
+        done += 1;
+    }
+}
+
+/// Every vector, generated deterministically. All but `edge_split` are
+/// written as 2.0 (a 3.0 file without edge splits differs only in its
+/// version field), so they keep their bytes and 2.0 readers keep reading
+/// them; `edge_split` is the 3.0 vector.
 pub fn all() -> Vec<Vector> {
     let make = |name, gen: GenOptions, opts: EncodeOptions| {
+        let opts = EncodeOptions {
+            version_major: if name == "edge_split" {
+                opts.version_major
+            } else {
+                opts.version_major.min(2)
+            },
+            ..opts
+        };
         let mut pm = generate_with(&gen);
         if name == "local_form" {
             rotate_rewritten(&mut pm);
         }
         if name == "face_split" {
             add_face_splits(&mut pm, 60, 6);
+        }
+        if name == "edge_split" {
+            add_edge_splits(&mut pm, 30, 7);
         }
         let n = pm.records.len();
         let (bytes, r) = write_to_vec(&pm, &opts).expect("vector encodes");
@@ -110,6 +221,7 @@ pub fn all() -> Vec<Vector> {
                 r.split_records,
                 r.local_records,
                 r.face_split_records,
+                r.edge_split_records,
             ],
         }
     };
@@ -186,6 +298,20 @@ pub fn all() -> Vec<Vector> {
             },
             EncodeOptions {
                 chunk_records: Some(15),
+                ..EncodeOptions::default()
+            },
+        ),
+        // Edge splits (spec §7.10, version 3) after a few vertex splits:
+        // random orders and rotations, so every field of the form varies.
+        make(
+            "edge_split",
+            GenOptions {
+                base: BaseShape::Box { n: 2 },
+                vertex_order: false,
+                ..GenOptions::new(7, 20)
+            },
+            EncodeOptions {
+                chunk_records: Some(10),
                 ..EncodeOptions::default()
             },
         ),

@@ -110,7 +110,8 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
         1i32..20,
         any::<bool>(),
         any::<bool>(),
-        1u16..=2,
+        1u16..=3,
+        any::<bool>(),
     )
         .prop_map(
             |(
@@ -122,6 +123,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
                 local_form,
                 face_split_form,
                 version_major,
+                edge_split_form,
             )| {
                 EncodeOptions {
                     bits,
@@ -131,6 +133,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
                     split_form,
                     local_form,
                     face_split_form,
+                    edge_split_form,
                     version_major,
                     ..EncodeOptions::default()
                 }
@@ -149,13 +152,24 @@ proptest! {
         sizes in prop::collection::vec(1usize..300, 1..8),
         rotate in any::<bool>(),
         face_splits in 0usize..40,
+        edge_splits in 0usize..12,
     ) {
         let mut pm = testgen::generate(seed, splits);
         if rotate {
             pqm_format::vectors::rotate_rewritten(&mut pm);
         }
         pqm_format::vectors::add_face_splits(&mut pm, face_splits, seed);
+        pqm_format::vectors::add_edge_splits(&mut pm, edge_splits, seed);
         let (bytes, report) = write_to_vec(&pm, &opts).unwrap();
+        // Every edge split (the only records with 4 new vertices here) is
+        // coded in the edge-split form whenever the options allow it (no
+        // earlier form applies to 4 new vertices); never below version 3.
+        let edge = pm.records.iter().filter(|r| is_edge_split(r)).count();
+        if opts.edge_split_form && opts.version_major >= 3 {
+            prop_assert_eq!(report.edge_split_records, edge);
+        } else {
+            prop_assert_eq!(report.edge_split_records, 0);
+        }
         // Every pure face split (the only `Doublet` records here) is coded
         // in the face-split form whenever the options allow it and the
         // split form (tried first, spec §7.9) does not apply; never in a
@@ -188,10 +202,11 @@ proptest! {
         walk in prop::collection::vec(0usize..200, 1..12),
         split_form in any::<bool>(),
         local_form in any::<bool>(),
-        version_major in 1u16..=2,
+        version_major in 1u16..=3,
     ) {
         let mut pm = testgen::generate(seed, 120);
         pqm_format::vectors::add_face_splits(&mut pm, 30, seed);
+        pqm_format::vectors::add_edge_splits(&mut pm, 10, seed);
         let opts = EncodeOptions { chunk_records: Some(17), split_form, local_form, version_major, ..EncodeOptions::default() };
         let bytes = encode(&pm, &opts);
         let mut dec = decode_all(&bytes, Limits::default()).unwrap();
@@ -303,7 +318,25 @@ fn every_prefix_yields_the_deepest_complete_level() {
     };
     let (_, r) = write_to_vec(&pm, &opts).unwrap();
     assert!(r.face_split_records >= 15, "{r:?}");
+    check_every_prefix(&pm, &opts); // Again with edge splits (form 4) after the vertex splits.
+    let mut pm = testgen::generate_with(&GenOptions {
+        base: BaseShape::Box { n: 2 },
+        ..GenOptions::new(14, 10)
+    });
+    pqm_format::vectors::add_edge_splits(&mut pm, 12, 14);
+    let opts = EncodeOptions {
+        chunk_records: Some(5),
+        ..EncodeOptions::default()
+    };
+    let (_, r) = write_to_vec(&pm, &opts).unwrap();
+    assert_eq!(r.edge_split_records, 12, "{r:?}");
     check_every_prefix(&pm, &opts);
+}
+
+/// Whether `r` came from `vectors::add_edge_splits` (the generator's other
+/// records have at most 2 new vertices).
+fn is_edge_split(r: &pqm_core::SplitRecord) -> bool {
+    r.new_vertices.len() == 4 && r.appended_faces.len() == 4 && r.moved.is_empty()
 }
 
 /// Whether `r` is exactly the inverse of a doublet removal (spec §7.9): one
@@ -445,9 +478,9 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
 
     // Newer major: clear error.
     let mut b = bytes.clone();
-    patch_header(&mut b, |h| h[8..10].copy_from_slice(&3u16.to_le_bytes()));
+    patch_header(&mut b, |h| h[8..10].copy_from_slice(&4u16.to_le_bytes()));
     match Decoder::new(Limits::default()).push(&b) {
-        Err(DecodeError::Format(FormatError::UnsupportedVersion { major: 3, .. })) => {}
+        Err(DecodeError::Format(FormatError::UnsupportedVersion { major: 4, .. })) => {}
         other => panic!("{other:?}"),
     }
     // Major 0 does not exist.
@@ -460,9 +493,23 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
             ..
         }))
     ));
-    // The writer writes 2.0 by default and 1.1 on request; both read back
-    // to the same levels.
-    assert_eq!(&bytes[8..12], &[2, 0, 0, 0]);
+    // The writer writes 3.0 by default and 2.0 or 1.1 on request; all read
+    // back to the same levels.
+    assert_eq!(&bytes[8..12], &[3, 0, 0, 0]);
+    let v2 = encode(
+        &pm,
+        &EncodeOptions {
+            version_major: 2,
+            ..EncodeOptions::default()
+        },
+    );
+    assert_eq!(&v2[8..12], &[2, 0, 0, 0]);
+    let mut d = decode_all(&v2, Limits::default()).unwrap();
+    d.set_level(Target::Level(usize::MAX)).unwrap();
+    let mut d3 = decode_all(&bytes, Limits::default()).unwrap();
+    d3.set_level(Target::Level(usize::MAX)).unwrap();
+    assert_eq!(d.quads(), d3.quads());
+    assert_eq!(d.position_codes(), d3.position_codes());
     let v1 = encode(
         &pm,
         &EncodeOptions {
@@ -480,7 +527,7 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
     assert!(write_to_vec(
         &pm,
         &EncodeOptions {
-            version_major: 3,
+            version_major: 4,
             ..EncodeOptions::default()
         }
     )
@@ -1066,7 +1113,7 @@ fn bad_record_errors_name_the_record() {
 }
 
 /// Chunk `c` of `bytes` with the symbol of its record `k` made invalid
-/// (general form with a split-form bit set), re-CRC'd: records before `k`
+/// (form bits 0 with bits 4–7 = 2: no form, spec §7.3), re-CRC'd: records before `k`
 /// decode, record `k` fails.
 fn break_record(bytes: &[u8], c: usize, k: usize) -> Vec<u8> {
     use pqm_format::codec::{join_streams, split_streams};
@@ -1074,7 +1121,7 @@ fn break_record(bytes: &[u8], c: usize, k: usize) -> Vec<u8> {
         let mut s: [Vec<u8>; 5] = split_streams(p)
             .unwrap()
             .map(|mut r| r.bytes(r.remaining()).unwrap().to_vec());
-        s[0][k] = 0x10;
+        s[0][k] = 0x20;
         *p = join_streams(&s);
     })
 }
@@ -1098,7 +1145,7 @@ fn a_failing_record_discards_its_whole_chunk() {
                 message,
             })) => {
                 assert_eq!((c as usize, r as usize), (chunk, level + record));
-                assert!(message.contains("split-form bits"), "{message}");
+                assert!(message.contains("unknown record form"), "{message}");
             }
             other => panic!("{other:?}"),
         }
@@ -1318,10 +1365,17 @@ proptest! {
     fn random_record_streams_never_panic(
         seed in 0u64..50,
         streams in prop::collection::vec(prop::collection::vec(any::<u8>(), 0..48), 5),
-        major in 1u16..=2,
+        major in 1u16..=3,
+        edge_symbol in any::<bool>(),
     ) {
         use pqm_format::codec::{decode_record, Cursors, MeshState};
         use pqm_format::varint::Reader;
+        let mut streams = streams;
+        // Half the cases start with an edge-split symbol (spec §7.10), which
+        // random bytes would rarely hit.
+        if edge_symbol && !streams[0].is_empty() {
+            streams[0][0] = 0x11;
+        }
         let pm = testgen::generate(seed, 30);
         let (pos, quads) = pm.level_quads(pm.records.len());
         let q = expected_quantizer(&pm, 14);

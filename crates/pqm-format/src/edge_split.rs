@@ -1,0 +1,387 @@
+//! The edge-split record form (spec §7.10, format 3): the inverse of a
+//! qeMerge, named by its edge `A–D` and a few small parameters instead of
+//! the local form's explicit slots and corners.
+//!
+//! [`build`] is the one place the explicit record is made from the
+//! parameters: the decoder calls it, and the encoder calls it on the
+//! parameters it derived ([`derive`]) and uses the form only when the result
+//! equals the record exactly — so whatever the derivation guesses, a file
+//! never holds a form-4 record that decodes to something else.
+
+use crate::codec::{MeshState, QRecord, Star};
+
+/// The 24 permutations of `0..4` in lexicographic order (spec §7.10 step 5:
+/// permutation number `t` is `PERMS[t]`).
+pub const PERMS: [[u8; 4]; 24] = perms();
+
+const fn perms() -> [[u8; 4]; 24] {
+    let mut out = [[0u8; 4]; 24];
+    let mut n = 0;
+    let mut x = 0u32;
+    // Ascending x with base-4 digits (π(0), …, π(3)) is lexicographic order.
+    while x < 256 {
+        let p = [
+            (x >> 6) as u8,
+            (x >> 4) as u8 & 3,
+            (x >> 2) as u8 & 3,
+            x as u8 & 3,
+        ];
+        if p[0] != p[1]
+            && p[0] != p[2]
+            && p[0] != p[3]
+            && p[1] != p[2]
+            && p[1] != p[3]
+            && p[2] != p[3]
+        {
+            out[n] = p;
+            n += 1;
+        }
+        x += 1;
+    }
+    out
+}
+
+/// Largest value of the combined permutation field `p = 24 π_v + π_f`.
+pub const MAX_P: u64 = 24 * 24 - 1;
+
+/// The fields of one edge-split record (spec §7.10 steps 1–7), endpoint
+/// arrays in the order `[X0, X1]` (smaller id first).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EdgeSplit {
+    /// The anchor `A` (either endpoint).
+    pub a: u32,
+    /// Index of the other endpoint in `A`'s link.
+    pub r: usize,
+    /// First-sector length per endpoint.
+    pub n1: [usize; 2],
+    /// Fan length per endpoint (`m ≥ 1`).
+    pub m: [usize; 2],
+    /// `24 π_v + π_f`.
+    pub p: usize,
+    /// Rotations of the four canonical appended quads, 2 bits each.
+    pub ra: u8,
+    /// Fan-quad rotations, `m[0]` of `X0` then `m[1]` of `X1`.
+    pub rots: Vec<u8>,
+}
+
+/// Reusable buffers of [`build`] (and of the encoder's derivation): the
+/// stars of both endpoints, the slot list and the fan quads. One per
+/// decoder, so a record allocates nothing once they have grown.
+#[derive(Clone, Debug, Default)]
+pub struct Scratch {
+    /// Stars of `[X0, X1]`.
+    pub stars: [Star; 2],
+    /// `(slot, tag)`: tag `< 4` = sector face of canonical new vertex `U_tag`;
+    /// `4 + i` = fan quad `i` of `fan`.
+    entries: Vec<(u32, u32)>,
+    /// Fan quads, rotated, `X0`'s then `X1`'s.
+    fan: Vec<[u32; 4]>,
+}
+
+/// `q` rotated left by `t` (`G'[k] = G[(k + t) mod 4]`).
+#[inline]
+fn rotl(q: [u32; 4], t: u8) -> [u32; 4] {
+    let t = t as usize;
+    [q[t & 3], q[(t + 1) & 3], q[(t + 2) & 3], q[(t + 3) & 3]]
+}
+
+fn distinct(q: &[u32; 4]) -> bool {
+    q[0] != q[1] && q[0] != q[2] && q[0] != q[3] && q[1] != q[2] && q[1] != q[3] && q[2] != q[3]
+}
+
+/// The star of anchor `a` into `sc.stars[0]`; an error when §7.5 rejects
+/// it or it is open (spec §7.10 step 2).
+pub fn anchor_star(st: &MeshState, a: u32, sc: &mut Scratch) -> Result<usize, String> {
+    let s0 = &mut sc.stars[0];
+    st.star_into(a, s0)?;
+    if s0.link.len() != s0.faces.len() {
+        return Err(format!("edge split: anchor {a} is a boundary vertex"));
+    }
+    Ok(s0.faces.len())
+}
+
+/// After [`anchor_star`] of `a`: the star of the endpoint named by link
+/// index `r`, both stars in `sc.stars` as `[X0, X1]`; returns `[X0, X1]`
+/// and `ρ` per endpoint. Errors: `r` out of range, an open or rejected
+/// star of `D`, `A` not in `D`'s link.
+pub fn stars(
+    st: &MeshState,
+    a: u32,
+    r: usize,
+    sc: &mut Scratch,
+) -> Result<([u32; 2], [usize; 2]), String> {
+    let [s0, s1] = &mut sc.stars;
+    let d = *s0.link.get(r).ok_or_else(|| {
+        format!(
+            "edge split: link index {r} outside the {} faces of vertex {a}",
+            s0.faces.len()
+        )
+    })?;
+    st.star_into(d, s1)?;
+    if s1.link.len() != s1.faces.len() {
+        return Err(format!("edge split: endpoint {d} is a boundary vertex"));
+    }
+    let rd = s1
+        .link
+        .iter()
+        .position(|&v| v == a)
+        .ok_or_else(|| format!("edge split: vertex {a} is not in the link of {d}"))?;
+    if a < d {
+        Ok(([a, d], [r, rd]))
+    } else {
+        sc.stars.swap(0, 1);
+        Ok(([d, a], [rd, r]))
+    }
+}
+
+/// Builds the explicit connectivity of an edge split (spec §7.10 steps 8–9)
+/// into `out.rewritten` and `out.appended` (cleared first), the stars of
+/// `ends = [X0, X1]` being in `sc.stars` ([`stars`]). `n1`, `m`, `rots` must
+/// already be within the bounds of steps 4 and 7 (the decoder reads them
+/// bounded); `p ≤ MAX_P`.
+#[allow(clippy::too_many_arguments)]
+pub fn build(
+    st: &MeshState,
+    ends: [u32; 2],
+    rho: [usize; 2],
+    n1: [usize; 2],
+    m: [usize; 2],
+    p: usize,
+    ra: u8,
+    rots: &[u8],
+    sc: &mut Scratch,
+    out: &mut QRecord,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    let pv = PERMS[p / 24];
+    let pf = PERMS[p % 24];
+    let u = |i: usize| v0 + pv[i] as u32;
+    let Scratch {
+        stars,
+        entries,
+        fan,
+    } = sc;
+    entries.clear();
+    fan.clear();
+    let mut tri = [[0u32; 4]; 2];
+    let mut rot_i = 0usize;
+    for x in 0..2 {
+        let s = &stars[x];
+        let k = s.faces.len();
+        let (xv, rho, n1, m) = (ends[x], rho[x], n1[x], m[x]);
+        if m == 0 || n1 + m + 2 > k {
+            return Err(format!(
+                "edge split: n1 = {n1}, m = {m} do not fit the {k} faces of vertex {xv}"
+            ));
+        }
+        let g = |i: usize| s.faces[(rho + i) % k];
+        let lam = |i: usize| s.link[(rho + i) % k];
+        for i in (0..=n1).chain(n1 + m + 1..k) {
+            let t = if i <= n1 { 2 * x } else { 2 * x + 1 };
+            entries.push((g(i), t as u32));
+        }
+        // Corner opposite X in fan face j (P_{2j+1}).
+        let opp = |j: usize| -> Result<u32, String> {
+            let q = st.quads[g(n1 + 1 + j) as usize];
+            let c = q.iter().position(|&v| v == xv).ok_or_else(|| {
+                format!("edge split: fan face {} lacks vertex {xv}", g(n1 + 1 + j))
+            })?;
+            Ok(q[(c + 2) % 4])
+        };
+        let mut o = opp(0)?;
+        tri[x] = [xv, u(2 * x), lam(n1 + 1), o];
+        for j in 0..m {
+            let q = if j + 1 < m {
+                let o2 = opp(j + 1)?;
+                let q = [xv, o, lam(n1 + 2 + j), o2];
+                o = o2;
+                q
+            } else {
+                [xv, o, lam(n1 + 1 + m), u(2 * x + 1)]
+            };
+            let t = *rots.get(rot_i).ok_or("edge split: too few fan rotations")?;
+            rot_i += 1;
+            entries.push((g(n1 + 1 + j), 4 + fan.len() as u32));
+            fan.push(rotl(q, t));
+        }
+    }
+    entries.sort_unstable();
+    out.rewritten.clear();
+    let mut i = 0;
+    while i < entries.len() {
+        let (slot, tag) = entries[i];
+        let twin = entries.get(i + 1).filter(|e| e.0 == slot).map(|e| e.1);
+        let q = if tag >= 4 || twin.is_some_and(|t| t >= 4) {
+            if twin.is_some() {
+                return Err(format!(
+                    "edge split: slot {slot} is a fan face and a face of the other endpoint"
+                ));
+            }
+            fan[(tag - 4) as usize]
+        } else {
+            let mut q = st.quads[slot as usize];
+            for t in std::iter::once(tag).chain(twin) {
+                let (xv, id) = (ends[(t >> 1) as usize], u(t as usize));
+                for c in q.iter_mut() {
+                    if *c == xv {
+                        *c = id;
+                    }
+                }
+            }
+            q
+        };
+        if !distinct(&q) {
+            return Err(format!(
+                "edge split: rewritten slot {slot} repeats a vertex"
+            ));
+        }
+        out.rewritten.push((slot, q));
+        i += 1 + twin.is_some() as usize;
+    }
+    let [x0, x1] = ends;
+    let canon = [[x0, u(1), u(2), x1], [x0, x1, u(3), u(0)], tri[0], tri[1]];
+    out.appended.clear();
+    out.appended.resize(4, [0; 4]);
+    for (i, q) in canon.into_iter().enumerate() {
+        let q = rotl(q, (ra >> (2 * i)) & 3);
+        if !distinct(&q) {
+            return Err(format!("edge split: appended quad {i} repeats a vertex"));
+        }
+        out.appended[pf[i] as usize] = q;
+    }
+    Ok(())
+}
+
+/// Rotation `t` with `rotl(q, t) == want`.
+fn rotation(q: [u32; 4], want: [u32; 4]) -> Option<u8> {
+    (0..4u8).find(|&t| rotl(q, t) == want)
+}
+
+/// The edge-split fields that reproduce `r` exactly (spec §7.10), with the
+/// endpoint whose `refs` delta from `cursor` is shorter as the anchor;
+/// `None` when `r` is not such a record (not 4 new vertices and 4 appended
+/// quads with nothing moved, a boundary endpoint, a fan over the crossing
+/// side, …). Checked by rebuilding with [`build`].
+pub fn derive(st: &MeshState, r: &QRecord, cursor: u32, sc: &mut Scratch) -> Option<EdgeSplit> {
+    let v0 = st.q.len() as u32;
+    if r.new_pos.len() != 4 || r.appended.len() != 4 || !r.moved.is_empty() {
+        return None;
+    }
+    // The endpoints are the old vertices of three appended quads (C_0, C_1
+    // and their own corner quad); other old corners are in one.
+    let mut cand = [0u32; 16];
+    let mut n = 0;
+    for q in &r.appended {
+        for &v in q {
+            if v < v0
+                && !cand[..n].contains(&v)
+                && r.appended.iter().filter(|p| p.contains(&v)).count() >= 3
+            {
+                cand[n] = v;
+                n += 1;
+            }
+        }
+    }
+    if n != 2 {
+        return None;
+    }
+    let (x0, x1) = (cand[0].min(cand[1]), cand[0].max(cand[1]));
+    // Stars with X0 as the anchor (the fields do not depend on it).
+    anchor_star(st, x0, sc).ok()?;
+    let r0 = sc.stars[0].link.iter().position(|&v| v == x1)?;
+    let (ends, rho) = stars(st, x0, r0, sc).ok()?;
+    let new_of = |slot: u32| -> Option<[u32; 4]> {
+        r.rewritten
+            .binary_search_by_key(&slot, |w| w.0)
+            .ok()
+            .map(|i| r.rewritten[i].1)
+    };
+    let (mut n1, mut m) = ([0usize; 2], [0usize; 2]);
+    let mut pv = [u8::MAX; 4];
+    let mut rots = Vec::new();
+    for x in 0..2 {
+        let s = &sc.stars[x];
+        let k = s.faces.len();
+        let xv = ends[x];
+        let g = |i: usize| s.faces[(rho[x] + i) % k];
+        // Fan faces keep X; sector faces lose it to a new vertex.
+        let mut keeps = [false; 255];
+        for (i, kp) in keeps.iter_mut().enumerate().take(k) {
+            *kp = new_of(g(i))?.contains(&xv);
+        }
+        let first = (0..k).find(|&i| keeps[i])?;
+        let len = (first..k).take_while(|&i| keeps[i]).count();
+        if first == 0 || first + len >= k || keeps[first + len..k].iter().any(|&b| b) {
+            return None;
+        }
+        n1[x] = first - 1;
+        m[x] = len;
+        // u1 / u2 replace X in g_0 / g_{K-1}, which keep their corner order.
+        for (i, t) in [(0, 2 * x), (k - 1, 2 * x + 1)] {
+            let old = st.quads[g(i) as usize];
+            let c = old.iter().position(|&v| v == xv)?;
+            let id = new_of(g(i))?[c];
+            if id < v0 || id >= v0 + 4 {
+                return None;
+            }
+            pv[t] = (id - v0) as u8;
+        }
+    }
+    let pvn = PERMS.iter().position(|p| *p == pv)?;
+    // Fan rotations and the appended order: rebuild with rotation 0 and
+    // identity π_f, then read them off.
+    let zero = vec![0u8; m[0] + m[1]];
+    let mut canon = QRecord::default();
+    build(st, ends, rho, n1, m, 24 * pvn, 0, &zero, sc, &mut canon).ok()?;
+    if canon.rewritten.len() != r.rewritten.len() {
+        return None;
+    }
+    // Fan slots in the order `build` reads their rotations.
+    for x in 0..2 {
+        let s = &sc.stars[x];
+        let k = s.faces.len();
+        for j in 0..m[x] {
+            let slot = s.faces[(rho[x] + n1[x] + 1 + j) % k];
+            let i = canon.rewritten.binary_search_by_key(&slot, |w| w.0).ok()?;
+            rots.push(rotation(canon.rewritten[i].1, new_of(slot)?)?);
+        }
+    }
+    let mut pf = [u8::MAX; 4];
+    let mut ra = 0u8;
+    for (i, &q) in canon.appended.iter().enumerate() {
+        let (j, t) = (0..4).find_map(|j| {
+            (!pf.contains(&(j as u8)))
+                .then(|| rotation(q, r.appended[j]).map(|t| (j, t)))
+                .flatten()
+        })?;
+        pf[i] = j as u8;
+        ra |= t << (2 * i);
+    }
+    let pfn = PERMS.iter().position(|p| *p == pf)?;
+    let p = 24 * pvn + pfn;
+    // Anchor: the endpoint with the shorter delta.
+    let dist = |v: u32| (v as i64 - cursor as i64).unsigned_abs();
+    let a = if dist(ends[1]) < dist(ends[0]) {
+        ends[1]
+    } else {
+        ends[0]
+    };
+    let ra_link = if a == ends[0] { rho[0] } else { rho[1] };
+    let e = EdgeSplit {
+        a,
+        r: ra_link,
+        n1,
+        m,
+        p,
+        ra,
+        rots,
+    };
+    // The proof: the decoder's path on these fields gives `r` exactly.
+    anchor_star(st, e.a, sc).ok()?;
+    let (ends2, rho2) = stars(st, e.a, e.r, sc).ok()?;
+    build(
+        st, ends2, rho2, e.n1, e.m, e.p, e.ra, &e.rots, sc, &mut canon,
+    )
+    .ok()?;
+    (ends2 == ends && canon.rewritten == r.rewritten && canon.appended == r.appended).then_some(e)
+}
