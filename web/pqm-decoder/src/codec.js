@@ -662,25 +662,42 @@ export function groupCorners(V, nNew, rwNew, nRw, app, nApp) {
 }
 
 /**
- * Records with at most this many new vertices (a qeMerge inverse has 2)
- * fill gOcc by one scan of the quads per new vertex: cheaper than the
- * counting sort's passes and clearing for so few.
+ * Records with at most this many new vertices (a qeMerge inverse has 4)
+ * fill gOcc by one pass into a bucket per new vertex (stride: all corners)
+ * and a copy: cheaper than the counting sort's two passes, prefix sums and
+ * clearing for so few.
  */
 const SCAN_NEW = 4;
+let gScan = new Int32Array(256);
+let gScanCount = new Int32Array(SCAN_NEW);
 
-/** groupCorners by a scan per new vertex (nNew ≤ SCAN_NEW); same result. */
+/** groupCorners by one pass (meant for nNew ≤ SCAN_NEW; any nNew works); same result. */
 export function scanCorners(V, nNew, rwNew, nRw, app, nApp) {
   const na = 4 * nApp;
   const nr = 4 * nRw;
-  if (na + nr > gOcc.length) gOcc = new Int32Array(2 * (na + nr));
+  const tot = na + nr;
+  if (nNew * tot > gScan.length) gScan = new Int32Array(2 * nNew * tot);
+  if (tot > gOcc.length) gOcc = new Int32Array(2 * tot);
+  if (nNew + 1 > gOccAt.length) gOccAt = new Int32Array(2 * nNew + 2);
+  if (nNew > gScanCount.length) gScanCount = new Int32Array(nNew);
+  const b = gScan;
+  const cnt = gScanCount;
+  cnt.fill(0, 0, nNew);
+  // every corner code resolves below V + nNew: k < nNew
+  for (let i = 0; i < na; i++) {
+    const k = app[i] - V;
+    if (k >= 0) b[k * tot + cnt[k]++] = i;
+  }
+  for (let i = 0; i < nr; i++) {
+    const k = rwNew[i] - V;
+    if (k >= 0) b[k * tot + cnt[k]++] = na + i;
+  }
   const occ = gOcc;
   const at = gOccAt;
   let n = 0;
   for (let k = 0; k < nNew; k++) {
     at[k] = n;
-    const x = V + k;
-    for (let i = 0; i < na; i++) if (app[i] === x) occ[n++] = i;
-    for (let i = 0; i < nr; i++) if (rwNew[i] === x) occ[n++] = na + i;
+    for (let j = k * tot, end = j + cnt[k]; j < end; j++) occ[n++] = b[j];
   }
   at[nNew] = n;
 }
