@@ -471,6 +471,7 @@ fn study(f: &str) -> Result<(), String> {
     let bits = dec.header().map_or(14, |h| h.quant_bits);
     let opts = EncodeOptions {
         bits,
+        version_major: 2,
         ..EncodeOptions::default()
     };
     let (out, rep) = write_to_vec(&pm, &opts).map_err(|e| e.to_string())?;
@@ -484,7 +485,13 @@ fn study(f: &str) -> Result<(), String> {
         .collect();
     let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
     let mut st = MeshState::new(quant.qmax(), base_q, base_quads);
-    let coding = Coding::default();
+    // The 2.0 coding this study measured (it parses forms 0-3 only; format
+    // 3.0's edge-split form is what it led to).
+    let coding = Coding {
+        major: 2,
+        edge_split: false,
+        ..Coding::default()
+    };
     let mut cur = Cursors::default();
     let mut y = Study::default();
     let nrec = pm.records.len();

@@ -610,7 +610,13 @@ fn study(f: &str) -> Result<(), String> {
     let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
     let mut st = MeshState::new(quant.qmax(), base_q, base_quads);
     let mut cur = Cursors::default();
-    let coding = Coding::default();
+    // The 2.0 coding this study measured (it parses forms 0-3 only; format
+    // 3.0's edge-split form is what it led to).
+    let coding = Coding {
+        major: 2,
+        edge_split: false,
+        ..Coding::default()
+    };
     let mut today = Prices::default();
     let mut new = Prices::default();
     let (mut n_qe, mut n_exact, mut n_new_all) = (0usize, 0usize, 0usize);

@@ -458,6 +458,20 @@ fn build(
         }
         rec.rewritten.sort_by_key(|r| r.0);
         appended.sort_by_key(|a| a.0);
+        if log.op == OpKind::QeMerge {
+            let v0 = (vertex_order.len() - rec.new_vertices.len()) as u32;
+            if let Some((u, order)) = qe_canonical_order(&appended, v0, rec.new_vertices.len()) {
+                relabel_qe(
+                    &mut rec,
+                    &mut appended,
+                    &mut vertex_order,
+                    &mut cv,
+                    v0,
+                    u,
+                    order,
+                );
+            }
+        }
         for (f, q) in appended {
             cf[f.idx()] = n_faces;
             n_faces += 1;
@@ -473,6 +487,101 @@ fn build(
         records,
         vertex_order,
         level_error,
+    }
+}
+
+/// The canonical order of a qeMerge record's new vertices and appended
+/// quads (the `.pqm` edge-split form's, spec §7.10, which then needs no
+/// permutation): with `X0 < X1` the endpoints (the old vertices in three of
+/// the four appended quads), the quad with the edge `X1 → X0` read from
+/// `X0` is `(X0, u2(X0), u1(X1), X1)` and the one with `X0 → X1` is
+/// `(X0, X1, u2(X1), u1(X0))`; new vertices in the order `u1(X0), u2(X0),
+/// u1(X1), u2(X1)`, appended quads in the order those two, then the other
+/// quad at `X0`, then the one at `X1`. Returns the current ids of the four
+/// new vertices in canonical order and the appended indices in canonical
+/// order; `None` when the record does not have this shape (it keeps the
+/// coarsener's order). Defined by the smaller endpoint id, so it does not
+/// depend on which endpoint a file names.
+fn qe_canonical_order(
+    appended: &[(FaceId, [u32; 4])],
+    v0: u32,
+    n_new: usize,
+) -> Option<([u32; 4], [usize; 4])> {
+    if appended.len() != 4 || n_new != 4 {
+        return None;
+    }
+    let mut ends = Vec::with_capacity(2);
+    for (_, q) in appended {
+        for &v in q {
+            if v < v0
+                && !ends.contains(&v)
+                && appended.iter().filter(|a| a.1.contains(&v)).count() >= 3
+            {
+                ends.push(v);
+            }
+        }
+    }
+    if ends.len() != 2 {
+        return None;
+    }
+    let (x0, x1) = (ends[0].min(ends[1]), ends[0].max(ends[1]));
+    let has_edge = |q: &[u32; 4], a: u32, b: u32| (0..4).any(|k| q[k] == a && q[(k + 1) % 4] == b);
+    let from_x0 = |q: [u32; 4]| -> Option<[u32; 4]> {
+        let k = q.iter().position(|&v| v == x0)?;
+        Some([q[k], q[(k + 1) % 4], q[(k + 2) % 4], q[(k + 3) % 4]])
+    };
+    let c0 = appended.iter().position(|a| has_edge(&a.1, x1, x0))?;
+    let c1 = appended.iter().position(|a| has_edge(&a.1, x0, x1))?;
+    let rest = |x: u32| (0..4).find(|&i| i != c0 && i != c1 && appended[i].1.contains(&x));
+    let (t0, t1) = (rest(x0)?, rest(x1)?);
+    let [_, a, b, _] = from_x0(appended[c0].1)?;
+    let [_, _, c, d] = from_x0(appended[c1].1)?;
+    let u = [d, a, b, c];
+    let order = [c0, c1, t0, t1];
+    let distinct = |x: &[u32; 4]| (0..4).all(|i| (0..i).all(|j| x[i] != x[j]));
+    let is_new = |v: u32| v >= v0 && v < v0 + 4;
+    (u.iter().all(|&v| is_new(v)) && distinct(&u) && distinct(&order.map(|i| i as u32)))
+        .then_some((u, order))
+}
+
+/// Gives the new vertices `u` (current ids, canonical order) the ids
+/// `v0, v0 + 1, …` and puts the appended quads in `order`, everywhere the
+/// record and the numbering refer to them.
+fn relabel_qe(
+    rec: &mut SplitRecord,
+    appended: &mut [(FaceId, [u32; 4])],
+    vertex_order: &mut [u32],
+    cv: &mut [u32],
+    v0: u32,
+    u: [u32; 4],
+    order: [usize; 4],
+) {
+    // new id of current new vertex v0 + i
+    let mut to = [0u32; 4];
+    for (k, &v) in u.iter().enumerate() {
+        to[(v - v0) as usize] = v0 + k as u32;
+    }
+    let map = |q: &mut [u32; 4]| {
+        for c in q.iter_mut() {
+            if *c >= v0 && *c < v0 + 4 {
+                *c = to[(*c - v0) as usize];
+            }
+        }
+    };
+    rec.rewritten.iter_mut().for_each(|r| map(&mut r.1));
+    appended.iter_mut().for_each(|a| map(&mut a.1));
+    let old_pos: Vec<DVec3> = rec.new_vertices.clone();
+    let tail = v0 as usize..v0 as usize + 4;
+    let old_vo: Vec<u32> = vertex_order[tail.clone()].to_vec();
+    for i in 0..4 {
+        let k = (to[i] - v0) as usize;
+        rec.new_vertices[k] = old_pos[i];
+        vertex_order[v0 as usize + k] = old_vo[i];
+        cv[old_vo[i] as usize] = to[i];
+    }
+    let old_app = appended.to_vec();
+    for (k, &i) in order.iter().enumerate() {
+        appended[k] = old_app[i];
     }
 }
 
@@ -541,6 +650,56 @@ mod tests {
                     })
             },
         )
+    }
+
+    /// Every qeMerge record of a real coarsening comes out in the canonical
+    /// order (recomputing it from the record finds the identity), and the
+    /// progressive mesh still replays to the input.
+    #[test]
+    fn qe_merge_records_are_in_canonical_order() {
+        use crate::coarsen::{CoarsenOptions, Coarsener, Placement};
+        let src = crate::shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
+        let mesh = Mesh::from_indexed(&src).unwrap();
+        let opts = CoarsenOptions {
+            target_faces: Some(150),
+            placement: Placement::Subset,
+            ..Default::default()
+        };
+        let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
+        c.run(&mut |_| {});
+        let pm = c.to_progressive();
+        pm.validate().unwrap();
+        let mut v = pm.base.positions.len() as u32;
+        let (mut qe, mut checked) = (0, 0);
+        for r in &pm.records {
+            if r.op == OpKind::QeMerge {
+                qe += 1;
+                let app: Vec<(FaceId, [u32; 4])> =
+                    r.appended_faces.iter().map(|&q| (FaceId(0), q)).collect();
+                // (A record of another shape keeps the coarsener's order.)
+                if let Some((u, order)) = qe_canonical_order(&app, v, r.new_vertices.len()) {
+                    assert_eq!(u, [v, v + 1, v + 2, v + 3]);
+                    assert_eq!(order, [0, 1, 2, 3]);
+                    checked += 1;
+                }
+            }
+            v += r.new_vertices.len() as u32;
+        }
+        // On a closed surface nearly every qeMerge has the shape.
+        assert!(checked > 20 && checked * 10 >= qe * 9, "{checked} of {qe}");
+        let fine = pm.level(pm.records.len());
+        for (canon, &orig) in pm.vertex_order.iter().enumerate() {
+            assert_eq!(fine.positions[canon], src.positions[orig as usize]);
+        }
+        // The same faces with the same corner order, in input ids.
+        let mut got: Vec<Vec<u32>> = fine
+            .faces()
+            .map(|f| f.iter().map(|&v| pm.vertex_order[v as usize]).collect())
+            .collect();
+        let mut want: Vec<Vec<u32>> = src.faces().map(|f| f.to_vec()).collect();
+        got.sort();
+        want.sort();
+        assert_eq!(got, want);
     }
 
     proptest! {

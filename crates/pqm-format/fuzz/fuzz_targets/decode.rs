@@ -4,8 +4,8 @@
 //!   pushing it split at a point chosen by the input must give the same
 //!   outcome, the same events and the same deepest level and mesh.
 //! * Mode 1 (record streams): the input is the five record streams of a
-//!   chunk, decoded against a valid generated mesh under the 1.x or the 2.0
-//!   rules (bypasses CRCs so the record decoder itself is exercised).
+//!   chunk, decoded against a valid generated mesh under the 1.x, 2.0 or
+//!   3.0 rules (bypasses CRCs so the record decoder itself is exercised).
 //!
 //! `cargo +nightly fuzz run decode` (or `cargo fuzz run decode -s none` on
 //! stable) from `crates/pqm-format`; seed corpus: `spec/vectors/*.pqm`.
@@ -84,9 +84,9 @@ fuzz_target!(|data: &[u8]| {
     } else {
         use pqm_format::codec::{decode_record, Cursors, MeshState};
         use pqm_format::varint::Reader;
-        // Bit 1 picks the rules (1.x or 2.0), the rest the mesh.
-        let major = 1 + ((mode >> 1) & 1) as u16;
-        let seed = (mode >> 2) as u64;
+        // Bits 1-2 pick the rules (1.x, 2.0, 3.0), the rest the mesh.
+        let major = 1 + ((mode >> 1) & 3).min(2) as u16;
+        let seed = (mode >> 3) as u64;
         let pm = pqm_core::progressive::testgen::generate(seed, 30);
         let (pos, quads) = pm.level_quads(pm.records.len());
         let q = pqm_format::Quantizer::new([-2.0; 3], [6.0; 3], 12);
