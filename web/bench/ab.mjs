@@ -3,14 +3,17 @@
 // shared VM the load drifts by more than most changes are worth, and two
 // separate `bench/decode.mjs` runs minutes apart cannot tell 5 % apart.
 //
-//   node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N]
+//   node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--pairs]
 //
 // SRC_DIR is a copy of pqm-decoder/src (e.g. `git archive` of an older
 // commit, with `fzstd` resolvable from it); NEW_SRC_DIR defaults to this
 // checkout's. Per file: the median CPU time (process.cpuUsage) of "push the
 // whole file into a new decoder and go to the finest level" over N runs
-// after one warm-up run each, as million faces/s, and B / A (below 1: B is
-// faster). Both trees must read the file's version.
+// after warm-up runs (at least 3 and 300 ms of CPU per tree), as million
+// faces/s, and B / A (below 1: B is faster); the same for the minima, which
+// drift less than medians on a loaded machine. Both trees must read the
+// file's version; with --pairs the files come in pairs (A's, then B's),
+// e.g. a mesh as a 2.0 file for an old tree and as a 3.0 file for this one.
 import { readFileSync, existsSync, statSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath, pathToFileURL } from 'node:url';
@@ -22,32 +25,47 @@ const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
 const dirs = [];
 while (args.length && existsSync(args[0]) && statSync(args[0]).isDirectory()) dirs.push(path.resolve(args.shift()));
 if (dirs.length === 0 || args.length === 0) {
-  console.error('usage: node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N]');
+  console.error('usage: node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--pairs]');
   process.exit(2);
 }
 if (dirs.length === 1) dirs.push(path.join(here, '../pqm-decoder/src'));
 const trees = await Promise.all(dirs.map((d) => import(pathToFileURL(path.join(d, 'index.js')).href)));
 const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
 
-for (const file of args) {
-  const bytes = new Uint8Array(readFileSync(file));
+// --pairs: the files come in pairs, A's file then B's (e.g. the same mesh
+// as a 2.0 file for an old tree and a 3.0 file for the new one)
+const pairsAt = args.indexOf('--pairs');
+const pairs = pairsAt >= 0 && args.splice(pairsAt, 1).length > 0;
+if (pairs && args.length % 2 !== 0) {
+  console.error('--pairs needs an even number of files');
+  process.exit(2);
+}
+const jobs = pairs ? args.filter((_, i) => i % 2 === 0).map((f, i) => [f, args[2 * i + 1]]) : args.map((f) => [f, f]);
+const cpuMs = (c) => (c.user + c.system) / 1000;
+
+for (const files of jobs) {
+  const bytes = files.map((f) => new Uint8Array(readFileSync(f)));
   const t = [[], []];
-  let faces = 0;
-  for (let r = 0; r <= runs; r++) {
-    for (let k = 0; k < 2; k++) {
-      const c0 = process.cpuUsage();
-      const d = new trees[k].PqmDecoder();
-      d.push(bytes);
-      d.setLevel({ level: d.deepestLevel });
-      const c = process.cpuUsage(c0);
-      faces = d.faceCount;
-      if (r > 0) t[k].push((c.user + c.system) / 1000);
-    }
+  const faces = [0, 0];
+  const run = (k) => {
+    const c0 = process.cpuUsage();
+    const d = new trees[k].PqmDecoder();
+    d.push(bytes[k]);
+    d.setLevel({ level: d.deepestLevel });
+    faces[k] = d.faceCount;
+    return cpuMs(process.cpuUsage(c0));
+  };
+  // warm-up: each tree for at least 3 runs and 300 ms of CPU (JIT tiers)
+  for (let k = 0; k < 2; k++) {
+    for (let w = 0, c0 = process.cpuUsage(); w < 3 || (w < 50 && cpuMs(process.cpuUsage(c0)) < 300); w++) run(k);
   }
+  for (let r = 0; r < runs; r++) for (let k = 0; k < 2; k++) t[k].push(run(k));
   const [a, b] = t.map(median);
-  const mfs = (ms) => (faces / ms / 1e3).toFixed(2);
+  const [ma, mb] = t.map((x) => Math.min(...x));
+  const mfs = (k, ms) => (faces[k] / ms / 1e3).toFixed(2);
+  const name = files[0] === files[1] ? path.basename(files[0]) : `${path.basename(files[0])} / ${path.basename(files[1])}`;
   console.log(
-    `${path.basename(file)}: ${faces} faces; A ${a.toFixed(1)} ms = ${mfs(a)} M faces/s, B ${b.toFixed(1)} ms = ${mfs(b)} M faces/s; ` +
-      `B / A ${(b / a).toFixed(3)} (CPU medians of ${runs})`,
+    `${name}: ${faces[1]} faces; A ${a.toFixed(1)} ms = ${mfs(0, a)} M faces/s, B ${b.toFixed(1)} ms = ${mfs(1, b)} M faces/s; ` +
+      `B / A ${(b / a).toFixed(3)} (CPU medians of ${runs}); minima A ${mfs(0, ma)}, B ${mfs(1, mb)} M faces/s, B / A ${(mb / ma).toFixed(3)}`,
   );
 }

@@ -8,7 +8,9 @@
 //
 //   node bench/decode.mjs [FILE.pqm ...] [--runs N]
 //
-// Times are medians over --runs runs after a warm-up run, as CPU time
+// Times are medians over --runs runs after warm-up runs (at least 3, and
+// until 300 ms of CPU: a small file decodes in a few ms, far from enough
+// for the JIT's optimizing tier after one run), as CPU time
 // (process.cpuUsage: what this process used, so other processes on a busy
 // machine count less) and as wall time. faces = quads of the finest level.
 import { readFileSync, readdirSync, existsSync, statSync } from 'node:fs';
@@ -50,6 +52,8 @@ for (const file of files) {
   const uncompressed = sections.reduce((s, x) => s + x[2], 0);
   let faces = 0;
   const m = { total: [], totalWall: [], push: [], level: [], zstd: [], crc: [], pieces: [] };
+  const warm0 = process.cpuUsage();
+  let warm = 0;
   for (let r = 0; r < runs + 1; r++) {
     let d = null;
     const push = measure(() => {
@@ -70,7 +74,11 @@ for (const file of files) {
       for (let o = 0; o < bytes.length; o += 65536) s.push(bytes.subarray(o, o + 65536));
       s.setLevel({ level: s.deepestLevel });
     });
-    if (r === 0) continue; // warm-up
+    if (r === 0) {
+      // warm-up: repeat run 0 until 3 runs and 300 ms of CPU (at most 50)
+      if (++warm < 3 || (warm < 50 && cpuMs(process.cpuUsage(warm0)) < 300)) r--;
+      continue;
+    }
     m.total.push(push.cpu + level.cpu);
     m.totalWall.push(push.wall + level.wall);
     m.push.push(push.cpu);

@@ -293,8 +293,11 @@ class ChunkContext {
     this.px = 0; // last prediction of predictNew
     this.py = 0;
     this.pz = 0;
+    this.versionMajor = versionMajor;
     /** Version-2 rules (spec §7.3 form 3, §7.6 multi-parallelogram). */
     this.v2 = versionMajor >= 2;
+    /** Version-3 rules (spec §7.3 form 4, edge split). */
+    this.v3 = versionMajor >= 3;
   }
 }
 
@@ -381,8 +384,13 @@ function decodeRecord(ctx) {
   const form = (sym >> 2) & 3;
   ctx.lastOp = op;
   if (form === 0) {
-    if (sym >> 4) throw `general-form symbol 0x${sym.toString(16)} has bits 4-7 set`;
-    decodeGeneral(ctx);
+    // bits 4-7 select form 0 (general) or 4 (edge split), spec §7.3
+    const high = sym >> 4;
+    if (high === 0) decodeGeneral(ctx);
+    else if (high === 1 && ctx.v3) decodeEdgeSplit(ctx);
+    else if (high === 1) {
+      throw `record form 4 (edge split, symbol 0x${sym.toString(16)}) is invalid in a version ${ctx.versionMajor} file`;
+    } else throw `general-form symbol 0x${sym.toString(16)} has bits 4-7 set`;
   } else if (form === 1) {
     decodeSplit(ctx, sym);
   } else if (form === 2) {
@@ -654,25 +662,42 @@ export function groupCorners(V, nNew, rwNew, nRw, app, nApp) {
 }
 
 /**
- * Records with at most this many new vertices (a qeMerge inverse has 2)
- * fill gOcc by one scan of the quads per new vertex: cheaper than the
- * counting sort's passes and clearing for so few.
+ * Records with at most this many new vertices (a qeMerge inverse has 4)
+ * fill gOcc by one pass into a bucket per new vertex (stride: all corners)
+ * and a copy: cheaper than the counting sort's two passes, prefix sums and
+ * clearing for so few.
  */
 const SCAN_NEW = 4;
+let gScan = new Int32Array(256);
+let gScanCount = new Int32Array(SCAN_NEW);
 
-/** groupCorners by a scan per new vertex (nNew ≤ SCAN_NEW); same result. */
+/** groupCorners by one pass (meant for nNew ≤ SCAN_NEW; any nNew works); same result. */
 export function scanCorners(V, nNew, rwNew, nRw, app, nApp) {
   const na = 4 * nApp;
   const nr = 4 * nRw;
-  if (na + nr > gOcc.length) gOcc = new Int32Array(2 * (na + nr));
+  const tot = na + nr;
+  if (nNew * tot > gScan.length) gScan = new Int32Array(2 * nNew * tot);
+  if (tot > gOcc.length) gOcc = new Int32Array(2 * tot);
+  if (nNew + 1 > gOccAt.length) gOccAt = new Int32Array(2 * nNew + 2);
+  if (nNew > gScanCount.length) gScanCount = new Int32Array(nNew);
+  const b = gScan;
+  const cnt = gScanCount;
+  cnt.fill(0, 0, nNew);
+  // every corner code resolves below V + nNew: k < nNew
+  for (let i = 0; i < na; i++) {
+    const k = app[i] - V;
+    if (k >= 0) b[k * tot + cnt[k]++] = i;
+  }
+  for (let i = 0; i < nr; i++) {
+    const k = rwNew[i] - V;
+    if (k >= 0) b[k * tot + cnt[k]++] = na + i;
+  }
   const occ = gOcc;
   const at = gOccAt;
   let n = 0;
   for (let k = 0; k < nNew; k++) {
     at[k] = n;
-    const x = V + k;
-    for (let i = 0; i < na; i++) if (app[i] === x) occ[n++] = i;
-    for (let i = 0; i < nr; i++) if (rwNew[i] === x) occ[n++] = na + i;
+    for (let j = k * tot, end = j + cnt[k]; j < end; j++) occ[n++] = b[j];
   }
   at[nNew] = n;
 }
@@ -864,34 +889,46 @@ export function checkDistinct(a, o, what, id) {
   }
 }
 
-// Split-form scratch (K ≤ 255).
-const sS = new Int32Array(256);
-const sK = new Int32Array(256);
-const sN = new Int32Array(256);
-const sP = new Int32Array(256);
-const sO = new Int32Array(256);
-const sList = new Int32Array(256);
-// sIn[t] === sGen marks star face t as walked (a stamp per walk: no clearing)
-const sIn = new Int32Array(256);
-let sGen = 0;
-const sLink = new Int32Array(257);
-const sSideC = new Int32Array(256);
-
-/** Split form (spec §7.5). */
-function decodeSplit(ctx, sym) {
-  const st = ctx.st;
-  const V = st.nv;
-  const NF = st.nf;
-  if (V >= ctx.VF || NF >= ctx.FF) {
-    throw `a vertex split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
+/**
+ * Scratch of one canonical star (spec §7.5 step 2; K ≤ 255): `S` the slots
+ * holding the centre, ascending, `C` the centre's corner in each, `N`,
+ * `O`, `P` the corners after, opposite and before it (n(f), the opposite
+ * corner, p(f)); `list` the walk order (indices into `S`), so that link
+ * entry `t` is `N[list[t]]` (and, on the boundary, `P[list[K − 1]]` last).
+ * Typed arrays allocated once: no allocation per record.
+ */
+class StarScratch {
+  constructor() {
+    this.S = new Int32Array(256);
+    this.C = new Int32Array(256);
+    this.N = new Int32Array(256);
+    this.O = new Int32Array(256);
+    this.P = new Int32Array(256);
+    this.list = new Int32Array(256);
+    // inWalk[t] === gen marks star face t as walked (a stamp per walk: no clearing)
+    this.inWalk = new Int32Array(256);
+    this.gen = 0;
+    this.K = 0;
+    this.boundary = false;
   }
-  const m = ctx.vcur + ctx.refs.s();
-  if (m < 0 || m >= V) throw `split vertex ${m} outside 0..${V}`;
-  ctx.vcur = m;
+}
 
-  // 2. canonical star of m: S sorted by slot.
+/**
+ * The canonical star of `m` (spec §7.5 step 2) into `sc`: rewind to the
+ * start face, walk counter-clockwise, check that the walk holds every face
+ * and that the link has at least 2 entries; returns K. Throws a message
+ * string on every reject of that step.
+ * @param {Frontier} st
+ * @param {number} m
+ * @param {StarScratch} sc
+ */
+function canonicalStar(st, m, sc) {
   const f = st.f;
-  const S = sS;
+  const S = sc.S;
+  const sK = sc.C;
+  const sN = sc.N;
+  const sO = sc.O;
+  const sP = sc.P;
   const K = st.star(m, S, sK);
   if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
@@ -929,11 +966,13 @@ function decodeSplit(ctx, sym) {
   }
   if (start < 0) throw `the faces around vertex ${m} do not form a fan`;
   // Walk.
-  if (++sGen === 0x7fffffff) {
-    sGen = 1;
+  const sIn = sc.inWalk;
+  if (++sc.gen === 0x7fffffff) {
+    sc.gen = 1;
     sIn.fill(0);
   }
-  const gen = sGen;
+  const gen = sc.gen;
+  const sList = sc.list;
   let len = 0;
   sList[len++] = start;
   sIn[start] = gen;
@@ -955,11 +994,44 @@ function decodeSplit(ctx, sym) {
     sIn[g] = gen;
   }
   if (len !== K) throw `the fan around vertex ${m} holds ${len} of its ${K} faces`;
+  const L = boundary ? K + 1 : K;
+  if (L < 2) throw `vertex ${m} has a link of ${L} vertex`;
+  sc.K = K;
+  sc.boundary = boundary;
+  return K;
+}
+
+// Star scratch of the split, face-split and edge-split forms (the edge
+// split needs two stars at once).
+const starA = new StarScratch();
+const starB = new StarScratch();
+const sLink = new Int32Array(257);
+const sSideC = new Int32Array(256);
+
+/** Split form (spec §7.5). */
+function decodeSplit(ctx, sym) {
+  const st = ctx.st;
+  const V = st.nv;
+  const NF = st.nf;
+  if (V >= ctx.VF || NF >= ctx.FF) {
+    throw `a vertex split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
+  }
+  const m = ctx.vcur + ctx.refs.s();
+  if (m < 0 || m >= V) throw `split vertex ${m} outside 0..${V}`;
+  ctx.vcur = m;
+
+  // 2. canonical star of m.
+  const sc = starA;
+  const K = canonicalStar(st, m, sc);
+  const S = sc.S;
+  const sN = sc.N;
+  const sO = sc.O;
+  const sP = sc.P;
+  const sList = sc.list;
   // Link.
   for (let t = 0; t < K; t++) sLink[t] = sN[sList[t]];
   let L = K;
-  if (boundary) sLink[L++] = sP[sList[K - 1]];
-  if (L < 2) throw `vertex ${m} has a link of ${L} vertex`;
+  if (sc.boundary) sLink[L++] = sP[sList[K - 1]];
 
   // 3. wings.
   const i = ctx.conn.u();
@@ -1115,6 +1187,8 @@ function decodeFaceSplit(ctx, sym) {
   if (m < 0 || m >= V) throw `face-split vertex ${m} outside 0..${V}`;
   ctx.vcur = m;
   // 2. S ascending, no walk (Frontier.star sorts by slot).
+  const sS = starA.S;
+  const sK = starA.C;
   const K = st.star(m, sS, sK);
   if (K < 1) throw `vertex ${m} is in no face`;
   // 3. the split slot
@@ -1160,3 +1234,255 @@ function decodeFaceSplit(ctx, sym) {
 }
 const fsA = new Int32Array(4);
 const fsB = new Int32Array(4);
+
+/**
+ * The 24 permutations of 0..3 in lexicographic order (spec §7.10 step 5):
+ * permutation number t is PERM4[4t .. 4t + 4).
+ */
+const PERM4 = (() => {
+  const out = new Uint8Array(96);
+  let n = 0;
+  for (let a = 0; a < 4; a++) {
+    for (let b = 0; b < 4; b++) {
+      for (let c = 0; c < 4; c++) {
+        if (b === a || c === a || c === b) continue;
+        out[n++] = a;
+        out[n++] = b;
+        out[n++] = c;
+        out[n++] = 6 - a - b - c;
+      }
+    }
+  }
+  return out;
+})();
+
+// Edge-split scratch: the rewritten faces of both stars (≤ 2 × 255), their
+// new quads, whether each is a fan quad, and per endpoint its fan
+// rotations; the entry of each face of X0's star by its index in S.
+const eSlot = new Int32Array(512);
+const eQuad = new Int32Array(4 * 512);
+const eFan = new Uint8Array(512);
+const eOrder = new Int32Array(512);
+const eKeys = new Float64Array(512);
+const eOfS0 = new Int32Array(256);
+const eRot = [new Int32Array(256), new Int32Array(256)];
+const eUid = new Int32Array(4);
+const eRw = new Int32Array(4 * 512);
+const eSlots = new Int32Array(512);
+const eApp = new Int32Array(16);
+const eC = new Int32Array(16);
+
+/**
+ * Edge-split form (spec §7.10, version 3): the inverse of a qeMerge, named
+ * by the anchor `A`, the index of `D` in A's link, per endpoint (smaller id
+ * first) the first-sector length and the fan length, the orders of the new
+ * vertices and appended quads and the rotations. Every field is read first
+ * (steps 1–7), then the record is built in scratch (step 8) while the old
+ * quads stay in the frontier, then applied like a general-form record.
+ */
+function decodeEdgeSplit(ctx) {
+  const st = ctx.st;
+  const V = st.nv;
+  const NF = st.nf;
+  if (V + 4 > ctx.VF || NF + 4 > ctx.FF) {
+    throw `an edge split needs 4 new vertices and 4 faces, the file's final counts allow ${ctx.VF - V} and ${ctx.FF - NF}`;
+  }
+  // 1.–3. the endpoints and their stars
+  const A = ctx.vcur + ctx.refs.s();
+  if (A < 0 || A >= V) throw `edge-split anchor ${A} outside 0..${V}`;
+  ctx.vcur = A;
+  const conn = ctx.conn;
+  const sa = starA;
+  const KA = canonicalStar(st, A, sa);
+  if (sa.boundary) throw `edge-split endpoint ${A} is on the boundary`;
+  const r = conn.u();
+  if (r > KA - 1) throw `edge index ${r} of vertex ${A} exceeds ${KA - 1}`;
+  const D = sa.N[sa.list[r]];
+  const sd = starB;
+  const KD = canonicalStar(st, D, sd);
+  if (sd.boundary) throw `edge-split endpoint ${D} is on the boundary`;
+  let rhoD = -1;
+  for (let t = 0; t < KD; t++) {
+    if (sd.N[sd.list[t]] === A) {
+      rhoD = t;
+      break;
+    }
+  }
+  if (rhoD < 0) throw `vertex ${A} is not in the link of vertex ${D}`;
+  // X0 = the smaller id; every later field is by X0, X1
+  const aFirst = A < D;
+  const s0 = aFirst ? sa : sd;
+  const s1 = aFirst ? sd : sa;
+  const X0 = aFirst ? A : D;
+  const X1 = aFirst ? D : A;
+  const rho0 = aFirst ? r : rhoD;
+  const rho1 = aFirst ? rhoD : r;
+  const K0 = s0.K;
+  const K1 = s1.K;
+  // 4. sectors and fans
+  const n10 = conn.u();
+  if (n10 > K0 - 3) throw `first-sector length ${n10} at vertex ${X0} exceeds ${K0 - 3}`;
+  const e0 = conn.u();
+  if (e0 > K0 - 3 - n10) throw `fan length ${e0 + 1} at vertex ${X0} exceeds ${K0 - 2 - n10}`;
+  const n11 = conn.u();
+  if (n11 > K1 - 3) throw `first-sector length ${n11} at vertex ${X1} exceeds ${K1 - 3}`;
+  const e1 = conn.u();
+  if (e1 > K1 - 3 - n11) throw `fan length ${e1 + 1} at vertex ${X1} exceeds ${K1 - 2 - n11}`;
+  const m0 = e0 + 1;
+  const m1 = e1 + 1;
+  // 5.–7. orders and rotations
+  const p = conn.u();
+  if (p > 575) throw `permutation code ${p} exceeds 575`;
+  const pv = 4 * Math.floor(p / 24);
+  const pf = 4 * (p % 24);
+  const ra = conn.u();
+  if (ra > 255) throw `appended rotations ${ra} exceed 255`;
+  for (let x = 0; x < 2; x++) {
+    const rot = eRot[x];
+    const m = x === 0 ? m0 : m1;
+    for (let j = 0; j < m; j++) {
+      const t = conn.u();
+      if (t > 3) throw `rotation ${t} of fan quad ${j} at vertex ${x === 0 ? X0 : X1} exceeds 3`;
+      rot[j] = t;
+    }
+  }
+  for (let i = 0; i < 4; i++) eUid[i] = V + PERM4[pv + i];
+
+  // 8. build: the faces of X0's star are entries 0 .. K0 (by walk index
+  // from ρ), X1's faces that are not in X0's star follow.
+  const f = st.f;
+  let nE = 0;
+  for (let x = 0; x < 2; x++) {
+    const sc = x === 0 ? s0 : s1;
+    const K = sc.K;
+    const rho = x === 0 ? rho0 : rho1;
+    const n1 = x === 0 ? n10 : n11;
+    const m = x === 0 ? m0 : m1;
+    const X = x === 0 ? X0 : X1;
+    const u1 = eUid[2 * x];
+    const u2 = eUid[2 * x + 1];
+    const S = sc.S;
+    const list = sc.list;
+    const rot = eRot[x];
+    for (let i = 0; i < K; i++) {
+      const idx = list[(rho + i) % K];
+      const slot = S[idx];
+      const fan = i > n1 && i <= n1 + m;
+      let e;
+      if (x === 0) {
+        e = nE++;
+        eOfS0[idx] = e;
+        eSlot[e] = slot;
+        eFan[e] = fan ? 1 : 0;
+        const s4 = 4 * slot;
+        const e4 = 4 * e;
+        eQuad[e4] = f[s4];
+        eQuad[e4 + 1] = f[s4 + 1];
+        eQuad[e4 + 2] = f[s4 + 2];
+        eQuad[e4 + 3] = f[s4 + 3];
+      } else {
+        // is the slot in X0's star? (S ascending: binary search)
+        const S0 = s0.S;
+        let lo = 0;
+        let hi = K0;
+        while (lo < hi) {
+          const mid = (lo + hi) >> 1;
+          if (S0[mid] < slot) lo = mid + 1;
+          else hi = mid;
+        }
+        if (lo < K0 && S0[lo] === slot) {
+          e = eOfS0[lo];
+          if (fan || eFan[e]) throw `face ${slot} is in the fan of one endpoint and in the star of the other`;
+        } else {
+          e = nE++;
+          eSlot[e] = slot;
+          eFan[e] = fan ? 1 : 0;
+          const s4 = 4 * slot;
+          const e4 = 4 * e;
+          eQuad[e4] = f[s4];
+          eQuad[e4 + 1] = f[s4 + 1];
+          eQuad[e4 + 2] = f[s4 + 2];
+          eQuad[e4 + 3] = f[s4 + 3];
+        }
+      }
+      if (!fan) {
+        // sector: X (at corner C[idx]) becomes u1 or u2
+        eQuad[4 * e + sc.C[idx]] = i <= n1 ? u1 : u2;
+        continue;
+      }
+      // fan quad j = i − n1 − 1: G_j = (X, P_2j+1, P_2j+2, P_2j+3), the last
+      // (X, P_2m−1, P_2m, u2), with P_2j = N and P_2j+1 = O of h_j and
+      // P_2m = the link entry of the first second-sector face
+      const j = i - n1 - 1;
+      const next = list[(rho + i + 1) % K];
+      const g1 = sc.O[idx];
+      const g2 = sc.N[next];
+      const g3 = j < m - 1 ? sc.O[next] : u2;
+      const t = rot[j];
+      const e4 = 4 * e;
+      // G'[k] = G[(k + t) mod 4] with G = (X, g1, g2, g3)
+      eQuad[e4 + ((4 - t) & 3)] = X;
+      eQuad[e4 + ((5 - t) & 3)] = g1;
+      eQuad[e4 + ((6 - t) & 3)] = g2;
+      eQuad[e4 + ((7 - t) & 3)] = g3;
+    }
+    // corner quad T_X = (X, u1, P_0, P_1), P_0 / P_1 = N / O of the first fan face
+    const h0 = list[(rho + n1 + 1) % K];
+    const c4 = 4 * (2 + x);
+    eC[c4] = X;
+    eC[c4 + 1] = u1;
+    eC[c4 + 2] = sc.N[h0];
+    eC[c4 + 3] = sc.O[h0];
+  }
+  // C_0 = (X0, u2(X0), u1(X1), X1), C_1 = (X0, X1, u2(X1), u1(X0))
+  eC[0] = X0;
+  eC[1] = eUid[1];
+  eC[2] = eUid[2];
+  eC[3] = X1;
+  eC[4] = X0;
+  eC[5] = X1;
+  eC[6] = eUid[3];
+  eC[7] = eUid[0];
+  // C_i rotated by (ra >> 2i) & 3, at slot NF + π_f(i)
+  for (let i = 0; i < 4; i++) {
+    const t = (ra >> (2 * i)) & 3;
+    const o = 4 * PERM4[pf + i];
+    for (let k = 0; k < 4; k++) eApp[o + k] = eC[4 * i + ((k + t) & 3)];
+  }
+
+  // 9. rewritten slots ascending (a slot is listed once: X0's faces are
+  // distinct, X1's faces in X0's star share its entry)
+  const order = eOrder;
+  if (nE <= 32) {
+    for (let i = 0; i < nE; i++) {
+      const s = eSlot[i];
+      let u = i;
+      while (u > 0 && eSlot[order[u - 1]] > s) {
+        order[u] = order[u - 1];
+        u--;
+      }
+      order[u] = i;
+    }
+  } else {
+    // slot · 512 + entry (< 2^35): exact in doubles, sorted as numbers
+    const keys = eKeys.subarray(0, nE);
+    for (let i = 0; i < nE; i++) keys[i] = eSlot[i] * 512 + i;
+    keys.sort();
+    for (let i = 0; i < nE; i++) order[i] = keys[i] % 512;
+  }
+  for (let i = 0; i < nE; i++) {
+    const e = order[i];
+    eSlots[i] = eSlot[e];
+    const e4 = 4 * e;
+    const o = 4 * i;
+    eRw[o] = eQuad[e4];
+    eRw[o + 1] = eQuad[e4 + 1];
+    eRw[o + 2] = eQuad[e4 + 2];
+    eRw[o + 3] = eQuad[e4 + 3];
+    checkDistinct(eRw, o, 'rewritten slot', eSlot[e]);
+  }
+  for (let i = 0; i < 4; i++) checkDistinct(eApp, 4 * i, 'appended quad', i);
+
+  // 10. positions of V .. V+3 against §7.6, then apply
+  finishRecord(ctx, V, NF, 4, eSlots, nE, eRw, 4, eApp);
+}

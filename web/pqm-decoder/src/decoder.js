@@ -28,9 +28,9 @@ import { Reader } from './reader.js';
 import { PqmError, crcMismatch, invalid, limitsExceeded } from './errors.js';
 
 const MAGIC = [0x89, 0x50, 0x51, 0x4d, 0x0d, 0x0a, 0x1a, 0x0a];
-/** The `version_major`s this decoder reads (spec §3, §9): 1.x and 2.0 files, each with its own rules. */
-const VERSION_MAJORS = [1, 2];
-const VERSION_MAJOR = 2;
+/** The `version_major`s this decoder reads (spec §3, §9): 1.x, 2.0 and 3.0 files, each with its own rules. */
+const VERSION_MAJORS = [1, 2, 3];
+const VERSION_MAJOR = 3;
 const HEADER_PREFIX = 16;
 const HEADER_LEN = 120;
 const MAX_HEADER_LEN = 65536;
@@ -384,7 +384,7 @@ export class PqmDecoder {
     if (!VERSION_MAJORS.includes(major)) {
       throw new PqmError(
         'unsupported-version',
-        `unsupported .pqm version ${major}.${minor} (this decoder reads 1.x and ${VERSION_MAJOR}.x)`,
+        `unsupported .pqm version ${major}.${minor} (this decoder reads 1.x to ${VERSION_MAJOR}.x)`,
         { section: 'header' },
       );
     }

@@ -81,11 +81,11 @@ for (const file of files) {
 test('not a .pqm file, another major version, a bad header length', () => {
   const b = byName.grid_small.bytes;
   throwsPqm(() => decodeAll(new TextEncoder().encode('v 0 0 0\nv 1 0 0\nf 1 2 3\n' + ' '.repeat(20))), { kind: 'bad-magic' }, 'OBJ text');
-  // majors 1 and 2 are read (spec §9); 3 is not (the CRC is not even looked at)
-  const v3 = b.slice();
-  v3[8] = 3;
-  throwsPqm(() => decodeAll(v3), { kind: 'unsupported-version', message: /version 3\.\d/ }, 'v3');
-  for (const major of [1, 2]) {
+  // majors 1, 2 and 3 are read (spec §9); 4 is not (the CRC is not even looked at)
+  const v4 = b.slice();
+  v4[8] = 4;
+  throwsPqm(() => decodeAll(v4), { kind: 'unsupported-version', message: /version 4\.\d/ }, 'v4');
+  for (const major of [1, 2, 3]) {
     const p = unpack(b);
     setHeader(p, 8, 'Uint16', major);
     const d = new PqmDecoder();
@@ -98,7 +98,7 @@ test('not a .pqm file, another major version, a bad header length', () => {
   throwsPqm(() => decodeAll(hl), { kind: 'invalid', section: 'header', message: /header_len 100000/ }, 'header_len');
   // an error is reported as soon as the 16-byte prefix is in, not at the end
   const d = new PqmDecoder();
-  throwsPqm(() => d.push(v3.subarray(0, 16)), { kind: 'unsupported-version' }, 'prefix only');
+  throwsPqm(() => d.push(v4.subarray(0, 16)), { kind: 'unsupported-version' }, 'prefix only');
 });
 
 test('bytes after the end, and a truncated file at end()', () => {
@@ -186,12 +186,12 @@ test('bad records name the chunk and the record', () => {
   const c = whole.chunks[1];
   const parts = unpack(f.bytes);
   // the ops stream starts after its length varint: make record 0 of chunk 1
-  // a general-form symbol with bit 4 set (invalid in every version)
+  // a form-0 symbol with bit 5 set (invalid in every version)
   const payload = parts.chunks[1];
   assert.ok(payload[0] > 0 && payload[0] < 128);
-  payload[1] = 0x10;
-  const e = throwsPqm(() => decodeAll(pack(parts)), { kind: 'bad-record', chunk: 1, record: whole.chunks[0].level }, 'symbol 0x10');
-  assert.match(e.message, new RegExp(`bad record ${whole.chunks[0].level} in chunk 1: general-form symbol 0x10 has bits 4-7 set`));
+  payload[1] = 0x20;
+  const e = throwsPqm(() => decodeAll(pack(parts)), { kind: 'bad-record', chunk: 1, record: whole.chunks[0].level }, 'symbol 0x20');
+  assert.match(e.message, new RegExp(`bad record ${whole.chunks[0].level} in chunk 1: general-form symbol 0x20 has bits 4-7 set`));
   assert.equal(c.index, 1);
   // unused bytes after the last stream
   const p2 = unpack(f.bytes);

@@ -233,7 +233,7 @@ test('a failing record discards its whole chunk', () => {
     // stream 0 (ops, one symbol per record) comes first, after its length
     // varint (one byte: fewer than 128 records)
     assert.equal(payload[0], whole.chunks[chunk].recordCount);
-    payload[1 + k] = 0x10; // general form with bit 4 set: invalid in every version
+    payload[1 + k] = 0x20; // form-0 symbol with bit 5 set: invalid in every version
     const d = new PqmDecoder();
     const e = throwsPqm(() => d.push(pack(parts)), { kind: 'bad-record', chunk, record: level + k, message: /bits 4-7/ }, `chunk ${chunk}`);
     // the records of the chunk decoded before the bad one are not available

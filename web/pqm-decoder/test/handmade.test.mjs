@@ -91,7 +91,8 @@ test('general form: every count, order and range rule is enforced', () => {
     [{ ops: [0x00], conn: [0, 0, 1, 0, 1, 2], slots: [{ s: 0 }] }, /repeats a vertex/],
     [{ ops: [0x00], conn: [0, 0, 1, 0, 1, 6], slots: [{ s: 0 }] }, /extra entry 1, only 0/],
     [{ ops: [0x00], conn: [0, 0, 1, 0, 1, 0], slots: [{ s: 0 }], refs: [{ s: 16 }] }, /explicit vertex 16 outside/],
-    [{ ops: [0x10], conn: [] }, /bits 4-7 set/],
+    [{ ops: [0x20], conn: [] }, /bits 4-7 set/],
+    [{ ops: [0x11], conn: [] }, /record form 4 \(edge split, symbol 0x11\) is invalid in a version 1 file/],
     [{ ops: [0x0c], conn: [] }, /record form 3/],
     [{ ops: [0x00], conn: [0, 0, 0] }, /stream conn ends/],
   ];
