@@ -222,6 +222,25 @@ impl GeometryGuard {
         g
     }
 
+    /// Adds `faces` (live ones) to the fold-over reference without changing
+    /// the shape floor: for steps that may move vertices beyond the region.
+    pub fn extend(&mut self, mesh: &Mesh, faces: &[FaceId]) {
+        for &f in faces {
+            if !mesh.is_face_alive(f) {
+                continue;
+            }
+            let vs: Vec<VertexId> = mesh.face_vertices(f).collect();
+            let p: Vec<DVec3> = vs.iter().map(|&v| mesh.position(v)).collect();
+            let n = newell_normal(&p);
+            let weighted = match <[DVec3; 4]>::try_from(p.as_slice()) {
+                Ok(q) => n * area4(&q),
+                Err(_) => n,
+            };
+            self.before.push((f, n));
+            self.local.push((vs, weighted));
+        }
+    }
+
     /// Area-weighted normal of the captured faces that share a vertex with
     /// `q`: the surface the new face replaces, wherever its id came from.
     fn local_normal(&self, q: &[VertexId; 4]) -> Option<DVec3> {
