@@ -170,8 +170,9 @@ pub struct CoarsenOptions {
 /// level's vertices sit exactly at input positions and each vertex costs a
 /// record one position, once. Quads may then have straight corners (a
 /// re-fan leaves its middle vertices on a line), so the shape guard only
-/// refuses inverted corners ([`SUBSET_MIN_JACOBIAN`]); fold-over, topology
-/// and feature rules are unchanged. `pqm encode` uses it by default (files
+/// refuses inverted corners ([`SUBSET_MIN_JACOBIAN`]) and twisted ones,
+/// whose sign would not survive quantization ([`SUBSET_CORNER_MARGIN`]);
+/// fold-over, topology and feature rules are unchanged. `pqm encode` uses it by default (files
 /// about half the size, see ARCHITECTURE.md); `pqm coarsen` uses `Qem`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -187,6 +188,20 @@ pub enum Placement {
 /// [`Placement::Subset`]: straight corners (0, up to rounding) are allowed,
 /// inverted ones are not.
 pub const SUBSET_MIN_JACOBIAN: f64 = -1e-9;
+/// Corner margin of [`Placement::Subset`]'s shape guard: no step may leave
+/// a quad with a twisted corner ([`ops::quad_twist`] below 0 at this margin,
+/// or below the worst of its region before). The Scaled Jacobian's sign is
+/// that of a corner's cross product against the quad's normal; where that
+/// cross product is nearly perpendicular to the normal (a non-planar,
+/// twisted corner), moving the vertices onto a file's grid flips it at full
+/// magnitude. Spot's 14-bit file had 49 whole-step levels with such a quad
+/// (worst −0.11), fandisk's 35 (worst −0.008); a Scaled Jacobian floor of
+/// 0.01–0.1 instead left 39–52 on spot, down to −0.48. With the margin:
+/// none on either; spot's base 258 → 266 faces at 83.8 → 82.2 bits per
+/// vertex, fandisk's 536 → 569 faces (91.7 → 91.6). Refusing every corner
+/// with a projected sine below 0.02 (straight ones too) stopped the split
+/// bunny at its input.
+pub const SUBSET_CORNER_MARGIN: f64 = 0.02;
 
 /// Why coarsening stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -1179,6 +1194,7 @@ impl Coarsener {
             Placement::Qem => GeometryGuard::capture(&self.mesh, &region),
             Placement::Subset => {
                 GeometryGuard::capture_with(&self.mesh, &region, SUBSET_MIN_JACOBIAN)
+                    .with_corner_margin(&self.mesh, &region, SUBSET_CORNER_MARGIN)
             }
         };
         // a step that adds no defect is judged against a wider surface (see
