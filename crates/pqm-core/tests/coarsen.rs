@@ -116,3 +116,60 @@ fn queue_stays_bounded_and_records_validate() {
         c.to_progressive().validate().unwrap();
     }
 }
+
+/// The wide rescue — a step that adds no defect and fails the shape guard
+/// relaxes the free vertices of every face around it — moves vertices
+/// beyond the step's patch. Those moves must be part of the step's record
+/// and checked like the rest: the records replay to the input exactly, and
+/// no level between whole steps (about every eighth checked) has an
+/// inverted quad or breaks a mesh invariant.
+#[test]
+fn wide_rescue_moves_are_recorded_and_keep_levels_sound() {
+    use pqm_core::progressive::OpKind;
+    use pqm_core::{io, ops};
+    // (the procedural shapes here coarsen without needing it)
+    let spot = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/meshes/quad/spot_quadrangulated.obj");
+    let src = io::read_mesh(&spot).unwrap();
+    let worst_in = src
+        .faces()
+        .map(|f| ops::quad_scaled_jacobian([0, 1, 2, 3].map(|i| src.positions[f[i] as usize])))
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst_in > 0.0, "the input has no inverted quad");
+    let (c, r) = run(
+        &src,
+        CoarsenOptions {
+            target_faces: Some(120),
+            ..Default::default()
+        },
+    );
+    assert!(
+        r.wide_rescues > 0,
+        "the case exercises the wide rescue: {r:?}"
+    );
+    c.mesh().validate().unwrap();
+    let pm = c.to_progressive();
+    pm.validate().unwrap();
+    let n = pm.records.len();
+    let (pos, faces) = pm.level_quads(n);
+    let src_faces: Vec<[u32; 4]> = src.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
+    assert_eq!(
+        canon_faces(&pos, &faces),
+        canon_faces(&src.positions, &src_faces)
+    );
+    // levels between whole steps (a step's doublet re-insertions come
+    // before its operator's record: in between, its quads may fold)
+    let whole: Vec<usize> = (0..=n)
+        .filter(|&k| k == 0 || pm.records[k - 1].op != OpKind::Doublet)
+        .collect();
+    for &k in whole.iter().step_by((whole.len() / 8).max(1)) {
+        let (pos, faces) = pm.level_quads(k);
+        for q in &faces {
+            let sj = ops::quad_scaled_jacobian(q.map(|v| pos[v as usize]));
+            assert!(sj > 0.0, "level {k}: a quad is inverted ({sj})");
+        }
+        Mesh::from_indexed(&pm.level(k))
+            .and_then(|m| m.validate())
+            .unwrap_or_else(|e| panic!("level {k}: {e}"));
+    }
+}

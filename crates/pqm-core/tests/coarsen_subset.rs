@@ -91,3 +91,55 @@ fn subset_is_smaller_work_for_a_record_than_qem() {
         positions(&qem)
     );
 }
+
+/// The corner margin: no quad of a whole-step level of spot has a twisted
+/// corner (`ops::quad_twist` below 0 at `SUBSET_CORNER_MARGIN`), whose
+/// Scaled Jacobian sign a file's grid flips. Without the margin 49 of spot's 14-bit levels had one (worst
+/// −0.11 after quantization; `tests/subset_quantized_levels.rs` at the root
+/// checks the decoded file).
+#[test]
+fn spot_levels_have_no_twisted_corner() {
+    use pqm_core::coarsen::SUBSET_CORNER_MARGIN;
+    use pqm_core::io;
+    use pqm_core::progressive::OpKind;
+    let spot = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/meshes/quad/spot_quadrangulated.obj");
+    let src = io::read_mesh(&spot).unwrap();
+    let twist = |p| ops::quad_twist(p, SUBSET_CORNER_MARGIN);
+    let input_worst = src
+        .faces()
+        .map(|f| twist([0, 1, 2, 3].map(|i| src.positions[f[i] as usize])))
+        .fold(0.0, f64::min);
+    assert_eq!(input_worst, 0.0, "spot's input has no twisted corner");
+    let (c, r) = coarsen(&src, 300);
+    assert!(r.qv_merges + r.qe_merges > 500, "{r:?}");
+    let pm = c.into_progressive();
+    let n = pm.records.len();
+    for k in (0..=n).filter(|&k| k == 0 || pm.records[k - 1].op != OpKind::Doublet) {
+        let (pos, quads) = pm.level_quads(k);
+        for q in &quads {
+            let p = q.map(|v| pos[v as usize]);
+            assert!(
+                twist(p) >= 0.0,
+                "level {k}: a twisted corner (projected sine {}, Scaled Jacobian {})",
+                ops::quad_projected_corner_sine(p),
+                ops::quad_scaled_jacobian(p)
+            );
+        }
+    }
+}
+
+#[test]
+fn projected_corner_sine_of_square_and_straight_corners() {
+    use glam::DVec3;
+    let d = |x, y, z| DVec3::new(x, y, z);
+    let square = [d(0., 0., 0.), d(1., 0., 0.), d(1., 1., 0.), d(0., 1., 0.)];
+    assert!((ops::quad_projected_corner_sine(square) - 1.0).abs() < 1e-12);
+    // a straight corner at (1, 0, 0)
+    let straight = [d(0., 0., 0.), d(1., 0., 0.), d(2., 0., 0.), d(1., 1., 0.)];
+    assert!(ops::quad_projected_corner_sine(straight).abs() < 1e-12);
+    // (spot's twisted corners — projected sine 0.0065 at a Scaled Jacobian
+    // of 0.11 — are in `spot_levels_have_no_twisted_corner`)
+    assert!(!ops::quad_twisted(square, 0.02));
+    assert!(!ops::quad_twisted(straight, 0.02));
+}

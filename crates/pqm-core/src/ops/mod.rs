@@ -186,6 +186,58 @@ pub struct GeometryGuard {
     local: Vec<(Vec<VertexId>, DVec3)>,
     average: DVec3,
     min_sj: f64,
+    /// Corner margin and least [`quad_twist`] a new quad may have (see
+    /// [`GeometryGuard::with_corner_margin`]); `None`: not checked.
+    twist: Option<(f64, f64)>,
+}
+
+/// How far a quad is from having a twisted corner: the least, over its
+/// corners, of the projected sine (see [`quad_projected_corner_sine`])
+/// minus `min(margin, s / 2)`, `s` the corner's unsigned sine. Negative at
+/// a twisted corner, whose Scaled Jacobian flips sign — with a magnitude
+/// near `s` — under a small move of its vertices; a straight corner (`s`
+/// near 0) is not twisted: flipped, it is off by about as little as it
+/// moved.
+pub fn quad_twist(p: [DVec3; 4], margin: f64) -> f64 {
+    let n = newell_normal(&p);
+    (0..4)
+        .map(|i| {
+            let e1 = p[(i + 1) % 4] - p[i];
+            let e2 = p[(i + 3) % 4] - p[i];
+            let l = e1.length() * e2.length();
+            if l <= 0.0 {
+                return 0.0;
+            }
+            let c = e1.cross(e2);
+            c.dot(n) / l - margin.min(0.5 * c.length() / l)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// True when [`quad_twist`] is negative.
+pub fn quad_twisted(p: [DVec3; 4], margin: f64) -> bool {
+    quad_twist(p, margin) < 0.0
+}
+
+/// Least projected corner sine of a quad: `(e1 × e2) · n / (|e1||e2|)` at
+/// each corner, `n` the unit Newell normal — the Scaled Jacobian's corner
+/// value before its sign is taken, so it is near 0 where that sign is
+/// ill-conditioned: a straight corner, or a twisted (non-planar) one whose
+/// cross product is nearly perpendicular to the quad's normal.
+pub fn quad_projected_corner_sine(p: [DVec3; 4]) -> f64 {
+    let n = newell_normal(&p);
+    (0..4)
+        .map(|i| {
+            let e1 = p[(i + 1) % 4] - p[i];
+            let e2 = p[(i + 3) % 4] - p[i];
+            let l = e1.length() * e2.length();
+            if l > 0.0 {
+                e1.cross(e2).dot(n) / l
+            } else {
+                0.0
+            }
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 impl GeometryGuard {
@@ -222,6 +274,40 @@ impl GeometryGuard {
         g
     }
 
+    /// Also refuses a quad with a twisted corner — one whose Scaled
+    /// Jacobian sign a small move of its vertices (quantization onto a
+    /// file's grid) flips: a [`quad_twist`] below `min(0, the worst of the
+    /// quads of region before)`. Call it right after the capture, on the
+    /// same region.
+    pub fn with_corner_margin(mut self, mesh: &Mesh, region: &[FaceId], margin: f64) -> Self {
+        let worst = region
+            .iter()
+            .filter_map(|&f| mesh.quad_vertices(f))
+            .map(|q| quad_twist(q.map(|v| mesh.position(v)), margin))
+            .fold(0.0, f64::min);
+        self.twist = Some((margin, worst));
+        self
+    }
+
+    /// Adds `faces` (live ones) to the fold-over reference without changing
+    /// the shape floor: for steps that may move vertices beyond the region.
+    pub fn extend(&mut self, mesh: &Mesh, faces: &[FaceId]) {
+        for &f in faces {
+            if !mesh.is_face_alive(f) {
+                continue;
+            }
+            let vs: Vec<VertexId> = mesh.face_vertices(f).collect();
+            let p: Vec<DVec3> = vs.iter().map(|&v| mesh.position(v)).collect();
+            let n = newell_normal(&p);
+            let weighted = match <[DVec3; 4]>::try_from(p.as_slice()) {
+                Ok(q) => n * area4(&q),
+                Err(_) => n,
+            };
+            self.before.push((f, n));
+            self.local.push((vs, weighted));
+        }
+    }
+
     /// Area-weighted normal of the captured faces that share a vertex with
     /// `q`: the surface the new face replaces, wherever its id came from.
     fn local_normal(&self, q: &[VertexId; 4]) -> Option<DVec3> {
@@ -246,6 +332,12 @@ impl GeometryGuard {
                 return Err(Reject::Geometry(
                     "a quad would be inverted or too distorted",
                 ));
+            }
+            if self
+                .twist
+                .is_some_and(|(margin, worst)| quad_twist(p, margin) < worst)
+            {
+                return Err(Reject::Geometry("a quad corner would be twisted"));
             }
             let reference = if LOCAL_FOLD_REFERENCE {
                 self.local_normal(&q)
