@@ -14,26 +14,22 @@ import { decodeLocal } from './local.js';
 
 /**
  * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
- * slot) and the vertex→face adjacency that the split form's star walk
- * needs (spec §7.5), as lists of *corners* (corner `4 s + k` is corner `k`
- * of slot `s`) in a node pool: `head[v]` is the first node of vertex `v`,
- * node `n` holds corner `nodeC[n]` and the next node `nodeN[n]` (−1 ends a
- * list).
+ * slot) and the vertex→face adjacency that the star walks need (spec §7.5,
+ * §7.8), kept exact: per vertex the set of slots holding it, no stale or
+ * repeated entries, so a star is a straight read of K slots.
  *
- * The lists are append-only with lazy deletion: when a corner changes
- * vertex, a node is added to the new vertex's list and the old vertex's
- * node stays, stale, until a star walk of that vertex drops it (a node is
- * live iff `f[nodeC[n]]` is still its vertex; a corner that returns to a
- * vertex can be listed twice, the walk keeps one). Why: general-form
- * records (nearly all records of real files) rewrite corners but never
- * walk a star, so a rewrite costs one list push (one random access, the
- * head) instead of an unlink and a link in doubly linked lists (four).
- * When the pool is full and holds more than 1.5 nodes per live corner
- * (+ 1024), it is rebuilt from `f` in place: O(live corners), paid for by
- * the at least live / 2 pushes since the last rebuild. Its capacity grows
- * geometrically up to 1.5 × 4 × final faces + 1024 nodes, where it is
- * always rebuilt when full. Flat typed arrays: no per-vertex objects for
- * the garbage collector.
+ * Each vertex `v` owns a block of 8 int32 in `vb`: `vb[8 v]` its number of
+ * slots `n`, `vb[8 v + 1 ..]` the first `INLINE` = 7 of them (unordered).
+ * A vertex in more than 7 slots keeps the rest in `big` (vertex → a list
+ * and a slot → index map, for O(1) removal: a hostile file can put one
+ * vertex into millions of faces). A slot leaves a block by moving the
+ * block's last entry into its place. Why a block, not linked lists of
+ * corners: a star walk reads one block (one cache line) and then the K
+ * quads it needs anyway, where a list costs a scattered read per node;
+ * and a slot (not a corner) is what a vertex is listed by, so a record
+ * that rotates a quad changes no list (the corner is found in the quad,
+ * `cornerIn`). Memory: 32 bytes per vertex. Flat typed arrays, plus a Map
+ * entry only per vertex of more than 7 faces.
  */
 export class Frontier {
   constructor() {
@@ -41,104 +37,147 @@ export class Frontier {
     this.nv = 0;
     this.f = new Uint32Array(0);
     this.nf = 0;
-    this.head = new Int32Array(0);
-    this.nodeC = new Int32Array(0);
-    this.nodeN = new Int32Array(0);
-    this.nNodes = 0;
+    this.vb = new Int32Array(0);
+    /** @type {Map<number, {s: number[], at: Map<number, number>}>} slots past the 7th of a vertex */
+    this.big = new Map();
     /** Final counts of the file: capacities never grow beyond them. */
     this.maxV = Infinity;
     this.maxF = Infinity;
   }
 
-  /**
-   * Records that corner `c` now holds vertex `v`. The caller has already
-   * set `f[c] = v` with `c < 4 nf` (a rebuild reads `f`).
-   */
-  link(c, v) {
-    const n = this.nNodes;
-    if (n === this.nodeC.length && this._poolFull()) return; // rebuilt from f: c is listed
-    this.nodeC[n] = c;
-    this.nodeN[n] = this.head[v];
-    this.head[v] = n;
-    this.nNodes = n + 1;
+  /** Lists slot `s` at vertex `v` (which the caller knows is not listed there). */
+  add(v, s) {
+    const vb = this.vb;
+    const b = v << 3;
+    const n = vb[b];
+    if (n < INLINE) vb[b + 1 + n] = s;
+    else this._bigAdd(v, s);
+    vb[b] = n + 1;
+  }
+
+  _bigAdd(v, s) {
+    let e = this.big.get(v);
+    if (e === undefined) {
+      e = { s: [], at: new Map() };
+      this.big.set(v, e);
+    }
+    e.at.set(s, e.s.length);
+    e.s.push(s);
+  }
+
+  /** Removes slot `s` from vertex `v`'s list (where it is listed). */
+  remove(v, s) {
+    const vb = this.vb;
+    const b = v << 3;
+    const n = vb[b];
+    const lim = n < INLINE ? n : INLINE;
+    for (let i = 1; i <= lim; i++) {
+      if (vb[b + i] !== s) continue;
+      // the last entry fills the hole: from `big` when there is one
+      if (n > INLINE) vb[b + i] = this._bigPop(v);
+      else vb[b + i] = vb[b + n];
+      vb[b] = n - 1;
+      return;
+    }
+    this._bigRemove(v, s);
+    vb[b] = n - 1;
+  }
+
+  _bigPop(v) {
+    const e = this.big.get(v);
+    const s = e.s.pop();
+    e.at.delete(s);
+    return s;
+  }
+
+  _bigRemove(v, s) {
+    const e = this.big.get(v);
+    const i = e.at.get(s);
+    const last = e.s.pop();
+    e.at.delete(s);
+    if (last !== s) {
+      e.s[i] = last;
+      e.at.set(last, i);
+    }
   }
 
   /**
-   * The pool is full: rebuilds it from `f` (returns true) when it holds
-   * more than 1.5 nodes per live corner, else grows it (returns false).
+   * Sets corner `c` (< 4 nf) to vertex `v`, keeping the lists exact; `v`
+   * must not be at another corner of the slot (quads have distinct
+   * corners). For edits one corner at a time (rewriteSlot does whole quads).
    */
-  _poolFull() {
-    const live = 4 * this.nf;
-    if (this.nNodes >= live + (live >> 1) + 1024) {
-      this.rebuild();
-      return true;
-    }
-    const max = 6 * this.maxF + 1024;
-    this.nodeC = ensure(this.nodeC, this.nNodes + 1, this.nNodes, max);
-    this.nodeN = ensure(this.nodeN, this.nNodes + 1, this.nNodes, max);
-    return false;
+  setCorner(c, v) {
+    const old = this.f[c];
+    if (old === v) return;
+    this.f[c] = v;
+    this.remove(old, c >> 2);
+    this.add(v, c >> 2);
   }
 
-  /** Lists every corner of `f` afresh (no stale nodes). */
-  rebuild() {
-    const live = 4 * this.nf;
-    if (this.nodeC.length < live) {
-      this.nodeC = new Int32Array(live + (live >> 1) + 1024);
-      this.nodeN = new Int32Array(this.nodeC.length);
-    }
-    const head = this.head;
-    head.fill(-1, 0, this.nv);
+  /** Lists every corner of slot `s` (a new quad, already in `f`). */
+  addSlot(s) {
     const f = this.f;
-    const nodeC = this.nodeC;
-    const nodeN = this.nodeN;
-    for (let c = 0; c < live; c++) {
-      const v = f[c];
-      nodeC[c] = c;
-      nodeN[c] = head[v];
-      head[v] = c;
+    const s4 = 4 * s;
+    this.add(f[s4], s);
+    this.add(f[s4 + 1], s);
+    this.add(f[s4 + 2], s);
+    this.add(f[s4 + 3], s);
+  }
+
+  /** Lists every slot of `f` afresh at its four vertices. */
+  rebuild() {
+    if (this.vb.length < 8 * this.nv) this.vb = new Int32Array(8 * this.nv);
+    const vb = this.vb;
+    for (let v = 0; v < this.nv; v++) vb[v << 3] = 0;
+    this.big.clear();
+    for (let s = 0; s < this.nf; s++) this.addSlot(s);
+  }
+
+  /**
+   * The number of slots holding `v`, and the first `max` of them (in no
+   * particular order) in `out`.
+   */
+  slotsOf(v, out, max) {
+    const vb = this.vb;
+    const b = v << 3;
+    const n = vb[b];
+    const lim = n < max ? n : max;
+    const inl = lim < INLINE ? lim : INLINE;
+    for (let i = 0; i < inl; i++) out[i] = vb[b + 1 + i];
+    if (lim > INLINE) {
+      const xs = this.big.get(v).s;
+      for (let i = INLINE; i < lim; i++) out[i] = xs[i - INLINE];
     }
-    this.nNodes = live;
+    return n;
   }
 
   /**
    * The star of vertex `m`: the slots holding it, ascending, into `slots`,
    * and the corner (0..3) of `m` in each into `corners`; returns their
-   * number. Drops the stale and repeated nodes of m's list on the way.
-   * Throws a message string past 255 faces (spec §7.5: K ≤ 255).
+   * number. Throws a message string past 255 faces (spec §7.5: K ≤ 255).
    * @param {number} m
    * @param {Int32Array} slots at least 255 entries
    * @param {Int32Array} corners at least 255 entries
    */
   star(m, slots, corners) {
+    const vb = this.vb;
+    const b = m << 3;
+    const K = vb[b];
+    if (K > 255) throw `vertex ${m} is in more than 255 faces`;
     const f = this.f;
-    const nodeC = this.nodeC;
-    const nodeN = this.nodeN;
-    let K = 0;
-    let kept = -1; // last node kept
-    for (let n = this.head[m]; n >= 0; ) {
-      const c = nodeC[n];
-      const next = nodeN[n];
-      const slot = c >> 2;
+    const xs = K > INLINE ? this.big.get(m).s : null;
+    for (let t = 0; t < K; t++) {
+      const slot = t < INLINE ? vb[b + 1 + t] : xs[t - INLINE];
+      const k = cornerIn(f, 4 * slot, m);
       // insertion sort by slot: K is small
-      let i = K;
-      while (i > 0 && slots[i - 1] > slot) i--;
-      if (f[c] !== m || (i > 0 && slots[i - 1] === slot)) {
-        // stale (the corner moved on) or a repeat of a kept corner: unlink
-        if (kept < 0) this.head[m] = next;
-        else nodeN[kept] = next;
-        n = next;
-        continue;
-      }
-      if (K === 255) throw `vertex ${m} is in more than 255 faces`;
-      for (let j = K; j > i; j--) {
-        slots[j] = slots[j - 1];
-        corners[j] = corners[j - 1];
+      let i = t;
+      while (i > 0 && slots[i - 1] > slot) {
+        slots[i] = slots[i - 1];
+        corners[i] = corners[i - 1];
+        i--;
       }
       slots[i] = slot;
-      corners[i] = c & 3;
-      K++;
-      kept = n;
-      n = next;
+      corners[i] = k;
     }
     return K;
   }
@@ -148,9 +187,24 @@ export class Frontier {
     const mv = this.maxV;
     const mf = this.maxF;
     if (3 * nv > this.q.length) this.q = ensure(this.q, 3 * nv, 3 * this.nv, 3 * mv);
-    if (nv > this.head.length) this.head = ensure(this.head, nv, this.nv, mv);
+    if (8 * nv > this.vb.length) this.vb = ensure(this.vb, 8 * nv, 8 * this.nv, 8 * mv);
     if (4 * nf > this.f.length) this.f = ensure(this.f, 4 * nf, 4 * this.nf, 4 * mf);
   }
+}
+
+/** Slots of a vertex kept in its block of `Frontier.vb`. */
+const INLINE = 7;
+
+/**
+ * The corner of the quad at `f[s4 .. s4 + 4)` that holds vertex `v` (0..3),
+ * or −1.
+ */
+export function cornerIn(f, s4, v) {
+  if (f[s4] === v) return 0;
+  if (f[s4 + 1] === v) return 1;
+  if (f[s4 + 2] === v) return 2;
+  if (f[s4 + 3] === v) return 3;
+  return -1;
 }
 
 /**
@@ -261,7 +315,6 @@ export function decodeBase(payload, nv, nf, qmax) {
   }
   st.nv = nv;
   st.nf = nf;
-  st.head = new Int32Array(nv);
   st.rebuild();
   return st;
 }
@@ -457,17 +510,21 @@ export function rewriteSlot(ctx, slot, a, b, c, d) {
   r[o + 3] = c ^ f[s4 + 2];
   r[o + 4] = d ^ f[s4 + 3];
   log.nRw = n + 1;
-  relink(st, s4, a);
-  relink(st, s4 + 1, b);
-  relink(st, s4 + 2, c);
-  relink(st, s4 + 3, d);
-}
-
-/** Sets corner `c` to vertex `v`, listing it at `v` (the old node goes stale). */
-function relink(st, c, v) {
-  if (st.f[c] === v) return;
-  st.f[c] = v;
-  st.link(c, v);
+  const o0 = f[s4], o1 = f[s4 + 1], o2 = f[s4 + 2], o3 = f[s4 + 3];
+  f[s4] = a;
+  f[s4 + 1] = b;
+  f[s4 + 2] = c;
+  f[s4 + 3] = d;
+  // the lists name slots: only vertices leaving or entering the slot
+  // change one (a rotated quad changes none)
+  if (o0 !== a && o0 !== b && o0 !== c && o0 !== d) st.remove(o0, slot);
+  if (o1 !== a && o1 !== b && o1 !== c && o1 !== d) st.remove(o1, slot);
+  if (o2 !== a && o2 !== b && o2 !== c && o2 !== d) st.remove(o2, slot);
+  if (o3 !== a && o3 !== b && o3 !== c && o3 !== d) st.remove(o3, slot);
+  if (a !== o0 && a !== o1 && a !== o2 && a !== o3) st.add(a, slot);
+  if (b !== o0 && b !== o1 && b !== o2 && b !== o3) st.add(b, slot);
+  if (c !== o0 && c !== o1 && c !== o2 && c !== o3) st.add(c, slot);
+  if (d !== o0 && d !== o1 && d !== o2 && d !== o3) st.add(d, slot);
 }
 
 /** Appends quad `a b c d` at the next slot. */
@@ -490,11 +547,10 @@ export function appendQuad(ctx, a, b, c, d) {
   ap[4 * n + 2] = c;
   ap[4 * n + 3] = d;
   log.nApp = n + 1;
-  const c0 = 4 * slot;
-  st.link(c0, a);
-  st.link(c0 + 1, b);
-  st.link(c0 + 2, c);
-  st.link(c0 + 3, d);
+  st.add(a, slot);
+  st.add(b, slot);
+  st.add(c, slot);
+  st.add(d, slot);
 }
 
 /** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
@@ -506,7 +562,7 @@ export function appendVertex(ctx) {
   st.q[3 * v] = ctx.cx;
   st.q[3 * v + 1] = ctx.cy;
   st.q[3 * v + 2] = ctx.cz;
-  st.head[v] = -1;
+  st.vb[v << 3] = 0;
   st.nv = v + 1;
   const n = log.nNew;
   if (3 * (n + 1) > log.newCodes.length) {
