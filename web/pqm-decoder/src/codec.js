@@ -13,32 +13,35 @@ import { badRecord, invalid } from './errors.js';
 import { decodeLocal } from './local.js';
 
 /**
- * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
- * slot) and the vertex→face adjacency that the star walks need (spec §7.5,
- * §7.8), kept exact: per vertex the set of slots holding it, no stale or
- * repeated entries, so a star is a straight read of K slots.
+ * The deepest decoded level: per vertex a record of 16 int32 in `q` (its
+ * code xyz, then the vertex→face adjacency the star walks need, spec §7.5,
+ * §7.8), and the quads `f` (4 per slot).
  *
- * Each vertex `v` owns a block of 8 int32 in `vb`: `vb[8 v]` its number of
- * slots `n`, `vb[8 v + 1 ..]` the first `INLINE` = 7 of them (unordered).
- * A vertex in more than 7 slots keeps the rest in `big` (vertex → a list
+ * The adjacency is exact: per vertex the set of slots holding it, no stale
+ * or repeated entries, so a star is a straight read of K slots. Vertex
+ * `v`'s record is `q[16 v ..]`: code at `+ 0, 1, 2`, the number of slots
+ * `n` at `+ LEN`, the first `INLINE` = 12 slots (unordered) from `+ AT`. A
+ * vertex in more than 12 slots keeps the rest in `big` (vertex → a list
  * and a slot → index map, for O(1) removal: a hostile file can put one
- * vertex into millions of faces). A slot leaves a block by moving the
- * block's last entry into its place. Why a block, not linked lists of
- * corners: a star walk reads one block (one cache line) and then the K
- * quads it needs anyway, where a list costs a scattered read per node;
- * and a slot (not a corner) is what a vertex is listed by, so a record
- * that rotates a quad changes no list (the corner is found in the quad,
- * `cornerIn`). Memory: 32 bytes per vertex. Flat typed arrays, plus a Map
- * entry only per vertex of more than 7 faces.
+ * vertex into millions of faces). A slot leaves a list by moving the
+ * list's last entry into its place. Why one record per vertex: a record
+ * reads the codes of the vertices around its edit (for predictions) and
+ * then edits their lists — with both in one 64-byte record that is one
+ * cache miss per vertex, not two; and a star walk reads one record and
+ * then the K quads it needs anyway, where a linked list of corners costs a
+ * scattered read per node. A vertex is listed by slot, not by corner, so a
+ * record that rotates a quad changes no list (the corner is found in the
+ * quad, `cornerIn`). Memory: 64 bytes per vertex, plus a Map entry per
+ * vertex of more than 12 faces.
  */
 export class Frontier {
   constructor() {
-    this.q = new Uint32Array(0);
+    /** Vertex records (see above): code and slot list. */
+    this.q = new Int32Array(0);
     this.nv = 0;
     this.f = new Uint32Array(0);
     this.nf = 0;
-    this.vb = new Int32Array(0);
-    /** @type {Map<number, {s: number[], at: Map<number, number>}>} slots past the 7th of a vertex */
+    /** @type {Map<number, {s: number[], at: Map<number, number>}>} slots past the 12th of a vertex */
     this.big = new Map();
     /** Final counts of the file: capacities never grow beyond them. */
     this.maxV = Infinity;
@@ -47,12 +50,12 @@ export class Frontier {
 
   /** Lists slot `s` at vertex `v` (which the caller knows is not listed there). */
   add(v, s) {
-    const vb = this.vb;
-    const b = v << 3;
-    const n = vb[b];
-    if (n < INLINE) vb[b + 1 + n] = s;
+    const q = this.q;
+    const b = v << 4;
+    const n = q[b + LEN];
+    if (n < INLINE) q[b + AT + n] = s;
     else this._bigAdd(v, s);
-    vb[b] = n + 1;
+    q[b + LEN] = n + 1;
   }
 
   _bigAdd(v, s) {
@@ -67,20 +70,20 @@ export class Frontier {
 
   /** Removes slot `s` from vertex `v`'s list (where it is listed). */
   remove(v, s) {
-    const vb = this.vb;
-    const b = v << 3;
-    const n = vb[b];
+    const q = this.q;
+    const b = v << 4;
+    const n = q[b + LEN];
     const lim = n < INLINE ? n : INLINE;
-    for (let i = 1; i <= lim; i++) {
-      if (vb[b + i] !== s) continue;
+    for (let i = AT; i < AT + lim; i++) {
+      if (q[b + i] !== s) continue;
       // the last entry fills the hole: from `big` when there is one
-      if (n > INLINE) vb[b + i] = this._bigPop(v);
-      else vb[b + i] = vb[b + n];
-      vb[b] = n - 1;
+      if (n > INLINE) q[b + i] = this._bigPop(v);
+      else q[b + i] = q[b + AT + n - 1];
+      q[b + LEN] = n - 1;
       return;
     }
     this._bigRemove(v, s);
-    vb[b] = n - 1;
+    q[b + LEN] = n - 1;
   }
 
   _bigPop(v) {
@@ -126,9 +129,9 @@ export class Frontier {
 
   /** Lists every slot of `f` afresh at its four vertices. */
   rebuild() {
-    if (this.vb.length < 8 * this.nv) this.vb = new Int32Array(8 * this.nv);
-    const vb = this.vb;
-    for (let v = 0; v < this.nv; v++) vb[v << 3] = 0;
+    this.reserve(this.nv, this.nf);
+    const q = this.q;
+    for (let v = 0; v < this.nv; v++) q[(v << 4) + LEN] = 0;
     this.big.clear();
     for (let s = 0; s < this.nf; s++) this.addSlot(s);
   }
@@ -138,12 +141,12 @@ export class Frontier {
    * particular order) in `out`.
    */
   slotsOf(v, out, max) {
-    const vb = this.vb;
-    const b = v << 3;
-    const n = vb[b];
+    const q = this.q;
+    const b = v << 4;
+    const n = q[b + LEN];
     const lim = n < max ? n : max;
     const inl = lim < INLINE ? lim : INLINE;
-    for (let i = 0; i < inl; i++) out[i] = vb[b + 1 + i];
+    for (let i = 0; i < inl; i++) out[i] = q[b + AT + i];
     if (lim > INLINE) {
       const xs = this.big.get(v).s;
       for (let i = INLINE; i < lim; i++) out[i] = xs[i - INLINE];
@@ -160,14 +163,14 @@ export class Frontier {
    * @param {Int32Array} corners at least 255 entries
    */
   star(m, slots, corners) {
-    const vb = this.vb;
-    const b = m << 3;
-    const K = vb[b];
+    const q = this.q;
+    const b = m << 4;
+    const K = q[b + LEN];
     if (K > 255) throw `vertex ${m} is in more than 255 faces`;
     const f = this.f;
     const xs = K > INLINE ? this.big.get(m).s : null;
     for (let t = 0; t < K; t++) {
-      const slot = t < INLINE ? vb[b + 1 + t] : xs[t - INLINE];
+      const slot = t < INLINE ? q[b + AT + t] : xs[t - INLINE];
       const k = cornerIn(f, 4 * slot, m);
       // insertion sort by slot: K is small
       let i = t;
@@ -186,14 +189,20 @@ export class Frontier {
   reserve(nv, nf) {
     const mv = this.maxV;
     const mf = this.maxF;
-    if (3 * nv > this.q.length) this.q = ensure(this.q, 3 * nv, 3 * this.nv, 3 * mv);
-    if (8 * nv > this.vb.length) this.vb = ensure(this.vb, 8 * nv, 8 * this.nv, 8 * mv);
+    if (16 * nv > this.q.length) this.q = ensure(this.q, 16 * nv, 16 * this.nv, 16 * mv);
     if (4 * nf > this.f.length) this.f = ensure(this.f, 4 * nf, 4 * this.nf, 4 * mf);
   }
 }
 
-/** Slots of a vertex kept in its block of `Frontier.vb`. */
-const INLINE = 7;
+/** A vertex record of `Frontier.q`: its list length at `+ LEN`, the first `INLINE` slots from `+ AT`. */
+const LEN = 3;
+const AT = 4;
+const INLINE = 12;
+
+/** The number of slots holding vertex `v` of frontier `st`. */
+export function degree(st, v) {
+  return st.q[(v << 4) + LEN];
+}
 
 /**
  * The corner of the quad at `f[s4 .. s4 + 4)` that holds vertex `v` (0..3),
@@ -277,7 +286,7 @@ export function decodeBase(payload, nv, nf, qmax) {
     );
   }
   const st = new Frontier();
-  st.q = new Uint32Array(3 * nv);
+  st.q = new Int32Array(16 * nv);
   st.f = new Uint32Array(4 * nf);
   const r = new Reader(payload, 0, payload.length, 'base');
   try {
@@ -304,9 +313,9 @@ export function decodeBase(payload, nv, nf, qmax) {
       if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
         throw `vertex ${i} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
       }
-      q[3 * i] = x;
-      q[3 * i + 1] = y;
-      q[3 * i + 2] = z;
+      q[16 * i] = x;
+      q[16 * i + 1] = y;
+      q[16 * i + 2] = z;
     }
     if (r.remaining() !== 0) throw `${r.remaining()} unused bytes after the last vertex`;
   } catch (e) {
@@ -485,13 +494,13 @@ export function logMove(ctx, v) {
   const m = log.moved;
   const o = 4 * n;
   m[o] = v;
-  m[o + 1] = ctx.cx - q[3 * v];
-  m[o + 2] = ctx.cy - q[3 * v + 1];
-  m[o + 3] = ctx.cz - q[3 * v + 2];
+  m[o + 1] = ctx.cx - q[16 * v];
+  m[o + 2] = ctx.cy - q[16 * v + 1];
+  m[o + 3] = ctx.cz - q[16 * v + 2];
   log.nMoved = n + 1;
-  q[3 * v] = ctx.cx;
-  q[3 * v + 1] = ctx.cy;
-  q[3 * v + 2] = ctx.cz;
+  q[16 * v] = ctx.cx;
+  q[16 * v + 1] = ctx.cy;
+  q[16 * v + 2] = ctx.cz;
 }
 
 /** Logs that `slot` becomes quad `a b c d`, updating quads and adjacency. */
@@ -559,10 +568,11 @@ export function appendVertex(ctx) {
   const log = ctx.log;
   const v = st.nv;
   st.reserve(v + 1, st.nf);
-  st.q[3 * v] = ctx.cx;
-  st.q[3 * v + 1] = ctx.cy;
-  st.q[3 * v + 2] = ctx.cz;
-  st.vb[v << 3] = 0;
+  const q = st.q;
+  q[16 * v] = ctx.cx;
+  q[16 * v + 1] = ctx.cy;
+  q[16 * v + 2] = ctx.cz;
+  q[16 * v + LEN] = 0;
   st.nv = v + 1;
   const n = log.nNew;
   if (3 * (n + 1) > log.newCodes.length) {
@@ -631,7 +641,7 @@ function decodeGeneral(ctx) {
     ctx.vcur = v;
     prevMoved = v;
     const q = st.q;
-    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], 'moved vertex', v, '');
+    readCode(ctx, q[16 * v], q[16 * v + 1], q[16 * v + 2], 'moved vertex', v, '');
     logMove(ctx, v);
   }
 
@@ -798,9 +808,9 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
       const op = arr[o + ((c + 2) & 3)];
       const n3 = arr[o + ((c + 3) & 3)];
       if (n1 < x && op < x && n3 < x) {
-        sx += q[3 * n1] + q[3 * n3] - q[3 * op];
-        sy += q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1];
-        sz += q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2];
+        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
         n++;
       }
     }
@@ -825,30 +835,30 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
     const k3 = n3 < x;
     if (k1 && ko && k3) {
       // parallelogram
-      ctx.px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
-      ctx.py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
-      ctx.pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
+      ctx.px = clamp(q[16 * n1] + q[16 * n3] - q[16 * op], qmax);
+      ctx.py = clamp(q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1], qmax);
+      ctx.pz = clamp(q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2], qmax);
       return;
     }
     if (k1 || ko || k3) {
       // mean of the known ones (codes are ≥ 0: floor = truncation)
       let sx = 0, sy = 0, sz = 0, n = 0;
       if (k1) {
-        sx += q[3 * n1];
-        sy += q[3 * n1 + 1];
-        sz += q[3 * n1 + 2];
+        sx += q[16 * n1];
+        sy += q[16 * n1 + 1];
+        sz += q[16 * n1 + 2];
         n++;
       }
       if (ko) {
-        sx += q[3 * op];
-        sy += q[3 * op + 1];
-        sz += q[3 * op + 2];
+        sx += q[16 * op];
+        sy += q[16 * op + 1];
+        sz += q[16 * op + 2];
         n++;
       }
       if (k3) {
-        sx += q[3 * n3];
-        sy += q[3 * n3 + 1];
-        sz += q[3 * n3 + 2];
+        sx += q[16 * n3];
+        sy += q[16 * n3 + 1];
+        sz += q[16 * n3 + 2];
         n++;
       }
       ctx.px = Math.floor(sx / n);
@@ -858,9 +868,9 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
     }
   }
   if (x > V) {
-    ctx.px = q[3 * (x - 1)];
-    ctx.py = q[3 * (x - 1) + 1];
-    ctx.pz = q[3 * (x - 1) + 2];
+    ctx.px = q[16 * (x - 1)];
+    ctx.py = q[16 * (x - 1) + 1];
+    ctx.pz = q[16 * (x - 1) + 2];
   } else {
     ctx.px = ctx.py = ctx.pz = ctx.half;
   }
@@ -884,9 +894,9 @@ function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
       if (arr[i] !== V) continue;
       const o = i & ~3;
       const c = i & 3;
-      const n1 = 3 * arr[o + ((c + 1) & 3)];
-      const op = 3 * arr[o + ((c + 2) & 3)];
-      const n3 = 3 * arr[o + ((c + 3) & 3)];
+      const n1 = 16 * arr[o + ((c + 1) & 3)];
+      const op = 16 * arr[o + ((c + 2) & 3)];
+      const n3 = 16 * arr[o + ((c + 3) & 3)];
       sx += q[n1] + q[n3] - q[op];
       sy += q[n1 + 1] + q[n3 + 1] - q[op + 1];
       sz += q[n1 + 2] + q[n3 + 2] - q[op + 2];
@@ -1111,7 +1121,7 @@ function decodeSplit(ctx, sym) {
     const idx = sList[t];
     if (sideA) {
       if (moves) {
-        const o = 3 * sO[idx];
+        const o = 16 * sO[idx];
         sax += q[o];
         say += q[o + 1];
         saz += q[o + 2];
@@ -1119,7 +1129,7 @@ function decodeSplit(ctx, sym) {
       nA++;
     } else {
       if (moves) {
-        const o = 3 * sO[idx];
+        const o = 16 * sO[idx];
         scx += q[o];
         scy += q[o + 1];
         scz += q[o + 2];
@@ -1130,7 +1140,7 @@ function decodeSplit(ctx, sym) {
 
   // 6. positions. a (moved m) first, then c.
   const qmax = ctx.qmax;
-  const mx = q[3 * m], my = q[3 * m + 1], mz = q[3 * m + 2];
+  const mx = q[16 * m], my = q[16 * m + 1], mz = q[16 * m + 2];
   let ax = mx, ay = my, az = mz;
   if (moves) {
     // side means (m's own code for an empty side), without temporaries
@@ -1167,15 +1177,15 @@ function decodeSplit(ctx, sym) {
     // m replaced by c — neighbours n and p, opposite o, none of them m (a
     // quad's corners are distinct), all existing: every parallelogram
     // counts.
-    let sx = q[3 * b] + q[3 * d] - ax;
-    let sy = q[3 * b + 1] + q[3 * d + 1] - ay;
-    let sz = q[3 * b + 2] + q[3 * d + 2] - az;
+    let sx = q[16 * b] + q[16 * d] - ax;
+    let sy = q[16 * b + 1] + q[16 * d + 1] - ay;
+    let sz = q[16 * b + 2] + q[16 * d + 2] - az;
     for (let t = 0; t < K; t++) {
       if (i < j ? i <= t && t < j : t >= i || t < j) continue; // side A
       const idx = sList[t];
-      const n = 3 * sN[idx];
-      const p = 3 * sP[idx];
-      const o = 3 * sO[idx];
+      const n = 16 * sN[idx];
+      const p = 16 * sP[idx];
+      const o = 16 * sO[idx];
       sx += q[n] + q[p] - q[o];
       sy += q[n + 1] + q[p + 1] - q[o + 1];
       sz += q[n + 2] + q[p + 2] - q[o + 2];
@@ -1188,9 +1198,9 @@ function decodeSplit(ctx, sym) {
     // §7.6 (version 1; version 2 with side C empty): the appended quad
     // (m, d, c, b) rotated is the first quad holding c; its neighbours
     // there are b and d, its opposite corner m (code a).
-    px = clamp(q[3 * b] + q[3 * d] - ax, qmax);
-    py = clamp(q[3 * b + 1] + q[3 * d + 1] - ay, qmax);
-    pz = clamp(q[3 * b + 2] + q[3 * d + 2] - az, qmax);
+    px = clamp(q[16 * b] + q[16 * d] - ax, qmax);
+    py = clamp(q[16 * b + 1] + q[16 * d + 1] - ay, qmax);
+    pz = clamp(q[16 * b + 2] + q[16 * d + 2] - az, qmax);
   }
   readCode(ctx, px, py, pz, 'split vertex', m, ' (c)');
   appendVertex(ctx);
@@ -1265,7 +1275,7 @@ function decodeFaceSplit(ctx, sym) {
   // corners known — A: n1 = m, o = p, n3 = o; B: n1 = o, o = q, n3 = m.
   const q = st.q;
   const qmax = ctx.qmax;
-  const m3 = 3 * m, p3 = 3 * p, o3 = 3 * o, q3 = 3 * qv;
+  const m3 = 16 * m, p3 = 16 * p, o3 = 16 * o, q3 = 16 * qv;
   readCode(
     ctx,
     clamp(floorDiv(2 * q[m3] + 2 * q[o3] - q[p3] - q[q3], 2), qmax),

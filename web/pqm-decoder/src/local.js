@@ -11,7 +11,7 @@
  * Written from the spec; shares only the apply/log primitives with the
  * general form (codec.js).
  */
-import { readCode, logMove, checkDistinct, finishRecord } from './codec.js';
+import { readCode, logMove, checkDistinct, finishRecord, degree } from './codec.js';
 
 const MAX_STAR = 255;
 const MAX_CORNERS = 4096;
@@ -103,7 +103,6 @@ let uSorted = false;
 /** Fills lR for anchor `m` (and lA); sets curR, resets curU. */
 function neighbourhood(st, m) {
   const f = st.f;
-  const vb = st.vb;
   const gv = nextGen(st.nv, st.nf);
   const gf = gv + 1;
   const sv = stampV;
@@ -111,7 +110,7 @@ function neighbourhood(st, m) {
   // S, the anchor's faces (the frontier's lists are exact: one entry per
   // slot). S is listed in R at once; R is sorted at the end, so the star
   // needs no order.
-  const K = vb[m << 3];
+  const K = degree(st, m);
   if (K > MAX_STAR) throw `vertex ${m} is in more than ${MAX_STAR} faces`;
   if (K === 0) throw `anchor ${m} has no face`;
   st.slotsOf(m, lR, K);
@@ -135,7 +134,7 @@ function neighbourhood(st, m) {
   let entries = K;
   for (let i = 0; i < na; i++) {
     const u = lA[i];
-    if (u !== m) entries += vb[u << 3];
+    if (u !== m) entries += degree(st, u);
   }
   if (entries > MAX_CORNERS) throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
   for (let i = 0; i < na; i++) {
@@ -316,7 +315,7 @@ export function decodeLocal(ctx, sym) {
       }
       const v = lW[i];
       const q = st.q;
-      readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], "moved vertex", v, "");
+      readCode(ctx, q[16 * v], q[16 * v + 1], q[16 * v + 2], "moved vertex", v, "");
       logMove(ctx, v);
     }
   }

@@ -213,7 +213,7 @@ export function randomFrontierEdit(st, rand, maxF, maxV) {
   }
   if (r < 0.75 && st.nv < maxV) {
     st.reserve(st.nv + 1, st.nf);
-    st.vb[st.nv << 3] = 0;
+    st.q[16 * st.nv + 3] = 0; // an empty slot list (codec.js: LEN)
     st.nv++;
     return true;
   }
