@@ -13,132 +13,174 @@ import { badRecord, invalid } from './errors.js';
 import { decodeLocal } from './local.js';
 
 /**
- * The deepest decoded level: codes `q` (3 per vertex), quads `f` (4 per
- * slot) and the vertex→face adjacency that the split form's star walk
- * needs (spec §7.5), as lists of *corners* (corner `4 s + k` is corner `k`
- * of slot `s`) in a node pool: `head[v]` is the first node of vertex `v`,
- * node `n` holds corner `nodeC[n]` and the next node `nodeN[n]` (−1 ends a
- * list).
+ * The deepest decoded level: per vertex a record of 16 int32 in `q` (its
+ * code xyz, then the vertex→face adjacency the star walks need, spec §7.5,
+ * §7.8), and the quads `f` (4 per slot).
  *
- * The lists are append-only with lazy deletion: when a corner changes
- * vertex, a node is added to the new vertex's list and the old vertex's
- * node stays, stale, until a star walk of that vertex drops it (a node is
- * live iff `f[nodeC[n]]` is still its vertex; a corner that returns to a
- * vertex can be listed twice, the walk keeps one). Why: general-form
- * records (nearly all records of real files) rewrite corners but never
- * walk a star, so a rewrite costs one list push (one random access, the
- * head) instead of an unlink and a link in doubly linked lists (four).
- * When the pool is full and holds more than 1.5 nodes per live corner
- * (+ 1024), it is rebuilt from `f` in place: O(live corners), paid for by
- * the at least live / 2 pushes since the last rebuild. Its capacity grows
- * geometrically up to 1.5 × 4 × final faces + 1024 nodes, where it is
- * always rebuilt when full. Flat typed arrays: no per-vertex objects for
- * the garbage collector.
+ * The adjacency is exact: per vertex the set of slots holding it, no stale
+ * or repeated entries, so a star is a straight read of K slots. Vertex
+ * `v`'s record is `q[16 v ..]`: code at `+ 0, 1, 2`, the number of slots
+ * `n` at `+ LEN`, the first `INLINE` = 12 slots (unordered) from `+ AT`. A
+ * vertex in more than 12 slots keeps the rest in `big` (vertex → a list
+ * and a slot → index map, for O(1) removal: a hostile file can put one
+ * vertex into millions of faces). A slot leaves a list by moving the
+ * list's last entry into its place. Why one record per vertex: a record
+ * reads the codes of the vertices around its edit (for predictions) and
+ * then edits their lists — with both in one 64-byte record that is one
+ * cache miss per vertex, not two; and a star walk reads one record and
+ * then the K quads it needs anyway, where a linked list of corners costs a
+ * scattered read per node. A vertex is listed by slot, not by corner, so a
+ * record that rotates a quad changes no list (the corner is found in the
+ * quad, `cornerIn`). Memory: 64 bytes per vertex, plus a Map entry per
+ * vertex of more than 12 faces.
  */
 export class Frontier {
   constructor() {
-    this.q = new Uint32Array(0);
+    /** Vertex records (see above): code and slot list. */
+    this.q = new Int32Array(0);
     this.nv = 0;
     this.f = new Uint32Array(0);
     this.nf = 0;
-    this.head = new Int32Array(0);
-    this.nodeC = new Int32Array(0);
-    this.nodeN = new Int32Array(0);
-    this.nNodes = 0;
+    /** @type {Map<number, {s: number[], at: Map<number, number>}>} slots past the 12th of a vertex */
+    this.big = new Map();
     /** Final counts of the file: capacities never grow beyond them. */
     this.maxV = Infinity;
     this.maxF = Infinity;
   }
 
-  /**
-   * Records that corner `c` now holds vertex `v`. The caller has already
-   * set `f[c] = v` with `c < 4 nf` (a rebuild reads `f`).
-   */
-  link(c, v) {
-    const n = this.nNodes;
-    if (n === this.nodeC.length && this._poolFull()) return; // rebuilt from f: c is listed
-    this.nodeC[n] = c;
-    this.nodeN[n] = this.head[v];
-    this.head[v] = n;
-    this.nNodes = n + 1;
+  /** Lists slot `s` at vertex `v` (which the caller knows is not listed there). */
+  add(v, s) {
+    const q = this.q;
+    const b = v << 4;
+    const n = q[b + LEN];
+    if (n < INLINE) q[b + AT + n] = s;
+    else this._bigAdd(v, s);
+    q[b + LEN] = n + 1;
+  }
+
+  _bigAdd(v, s) {
+    let e = this.big.get(v);
+    if (e === undefined) {
+      e = { s: [], at: new Map() };
+      this.big.set(v, e);
+    }
+    e.at.set(s, e.s.length);
+    e.s.push(s);
+  }
+
+  /** Removes slot `s` from vertex `v`'s list (where it is listed). */
+  remove(v, s) {
+    const q = this.q;
+    const b = v << 4;
+    const n = q[b + LEN];
+    const lim = n < INLINE ? n : INLINE;
+    for (let i = AT; i < AT + lim; i++) {
+      if (q[b + i] !== s) continue;
+      // the last entry fills the hole: from `big` when there is one
+      if (n > INLINE) q[b + i] = this._bigPop(v);
+      else q[b + i] = q[b + AT + n - 1];
+      q[b + LEN] = n - 1;
+      return;
+    }
+    this._bigRemove(v, s);
+    q[b + LEN] = n - 1;
+  }
+
+  _bigPop(v) {
+    const e = this.big.get(v);
+    const s = e.s.pop();
+    e.at.delete(s);
+    return s;
+  }
+
+  _bigRemove(v, s) {
+    const e = this.big.get(v);
+    const i = e.at.get(s);
+    const last = e.s.pop();
+    e.at.delete(s);
+    if (last !== s) {
+      e.s[i] = last;
+      e.at.set(last, i);
+    }
   }
 
   /**
-   * The pool is full: rebuilds it from `f` (returns true) when it holds
-   * more than 1.5 nodes per live corner, else grows it (returns false).
+   * Sets corner `c` (< 4 nf) to vertex `v`, keeping the lists exact; `v`
+   * must not be at another corner of the slot (quads have distinct
+   * corners). For edits one corner at a time (rewriteSlot does whole quads).
    */
-  _poolFull() {
-    const live = 4 * this.nf;
-    if (this.nNodes >= live + (live >> 1) + 1024) {
-      this.rebuild();
-      return true;
-    }
-    const max = 6 * this.maxF + 1024;
-    this.nodeC = ensure(this.nodeC, this.nNodes + 1, this.nNodes, max);
-    this.nodeN = ensure(this.nodeN, this.nNodes + 1, this.nNodes, max);
-    return false;
+  setCorner(c, v) {
+    const old = this.f[c];
+    if (old === v) return;
+    this.f[c] = v;
+    this.remove(old, c >> 2);
+    this.add(v, c >> 2);
   }
 
-  /** Lists every corner of `f` afresh (no stale nodes). */
-  rebuild() {
-    const live = 4 * this.nf;
-    if (this.nodeC.length < live) {
-      this.nodeC = new Int32Array(live + (live >> 1) + 1024);
-      this.nodeN = new Int32Array(this.nodeC.length);
-    }
-    const head = this.head;
-    head.fill(-1, 0, this.nv);
+  /** Lists every corner of slot `s` (a new quad, already in `f`). */
+  addSlot(s) {
     const f = this.f;
-    const nodeC = this.nodeC;
-    const nodeN = this.nodeN;
-    for (let c = 0; c < live; c++) {
-      const v = f[c];
-      nodeC[c] = c;
-      nodeN[c] = head[v];
-      head[v] = c;
+    const s4 = 4 * s;
+    this.add(f[s4], s);
+    this.add(f[s4 + 1], s);
+    this.add(f[s4 + 2], s);
+    this.add(f[s4 + 3], s);
+  }
+
+  /** Lists every slot of `f` afresh at its four vertices. */
+  rebuild() {
+    this.reserve(this.nv, this.nf);
+    const q = this.q;
+    for (let v = 0; v < this.nv; v++) q[(v << 4) + LEN] = 0;
+    this.big.clear();
+    for (let s = 0; s < this.nf; s++) this.addSlot(s);
+  }
+
+  /**
+   * The number of slots holding `v`, and the first `max` of them (in no
+   * particular order) in `out`.
+   */
+  slotsOf(v, out, max) {
+    const q = this.q;
+    const b = v << 4;
+    const n = q[b + LEN];
+    const lim = n < max ? n : max;
+    const inl = lim < INLINE ? lim : INLINE;
+    for (let i = 0; i < inl; i++) out[i] = q[b + AT + i];
+    if (lim > INLINE) {
+      const xs = this.big.get(v).s;
+      for (let i = INLINE; i < lim; i++) out[i] = xs[i - INLINE];
     }
-    this.nNodes = live;
+    return n;
   }
 
   /**
    * The star of vertex `m`: the slots holding it, ascending, into `slots`,
    * and the corner (0..3) of `m` in each into `corners`; returns their
-   * number. Drops the stale and repeated nodes of m's list on the way.
-   * Throws a message string past 255 faces (spec §7.5: K ≤ 255).
+   * number. Throws a message string past 255 faces (spec §7.5: K ≤ 255).
    * @param {number} m
    * @param {Int32Array} slots at least 255 entries
    * @param {Int32Array} corners at least 255 entries
    */
   star(m, slots, corners) {
+    const q = this.q;
+    const b = m << 4;
+    const K = q[b + LEN];
+    if (K > 255) throw `vertex ${m} is in more than 255 faces`;
     const f = this.f;
-    const nodeC = this.nodeC;
-    const nodeN = this.nodeN;
-    let K = 0;
-    let kept = -1; // last node kept
-    for (let n = this.head[m]; n >= 0; ) {
-      const c = nodeC[n];
-      const next = nodeN[n];
-      const slot = c >> 2;
+    const xs = K > INLINE ? this.big.get(m).s : null;
+    for (let t = 0; t < K; t++) {
+      const slot = t < INLINE ? q[b + AT + t] : xs[t - INLINE];
+      const k = cornerIn(f, 4 * slot, m);
       // insertion sort by slot: K is small
-      let i = K;
-      while (i > 0 && slots[i - 1] > slot) i--;
-      if (f[c] !== m || (i > 0 && slots[i - 1] === slot)) {
-        // stale (the corner moved on) or a repeat of a kept corner: unlink
-        if (kept < 0) this.head[m] = next;
-        else nodeN[kept] = next;
-        n = next;
-        continue;
-      }
-      if (K === 255) throw `vertex ${m} is in more than 255 faces`;
-      for (let j = K; j > i; j--) {
-        slots[j] = slots[j - 1];
-        corners[j] = corners[j - 1];
+      let i = t;
+      while (i > 0 && slots[i - 1] > slot) {
+        slots[i] = slots[i - 1];
+        corners[i] = corners[i - 1];
+        i--;
       }
       slots[i] = slot;
-      corners[i] = c & 3;
-      K++;
-      kept = n;
-      n = next;
+      corners[i] = k;
     }
     return K;
   }
@@ -147,10 +189,31 @@ export class Frontier {
   reserve(nv, nf) {
     const mv = this.maxV;
     const mf = this.maxF;
-    if (3 * nv > this.q.length) this.q = ensure(this.q, 3 * nv, 3 * this.nv, 3 * mv);
-    if (nv > this.head.length) this.head = ensure(this.head, nv, this.nv, mv);
+    if (16 * nv > this.q.length) this.q = ensure(this.q, 16 * nv, 16 * this.nv, 16 * mv);
     if (4 * nf > this.f.length) this.f = ensure(this.f, 4 * nf, 4 * this.nf, 4 * mf);
   }
+}
+
+/** A vertex record of `Frontier.q`: its list length at `+ LEN`, the first `INLINE` slots from `+ AT`. */
+const LEN = 3;
+const AT = 4;
+const INLINE = 12;
+
+/** The number of slots holding vertex `v` of frontier `st`. */
+export function degree(st, v) {
+  return st.q[(v << 4) + LEN];
+}
+
+/**
+ * The corner of the quad at `f[s4 .. s4 + 4)` that holds vertex `v` (0..3),
+ * or −1.
+ */
+export function cornerIn(f, s4, v) {
+  if (f[s4] === v) return 0;
+  if (f[s4 + 1] === v) return 1;
+  if (f[s4 + 2] === v) return 2;
+  if (f[s4 + 3] === v) return 3;
+  return -1;
 }
 
 /**
@@ -223,7 +286,7 @@ export function decodeBase(payload, nv, nf, qmax) {
     );
   }
   const st = new Frontier();
-  st.q = new Uint32Array(3 * nv);
+  st.q = new Int32Array(16 * nv);
   st.f = new Uint32Array(4 * nf);
   const r = new Reader(payload, 0, payload.length, 'base');
   try {
@@ -250,9 +313,9 @@ export function decodeBase(payload, nv, nf, qmax) {
       if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
         throw `vertex ${i} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
       }
-      q[3 * i] = x;
-      q[3 * i + 1] = y;
-      q[3 * i + 2] = z;
+      q[16 * i] = x;
+      q[16 * i + 1] = y;
+      q[16 * i + 2] = z;
     }
     if (r.remaining() !== 0) throw `${r.remaining()} unused bytes after the last vertex`;
   } catch (e) {
@@ -261,7 +324,6 @@ export function decodeBase(payload, nv, nf, qmax) {
   }
   st.nv = nv;
   st.nf = nf;
-  st.head = new Int32Array(nv);
   st.rebuild();
   return st;
 }
@@ -432,13 +494,13 @@ export function logMove(ctx, v) {
   const m = log.moved;
   const o = 4 * n;
   m[o] = v;
-  m[o + 1] = ctx.cx - q[3 * v];
-  m[o + 2] = ctx.cy - q[3 * v + 1];
-  m[o + 3] = ctx.cz - q[3 * v + 2];
+  m[o + 1] = ctx.cx - q[16 * v];
+  m[o + 2] = ctx.cy - q[16 * v + 1];
+  m[o + 3] = ctx.cz - q[16 * v + 2];
   log.nMoved = n + 1;
-  q[3 * v] = ctx.cx;
-  q[3 * v + 1] = ctx.cy;
-  q[3 * v + 2] = ctx.cz;
+  q[16 * v] = ctx.cx;
+  q[16 * v + 1] = ctx.cy;
+  q[16 * v + 2] = ctx.cz;
 }
 
 /** Logs that `slot` becomes quad `a b c d`, updating quads and adjacency. */
@@ -457,17 +519,21 @@ export function rewriteSlot(ctx, slot, a, b, c, d) {
   r[o + 3] = c ^ f[s4 + 2];
   r[o + 4] = d ^ f[s4 + 3];
   log.nRw = n + 1;
-  relink(st, s4, a);
-  relink(st, s4 + 1, b);
-  relink(st, s4 + 2, c);
-  relink(st, s4 + 3, d);
-}
-
-/** Sets corner `c` to vertex `v`, listing it at `v` (the old node goes stale). */
-function relink(st, c, v) {
-  if (st.f[c] === v) return;
-  st.f[c] = v;
-  st.link(c, v);
+  const o0 = f[s4], o1 = f[s4 + 1], o2 = f[s4 + 2], o3 = f[s4 + 3];
+  f[s4] = a;
+  f[s4 + 1] = b;
+  f[s4 + 2] = c;
+  f[s4 + 3] = d;
+  // the lists name slots: only vertices leaving or entering the slot
+  // change one (a rotated quad changes none)
+  if (o0 !== a && o0 !== b && o0 !== c && o0 !== d) st.remove(o0, slot);
+  if (o1 !== a && o1 !== b && o1 !== c && o1 !== d) st.remove(o1, slot);
+  if (o2 !== a && o2 !== b && o2 !== c && o2 !== d) st.remove(o2, slot);
+  if (o3 !== a && o3 !== b && o3 !== c && o3 !== d) st.remove(o3, slot);
+  if (a !== o0 && a !== o1 && a !== o2 && a !== o3) st.add(a, slot);
+  if (b !== o0 && b !== o1 && b !== o2 && b !== o3) st.add(b, slot);
+  if (c !== o0 && c !== o1 && c !== o2 && c !== o3) st.add(c, slot);
+  if (d !== o0 && d !== o1 && d !== o2 && d !== o3) st.add(d, slot);
 }
 
 /** Appends quad `a b c d` at the next slot. */
@@ -490,11 +556,10 @@ export function appendQuad(ctx, a, b, c, d) {
   ap[4 * n + 2] = c;
   ap[4 * n + 3] = d;
   log.nApp = n + 1;
-  const c0 = 4 * slot;
-  st.link(c0, a);
-  st.link(c0 + 1, b);
-  st.link(c0 + 2, c);
-  st.link(c0 + 3, d);
+  st.add(a, slot);
+  st.add(b, slot);
+  st.add(c, slot);
+  st.add(d, slot);
 }
 
 /** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
@@ -503,10 +568,11 @@ export function appendVertex(ctx) {
   const log = ctx.log;
   const v = st.nv;
   st.reserve(v + 1, st.nf);
-  st.q[3 * v] = ctx.cx;
-  st.q[3 * v + 1] = ctx.cy;
-  st.q[3 * v + 2] = ctx.cz;
-  st.head[v] = -1;
+  const q = st.q;
+  q[16 * v] = ctx.cx;
+  q[16 * v + 1] = ctx.cy;
+  q[16 * v + 2] = ctx.cz;
+  q[16 * v + LEN] = 0;
   st.nv = v + 1;
   const n = log.nNew;
   if (3 * (n + 1) > log.newCodes.length) {
@@ -575,7 +641,7 @@ function decodeGeneral(ctx) {
     ctx.vcur = v;
     prevMoved = v;
     const q = st.q;
-    readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], 'moved vertex', v, '');
+    readCode(ctx, q[16 * v], q[16 * v + 1], q[16 * v + 2], 'moved vertex', v, '');
     logMove(ctx, v);
   }
 
@@ -742,9 +808,9 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
       const op = arr[o + ((c + 2) & 3)];
       const n3 = arr[o + ((c + 3) & 3)];
       if (n1 < x && op < x && n3 < x) {
-        sx += q[3 * n1] + q[3 * n3] - q[3 * op];
-        sy += q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1];
-        sz += q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2];
+        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
         n++;
       }
     }
@@ -769,30 +835,30 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
     const k3 = n3 < x;
     if (k1 && ko && k3) {
       // parallelogram
-      ctx.px = clamp(q[3 * n1] + q[3 * n3] - q[3 * op], qmax);
-      ctx.py = clamp(q[3 * n1 + 1] + q[3 * n3 + 1] - q[3 * op + 1], qmax);
-      ctx.pz = clamp(q[3 * n1 + 2] + q[3 * n3 + 2] - q[3 * op + 2], qmax);
+      ctx.px = clamp(q[16 * n1] + q[16 * n3] - q[16 * op], qmax);
+      ctx.py = clamp(q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1], qmax);
+      ctx.pz = clamp(q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2], qmax);
       return;
     }
     if (k1 || ko || k3) {
       // mean of the known ones (codes are ≥ 0: floor = truncation)
       let sx = 0, sy = 0, sz = 0, n = 0;
       if (k1) {
-        sx += q[3 * n1];
-        sy += q[3 * n1 + 1];
-        sz += q[3 * n1 + 2];
+        sx += q[16 * n1];
+        sy += q[16 * n1 + 1];
+        sz += q[16 * n1 + 2];
         n++;
       }
       if (ko) {
-        sx += q[3 * op];
-        sy += q[3 * op + 1];
-        sz += q[3 * op + 2];
+        sx += q[16 * op];
+        sy += q[16 * op + 1];
+        sz += q[16 * op + 2];
         n++;
       }
       if (k3) {
-        sx += q[3 * n3];
-        sy += q[3 * n3 + 1];
-        sz += q[3 * n3 + 2];
+        sx += q[16 * n3];
+        sy += q[16 * n3 + 1];
+        sz += q[16 * n3 + 2];
         n++;
       }
       ctx.px = Math.floor(sx / n);
@@ -802,9 +868,9 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
     }
   }
   if (x > V) {
-    ctx.px = q[3 * (x - 1)];
-    ctx.py = q[3 * (x - 1) + 1];
-    ctx.pz = q[3 * (x - 1) + 2];
+    ctx.px = q[16 * (x - 1)];
+    ctx.py = q[16 * (x - 1) + 1];
+    ctx.pz = q[16 * (x - 1) + 2];
   } else {
     ctx.px = ctx.py = ctx.pz = ctx.half;
   }
@@ -828,9 +894,9 @@ function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
       if (arr[i] !== V) continue;
       const o = i & ~3;
       const c = i & 3;
-      const n1 = 3 * arr[o + ((c + 1) & 3)];
-      const op = 3 * arr[o + ((c + 2) & 3)];
-      const n3 = 3 * arr[o + ((c + 3) & 3)];
+      const n1 = 16 * arr[o + ((c + 1) & 3)];
+      const op = 16 * arr[o + ((c + 2) & 3)];
+      const n3 = 16 * arr[o + ((c + 3) & 3)];
       sx += q[n1] + q[n3] - q[op];
       sy += q[n1 + 1] + q[n3 + 1] - q[op + 1];
       sz += q[n1 + 2] + q[n3 + 2] - q[op + 2];
@@ -1055,7 +1121,7 @@ function decodeSplit(ctx, sym) {
     const idx = sList[t];
     if (sideA) {
       if (moves) {
-        const o = 3 * sO[idx];
+        const o = 16 * sO[idx];
         sax += q[o];
         say += q[o + 1];
         saz += q[o + 2];
@@ -1063,7 +1129,7 @@ function decodeSplit(ctx, sym) {
       nA++;
     } else {
       if (moves) {
-        const o = 3 * sO[idx];
+        const o = 16 * sO[idx];
         scx += q[o];
         scy += q[o + 1];
         scz += q[o + 2];
@@ -1074,7 +1140,7 @@ function decodeSplit(ctx, sym) {
 
   // 6. positions. a (moved m) first, then c.
   const qmax = ctx.qmax;
-  const mx = q[3 * m], my = q[3 * m + 1], mz = q[3 * m + 2];
+  const mx = q[16 * m], my = q[16 * m + 1], mz = q[16 * m + 2];
   let ax = mx, ay = my, az = mz;
   if (moves) {
     // side means (m's own code for an empty side), without temporaries
@@ -1111,15 +1177,15 @@ function decodeSplit(ctx, sym) {
     // m replaced by c — neighbours n and p, opposite o, none of them m (a
     // quad's corners are distinct), all existing: every parallelogram
     // counts.
-    let sx = q[3 * b] + q[3 * d] - ax;
-    let sy = q[3 * b + 1] + q[3 * d + 1] - ay;
-    let sz = q[3 * b + 2] + q[3 * d + 2] - az;
+    let sx = q[16 * b] + q[16 * d] - ax;
+    let sy = q[16 * b + 1] + q[16 * d + 1] - ay;
+    let sz = q[16 * b + 2] + q[16 * d + 2] - az;
     for (let t = 0; t < K; t++) {
       if (i < j ? i <= t && t < j : t >= i || t < j) continue; // side A
       const idx = sList[t];
-      const n = 3 * sN[idx];
-      const p = 3 * sP[idx];
-      const o = 3 * sO[idx];
+      const n = 16 * sN[idx];
+      const p = 16 * sP[idx];
+      const o = 16 * sO[idx];
       sx += q[n] + q[p] - q[o];
       sy += q[n + 1] + q[p + 1] - q[o + 1];
       sz += q[n + 2] + q[p + 2] - q[o + 2];
@@ -1132,9 +1198,9 @@ function decodeSplit(ctx, sym) {
     // §7.6 (version 1; version 2 with side C empty): the appended quad
     // (m, d, c, b) rotated is the first quad holding c; its neighbours
     // there are b and d, its opposite corner m (code a).
-    px = clamp(q[3 * b] + q[3 * d] - ax, qmax);
-    py = clamp(q[3 * b + 1] + q[3 * d + 1] - ay, qmax);
-    pz = clamp(q[3 * b + 2] + q[3 * d + 2] - az, qmax);
+    px = clamp(q[16 * b] + q[16 * d] - ax, qmax);
+    py = clamp(q[16 * b + 1] + q[16 * d + 1] - ay, qmax);
+    pz = clamp(q[16 * b + 2] + q[16 * d + 2] - az, qmax);
   }
   readCode(ctx, px, py, pz, 'split vertex', m, ' (c)');
   appendVertex(ctx);
@@ -1209,7 +1275,7 @@ function decodeFaceSplit(ctx, sym) {
   // corners known — A: n1 = m, o = p, n3 = o; B: n1 = o, o = q, n3 = m.
   const q = st.q;
   const qmax = ctx.qmax;
-  const m3 = 3 * m, p3 = 3 * p, o3 = 3 * o, q3 = 3 * qv;
+  const m3 = 16 * m, p3 = 16 * p, o3 = 16 * o, q3 = 16 * qv;
   readCode(
     ctx,
     clamp(floorDiv(2 * q[m3] + 2 * q[o3] - q[p3] - q[q3], 2), qmax),

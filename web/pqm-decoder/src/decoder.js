@@ -570,7 +570,13 @@ export class PqmDecoder {
     // level 0 becomes the current level
     this._nv = nv;
     this._nf = nf;
-    this._q = st.q.slice(0, 3 * nv);
+    // the frontier keeps each code in a 16-int vertex record (codec.js)
+    this._q = new Uint32Array(3 * nv);
+    for (let v = 0; v < nv; v++) {
+      this._q[3 * v] = st.q[16 * v];
+      this._q[3 * v + 1] = st.q[16 * v + 1];
+      this._q[3 * v + 2] = st.q[16 * v + 2];
+    }
     this._pos = new Float32Array(3 * nv);
     this._dequantizeInto(this._pos, this._q, 0, nv);
     this._quads = st.f.slice(0, 4 * nf);

@@ -11,7 +11,7 @@
  * Written from the spec; shares only the apply/log primitives with the
  * general form (codec.js).
  */
-import { readCode, logMove, checkDistinct, finishRecord } from './codec.js';
+import { readCode, logMove, checkDistinct, finishRecord, degree } from './codec.js';
 
 const MAX_STAR = 255;
 const MAX_CORNERS = 4096;
@@ -21,6 +21,8 @@ const lA = new Int32Array(4 * MAX_STAR);
 const lR = new Int32Array(MAX_CORNERS);
 const lU = new Int32Array(4 * MAX_CORNERS);
 const lW = new Int32Array(4 * MAX_CORNERS);
+// one vertex's slots (Frontier.slotsOf)
+const lTmp = new Int32Array(MAX_CORNERS);
 // Per-record lists, grown on demand (bounded by |R| and the streams).
 let lSlots = new Int32Array(64);
 let lRw = new Int32Array(256);
@@ -62,24 +64,6 @@ function nextGen(nv, nf) {
   return gen - 3;
 }
 
-// Per-corner stamps for the exact entry count (exactEntries).
-let stampC = new Int32Array(0);
-let genC = 0;
-
-/** A fresh corner stamp (one per record) for `nf` slots. */
-function nextCornerGen(nf) {
-  if (stampC.length < 4 * nf) {
-    const g = new Int32Array(Math.max(4 * nf, 2 * stampC.length));
-    g.set(stampC);
-    stampC = g;
-  }
-  if (genC > 0x3fffffff) {
-    genC = 0;
-    stampC.fill(0);
-  }
-  return ++genC;
-}
-
 /**
  * Sorts a[0..n) ascending in place. Insertion sort: the lists are short
  * (|R| is 16 around a regular interior vertex, |U| 25; on bunny's records
@@ -119,38 +103,19 @@ let uSorted = false;
 /** Fills lR for anchor `m` (and lA); sets curR, resets curU. */
 function neighbourhood(st, m) {
   const f = st.f;
-  const head = st.head;
-  const nodeC = st.nodeC;
-  const nodeN = st.nodeN;
   const gv = nextGen(st.nv, st.nf);
   const gf = gv + 1;
   const sv = stampV;
   const sf = stampF;
-  // S, the anchor's faces: its live corners, one per slot (stale and
-  // repeated nodes unlinked, as Frontier.star does, with the same limit
-  // and message). S is listed in R at once; R is sorted at the end, so the
-  // star needs no order (Frontier.star's insertion sort is skipped).
-  let K = 0;
-  let nr = 0;
-  let kept = -1;
-  for (let n = head[m]; n >= 0; ) {
-    const c = nodeC[n];
-    const next = nodeN[n];
-    const s = c >> 2;
-    if (f[c] !== m || sf[s] === gf) {
-      if (kept < 0) head[m] = next;
-      else nodeN[kept] = next;
-      n = next;
-      continue;
-    }
-    if (K === MAX_STAR) throw `vertex ${m} is in more than ${MAX_STAR} faces`;
-    sf[s] = gf;
-    lR[nr++] = s;
-    K++;
-    kept = n;
-    n = next;
-  }
+  // S, the anchor's faces (the frontier's lists are exact: one entry per
+  // slot). S is listed in R at once; R is sorted at the end, so the star
+  // needs no order.
+  const K = degree(st, m);
+  if (K > MAX_STAR) throw `vertex ${m} is in more than ${MAX_STAR} faces`;
   if (K === 0) throw `anchor ${m} has no face`;
+  st.slotsOf(m, lR, K);
+  let nr = K;
+  for (let i = 0; i < K; i++) sf[lR[i]] = gf;
   // A: the distinct corners of S.
   let na = 0;
   for (let i = 0; i < K; i++) {
@@ -163,72 +128,31 @@ function neighbourhood(st, m) {
       }
     }
   }
-  // The other corner lists may hold stale nodes (the corner moved on),
-  // unlinked here too so that later walks of these busy lists are shorter,
-  // and repeats (a corner that came back), kept. The spec counts each live
-  // corner once; repeats are rare and can only raise the count, so the
-  // count is exact-checked (exactEntries) only when the raw one passes the
-  // limit: no per-corner stamp on the common path. The anchor's entries
-  // are its K faces.
+  // The entries: every corner of the A vertices once (a corner is one
+  // (vertex, slot) pair; the anchor's are its K faces), counted from the
+  // list lengths before any list is read.
   let entries = K;
   for (let i = 0; i < na; i++) {
     const u = lA[i];
+    if (u !== m) entries += degree(st, u);
+  }
+  if (entries > MAX_CORNERS) throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
+  for (let i = 0; i < na; i++) {
+    const u = lA[i];
     if (u === m) continue;
-    let kept = -1;
-    for (let n = head[u]; n >= 0; ) {
-      const c = nodeC[n];
-      const next = nodeN[n];
-      if (f[c] !== u) {
-        if (kept < 0) head[u] = next;
-        else nodeN[kept] = next;
-        n = next;
-        continue;
-      }
-      kept = n;
-      n = next;
-      entries++;
-      const s = c >> 2;
-      // nr ≤ distinct entries: past MAX_CORNERS the record is invalid
-      // (checked below), so lR never needs more room
-      if (sf[s] !== gf && nr < MAX_CORNERS) {
+    const n = st.slotsOf(u, lTmp, MAX_CORNERS);
+    for (let j = 0; j < n; j++) {
+      const s = lTmp[j];
+      if (sf[s] !== gf) {
         sf[s] = gf;
         lR[nr++] = s;
       }
     }
   }
-  if (entries > MAX_CORNERS && exactEntries(st, na) > MAX_CORNERS) {
-    throw `the faces around anchor ${m} have more than ${MAX_CORNERS} corners`;
-  }
   sortInts(lR, nr);
   curR = nr;
   curU = -1;
   curGu = gv + 2;
-}
-
-/**
- * The spec's entry count of the neighbourhood whose A is lA[0..na): live
- * corners of the A vertices, each corner once (a corner belongs to one
- * vertex and a quad's corners are distinct, so a corner is one (vertex,
- * face) pair). Stops counting past the limit.
- */
-function exactEntries(st, na) {
-  const f = st.f;
-  const head = st.head;
-  const nodeC = st.nodeC;
-  const nodeN = st.nodeN;
-  const gc = nextCornerGen(st.nf);
-  const sc = stampC;
-  let entries = 0;
-  for (let i = 0; i < na; i++) {
-    const u = lA[i];
-    for (let n = head[u]; n >= 0; n = nodeN[n]) {
-      const c = nodeC[n];
-      if (f[c] !== u || sc[c] === gc) continue;
-      sc[c] = gc;
-      if (++entries > MAX_CORNERS) return entries;
-    }
-  }
-  return entries;
 }
 
 /**
@@ -391,7 +315,7 @@ export function decodeLocal(ctx, sym) {
       }
       const v = lW[i];
       const q = st.q;
-      readCode(ctx, q[3 * v], q[3 * v + 1], q[3 * v + 2], "moved vertex", v, "");
+      readCode(ctx, q[16 * v], q[16 * v + 1], q[16 * v + 2], "moved vertex", v, "");
       logMove(ctx, v);
     }
   }

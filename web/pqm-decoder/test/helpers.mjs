@@ -187,8 +187,8 @@ export function randomQuad(rand, nv) {
 
 /**
  * One random edit of a `Frontier` as records make them (f first, then the
- * corner lists): 60 % rewrite a corner (corners move between vertices and
- * come back: repeated nodes), 10 % append a quad, 5 % add a vertex. Returns
+ * per-vertex slot lists): 60 % rewrite a corner (corners move between
+ * vertices and come back), 10 % append a quad, 5 % add a vertex. Returns
  * false (nothing done) otherwise, so the caller checks something instead.
  */
 export function randomFrontierEdit(st, rand, maxF, maxV) {
@@ -199,8 +199,7 @@ export function randomFrontierEdit(st, rand, maxF, maxV) {
     const v = Math.floor(rand() * st.nv);
     const others = [0, 1, 2, 3].filter((k) => s4 + k !== c).map((k) => st.f[s4 + k]);
     if (!others.includes(v) && st.f[c] !== v) {
-      st.f[c] = v;
-      st.link(c, v);
+      st.setCorner(c, v);
     }
     return true;
   }
@@ -209,12 +208,12 @@ export function randomFrontierEdit(st, rand, maxF, maxV) {
     st.reserve(st.nv, slot + 1);
     st.f.set(randomQuad(rand, st.nv), 4 * slot);
     st.nf = slot + 1;
-    for (let k = 0; k < 4; k++) st.link(4 * slot + k, st.f[4 * slot + k]);
+    st.addSlot(slot);
     return true;
   }
   if (r < 0.75 && st.nv < maxV) {
     st.reserve(st.nv + 1, st.nf);
-    st.head[st.nv] = -1;
+    st.q[16 * st.nv + 3] = 0; // an empty slot list (codec.js: LEN)
     st.nv++;
     return true;
   }
