@@ -120,8 +120,13 @@ pub const NIL: u32 = u32::MAX;
 ///
 /// Vertex→face adjacency is stored flat, as doubly linked lists of
 /// *corners*: corner `4 s + k` is corner `k` of slot `s`, `head[v]` is the
-/// first corner at vertex `v` and `next` / `prev` link the corners of one
-/// vertex ([`NIL`] ends a list). Compared with one `Vec` of faces per vertex
+/// first corner at vertex `v` and `links[c] = [next, prev]` link the
+/// corners of one vertex ([`NIL`] ends a list). Next and previous corner sit
+/// side by side, and the four corners of a slot in one 32-byte block: an
+/// unlink reads and writes the links of `c` and of its two neighbours, which
+/// a star walk over the same vertex has just brought into the cache —
+/// separate `next` and `prev` arrays cost a second cache miss per corner
+/// (measured in the report of issue 4). Compared with one `Vec` of faces per vertex
 /// this makes no allocation per vertex or record, keeps the lists of a
 /// region in a few cache lines, and rewriting a corner is O(1) (unlink,
 /// relink) instead of a search in the old vertex's list. The order of a list
@@ -137,10 +142,8 @@ pub struct MeshState {
     pub quads: Vec<[u32; 4]>,
     /// First corner at each vertex, or [`NIL`].
     head: Vec<u32>,
-    /// Next corner at the same vertex, per corner, or [`NIL`].
-    next: Vec<u32>,
-    /// Previous corner at the same vertex, per corner, or [`NIL`].
-    prev: Vec<u32>,
+    /// `[next, prev]` corner at the same vertex, per corner, or [`NIL`].
+    links: Vec<[u32; 2]>,
 }
 
 /// Star of a vertex in canonical order (spec §7.5).
@@ -235,8 +238,7 @@ impl MeshState {
         let mut st = MeshState {
             qmax,
             head: vec![NIL; q.len()],
-            next: vec![NIL; 4 * quads.len()],
-            prev: vec![NIL; 4 * quads.len()],
+            links: vec![[NIL; 2]; 4 * quads.len()],
             q,
             quads,
         };
@@ -253,18 +255,16 @@ impl MeshState {
         self.q.reserve(nv);
         self.head.reserve(nv);
         self.quads.reserve(nf);
-        self.next.reserve(4 * nf);
-        self.prev.reserve(4 * nf);
+        self.links.reserve(4 * nf);
     }
 
     /// Adds corner `c` to the list of vertex `v`.
     #[inline]
     fn link(&mut self, c: u32, v: u32) {
         let h = self.head[v as usize];
-        self.next[c as usize] = h;
-        self.prev[c as usize] = NIL;
+        self.links[c as usize] = [h, NIL];
         if h != NIL {
-            self.prev[h as usize] = c;
+            self.links[h as usize][1] = c;
         }
         self.head[v as usize] = c;
     }
@@ -272,14 +272,14 @@ impl MeshState {
     /// Removes corner `c` from the list of vertex `v`.
     #[inline]
     fn unlink(&mut self, c: u32, v: u32) {
-        let (p, n) = (self.prev[c as usize], self.next[c as usize]);
+        let [n, p] = self.links[c as usize];
         if p != NIL {
-            self.next[p as usize] = n;
+            self.links[p as usize][0] = n;
         } else {
             self.head[v as usize] = n;
         }
         if n != NIL {
-            self.prev[n as usize] = p;
+            self.links[n as usize][1] = p;
         }
     }
 
@@ -303,7 +303,7 @@ impl MeshState {
         std::iter::from_fn(move || {
             (c != NIL).then(|| {
                 let out = (c >> 2, (c & 3) as usize);
-                c = self.next[c as usize];
+                c = self.links[c as usize][0];
                 out
             })
         })
@@ -345,8 +345,7 @@ impl MeshState {
         for &quad in &r.appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
-            self.next.extend_from_slice(&[NIL; 4]);
-            self.prev.extend_from_slice(&[NIL; 4]);
+            self.links.extend_from_slice(&[[NIL; 2]; 4]);
             for (k, &v) in quad.iter().enumerate() {
                 self.link(4 * s + k as u32, v);
             }
@@ -365,8 +364,7 @@ impl MeshState {
             }
         }
         self.quads.truncate(f_before);
-        self.next.truncate(4 * f_before);
-        self.prev.truncate(4 * f_before);
+        self.links.truncate(4 * f_before);
         for &(s, _, old) in rw.iter().rev() {
             self.set_quad(s, old);
         }
@@ -430,7 +428,7 @@ impl MeshState {
                     star.push(u);
                 }
             }
-            c = self.next[c as usize];
+            c = self.links[c as usize][0];
         }
         if n == 0 {
             return Err(format!("anchor {m} has no face"));
@@ -450,7 +448,7 @@ impl MeshState {
                     f[s as usize] = gf;
                     faces.push(s);
                 }
-                c = self.next[c as usize];
+                c = self.links[c as usize][0];
             }
         }
         sort_distinct(faces);
@@ -491,7 +489,7 @@ impl MeshState {
                 ));
             }
             out.push(c >> 2);
-            c = self.next[c as usize];
+            c = self.links[c as usize][0];
         }
         if out.is_empty() {
             return Err(format!("vertex {m} has 0 faces (face split needs 1..=255)"));
@@ -511,53 +509,88 @@ impl MeshState {
     }
 
     /// [`MeshState::star`] into `out`, reusing its buffers (the decoder's
-    /// split-form path: no allocation per record).
+    /// split-form and edge-split paths: no allocation per record).
+    ///
+    /// Up to [`STAR_SMALL`] faces (every real mesh vertex) the faces live in
+    /// three stack arrays (slot, next and previous vertex of `m`), sorted by
+    /// slot, so that `succ` / `pred` are short scans of one `u32` array
+    /// (no tuples, no closures over a slice of unknown length). Larger stars take
+    /// [`MeshState::star_general`]; both give the same result on every
+    /// input, manifold or not (property test `fast_star_equals_general`).
     pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
-        // (slot, next of m, prev of m) per face, sorted by slot (insertion
-        // sort: stable, so repeated slots keep list order), on the stack
-        // for the usual valences (a 255-entry array would be zeroed per
-        // record: that memset cost more than the walk), in a Vec beyond.
-        // The walk below is quadratic in the valence, so its inner loop
-        // runs on a small array, and sorting makes "the smallest slot with
-        // …" the first match. Counting stops past the limit, so a vertex in
-        // a million faces costs no more than one in 256.
-        const SMALL: usize = 16;
-        let mut small = [(0u32, 0u32, 0u32); SMALL];
-        let mut big: Vec<(u32, u32, u32)> = Vec::new();
+        let mut fs = [0u32; STAR_SMALL];
+        let mut nx = [NIL; STAR_SMALL];
+        let mut pv = [NIL; STAR_SMALL];
         let mut n = 0usize;
         let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
         while c != NIL {
-            if n == MAX_SPLIT_STAR {
+            if n == STAR_SMALL {
+                return self.star_general(m, out);
+            }
+            let (f, k) = (c >> 2, (c & 3) as usize);
+            let q = &self.quads[f as usize];
+            let (a, b) = (q[(k + 1) & 3], q[(k + 3) & 3]);
+            // Insertion by slot, after equal slots (stable: list order).
+            let mut i = n;
+            while i > 0 && fs[i - 1] > f {
+                fs[i] = fs[i - 1];
+                nx[i] = nx[i - 1];
+                pv[i] = pv[i - 1];
+                i -= 1;
+            }
+            (fs[i], nx[i], pv[i]) = (f, a, b);
+            n += 1;
+            c = self.links[c as usize][0];
+        }
+        if n == 0 {
+            return Err(format!("vertex {m} has 0 faces (split form needs 1..=255)"));
+        }
+        // The first entry `g != f` with `keys[g] == key` (ascending slots:
+        // the smallest slot of §7.5), over the `n` live entries only.
+        let first_other = |keys: &[u32; STAR_SMALL], key: u32, f: usize| {
+            (0..n).find(|&g| keys[g] == key && g != f)
+        };
+        let succ = |f: usize| first_other(&nx, pv[f], f);
+        let pred = |f: usize| first_other(&pv, nx[f], f);
+        let Star { faces, link } = out;
+        faces.clear();
+        link.clear();
+        let last = fan_walk(n, succ, pred, |i| {
+            faces.push(fs[i]);
+            link.push(nx[i]);
+        })
+        .ok_or_else(|| format!("star of vertex {m} is not a single fan"))?;
+        if let Some(f) = last {
+            link.push(pv[f]);
+        }
+        Ok(())
+    }
+
+    /// [`MeshState::star_into`] for any number of faces (up to the limit):
+    /// the faces sorted by slot in a `Vec`, `succ` / `pred` by scans.
+    /// Counting stops past the limit, so a vertex in a million faces costs
+    /// no more than one in 256.
+    pub fn star_general(&self, m: u32, out: &mut Star) -> Result<(), String> {
+        // (slot, next of m, prev of m) per face, sorted by slot (stable, so
+        // repeated slots keep list order).
+        let mut ring: Vec<(u32, u32, u32)> = Vec::new();
+        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
+        while c != NIL {
+            if ring.len() == MAX_SPLIT_STAR {
                 return Err(format!(
                     "vertex {m} has more than {MAX_SPLIT_STAR} faces (split form needs 1..=255)"
                 ));
             }
             let (f, k) = (c >> 2, (c & 3) as usize);
             let q = &self.quads[f as usize];
-            let e = (f, q[(k + 1) % 4], q[(k + 3) % 4]);
-            if n == SMALL {
-                big.extend_from_slice(&small);
-            }
-            let ring: &mut [(u32, u32, u32)] = if n < SMALL {
-                &mut small[..=n]
-            } else {
-                big.push(e);
-                &mut big[..]
-            };
-            let mut i = n;
-            while i > 0 && ring[i - 1].0 > f {
-                ring[i] = ring[i - 1];
-                i -= 1;
-            }
-            ring[i] = e;
-            n += 1;
-            c = self.next[c as usize];
+            ring.push((f, q[(k + 1) % 4], q[(k + 3) % 4]));
+            c = self.links[c as usize][0];
         }
-        if n == 0 {
+        if ring.is_empty() {
             return Err(format!("vertex {m} has 0 faces (split form needs 1..=255)"));
         }
-        let ring: &[(u32, u32, u32)] = if n <= SMALL { &small[..n] } else { &big };
-        let not_fan = || format!("star of vertex {m} is not a single fan");
+        ring.sort_by_key(|e| e.0);
+        let ring = &ring;
         // Index (into `ring`) of the smallest slot g != ring[f] with
         // next(g) == key (want_next) or prev(g) == key.
         let find = |f: usize, key: u32, want_next: bool| -> Option<usize> {
@@ -567,57 +600,79 @@ impl MeshState {
         };
         let succ = |f: usize| find(f, ring[f].2, true);
         let pred = |f: usize| find(f, ring[f].1, false);
-        let first = 0;
-        let mut start = None;
-        let mut boundary = false;
-        let mut f = first;
-        for _ in 0..n {
-            match pred(f) {
-                None => {
-                    start = Some(f);
-                    boundary = true;
-                    break;
-                }
-                Some(g) if g == first => {
-                    start = Some(first);
-                    break;
-                }
-                Some(g) => f = g,
-            }
-        }
-        let start = start.ok_or_else(not_fan)?;
-        // The walk goes straight into `out` (ring index → slot / link
-        // vertex); `seen` holds ring indices, on the stack.
         let Star { faces, link } = out;
         faces.clear();
         link.clear();
-        // Ring indices already walked, as a bit set (n <= 255).
-        let mut seen = [0u64; MAX_SPLIT_STAR.div_ceil(64)];
-        faces.push(ring[start].0);
-        link.push(ring[start].1);
-        seen[start / 64] |= 1 << (start % 64);
-        let mut f = start;
-        loop {
-            match succ(f) {
-                None if boundary => break,
-                Some(g) if g == start && !boundary => break,
-                Some(g) if seen[g / 64] & (1 << (g % 64)) == 0 && faces.len() < n => {
-                    faces.push(ring[g].0);
-                    link.push(ring[g].1);
-                    seen[g / 64] |= 1 << (g % 64);
-                    f = g;
-                }
-                _ => return Err(not_fan()),
-            }
-        }
-        if faces.len() != n {
-            return Err(not_fan());
-        }
-        if boundary {
+        let last = fan_walk(ring.len(), succ, pred, |i| {
+            faces.push(ring[i].0);
+            link.push(ring[i].1);
+        })
+        .ok_or_else(|| format!("star of vertex {m} is not a single fan"))?;
+        if let Some(f) = last {
             link.push(ring[f].2);
         }
         Ok(())
     }
+}
+
+/// Stars of at most this many faces are built on the stack by
+/// [`MeshState::star_into`].
+pub const STAR_SMALL: usize = 16;
+
+/// The rewind and walk of spec §7.5 step 2 over `n` faces sorted by slot
+/// (indices `0..n`, `0` = the smallest slot), given `succ` and `pred` as
+/// indices; `emit` gets the walked indices in order. Returns `None` when
+/// the star is not a single fan, else `Some(last)` on the boundary (`last`
+/// = the index of `f_{K−1}`, whose `p` closes the link) and `Some(None)`
+/// inside.
+fn fan_walk(
+    n: usize,
+    succ: impl Fn(usize) -> Option<usize>,
+    pred: impl Fn(usize) -> Option<usize>,
+    mut emit: impl FnMut(usize),
+) -> Option<Option<usize>> {
+    let first = 0;
+    let mut start = None;
+    let mut boundary = false;
+    let mut f = first;
+    for _ in 0..n {
+        match pred(f) {
+            None => {
+                start = Some(f);
+                boundary = true;
+                break;
+            }
+            Some(g) if g == first => {
+                start = Some(first);
+                break;
+            }
+            Some(g) => f = g,
+        }
+    }
+    let start = start?;
+    // Indices already walked, as a bit set (n <= 255).
+    let mut seen = [0u64; MAX_SPLIT_STAR.div_ceil(64)];
+    emit(start);
+    seen[start / 64] |= 1 << (start % 64);
+    let mut walked = 1usize;
+    let mut f = start;
+    loop {
+        match succ(f) {
+            None if boundary => break,
+            Some(g) if g == start && !boundary => break,
+            Some(g) if seen[g / 64] & (1 << (g % 64)) == 0 && walked < n => {
+                emit(g);
+                seen[g / 64] |= 1 << (g % 64);
+                walked += 1;
+                f = g;
+            }
+            _ => return None,
+        }
+    }
+    if walked != n {
+        return None;
+    }
+    Some(boundary.then_some(f))
 }
 
 /// Rewritten slots with their new quads.
@@ -1987,7 +2042,7 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_distinct, MeshState, MAX_SPLIT_STAR};
+    use super::{sort_distinct, MeshState, Star, MAX_SPLIT_STAR, STAR_SMALL};
     use proptest::prelude::*;
 
     /// A fan of `n` quads `[0, a_i, a_i + 1, a_{i+1}]` around vertex 0
@@ -2056,7 +2111,60 @@ mod tests {
         }
     }
 
+    /// Quads with four distinct corners below `nv`, from arbitrary words.
+    fn quads_from(nv: u32, words: &[[u32; 4]]) -> Vec<[u32; 4]> {
+        words
+            .iter()
+            .filter_map(|w| {
+                let q = w.map(|x| x % nv);
+                let distinct = (0..4).all(|a| (a + 1..4).all(|b| q[a] != q[b]));
+                distinct.then_some(q)
+            })
+            .collect()
+    }
+
+    /// Both star builders on every vertex of `st`: the same faces and link,
+    /// or the same error.
+    fn same_stars(st: &MeshState) -> Result<(), TestCaseError> {
+        let (mut fast, mut general) = (Star::default(), Star::default());
+        for m in 0..st.q.len() as u32 + 1 {
+            let a = st.star_into(m, &mut fast).map(|()| fast.clone());
+            let b = st.star_general(m, &mut general).map(|()| general.clone());
+            match (a, b) {
+                (Ok(a), Ok(b)) => {
+                    prop_assert_eq!(a.faces, b.faces, "vertex {}", m);
+                    prop_assert_eq!(a.link, b.link, "vertex {}", m);
+                }
+                (Err(a), Err(b)) => prop_assert_eq!(a, b, "vertex {}", m),
+                (a, b) => prop_assert!(false, "vertex {}: {:?} vs {:?}", m, a, b),
+            }
+        }
+        Ok(())
+    }
+
     proptest! {
+        /// The stack star (bit-mask `succ` / `pred`) equals the general one
+        /// on random quads over a few vertices — mostly not fans, with
+        /// repeated links, several fans and stars past `STAR_SMALL` — and on
+        /// shuffled fans (closed and open) with random extra quads.
+        #[test]
+        fn fast_star_equals_general(
+            nv in 4u32..9,
+            words in proptest::collection::vec(any::<[u32; 4]>(), 0..40),
+            n in 3u32..(STAR_SMALL as u32 + 3),
+            step in 1u32..40,
+            open in any::<bool>(),
+            extra in proptest::collection::vec(any::<[u32; 4]>(), 0..4),
+        ) {
+            let quads = quads_from(nv, &words);
+            same_stars(&MeshState::new(1, vec![[0; 3]; nv as usize], quads))?;
+            let step = (step..step + n).find(|s| gcd(*s % n, n) == 1).unwrap_or(1) % n;
+            let (st, _) = fan(n, step.max(1), open);
+            let mut quads = st.quads.clone();
+            quads.extend(quads_from(st.q.len() as u32, &extra));
+            same_stars(&MeshState::new(1, st.q.clone(), quads))?;
+        }
+
         /// The rank sort agrees with the standard sort on distinct values,
         /// on both sides of its small-list limit.
         #[test]
