@@ -118,20 +118,22 @@ pub const NIL: u32 = u32::MAX;
 
 /// The decoder-side mesh at one level (see the module docs).
 ///
-/// Vertex→face adjacency is stored flat, as doubly linked lists of
-/// *corners*: corner `4 s + k` is corner `k` of slot `s`, `head[v]` is the
-/// first corner at vertex `v` and `links[c] = [next, prev]` link the
-/// corners of one vertex ([`NIL`] ends a list). Next and previous corner sit
-/// side by side, and the four corners of a slot in one 32-byte block: an
-/// unlink reads and writes the links of `c` and of its two neighbours, which
-/// a star walk over the same vertex has just brought into the cache —
-/// separate `next` and `prev` arrays cost a second cache miss per corner
-/// (measured in the report of issue 4). Compared with one `Vec` of faces per vertex
-/// this makes no allocation per vertex or record, keeps the lists of a
-/// region in a few cache lines, and rewriting a corner is O(1) (unlink,
-/// relink) instead of a search in the old vertex's list. The order of a list
-/// carries no meaning: everything the format derives from a star (§7.5) is
-/// defined by slot numbers, not by list order.
+/// Vertex→face adjacency is kept as *corners*: corner `4 s + k` is corner
+/// `k` of slot `s`. Each vertex owns one 32-byte block `inline[v]` =
+/// `[n, c_1 … c_7]` holding up to [`INLINE`] of its corners; the rest (a
+/// vertex in more than 7 faces, a few per cent on real meshes) are a doubly
+/// linked list (`ov_head`: first corner per vertex, `ov_links`:
+/// `[next, prev]` per corner, both grown only as far as the ids they
+/// hold), flagged by [`OVERFLOW`] in `n`. At most 32 bytes per vertex and
+/// 32 per slot, as the single lists before (`Limits::estimate` unchanged). Reading a
+/// star is then one cache miss for the block and independent misses for
+/// the quads, where one linked list per vertex made every face a dependent
+/// miss (the decoder's largest cost, issue 4); a rewrite is a scan of one
+/// block and a swap-remove — O(1), and O(1) in the lists past the block,
+/// so a hostile vertex in a million faces costs no more per corner. No
+/// allocation per record once the blocks have grown. The order of the
+/// corners carries no meaning: everything the format derives from a star
+/// (§7.5) is defined by slot numbers, not by this order.
 #[derive(Clone, Debug)]
 pub struct MeshState {
     /// Largest quantization code.
@@ -140,10 +142,44 @@ pub struct MeshState {
     pub q: Vec<[u32; 3]>,
     /// Quads by slot.
     pub quads: Vec<[u32; 4]>,
-    /// First corner at each vertex, or [`NIL`].
-    head: Vec<u32>,
-    /// `[next, prev]` corner at the same vertex, per corner, or [`NIL`].
-    links: Vec<[u32; 2]>,
+    /// Per vertex: `[n | OVERFLOW flag, corners…]`.
+    inline: Vec<[u32; INLINE + 1]>,
+    /// First overflow corner per vertex ([`NIL`]: none), valid where the
+    /// block has the flag.
+    ov_head: Vec<u32>,
+    /// `[next, prev]` per overflow corner ([`NIL`] ends a list).
+    ov_links: Vec<[u32; 2]>,
+}
+
+/// Corners stored in a vertex's own block (see [`MeshState`]).
+pub const INLINE: usize = 7;
+
+/// Flag in a block's count word: the vertex has overflow corners.
+const OVERFLOW: u32 = 1 << 31;
+
+/// The corners at one vertex: its block, then its overflow list.
+struct CornerIter<'a> {
+    st: &'a MeshState,
+    block: &'a [u32],
+    i: usize,
+    ov: u32,
+}
+
+impl Iterator for CornerIter<'_> {
+    type Item = u32;
+    #[inline]
+    fn next(&mut self) -> Option<u32> {
+        if let Some(&c) = self.block.get(self.i) {
+            self.i += 1;
+            return Some(c);
+        }
+        if self.ov == NIL {
+            return None;
+        }
+        let c = self.ov;
+        self.ov = self.st.ov_links.get(c as usize).map_or(NIL, |l| l[0]);
+        Some(c)
+    }
 }
 
 /// Star of a vertex in canonical order (spec §7.5).
@@ -237,8 +273,9 @@ impl MeshState {
     pub fn new(qmax: u32, q: Vec<[u32; 3]>, quads: Vec<[u32; 4]>) -> Self {
         let mut st = MeshState {
             qmax,
-            head: vec![NIL; q.len()],
-            links: vec![[NIL; 2]; 4 * quads.len()],
+            inline: vec![[0; INLINE + 1]; q.len()],
+            ov_head: Vec::new(),
+            ov_links: Vec::new(),
             q,
             quads,
         };
@@ -253,33 +290,64 @@ impl MeshState {
     /// Reserves room for `nv` more vertices and `nf` more slots.
     pub fn reserve(&mut self, nv: usize, nf: usize) {
         self.q.reserve(nv);
-        self.head.reserve(nv);
+        self.inline.reserve(nv);
         self.quads.reserve(nf);
-        self.links.reserve(4 * nf);
     }
 
-    /// Adds corner `c` to the list of vertex `v`.
+    /// Adds corner `c` to vertex `v`: into its block, or at the front of
+    /// its overflow list when the block is full.
     #[inline]
     fn link(&mut self, c: u32, v: u32) {
-        let h = self.head[v as usize];
-        self.links[c as usize] = [h, NIL];
-        if h != NIL {
-            self.links[h as usize][1] = c;
+        let b = &mut self.inline[v as usize];
+        let n = (b[0] & !OVERFLOW) as usize;
+        if n < INLINE {
+            b[n + 1] = c;
+            b[0] += 1;
+            return;
         }
-        self.head[v as usize] = c;
+        if b[0] & OVERFLOW == 0 {
+            b[0] |= OVERFLOW;
+            if self.ov_head.len() <= v as usize {
+                self.ov_head.resize(v as usize + 1, NIL);
+            }
+            self.ov_head[v as usize] = NIL;
+        }
+        if self.ov_links.len() <= c as usize {
+            self.ov_links.resize(c as usize + 1, [NIL; 2]);
+        }
+        let h = std::mem::replace(&mut self.ov_head[v as usize], c);
+        self.ov_links[c as usize] = [h, NIL];
+        if h != NIL {
+            self.ov_links[h as usize][1] = c;
+        }
     }
 
-    /// Removes corner `c` from the list of vertex `v`.
+    /// Removes corner `c` from vertex `v` (where it must be).
     #[inline]
     fn unlink(&mut self, c: u32, v: u32) {
-        let [n, p] = self.links[c as usize];
-        if p != NIL {
-            self.links[p as usize][0] = n;
-        } else {
-            self.head[v as usize] = n;
+        let b = &mut self.inline[v as usize];
+        let n = (b[0] & !OVERFLOW) as usize;
+        if let Some(i) = b[1..=n].iter().position(|&x| x == c) {
+            b[1 + i] = b[n];
+            b[0] -= 1;
+            return;
         }
-        if n != NIL {
-            self.links[n as usize][1] = p;
+        if b[0] & OVERFLOW == 0 {
+            return;
+        }
+        let Some(&[nx, pv]) = self.ov_links.get(c as usize) else {
+            return;
+        };
+        if pv != NIL {
+            self.ov_links[pv as usize][0] = nx;
+        } else {
+            self.ov_head[v as usize] = nx;
+            if nx == NIL {
+                b[0] &= !OVERFLOW;
+            }
+        }
+        if nx != NIL {
+            self.ov_links[nx as usize][1] = pv;
         }
     }
 
@@ -297,16 +365,36 @@ impl MeshState {
         old
     }
 
+    /// The corner ids at vertex `v` (none for an id out of range).
+    #[inline]
+    fn corner_ids(&self, v: u32) -> CornerIter<'_> {
+        match self.inline.get(v as usize) {
+            Some(b) => {
+                let n = (b[0] & !OVERFLOW) as usize;
+                let ov = if b[0] & OVERFLOW != 0 {
+                    self.ov_head.get(v as usize).copied().unwrap_or(NIL)
+                } else {
+                    NIL
+                };
+                CornerIter {
+                    st: self,
+                    block: &b[1..=n],
+                    i: 0,
+                    ov,
+                }
+            }
+            None => CornerIter {
+                st: self,
+                block: &[],
+                i: 0,
+                ov: NIL,
+            },
+        }
+    }
+
     /// Corners `(slot, k)` at vertex `v`, in no particular order.
     pub fn corners(&self, v: u32) -> impl Iterator<Item = (u32, usize)> + '_ {
-        let mut c = self.head.get(v as usize).copied().unwrap_or(NIL);
-        std::iter::from_fn(move || {
-            (c != NIL).then(|| {
-                let out = (c >> 2, (c & 3) as usize);
-                c = self.links[c as usize][0];
-                out
-            })
-        })
+        self.corner_ids(v).map(|c| (c >> 2, (c & 3) as usize))
     }
 
     /// Number of faces at vertex `v`.
@@ -333,7 +421,7 @@ impl MeshState {
     pub fn apply_logged(&mut self, r: &QRecord, moved: &mut Moves, rw: &mut Rewrites3) {
         for &p in &r.new_pos {
             self.q.push(p);
-            self.head.push(NIL);
+            self.inline.push([0; INLINE + 1]);
         }
         for &(v, p) in &r.moved {
             moved.push((v, p, std::mem::replace(&mut self.q[v as usize], p)));
@@ -345,7 +433,6 @@ impl MeshState {
         for &quad in &r.appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
-            self.links.extend_from_slice(&[[NIL; 2]; 4]);
             for (k, &v) in quad.iter().enumerate() {
                 self.link(4 * s + k as u32, v);
             }
@@ -364,7 +451,6 @@ impl MeshState {
             }
         }
         self.quads.truncate(f_before);
-        self.links.truncate(4 * f_before);
         for &(s, _, old) in rw.iter().rev() {
             self.set_quad(s, old);
         }
@@ -372,7 +458,7 @@ impl MeshState {
             self.q[v as usize] = old;
         }
         self.q.truncate(v_before);
-        self.head.truncate(v_before);
+        self.inline.truncate(v_before);
     }
 
     /// Local neighbourhood of anchor `m` (spec §7.7), or why it has none.
@@ -411,11 +497,10 @@ impl MeshState {
         star.clear();
         faces.clear();
         verts.clear();
-        // Direct walks of the corner lists (no iterator state): this is the
-        // decoder's hottest loop, a few dozen scattered reads per record.
+        // A few dozen scattered reads per record: one block per vertex, then
+        // independent reads of the quads.
         let mut n = 0usize;
-        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
-        while c != NIL {
+        for c in self.corner_ids(m) {
             n += 1;
             if n > MAX_SPLIT_STAR {
                 return Err(format!(
@@ -428,15 +513,13 @@ impl MeshState {
                     star.push(u);
                 }
             }
-            c = self.links[c as usize][0];
         }
         if n == 0 {
             return Err(format!("anchor {m} has no face"));
         }
         let mut entries = 0usize;
         for &u in star.iter() {
-            let mut c = self.head[u as usize];
-            while c != NIL {
+            for c in self.corner_ids(u) {
                 entries += 1;
                 if entries > MAX_LOCAL_CORNERS {
                     return Err(format!(
@@ -448,7 +531,6 @@ impl MeshState {
                     f[s as usize] = gf;
                     faces.push(s);
                 }
-                c = self.links[c as usize][0];
             }
         }
         sort_distinct(faces);
@@ -481,15 +563,13 @@ impl MeshState {
     /// no more than 256 faces).
     pub fn slots_at(&self, m: u32, out: &mut Vec<u32>) -> Result<(), String> {
         out.clear();
-        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
-        while c != NIL {
+        for c in self.corner_ids(m) {
             if out.len() == MAX_SPLIT_STAR {
                 return Err(format!(
                     "vertex {m} has more than {MAX_SPLIT_STAR} faces (face split needs 1..=255)"
                 ));
             }
             out.push(c >> 2);
-            c = self.links[c as usize][0];
         }
         if out.is_empty() {
             return Err(format!("vertex {m} has 0 faces (face split needs 1..=255)"));
@@ -522,8 +602,7 @@ impl MeshState {
         let mut nx = [NIL; STAR_SMALL];
         let mut pv = [NIL; STAR_SMALL];
         let mut n = 0usize;
-        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
-        while c != NIL {
+        for c in self.corner_ids(m) {
             if n == STAR_SMALL {
                 return self.star_general(m, out);
             }
@@ -540,7 +619,6 @@ impl MeshState {
             }
             (fs[i], nx[i], pv[i]) = (f, a, b);
             n += 1;
-            c = self.links[c as usize][0];
         }
         if n == 0 {
             return Err(format!("vertex {m} has 0 faces (split form needs 1..=255)"));
@@ -574,8 +652,7 @@ impl MeshState {
         // (slot, next of m, prev of m) per face, sorted by slot (stable, so
         // repeated slots keep list order).
         let mut ring: Vec<(u32, u32, u32)> = Vec::new();
-        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
-        while c != NIL {
+        for c in self.corner_ids(m) {
             if ring.len() == MAX_SPLIT_STAR {
                 return Err(format!(
                     "vertex {m} has more than {MAX_SPLIT_STAR} faces (split form needs 1..=255)"
@@ -584,7 +661,6 @@ impl MeshState {
             let (f, k) = (c >> 2, (c & 3) as usize);
             let q = &self.quads[f as usize];
             ring.push((f, q[(k + 1) % 4], q[(k + 3) % 4]));
-            c = self.links[c as usize][0];
         }
         if ring.is_empty() {
             return Err(format!("vertex {m} has 0 faces (split form needs 1..=255)"));
@@ -2042,7 +2118,8 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_distinct, MeshState, Star, MAX_SPLIT_STAR, STAR_SMALL};
+    use super::{sort_distinct, MeshState, QRecord, Star, MAX_SPLIT_STAR, STAR_SMALL};
+    use pqm_core::OpKind;
     use proptest::prelude::*;
 
     /// A fan of `n` quads `[0, a_i, a_i + 1, a_{i+1}]` around vertex 0
@@ -2142,8 +2219,79 @@ mod tests {
         Ok(())
     }
 
+    /// Every vertex's corners, as the adjacency lists them and as the quads
+    /// say (both sorted).
+    fn check_corners(st: &MeshState) -> Result<(), TestCaseError> {
+        let mut want = vec![Vec::new(); st.q.len()];
+        for (s, q) in st.quads.iter().enumerate() {
+            for (k, &v) in q.iter().enumerate() {
+                want[v as usize].push((s as u32, k));
+            }
+        }
+        for (v, w) in want.iter().enumerate() {
+            let mut got: Vec<(u32, usize)> = st.corners(v as u32).collect();
+            got.sort_unstable();
+            prop_assert_eq!(&got, w, "vertex {}", v);
+            prop_assert_eq!(st.valence(v as u32), w.len());
+        }
+        Ok(())
+    }
+
     proptest! {
-        /// The stack star (bit-mask `succ` / `pred`) equals the general one
+        /// The corner blocks and their overflow lists always hold exactly
+        /// the corners of the quads: random rewrites, appends and undos on
+        /// a few vertices, so that many are in more than `INLINE` faces
+        /// (blocks fill, overflow, drain and refill).
+        #[test]
+        fn corner_lists_follow_rewrites_and_undo(
+            nv in 5u32..9,
+            words in proptest::collection::vec(any::<[u32; 4]>(), 0..40),
+            steps in proptest::collection::vec((any::<u32>(), any::<[u32; 4]>(), 0u8..4), 0..60),
+        ) {
+            let mut st = MeshState::new(1, vec![[0; 3]; nv as usize], quads_from(nv, &words));
+            check_corners(&st)?;
+            for (pick, w, kind) in steps {
+                let Some(&q) = quads_from(st.q.len() as u32, &[w]).first() else { continue };
+                let nf = st.quads.len() as u32;
+                if kind == 0 || nf == 0 {
+                    // Append two quads and one vertex, then maybe undo.
+                    let r = QRecord {
+                        op: OpKind::QvMerge,
+                        new_pos: vec![[0; 3]],
+                        moved: Vec::new(),
+                        rewritten: Vec::new(),
+                        appended: vec![q, [st.q.len() as u32, q[0], q[1], q[2]]],
+                    };
+                    let (v0, f0) = (st.q.len(), st.quads.len());
+                    let (mut mv, mut rw) = (Vec::new(), Vec::new());
+                    st.apply_logged(&r, &mut mv, &mut rw);
+                    check_corners(&st)?;
+                    if pick % 2 == 0 {
+                        st.undo(v0, f0, &mv, &rw);
+                    }
+                } else {
+                    // Rewrite one slot, logged, and undo it half the time.
+                    let s = pick % nf;
+                    let r = QRecord {
+                        op: OpKind::QvMerge,
+                        new_pos: Vec::new(),
+                        moved: Vec::new(),
+                        rewritten: vec![(s, q)],
+                        appended: Vec::new(),
+                    };
+                    let (v0, f0) = (st.q.len(), st.quads.len());
+                    let (mut mv, mut rw) = (Vec::new(), Vec::new());
+                    st.apply_logged(&r, &mut mv, &mut rw);
+                    check_corners(&st)?;
+                    if kind == 1 {
+                        st.undo(v0, f0, &mv, &rw);
+                    }
+                }
+                check_corners(&st)?;
+            }
+        }
+
+        /// The stack star (short scans of `u32` arrays) equals the general one
         /// on random quads over a few vertices — mostly not fans, with
         /// repeated links, several fans and stars past `STAR_SMALL` — and on
         /// shuffled fans (closed and open) with random extra quads.
