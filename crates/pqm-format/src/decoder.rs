@@ -272,6 +272,13 @@ pub struct Decoder {
     quads: Vec<[u32; 4]>,
     /// When a refinement copies the frontier instead of replaying records.
     copy_policy: CopyPolicy,
+    /// Keeps no undo data past a chunk ([`Decoder::forward_only`]).
+    forward_only: bool,
+    /// Forward-only: moved vertices below the current level's count and
+    /// rewritten slots below its face count, since the last move (what the
+    /// next [`Change`] reports; the logs they come from are dropped).
+    pending_moved: Vec<u32>,
+    pending_rw: Vec<u32>,
 }
 
 /// Whether [`Decoder::go_to`] refines to the deepest level by copying the
@@ -327,6 +334,25 @@ impl Decoder {
             pos: Vec::new(),
             quads: Vec::new(),
             copy_policy: CopyPolicy::Auto,
+            forward_only: false,
+            pending_moved: Vec::new(),
+            pending_rw: Vec::new(),
+        }
+    }
+
+    /// A decoder for one-way decoding: it keeps the undo data of a chunk
+    /// only until the chunk is committed, so it moves only *to the deepest
+    /// decoded level* ([`Decoder::refine_to`] / [`Decoder::set_level`] with
+    /// a target that resolves to it; any other level is a
+    /// [`DecodeError::Parameter`]), and
+    /// [`Decoder::to_progressive_mesh`] gives `None`. Everything else — the
+    /// push API, the checks, [`Limits`], the events, the levels it reaches
+    /// and the [`Change`]s it reports — is the same as [`Decoder::new`]'s;
+    /// it needs less memory (no per-record log) and decodes faster.
+    pub fn forward_only(limits: Limits) -> Self {
+        Decoder {
+            forward_only: true,
+            ..Decoder::new(limits)
         }
     }
 
@@ -770,7 +796,11 @@ impl Decoder {
             (h.final_face_count - h.base_face_count) as usize,
         );
         st.reserve(nv, nf);
-        self.recs.reserve(h.record_count as usize + 1, nv, nf);
+        if self.forward_only {
+            self.recs.reserve(h.record_count as usize + 1, 0, 0);
+        } else {
+            self.recs.reserve(h.record_count as usize + 1, nv, nf);
+        }
         let mut q = Vec::with_capacity(st.q.len() + nv);
         q.extend_from_slice(&st.q);
         let mut pos = Vec::with_capacity(st.q.len() + nv);
@@ -813,7 +843,39 @@ impl Decoder {
         result?;
         self.chunks_ready = i + 1;
         self.chunk_levels.push(self.recs.op.len());
+        if self.forward_only {
+            self.drop_chunk_log();
+        }
         Ok(())
+    }
+
+    /// Forward-only: keeps of the committed chunk's log only the ids the
+    /// next [`Change`] reports (below the current level's counts), then
+    /// empties the log — its buffers are reused by the next chunk, so the
+    /// decoder's memory does not grow with the records.
+    fn drop_chunk_log(&mut self) {
+        let r = &mut self.recs;
+        let (vl, fl) = (r.v_at[self.level], r.f_at[self.level]);
+        self.pending_moved
+            .extend(r.moved.iter().map(|m| m.0).filter(|&v| v < vl));
+        self.pending_rw
+            .extend(r.rw.iter().map(|w| w.0).filter(|&s| s < fl));
+        // Distinct ids stay below the level's counts: dedup when the lists
+        // outgrow them, so a client that never refines keeps O(level).
+        for (ids, n) in [(&mut self.pending_moved, vl), (&mut self.pending_rw, fl)] {
+            if ids.len() > 2 * n as usize + 1024 {
+                ids.sort_unstable();
+                ids.dedup();
+            }
+        }
+        r.moved.clear();
+        r.rw.clear();
+        r.new_pos.clear();
+        r.appended.clear();
+        // The chunk's own entries (those before it are 0 already).
+        let k0 = self.chunk_levels.iter().rev().nth(1).copied().unwrap_or(0);
+        r.moved_at[k0..].fill(0);
+        r.rw_at[k0..].fill(0);
     }
 
     /// Decompresses chunk `i` into `payload` and decodes its records
@@ -1123,12 +1185,22 @@ impl Decoder {
             to + 1 == r.v_at.len()
                 && st.q.len() == v_to as usize
                 && st.quads.len() == f_to as usize
-                && self.copy_policy.copies(
-                    (r.rw_at[to] - r.rw_at[from]) + (r.moved_at[to] - r.moved_at[from]),
-                    (v_from + f_from) as usize,
-                )
+                && (self.forward_only
+                    || self.copy_policy.copies(
+                        (r.rw_at[to] - r.rw_at[from]) + (r.moved_at[to] - r.moved_at[from]),
+                        (v_from + f_from) as usize,
+                    ))
         });
+        if self.forward_only && to != from && (to < from || frontier.is_none()) {
+            return Err(DecodeError::Parameter(format!(
+                "a forward-only decoder moves only to the deepest decoded level ({}), not from level {from} to {to}",
+                r.v_at.len() - 1
+            )));
+        }
         if let (true, Some(st)) = (to > from, frontier) {
+            // Forward-only: the dropped logs' ids, kept per chunk.
+            moved.append(&mut self.pending_moved);
+            rewritten.append(&mut self.pending_rw);
             for &(v, _, _) in &r.moved[r.moved_at[from]..r.moved_at[to]] {
                 if v < v_from {
                     moved.push(v);
@@ -1343,8 +1415,12 @@ impl Decoder {
     /// Rebuilds a [`ProgressiveMesh`] from everything decoded so far
     /// (dequantized positions). `level_error[k]` is the error of the last
     /// chunk boundary at or before `k` — an upper bound, since the file
-    /// stores errors per chunk only.
+    /// stores errors per chunk only. `None` before the base mesh and for a
+    /// [`Decoder::forward_only`] decoder (it keeps no records).
     pub fn to_progressive_mesh(&self) -> Option<ProgressiveMesh> {
+        if self.forward_only {
+            return None;
+        }
         let quant = self.quant?;
         let r = &self.recs;
         let (bv, bf) = (*r.v_at.first()? as usize, *r.f_at.first()? as usize);
