@@ -142,8 +142,8 @@ pub struct MeshState {
     pub q: Vec<[u32; 3]>,
     /// Quads by slot.
     pub quads: Vec<[u32; 4]>,
-    /// Per vertex: `[n | OVERFLOW flag, corners…]`.
-    inline: Vec<[u32; INLINE + 1]>,
+    /// Per vertex: its [`Block`].
+    inline: Vec<Block>,
     /// First overflow corner per vertex ([`NIL`]: none), valid where the
     /// block has the flag.
     ov_head: Vec<u32>,
@@ -153,6 +153,15 @@ pub struct MeshState {
 
 /// Corners stored in a vertex's own block (see [`MeshState`]).
 pub const INLINE: usize = 7;
+
+/// One vertex's corner block, `[n | OVERFLOW flag, corners…]`, aligned so
+/// that it is always one cache line (a `[u32; 8]` at malloc's 16-byte
+/// alignment straddles two lines every other vertex: measured, the subset
+/// torus bench decoded 1.5× slower in a process whose heap gave such
+/// addresses).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+struct Block([u32; INLINE + 1]);
 
 /// Flag in a block's count word: the vertex has overflow corners.
 const OVERFLOW: u32 = 1 << 31;
@@ -273,7 +282,7 @@ impl MeshState {
     pub fn new(qmax: u32, q: Vec<[u32; 3]>, quads: Vec<[u32; 4]>) -> Self {
         let mut st = MeshState {
             qmax,
-            inline: vec![[0; INLINE + 1]; q.len()],
+            inline: vec![Block::default(); q.len()],
             ov_head: Vec::new(),
             ov_links: Vec::new(),
             q,
@@ -298,7 +307,7 @@ impl MeshState {
     /// its overflow list when the block is full.
     #[inline]
     fn link(&mut self, c: u32, v: u32) {
-        let b = &mut self.inline[v as usize];
+        let b = &mut self.inline[v as usize].0;
         let n = (b[0] & !OVERFLOW) as usize;
         if n < INLINE {
             b[n + 1] = c;
@@ -325,7 +334,7 @@ impl MeshState {
     /// Removes corner `c` from vertex `v` (where it must be).
     #[inline]
     fn unlink(&mut self, c: u32, v: u32) {
-        let b = &mut self.inline[v as usize];
+        let b = &mut self.inline[v as usize].0;
         let n = (b[0] & !OVERFLOW) as usize;
         if let Some(i) = b[1..=n].iter().position(|&x| x == c) {
             b[1 + i] = b[n];
@@ -369,7 +378,7 @@ impl MeshState {
     #[inline]
     fn corner_ids(&self, v: u32) -> CornerIter<'_> {
         match self.inline.get(v as usize) {
-            Some(b) => {
+            Some(Block(b)) => {
                 let n = (b[0] & !OVERFLOW) as usize;
                 let ov = if b[0] & OVERFLOW != 0 {
                     self.ov_head.get(v as usize).copied().unwrap_or(NIL)
@@ -421,7 +430,7 @@ impl MeshState {
     pub fn apply_logged(&mut self, r: &QRecord, moved: &mut Moves, rw: &mut Rewrites3) {
         for &p in &r.new_pos {
             self.q.push(p);
-            self.inline.push([0; INLINE + 1]);
+            self.inline.push(Block::default());
         }
         for &(v, p) in &r.moved {
             moved.push((v, p, std::mem::replace(&mut self.q[v as usize], p)));
