@@ -149,6 +149,22 @@ pub struct MeshState {
     ov_head: Vec<u32>,
     /// `[next, prev]` per overflow corner ([`NIL`] ends a list).
     ov_links: Vec<[u32; 2]>,
+    /// Vertex and corner counts the overflow lists may grow to (the
+    /// reserved finest level): they grow geometrically but never past
+    /// these, so they stay within `Limits::estimate`.
+    caps: (usize, usize),
+}
+
+/// Grows `v` to `len` entries of `fill`, doubling its capacity but not
+/// past `cap` (nor below `len`).
+fn grow<T: Clone>(v: &mut Vec<T>, len: usize, cap: usize, fill: T) {
+    if v.len() < len {
+        let want = len.max(2 * v.len()).min(cap.max(len));
+        if v.capacity() < want {
+            v.reserve_exact(want - v.len());
+        }
+        v.resize(len, fill);
+    }
 }
 
 /// Corners stored in a vertex's own block (see [`MeshState`]).
@@ -285,6 +301,7 @@ impl MeshState {
             inline: vec![Block::default(); q.len()],
             ov_head: Vec::new(),
             ov_links: Vec::new(),
+            caps: (q.len(), 4 * quads.len()),
             q,
             quads,
         };
@@ -301,6 +318,7 @@ impl MeshState {
         self.q.reserve(nv);
         self.inline.reserve(nv);
         self.quads.reserve(nf);
+        self.caps = (self.q.len() + nv, 4 * (self.quads.len() + nf));
     }
 
     /// Adds corner `c` to vertex `v`: into its block, or at the front of
@@ -316,14 +334,10 @@ impl MeshState {
         }
         if b[0] & OVERFLOW == 0 {
             b[0] |= OVERFLOW;
-            if self.ov_head.len() <= v as usize {
-                self.ov_head.resize(v as usize + 1, NIL);
-            }
+            grow(&mut self.ov_head, v as usize + 1, self.caps.0, NIL);
             self.ov_head[v as usize] = NIL;
         }
-        if self.ov_links.len() <= c as usize {
-            self.ov_links.resize(c as usize + 1, [NIL; 2]);
-        }
+        grow(&mut self.ov_links, c as usize + 1, self.caps.1, [NIL; 2]);
         let h = std::mem::replace(&mut self.ov_head[v as usize], c);
         self.ov_links[c as usize] = [h, NIL];
         if h != NIL {

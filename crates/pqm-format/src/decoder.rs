@@ -786,8 +786,10 @@ impl Decoder {
         let mut st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
             .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
         // Room for the finest level up front: the header's counts were
-        // checked against the limits, and what is reserved here (52 bytes
-        // per vertex, 80 per face, 25 per record) stays within
+        // checked against the limits, and what is reserved here (80 bytes
+        // per vertex — 44 of them the frontier's codes and corner block —,
+        // 48 per face, 25 per record; the frontier's overflow lists add at
+        // most 4 per vertex and 32 per face) stays within
         // `Limits::estimate`. Growing these lists chunk by chunk copied them
         // ~log2(final / base) times. Untouched capacity is address space,
         // not memory: a client that stops early does not pay for it.
