@@ -1,6 +1,7 @@
 //! Decode throughput on a generated progressive mesh of ~100k final quads:
 //! push the whole file (CRC + zstd + record decoding), then refine to the
-//! finest level; and moving between levels with the undo log.
+//! finest level (also with a forward-only decoder, which keeps no undo
+//! log); and moving between levels with the undo log.
 //! Throughput is reported in faces reconstructed per second.
 //! `subset_torus`: the same push-and-refine on what `pqm encode` writes
 //! (format 2.0, `Placement::Subset`: split, face-split and local-form
@@ -35,6 +36,14 @@ fn bench(c: &mut Criterion) {
     g.bench_function("push_all_and_refine_100k", |b| {
         b.iter(|| {
             let mut d = Decoder::new(Limits::default());
+            d.push(black_box(&bytes)).expect("decode");
+            d.set_level(Target::Level(usize::MAX)).expect("refine");
+            black_box(d.quads().len())
+        })
+    });
+    g.bench_function("push_all_and_refine_100k_forward_only", |b| {
+        b.iter(|| {
+            let mut d = Decoder::forward_only(Limits::default());
             d.push(black_box(&bytes)).expect("decode");
             d.set_level(Target::Level(usize::MAX)).expect("refine");
             black_box(d.quads().len())

@@ -7,9 +7,22 @@
 //! codes, so that an A/B pair of builds can be checked to decode the same
 //! mesh.
 //!
-//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N]`
+//! With `forward` as third argument the decoder is
+//! [`Decoder::forward_only`] (no undo data: one-way decoding).
+//!
+//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N] [forward]`
 
-use pqm_format::{decode_all, Limits, Target};
+use pqm_format::{decode_all, DecodeError, Decoder, Limits, Target};
+
+/// The whole file, pushed at once, into a forward-only decoder.
+fn decode_forward(bytes: &[u8]) -> Result<Decoder, DecodeError> {
+    let mut d = Decoder::forward_only(Limits::none());
+    d.push(bytes)?;
+    if !d.status().finished {
+        return Err(DecodeError::Parameter("the file ends early".into()));
+    }
+    Ok(d)
+}
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -18,6 +31,7 @@ fn main() {
         std::process::exit(2);
     };
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
+    let forward = args.next().is_some_and(|a| a == "forward");
     let bytes = match std::fs::read(&f) {
         Ok(b) => b,
         Err(e) => {
@@ -30,7 +44,12 @@ fn main() {
     let mut sum = 0xcbf2_9ce4_8422_2325u64;
     for _ in 0..n.max(1) {
         let t = std::time::Instant::now();
-        let mut d = match decode_all(&bytes, Limits::none()) {
+        let decoded = if forward {
+            decode_forward(&bytes)
+        } else {
+            decode_all(&bytes, Limits::none())
+        };
+        let mut d = match decoded {
             Ok(d) => d,
             Err(e) => {
                 eprintln!("{f}: {e}");
@@ -55,7 +74,8 @@ fn main() {
         }
     }
     println!(
-        "{f}: best of {n}: {:.2} ms, {:.2} M faces/s, checksum {sum:016x}",
+        "{f}{}: best of {n}: {:.2} ms, {:.2} M faces/s, checksum {sum:016x}",
+        if forward { " (forward-only)" } else { "" },
         best * 1e3,
         faces as f64 / best / 1e6
     );

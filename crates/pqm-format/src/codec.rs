@@ -118,15 +118,22 @@ pub const NIL: u32 = u32::MAX;
 
 /// The decoder-side mesh at one level (see the module docs).
 ///
-/// Vertex→face adjacency is stored flat, as doubly linked lists of
-/// *corners*: corner `4 s + k` is corner `k` of slot `s`, `head[v]` is the
-/// first corner at vertex `v` and `next` / `prev` link the corners of one
-/// vertex ([`NIL`] ends a list). Compared with one `Vec` of faces per vertex
-/// this makes no allocation per vertex or record, keeps the lists of a
-/// region in a few cache lines, and rewriting a corner is O(1) (unlink,
-/// relink) instead of a search in the old vertex's list. The order of a list
-/// carries no meaning: everything the format derives from a star (§7.5) is
-/// defined by slot numbers, not by list order.
+/// Vertex→face adjacency is kept as *corners*: corner `4 s + k` is corner
+/// `k` of slot `s`. Each vertex owns one 32-byte block `inline[v]` =
+/// `[n, c_1 … c_7]` holding up to [`INLINE`] of its corners; the rest (a
+/// vertex in more than 7 faces, a few per cent on real meshes) are a doubly
+/// linked list (`ov_head`: first corner per vertex, `ov_links`:
+/// `[next, prev]` per corner, both grown only as far as the ids they
+/// hold), flagged by [`OVERFLOW`] in `n`. At most 32 bytes per vertex and
+/// 32 per slot, as the single lists before (`Limits::estimate` unchanged). Reading a
+/// star is then one cache miss for the block and independent misses for
+/// the quads, where one linked list per vertex made every face a dependent
+/// miss (the decoder's largest cost, issue 4); a rewrite is a scan of one
+/// block and a swap-remove — O(1), and O(1) in the lists past the block,
+/// so a hostile vertex in a million faces costs no more per corner. No
+/// allocation per record once the blocks have grown. The order of the
+/// corners carries no meaning: everything the format derives from a star
+/// (§7.5) is defined by slot numbers, not by this order.
 #[derive(Clone, Debug)]
 pub struct MeshState {
     /// Largest quantization code.
@@ -135,12 +142,69 @@ pub struct MeshState {
     pub q: Vec<[u32; 3]>,
     /// Quads by slot.
     pub quads: Vec<[u32; 4]>,
-    /// First corner at each vertex, or [`NIL`].
-    head: Vec<u32>,
-    /// Next corner at the same vertex, per corner, or [`NIL`].
-    next: Vec<u32>,
-    /// Previous corner at the same vertex, per corner, or [`NIL`].
-    prev: Vec<u32>,
+    /// Per vertex: its [`Block`].
+    inline: Vec<Block>,
+    /// First overflow corner per vertex ([`NIL`]: none), valid where the
+    /// block has the flag.
+    ov_head: Vec<u32>,
+    /// `[next, prev]` per overflow corner ([`NIL`] ends a list).
+    ov_links: Vec<[u32; 2]>,
+    /// Vertex and corner counts the overflow lists may grow to (the
+    /// reserved finest level): they grow geometrically but never past
+    /// these, so they stay within `Limits::estimate`.
+    caps: (usize, usize),
+}
+
+/// Grows `v` to `len` entries of `fill`, doubling its capacity but not
+/// past `cap` (nor below `len`).
+fn grow<T: Clone>(v: &mut Vec<T>, len: usize, cap: usize, fill: T) {
+    if v.len() < len {
+        let want = len.max(2 * v.len()).min(cap.max(len));
+        if v.capacity() < want {
+            v.reserve_exact(want - v.len());
+        }
+        v.resize(len, fill);
+    }
+}
+
+/// Corners stored in a vertex's own block (see [`MeshState`]).
+pub const INLINE: usize = 7;
+
+/// One vertex's corner block, `[n | OVERFLOW flag, corners…]`, aligned so
+/// that it is always one cache line (a `[u32; 8]` at malloc's 16-byte
+/// alignment straddles two lines every other vertex: measured, the subset
+/// torus bench decoded 1.5× slower in a process whose heap gave such
+/// addresses).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+struct Block([u32; INLINE + 1]);
+
+/// Flag in a block's count word: the vertex has overflow corners.
+const OVERFLOW: u32 = 1 << 31;
+
+/// The corners at one vertex: its block, then its overflow list.
+struct CornerIter<'a> {
+    st: &'a MeshState,
+    block: &'a [u32],
+    i: usize,
+    ov: u32,
+}
+
+impl Iterator for CornerIter<'_> {
+    type Item = u32;
+    #[inline]
+    fn next(&mut self) -> Option<u32> {
+        if let Some(&c) = self.block.get(self.i) {
+            self.i += 1;
+            return Some(c);
+        }
+        if self.ov == NIL {
+            return None;
+        }
+        let c = self.ov;
+        self.ov = self.st.ov_links.get(c as usize).map_or(NIL, |l| l[0]);
+        Some(c)
+    }
 }
 
 /// Star of a vertex in canonical order (spec §7.5).
@@ -234,9 +298,10 @@ impl MeshState {
     pub fn new(qmax: u32, q: Vec<[u32; 3]>, quads: Vec<[u32; 4]>) -> Self {
         let mut st = MeshState {
             qmax,
-            head: vec![NIL; q.len()],
-            next: vec![NIL; 4 * quads.len()],
-            prev: vec![NIL; 4 * quads.len()],
+            inline: vec![Block::default(); q.len()],
+            ov_head: Vec::new(),
+            ov_links: Vec::new(),
+            caps: (q.len(), 4 * quads.len()),
             q,
             quads,
         };
@@ -251,35 +316,61 @@ impl MeshState {
     /// Reserves room for `nv` more vertices and `nf` more slots.
     pub fn reserve(&mut self, nv: usize, nf: usize) {
         self.q.reserve(nv);
-        self.head.reserve(nv);
+        self.inline.reserve(nv);
         self.quads.reserve(nf);
-        self.next.reserve(4 * nf);
-        self.prev.reserve(4 * nf);
+        self.caps = (self.q.len() + nv, 4 * (self.quads.len() + nf));
     }
 
-    /// Adds corner `c` to the list of vertex `v`.
+    /// Adds corner `c` to vertex `v`: into its block, or at the front of
+    /// its overflow list when the block is full.
     #[inline]
     fn link(&mut self, c: u32, v: u32) {
-        let h = self.head[v as usize];
-        self.next[c as usize] = h;
-        self.prev[c as usize] = NIL;
-        if h != NIL {
-            self.prev[h as usize] = c;
+        let b = &mut self.inline[v as usize].0;
+        let n = (b[0] & !OVERFLOW) as usize;
+        if n < INLINE {
+            b[n + 1] = c;
+            b[0] += 1;
+            return;
         }
-        self.head[v as usize] = c;
+        if b[0] & OVERFLOW == 0 {
+            b[0] |= OVERFLOW;
+            grow(&mut self.ov_head, v as usize + 1, self.caps.0, NIL);
+            self.ov_head[v as usize] = NIL;
+        }
+        grow(&mut self.ov_links, c as usize + 1, self.caps.1, [NIL; 2]);
+        let h = std::mem::replace(&mut self.ov_head[v as usize], c);
+        self.ov_links[c as usize] = [h, NIL];
+        if h != NIL {
+            self.ov_links[h as usize][1] = c;
+        }
     }
 
-    /// Removes corner `c` from the list of vertex `v`.
+    /// Removes corner `c` from vertex `v` (where it must be).
     #[inline]
     fn unlink(&mut self, c: u32, v: u32) {
-        let (p, n) = (self.prev[c as usize], self.next[c as usize]);
-        if p != NIL {
-            self.next[p as usize] = n;
-        } else {
-            self.head[v as usize] = n;
+        let b = &mut self.inline[v as usize].0;
+        let n = (b[0] & !OVERFLOW) as usize;
+        if let Some(i) = b[1..=n].iter().position(|&x| x == c) {
+            b[1 + i] = b[n];
+            b[0] -= 1;
+            return;
         }
-        if n != NIL {
-            self.prev[n as usize] = p;
+        if b[0] & OVERFLOW == 0 {
+            return;
+        }
+        let Some(&[nx, pv]) = self.ov_links.get(c as usize) else {
+            return;
+        };
+        if pv != NIL {
+            self.ov_links[pv as usize][0] = nx;
+        } else {
+            self.ov_head[v as usize] = nx;
+            if nx == NIL {
+                b[0] &= !OVERFLOW;
+            }
+        }
+        if nx != NIL {
+            self.ov_links[nx as usize][1] = pv;
         }
     }
 
@@ -297,16 +388,36 @@ impl MeshState {
         old
     }
 
+    /// The corner ids at vertex `v` (none for an id out of range).
+    #[inline]
+    fn corner_ids(&self, v: u32) -> CornerIter<'_> {
+        match self.inline.get(v as usize) {
+            Some(Block(b)) => {
+                let n = (b[0] & !OVERFLOW) as usize;
+                let ov = if b[0] & OVERFLOW != 0 {
+                    self.ov_head.get(v as usize).copied().unwrap_or(NIL)
+                } else {
+                    NIL
+                };
+                CornerIter {
+                    st: self,
+                    block: &b[1..=n],
+                    i: 0,
+                    ov,
+                }
+            }
+            None => CornerIter {
+                st: self,
+                block: &[],
+                i: 0,
+                ov: NIL,
+            },
+        }
+    }
+
     /// Corners `(slot, k)` at vertex `v`, in no particular order.
     pub fn corners(&self, v: u32) -> impl Iterator<Item = (u32, usize)> + '_ {
-        let mut c = self.head.get(v as usize).copied().unwrap_or(NIL);
-        std::iter::from_fn(move || {
-            (c != NIL).then(|| {
-                let out = (c >> 2, (c & 3) as usize);
-                c = self.next[c as usize];
-                out
-            })
-        })
+        self.corner_ids(v).map(|c| (c >> 2, (c & 3) as usize))
     }
 
     /// Number of faces at vertex `v`.
@@ -333,7 +444,7 @@ impl MeshState {
     pub fn apply_logged(&mut self, r: &QRecord, moved: &mut Moves, rw: &mut Rewrites3) {
         for &p in &r.new_pos {
             self.q.push(p);
-            self.head.push(NIL);
+            self.inline.push(Block::default());
         }
         for &(v, p) in &r.moved {
             moved.push((v, p, std::mem::replace(&mut self.q[v as usize], p)));
@@ -345,8 +456,6 @@ impl MeshState {
         for &quad in &r.appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
-            self.next.extend_from_slice(&[NIL; 4]);
-            self.prev.extend_from_slice(&[NIL; 4]);
             for (k, &v) in quad.iter().enumerate() {
                 self.link(4 * s + k as u32, v);
             }
@@ -365,8 +474,6 @@ impl MeshState {
             }
         }
         self.quads.truncate(f_before);
-        self.next.truncate(4 * f_before);
-        self.prev.truncate(4 * f_before);
         for &(s, _, old) in rw.iter().rev() {
             self.set_quad(s, old);
         }
@@ -374,7 +481,7 @@ impl MeshState {
             self.q[v as usize] = old;
         }
         self.q.truncate(v_before);
-        self.head.truncate(v_before);
+        self.inline.truncate(v_before);
     }
 
     /// Local neighbourhood of anchor `m` (spec §7.7), or why it has none.
@@ -413,11 +520,10 @@ impl MeshState {
         star.clear();
         faces.clear();
         verts.clear();
-        // Direct walks of the corner lists (no iterator state): this is the
-        // decoder's hottest loop, a few dozen scattered reads per record.
+        // A few dozen scattered reads per record: one block per vertex, then
+        // independent reads of the quads.
         let mut n = 0usize;
-        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
-        while c != NIL {
+        for c in self.corner_ids(m) {
             n += 1;
             if n > MAX_SPLIT_STAR {
                 return Err(format!(
@@ -430,15 +536,13 @@ impl MeshState {
                     star.push(u);
                 }
             }
-            c = self.next[c as usize];
         }
         if n == 0 {
             return Err(format!("anchor {m} has no face"));
         }
         let mut entries = 0usize;
         for &u in star.iter() {
-            let mut c = self.head[u as usize];
-            while c != NIL {
+            for c in self.corner_ids(u) {
                 entries += 1;
                 if entries > MAX_LOCAL_CORNERS {
                     return Err(format!(
@@ -450,7 +554,6 @@ impl MeshState {
                     f[s as usize] = gf;
                     faces.push(s);
                 }
-                c = self.next[c as usize];
             }
         }
         sort_distinct(faces);
@@ -483,15 +586,13 @@ impl MeshState {
     /// no more than 256 faces).
     pub fn slots_at(&self, m: u32, out: &mut Vec<u32>) -> Result<(), String> {
         out.clear();
-        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
-        while c != NIL {
+        for c in self.corner_ids(m) {
             if out.len() == MAX_SPLIT_STAR {
                 return Err(format!(
                     "vertex {m} has more than {MAX_SPLIT_STAR} faces (face split needs 1..=255)"
                 ));
             }
             out.push(c >> 2);
-            c = self.next[c as usize];
         }
         if out.is_empty() {
             return Err(format!("vertex {m} has 0 faces (face split needs 1..=255)"));
@@ -511,53 +612,84 @@ impl MeshState {
     }
 
     /// [`MeshState::star`] into `out`, reusing its buffers (the decoder's
-    /// split-form path: no allocation per record).
+    /// split-form and edge-split paths: no allocation per record).
+    ///
+    /// Up to [`STAR_SMALL`] faces (every real mesh vertex) the faces live in
+    /// three stack arrays (slot, next and previous vertex of `m`), sorted by
+    /// slot, so that `succ` / `pred` are short scans of one `u32` array
+    /// (no tuples, no closures over a slice of unknown length). Larger stars take
+    /// [`MeshState::star_general`]; both give the same result on every
+    /// input, manifold or not (property test `fast_star_equals_general`).
     pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
-        // (slot, next of m, prev of m) per face, sorted by slot (insertion
-        // sort: stable, so repeated slots keep list order), on the stack
-        // for the usual valences (a 255-entry array would be zeroed per
-        // record: that memset cost more than the walk), in a Vec beyond.
-        // The walk below is quadratic in the valence, so its inner loop
-        // runs on a small array, and sorting makes "the smallest slot with
-        // …" the first match. Counting stops past the limit, so a vertex in
-        // a million faces costs no more than one in 256.
-        const SMALL: usize = 16;
-        let mut small = [(0u32, 0u32, 0u32); SMALL];
-        let mut big: Vec<(u32, u32, u32)> = Vec::new();
+        let mut fs = [0u32; STAR_SMALL];
+        let mut nx = [NIL; STAR_SMALL];
+        let mut pv = [NIL; STAR_SMALL];
         let mut n = 0usize;
-        let mut c = self.head.get(m as usize).copied().unwrap_or(NIL);
-        while c != NIL {
-            if n == MAX_SPLIT_STAR {
+        for c in self.corner_ids(m) {
+            if n == STAR_SMALL {
+                return self.star_general(m, out);
+            }
+            let (f, k) = (c >> 2, (c & 3) as usize);
+            let q = &self.quads[f as usize];
+            let (a, b) = (q[(k + 1) & 3], q[(k + 3) & 3]);
+            // Insertion by slot, after equal slots (stable: list order).
+            let mut i = n;
+            while i > 0 && fs[i - 1] > f {
+                fs[i] = fs[i - 1];
+                nx[i] = nx[i - 1];
+                pv[i] = pv[i - 1];
+                i -= 1;
+            }
+            (fs[i], nx[i], pv[i]) = (f, a, b);
+            n += 1;
+        }
+        if n == 0 {
+            return Err(format!("vertex {m} has 0 faces (split form needs 1..=255)"));
+        }
+        // The first entry `g != f` with `keys[g] == key` (ascending slots:
+        // the smallest slot of §7.5), over the `n` live entries only.
+        let first_other = |keys: &[u32; STAR_SMALL], key: u32, f: usize| {
+            (0..n).find(|&g| keys[g] == key && g != f)
+        };
+        let succ = |f: usize| first_other(&nx, pv[f], f);
+        let pred = |f: usize| first_other(&pv, nx[f], f);
+        let Star { faces, link } = out;
+        faces.clear();
+        link.clear();
+        let last = fan_walk(n, succ, pred, |i| {
+            faces.push(fs[i]);
+            link.push(nx[i]);
+        })
+        .ok_or_else(|| format!("star of vertex {m} is not a single fan"))?;
+        if let Some(f) = last {
+            link.push(pv[f]);
+        }
+        Ok(())
+    }
+
+    /// [`MeshState::star_into`] for any number of faces (up to the limit):
+    /// the faces sorted by slot in a `Vec`, `succ` / `pred` by scans.
+    /// Counting stops past the limit, so a vertex in a million faces costs
+    /// no more than one in 256.
+    pub fn star_general(&self, m: u32, out: &mut Star) -> Result<(), String> {
+        // (slot, next of m, prev of m) per face, sorted by slot (stable, so
+        // repeated slots keep list order).
+        let mut ring: Vec<(u32, u32, u32)> = Vec::new();
+        for c in self.corner_ids(m) {
+            if ring.len() == MAX_SPLIT_STAR {
                 return Err(format!(
                     "vertex {m} has more than {MAX_SPLIT_STAR} faces (split form needs 1..=255)"
                 ));
             }
             let (f, k) = (c >> 2, (c & 3) as usize);
             let q = &self.quads[f as usize];
-            let e = (f, q[(k + 1) % 4], q[(k + 3) % 4]);
-            if n == SMALL {
-                big.extend_from_slice(&small);
-            }
-            let ring: &mut [(u32, u32, u32)] = if n < SMALL {
-                &mut small[..=n]
-            } else {
-                big.push(e);
-                &mut big[..]
-            };
-            let mut i = n;
-            while i > 0 && ring[i - 1].0 > f {
-                ring[i] = ring[i - 1];
-                i -= 1;
-            }
-            ring[i] = e;
-            n += 1;
-            c = self.next[c as usize];
+            ring.push((f, q[(k + 1) % 4], q[(k + 3) % 4]));
         }
-        if n == 0 {
+        if ring.is_empty() {
             return Err(format!("vertex {m} has 0 faces (split form needs 1..=255)"));
         }
-        let ring: &[(u32, u32, u32)] = if n <= SMALL { &small[..n] } else { &big };
-        let not_fan = || format!("star of vertex {m} is not a single fan");
+        ring.sort_by_key(|e| e.0);
+        let ring = &ring;
         // Index (into `ring`) of the smallest slot g != ring[f] with
         // next(g) == key (want_next) or prev(g) == key.
         let find = |f: usize, key: u32, want_next: bool| -> Option<usize> {
@@ -567,57 +699,79 @@ impl MeshState {
         };
         let succ = |f: usize| find(f, ring[f].2, true);
         let pred = |f: usize| find(f, ring[f].1, false);
-        let first = 0;
-        let mut start = None;
-        let mut boundary = false;
-        let mut f = first;
-        for _ in 0..n {
-            match pred(f) {
-                None => {
-                    start = Some(f);
-                    boundary = true;
-                    break;
-                }
-                Some(g) if g == first => {
-                    start = Some(first);
-                    break;
-                }
-                Some(g) => f = g,
-            }
-        }
-        let start = start.ok_or_else(not_fan)?;
-        // The walk goes straight into `out` (ring index → slot / link
-        // vertex); `seen` holds ring indices, on the stack.
         let Star { faces, link } = out;
         faces.clear();
         link.clear();
-        // Ring indices already walked, as a bit set (n <= 255).
-        let mut seen = [0u64; MAX_SPLIT_STAR.div_ceil(64)];
-        faces.push(ring[start].0);
-        link.push(ring[start].1);
-        seen[start / 64] |= 1 << (start % 64);
-        let mut f = start;
-        loop {
-            match succ(f) {
-                None if boundary => break,
-                Some(g) if g == start && !boundary => break,
-                Some(g) if seen[g / 64] & (1 << (g % 64)) == 0 && faces.len() < n => {
-                    faces.push(ring[g].0);
-                    link.push(ring[g].1);
-                    seen[g / 64] |= 1 << (g % 64);
-                    f = g;
-                }
-                _ => return Err(not_fan()),
-            }
-        }
-        if faces.len() != n {
-            return Err(not_fan());
-        }
-        if boundary {
+        let last = fan_walk(ring.len(), succ, pred, |i| {
+            faces.push(ring[i].0);
+            link.push(ring[i].1);
+        })
+        .ok_or_else(|| format!("star of vertex {m} is not a single fan"))?;
+        if let Some(f) = last {
             link.push(ring[f].2);
         }
         Ok(())
     }
+}
+
+/// Stars of at most this many faces are built on the stack by
+/// [`MeshState::star_into`].
+pub const STAR_SMALL: usize = 16;
+
+/// The rewind and walk of spec §7.5 step 2 over `n` faces sorted by slot
+/// (indices `0..n`, `0` = the smallest slot), given `succ` and `pred` as
+/// indices; `emit` gets the walked indices in order. Returns `None` when
+/// the star is not a single fan, else `Some(last)` on the boundary (`last`
+/// = the index of `f_{K−1}`, whose `p` closes the link) and `Some(None)`
+/// inside.
+fn fan_walk(
+    n: usize,
+    succ: impl Fn(usize) -> Option<usize>,
+    pred: impl Fn(usize) -> Option<usize>,
+    mut emit: impl FnMut(usize),
+) -> Option<Option<usize>> {
+    let first = 0;
+    let mut start = None;
+    let mut boundary = false;
+    let mut f = first;
+    for _ in 0..n {
+        match pred(f) {
+            None => {
+                start = Some(f);
+                boundary = true;
+                break;
+            }
+            Some(g) if g == first => {
+                start = Some(first);
+                break;
+            }
+            Some(g) => f = g,
+        }
+    }
+    let start = start?;
+    // Indices already walked, as a bit set (n <= 255).
+    let mut seen = [0u64; MAX_SPLIT_STAR.div_ceil(64)];
+    emit(start);
+    seen[start / 64] |= 1 << (start % 64);
+    let mut walked = 1usize;
+    let mut f = start;
+    loop {
+        match succ(f) {
+            None if boundary => break,
+            Some(g) if g == start && !boundary => break,
+            Some(g) if seen[g / 64] & (1 << (g % 64)) == 0 && walked < n => {
+                emit(g);
+                seen[g / 64] |= 1 << (g % 64);
+                walked += 1;
+                f = g;
+            }
+            _ => return None,
+        }
+    }
+    if walked != n {
+        return None;
+    }
+    Some(boundary.then_some(f))
 }
 
 /// Rewritten slots with their new quads.
@@ -1987,7 +2141,8 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_distinct, MeshState, MAX_SPLIT_STAR};
+    use super::{sort_distinct, MeshState, QRecord, Star, MAX_SPLIT_STAR, STAR_SMALL};
+    use pqm_core::OpKind;
     use proptest::prelude::*;
 
     /// A fan of `n` quads `[0, a_i, a_i + 1, a_{i+1}]` around vertex 0
@@ -2056,7 +2211,131 @@ mod tests {
         }
     }
 
+    /// Quads with four distinct corners below `nv`, from arbitrary words.
+    fn quads_from(nv: u32, words: &[[u32; 4]]) -> Vec<[u32; 4]> {
+        words
+            .iter()
+            .filter_map(|w| {
+                let q = w.map(|x| x % nv);
+                let distinct = (0..4).all(|a| (a + 1..4).all(|b| q[a] != q[b]));
+                distinct.then_some(q)
+            })
+            .collect()
+    }
+
+    /// Both star builders on every vertex of `st`: the same faces and link,
+    /// or the same error.
+    fn same_stars(st: &MeshState) -> Result<(), TestCaseError> {
+        let (mut fast, mut general) = (Star::default(), Star::default());
+        for m in 0..st.q.len() as u32 + 1 {
+            let a = st.star_into(m, &mut fast).map(|()| fast.clone());
+            let b = st.star_general(m, &mut general).map(|()| general.clone());
+            match (a, b) {
+                (Ok(a), Ok(b)) => {
+                    prop_assert_eq!(a.faces, b.faces, "vertex {}", m);
+                    prop_assert_eq!(a.link, b.link, "vertex {}", m);
+                }
+                (Err(a), Err(b)) => prop_assert_eq!(a, b, "vertex {}", m),
+                (a, b) => prop_assert!(false, "vertex {}: {:?} vs {:?}", m, a, b),
+            }
+        }
+        Ok(())
+    }
+
+    /// Every vertex's corners, as the adjacency lists them and as the quads
+    /// say (both sorted).
+    fn check_corners(st: &MeshState) -> Result<(), TestCaseError> {
+        let mut want = vec![Vec::new(); st.q.len()];
+        for (s, q) in st.quads.iter().enumerate() {
+            for (k, &v) in q.iter().enumerate() {
+                want[v as usize].push((s as u32, k));
+            }
+        }
+        for (v, w) in want.iter().enumerate() {
+            let mut got: Vec<(u32, usize)> = st.corners(v as u32).collect();
+            got.sort_unstable();
+            prop_assert_eq!(&got, w, "vertex {}", v);
+            prop_assert_eq!(st.valence(v as u32), w.len());
+        }
+        Ok(())
+    }
+
     proptest! {
+        /// The corner blocks and their overflow lists always hold exactly
+        /// the corners of the quads: random rewrites, appends and undos on
+        /// a few vertices, so that many are in more than `INLINE` faces
+        /// (blocks fill, overflow, drain and refill).
+        #[test]
+        fn corner_lists_follow_rewrites_and_undo(
+            nv in 5u32..9,
+            words in proptest::collection::vec(any::<[u32; 4]>(), 0..40),
+            steps in proptest::collection::vec((any::<u32>(), any::<[u32; 4]>(), 0u8..4), 0..60),
+        ) {
+            let mut st = MeshState::new(1, vec![[0; 3]; nv as usize], quads_from(nv, &words));
+            check_corners(&st)?;
+            for (pick, w, kind) in steps {
+                let Some(&q) = quads_from(st.q.len() as u32, &[w]).first() else { continue };
+                let nf = st.quads.len() as u32;
+                if kind == 0 || nf == 0 {
+                    // Append two quads and one vertex, then maybe undo.
+                    let r = QRecord {
+                        op: OpKind::QvMerge,
+                        new_pos: vec![[0; 3]],
+                        moved: Vec::new(),
+                        rewritten: Vec::new(),
+                        appended: vec![q, [st.q.len() as u32, q[0], q[1], q[2]]],
+                    };
+                    let (v0, f0) = (st.q.len(), st.quads.len());
+                    let (mut mv, mut rw) = (Vec::new(), Vec::new());
+                    st.apply_logged(&r, &mut mv, &mut rw);
+                    check_corners(&st)?;
+                    if pick % 2 == 0 {
+                        st.undo(v0, f0, &mv, &rw);
+                    }
+                } else {
+                    // Rewrite one slot, logged, and undo it half the time.
+                    let s = pick % nf;
+                    let r = QRecord {
+                        op: OpKind::QvMerge,
+                        new_pos: Vec::new(),
+                        moved: Vec::new(),
+                        rewritten: vec![(s, q)],
+                        appended: Vec::new(),
+                    };
+                    let (v0, f0) = (st.q.len(), st.quads.len());
+                    let (mut mv, mut rw) = (Vec::new(), Vec::new());
+                    st.apply_logged(&r, &mut mv, &mut rw);
+                    check_corners(&st)?;
+                    if kind == 1 {
+                        st.undo(v0, f0, &mv, &rw);
+                    }
+                }
+                check_corners(&st)?;
+            }
+        }
+
+        /// The stack star (short scans of `u32` arrays) equals the general one
+        /// on random quads over a few vertices — mostly not fans, with
+        /// repeated links, several fans and stars past `STAR_SMALL` — and on
+        /// shuffled fans (closed and open) with random extra quads.
+        #[test]
+        fn fast_star_equals_general(
+            nv in 4u32..9,
+            words in proptest::collection::vec(any::<[u32; 4]>(), 0..40),
+            n in 3u32..(STAR_SMALL as u32 + 3),
+            step in 1u32..40,
+            open in any::<bool>(),
+            extra in proptest::collection::vec(any::<[u32; 4]>(), 0..4),
+        ) {
+            let quads = quads_from(nv, &words);
+            same_stars(&MeshState::new(1, vec![[0; 3]; nv as usize], quads))?;
+            let step = (step..step + n).find(|s| gcd(*s % n, n) == 1).unwrap_or(1) % n;
+            let (st, _) = fan(n, step.max(1), open);
+            let mut quads = st.quads.clone();
+            quads.extend(quads_from(st.q.len() as u32, &extra));
+            same_stars(&MeshState::new(1, st.q.clone(), quads))?;
+        }
+
         /// The rank sort agrees with the standard sort on distinct values,
         /// on both sides of its small-list limit.
         #[test]

@@ -270,6 +270,39 @@ pub struct Decoder {
     q: Vec<[u32; 3]>,
     pos: Vec<[f32; 3]>,
     quads: Vec<[u32; 4]>,
+    /// When a refinement copies the frontier instead of replaying records.
+    copy_policy: CopyPolicy,
+    /// Keeps no undo data past a chunk ([`Decoder::forward_only`]).
+    forward_only: bool,
+    /// Forward-only: moved vertices below the current level's count and
+    /// rewritten slots below its face count, since the last move (what the
+    /// next [`Change`] reports; the logs they come from are dropped).
+    pending_moved: Vec<u32>,
+    pending_rw: Vec<u32>,
+}
+
+/// Whether [`Decoder::go_to`] refines to the deepest level by copying the
+/// frontier (`Auto`: when that writes less than the replay would; the other
+/// two force one way, for the tests that check both agree).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CopyPolicy {
+    Auto,
+    #[cfg_attr(not(test), allow(dead_code))]
+    Never,
+    #[cfg_attr(not(test), allow(dead_code))]
+    Always,
+}
+
+impl CopyPolicy {
+    /// Copy for `entries` logged moves and rewrites to replay onto a level
+    /// of `size` vertices and faces?
+    fn copies(self, entries: usize, size: usize) -> bool {
+        match self {
+            CopyPolicy::Auto => entries.saturating_mul(16) > size,
+            CopyPolicy::Never => false,
+            CopyPolicy::Always => true,
+        }
+    }
 }
 
 impl Decoder {
@@ -300,6 +333,26 @@ impl Decoder {
             q: Vec::new(),
             pos: Vec::new(),
             quads: Vec::new(),
+            copy_policy: CopyPolicy::Auto,
+            forward_only: false,
+            pending_moved: Vec::new(),
+            pending_rw: Vec::new(),
+        }
+    }
+
+    /// A decoder for one-way decoding: it keeps the undo data of a chunk
+    /// only until the chunk is committed, so it moves only *to the deepest
+    /// decoded level* ([`Decoder::refine_to`] / [`Decoder::set_level`] with
+    /// a target that resolves to it; any other level is a
+    /// [`DecodeError::Parameter`]), and
+    /// [`Decoder::to_progressive_mesh`] gives `None`. Everything else — the
+    /// push API, the checks, [`Limits`], the events, the levels it reaches
+    /// and the [`Change`]s it reports — is the same as [`Decoder::new`]'s;
+    /// it needs less memory (no per-record log) and decodes faster.
+    pub fn forward_only(limits: Limits) -> Self {
+        Decoder {
+            forward_only: true,
+            ..Decoder::new(limits)
         }
     }
 
@@ -733,8 +786,10 @@ impl Decoder {
         let mut st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
             .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
         // Room for the finest level up front: the header's counts were
-        // checked against the limits, and what is reserved here (52 bytes
-        // per vertex, 80 per face, 25 per record) stays within
+        // checked against the limits, and what is reserved here (80 bytes
+        // per vertex — 44 of them the frontier's codes and corner block —,
+        // 48 per face, 25 per record; the frontier's overflow lists add at
+        // most 4 per vertex and 32 per face) stays within
         // `Limits::estimate`. Growing these lists chunk by chunk copied them
         // ~log2(final / base) times. Untouched capacity is address space,
         // not memory: a client that stops early does not pay for it.
@@ -743,7 +798,11 @@ impl Decoder {
             (h.final_face_count - h.base_face_count) as usize,
         );
         st.reserve(nv, nf);
-        self.recs.reserve(h.record_count as usize + 1, nv, nf);
+        if self.forward_only {
+            self.recs.reserve(h.record_count as usize + 1, 0, 0);
+        } else {
+            self.recs.reserve(h.record_count as usize + 1, nv, nf);
+        }
         let mut q = Vec::with_capacity(st.q.len() + nv);
         q.extend_from_slice(&st.q);
         let mut pos = Vec::with_capacity(st.q.len() + nv);
@@ -786,7 +845,39 @@ impl Decoder {
         result?;
         self.chunks_ready = i + 1;
         self.chunk_levels.push(self.recs.op.len());
+        if self.forward_only {
+            self.drop_chunk_log();
+        }
         Ok(())
+    }
+
+    /// Forward-only: keeps of the committed chunk's log only the ids the
+    /// next [`Change`] reports (below the current level's counts), then
+    /// empties the log — its buffers are reused by the next chunk, so the
+    /// decoder's memory does not grow with the records.
+    fn drop_chunk_log(&mut self) {
+        let r = &mut self.recs;
+        let (vl, fl) = (r.v_at[self.level], r.f_at[self.level]);
+        self.pending_moved
+            .extend(r.moved.iter().map(|m| m.0).filter(|&v| v < vl));
+        self.pending_rw
+            .extend(r.rw.iter().map(|w| w.0).filter(|&s| s < fl));
+        // Distinct ids stay below the level's counts: dedup when the lists
+        // outgrow them, so a client that never refines keeps O(level).
+        for (ids, n) in [(&mut self.pending_moved, vl), (&mut self.pending_rw, fl)] {
+            if ids.len() > 2 * n as usize + 1024 {
+                ids.sort_unstable();
+                ids.dedup();
+            }
+        }
+        r.moved.clear();
+        r.rw.clear();
+        r.new_pos.clear();
+        r.appended.clear();
+        // The chunk's own entries (those before it are 0 already).
+        let k0 = self.chunk_levels.iter().rev().nth(1).copied().unwrap_or(0);
+        r.moved_at[k0..].fill(0);
+        r.rw_at[k0..].fill(0);
     }
 
     /// Decompresses chunk `i` into `payload` and decodes its records
@@ -1084,7 +1175,54 @@ impl Decoder {
         let mut rewritten = Vec::new();
         let quant = self.quant;
         let f32_of = |c: [u32; 3]| quant.map_or([0.0; 3], |q| q.dequantize(c).map(|x| x as f32));
-        if to > from {
+        // The frontier *is* the deepest decoded level: a long refinement to
+        // it copies the frontier's arrays in order instead of replaying each
+        // record's writes at scattered slots (on bunny the replay's cache
+        // misses were a third of the decoder's). The logs are still read,
+        // in order, for the ids the `Change` reports. Both ways give the
+        // same level and the same `Change` (test `frontier_copy_equals_replay`);
+        // the copy is taken when the records to replay write more entries
+        // than a sixteenth of the level holds.
+        let frontier = self.frontier.as_ref().filter(|st| {
+            to + 1 == r.v_at.len()
+                && st.q.len() == v_to as usize
+                && st.quads.len() == f_to as usize
+                && (self.forward_only
+                    || self.copy_policy.copies(
+                        (r.rw_at[to] - r.rw_at[from]) + (r.moved_at[to] - r.moved_at[from]),
+                        (v_from + f_from) as usize,
+                    ))
+        });
+        if self.forward_only && to != from && (to < from || frontier.is_none()) {
+            return Err(DecodeError::Parameter(format!(
+                "a forward-only decoder moves only to the deepest decoded level ({}), not from level {from} to {to}",
+                r.v_at.len() - 1
+            )));
+        }
+        if let (true, Some(st)) = (to > from, frontier) {
+            // Forward-only: the dropped logs' ids, kept per chunk.
+            moved.append(&mut self.pending_moved);
+            rewritten.append(&mut self.pending_rw);
+            for &(v, _, _) in &r.moved[r.moved_at[from]..r.moved_at[to]] {
+                if v < v_from {
+                    moved.push(v);
+                }
+            }
+            for &(s, _, _) in &r.rw[r.rw_at[from]..r.rw_at[to]] {
+                if s < f_from {
+                    rewritten.push(s);
+                }
+            }
+            self.q.clear();
+            self.q.extend_from_slice(&st.q);
+            for &v in &moved {
+                self.pos[v as usize] = f32_of(st.q[v as usize]);
+            }
+            self.pos
+                .extend(st.q[v_from as usize..].iter().map(|&c| f32_of(c)));
+            self.quads.clear();
+            self.quads.extend_from_slice(&st.quads);
+        } else if to > from {
             let nv = (v_to - bv) as usize;
             let new = &r.new_pos[(v_from - bv) as usize..nv];
             self.q.extend_from_slice(new);
@@ -1279,8 +1417,12 @@ impl Decoder {
     /// Rebuilds a [`ProgressiveMesh`] from everything decoded so far
     /// (dequantized positions). `level_error[k]` is the error of the last
     /// chunk boundary at or before `k` — an upper bound, since the file
-    /// stores errors per chunk only.
+    /// stores errors per chunk only. `None` before the base mesh and for a
+    /// [`Decoder::forward_only`] decoder (it keeps no records).
     pub fn to_progressive_mesh(&self) -> Option<ProgressiveMesh> {
+        if self.forward_only {
+            return None;
+        }
         let quant = self.quant?;
         let r = &self.recs;
         let (bv, bf) = (*r.v_at.first()? as usize, *r.f_at.first()? as usize);
@@ -1460,7 +1602,51 @@ pub fn decode_all(bytes: &[u8], limits: Limits) -> Result<Decoder, DecodeError> 
 
 #[cfg(test)]
 mod tests {
-    use super::check_block_sizes;
+    use super::{check_block_sizes, CopyPolicy, Decoder, Limits, Target};
+    use crate::{write_to_vec, EncodeOptions};
+    use pqm_core::progressive::testgen;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        /// Refining to the deepest level by copying the frontier gives the
+        /// same level (codes, f32 positions, quads) and the same `Change`
+        /// as replaying the records, on random walks that often end at the
+        /// deepest level, over whole files and over prefixes (the deepest
+        /// level then is a chunk boundary before the end), with moved
+        /// vertices, face splits and edge splits.
+        #[test]
+        fn frontier_copy_equals_replay(
+            seed in any::<u64>(),
+            walk in proptest::collection::vec(prop_oneof![0usize..200, Just(usize::MAX)], 1..10),
+            cut in 0.3f64..1.0,
+            version_major in 1u16..=3,
+        ) {
+            let mut pm = testgen::generate(seed, 120);
+            crate::vectors::add_face_splits(&mut pm, 30, seed);
+            crate::vectors::add_edge_splits(&mut pm, 10, seed);
+            let opts = EncodeOptions { chunk_records: Some(13), version_major, ..EncodeOptions::default() };
+            let bytes = write_to_vec(&pm, &opts).expect("encode").0;
+            let cut = if cut > 0.9 { bytes.len() } else { (bytes.len() as f64 * cut) as usize };
+            let mut dec = [CopyPolicy::Never, CopyPolicy::Always].map(|policy| {
+                let mut d = Decoder::new(Limits::default());
+                d.copy_policy = policy;
+                // A prefix may end inside a chunk: that is no error.
+                let _ = d.push(&bytes[..cut]);
+                d
+            });
+            prop_assume!(dec[0].deepest_level().is_some());
+            for &t in &walk {
+                let [a, b] = &mut dec;
+                let ca = a.set_level(Target::Level(t)).unwrap();
+                let cb = b.set_level(Target::Level(t)).unwrap();
+                prop_assert_eq!(&ca, &cb);
+                prop_assert_eq!(a.quads(), b.quads());
+                prop_assert_eq!(a.position_codes(), b.position_codes());
+                prop_assert_eq!(a.positions(), b.positions());
+            }
+        }
+    }
 
     /// A single-segment frame of content size `fcs` whose only block is raw
     /// and `size` bytes long.

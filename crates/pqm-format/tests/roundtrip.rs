@@ -252,6 +252,71 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// A forward-only decoder and a general one, fed the same pieces (of a
+    /// file that may be corrupted) and refined to the deepest level after
+    /// some pushes, agree on every push result, every `Change`, every
+    /// level and the status; the forward-only one refuses any other level
+    /// with a parameter error (and stays usable), and keeps no records.
+    #[test]
+    fn forward_only_matches_the_general_decoder(
+        seed in any::<u64>(),
+        sizes in prop::collection::vec(1usize..400, 1..6),
+        refine_every in 1usize..4,
+        flip in prop::option::of((any::<prop::sample::Index>(), any::<u8>())),
+        version_major in 1u16..=3,
+        detour in any::<prop::sample::Index>(),
+    ) {
+        let mut pm = testgen::generate(seed, 120);
+        pqm_format::vectors::add_face_splits(&mut pm, 30, seed);
+        pqm_format::vectors::add_edge_splits(&mut pm, 10, seed);
+        let opts = EncodeOptions { chunk_records: Some(11), version_major, ..EncodeOptions::default() };
+        let mut bytes = encode(&pm, &opts);
+        if let Some((i, x)) = flip {
+            // In the second half: most flips hit a chunk (rolled back).
+            let i = bytes.len() / 2 + i.index(bytes.len() / 2);
+            bytes[i] ^= x | 1;
+        }
+        let mut general = Decoder::new(Limits::default());
+        let mut forward = Decoder::forward_only(Limits::default());
+        let (mut at, mut i) = (0usize, 0usize);
+        while at < bytes.len() {
+            let n = sizes[i % sizes.len()].min(bytes.len() - at);
+            let a = general.push(&bytes[at..at + n]);
+            let b = forward.push(&bytes[at..at + n]);
+            prop_assert_eq!(format!("{a:?}"), format!("{b:?}"));
+            at += n;
+            i += 1;
+            if i % refine_every == 0 || at == bytes.len() {
+                let Some(deepest) = general.deepest_level() else { continue };
+                let ca = general.refine_to(Target::Level(usize::MAX)).unwrap();
+                let cb = forward.refine_to(Target::Level(usize::MAX)).unwrap();
+                prop_assert_eq!(&ca, &cb);
+                prop_assert_eq!(forward.level(), deepest);
+                prop_assert_eq!(general.quads(), forward.quads());
+                prop_assert_eq!(general.position_codes(), forward.position_codes());
+                prop_assert_eq!(general.positions(), forward.positions());
+                // Any other level is refused, and nothing changes.
+                let k = detour.index(deepest + 1);
+                if k != deepest {
+                    let e = forward.set_level(Target::Level(k)).unwrap_err();
+                    prop_assert!(matches!(e, DecodeError::Parameter(_)), "{e}");
+                    prop_assert_eq!(forward.level(), deepest);
+                }
+                prop_assert!(forward.coarsen_to(Target::Level(deepest)).unwrap().is_empty());
+            }
+        }
+        prop_assert_eq!(general.status(), forward.status());
+        prop_assert!(forward.to_progressive_mesh().is_none());
+        if flip.is_none() {
+            prop_assert_eq!(forward.level(), pm.records.len());
+            let q = expected_quantizer(&pm, opts.bits);
+            assert_level(&forward, &pm, &q, pm.records.len());
+        }
+    }
+}
+
 #[test]
 fn one_byte_at_a_time_equals_all_at_once() {
     for seed in 0..6 {
