@@ -161,11 +161,16 @@ fn fandisk_with_sharp_features() {
             // 488-500 faces at a Hausdorff of 1.9-3.9 % depending on the order;
             // 519 since qeMerge candidates are named by face and corner; 453
             // since steps that add no defect get the wide rescue (at a
-            // Hausdorff of 1.94 %: little room left under the bar)
+            // Hausdorff of 1.94 %, set by one unbounded last-phase step
+            // away from features; 1.58 % since those are limited to 2 %
+            // plane deviation)
             max_faces: 460,
-            min_ideal: 0.80, // (target 0.85; 81.1 % today)
+            min_ideal: 0.81, // (target 0.85; 81.5 % today)
             min_sj_median: 0.85,
-            max_hausdorff: 0.02,
+            // (bar 0.02; 1.58 % today, 1.94 % without the last phase's
+            // limit for steps away from features: kept below 1.7 % so
+            // that margin cannot quietly go)
+            max_hausdorff: 0.017,
         },
     );
 }
