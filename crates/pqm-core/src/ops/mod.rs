@@ -254,21 +254,12 @@ impl GeometryGuard {
             ..Default::default()
         };
         for &f in region {
-            if !mesh.is_face_alive(f) {
-                continue;
+            if let Some((weighted, quad)) = g.add_reference(mesh, f) {
+                if let Some(q) = quad {
+                    g.min_sj = g.min_sj.min(quad_scaled_jacobian(q));
+                }
+                g.average += weighted;
             }
-            let vs: Vec<VertexId> = mesh.face_vertices(f).collect();
-            let p: Vec<DVec3> = vs.iter().map(|&v| mesh.position(v)).collect();
-            let n = newell_normal(&p);
-            let weighted = if let Ok(q) = <[DVec3; 4]>::try_from(p.as_slice()) {
-                g.min_sj = g.min_sj.min(quad_scaled_jacobian(q));
-                n * area4(&q)
-            } else {
-                n
-            };
-            g.average += weighted;
-            g.before.push((f, n));
-            g.local.push((vs, weighted));
         }
         g.average = g.average.normalize_or_zero();
         g
@@ -293,19 +284,25 @@ impl GeometryGuard {
     /// the shape floor: for steps that may move vertices beyond the region.
     pub fn extend(&mut self, mesh: &Mesh, faces: &[FaceId]) {
         for &f in faces {
-            if !mesh.is_face_alive(f) {
-                continue;
-            }
-            let vs: Vec<VertexId> = mesh.face_vertices(f).collect();
-            let p: Vec<DVec3> = vs.iter().map(|&v| mesh.position(v)).collect();
-            let n = newell_normal(&p);
-            let weighted = match <[DVec3; 4]>::try_from(p.as_slice()) {
-                Ok(q) => n * area4(&q),
-                Err(_) => n,
-            };
-            self.before.push((f, n));
-            self.local.push((vs, weighted));
+            self.add_reference(mesh, f);
         }
+    }
+
+    /// Adds live face `f` to the fold-over reference (its normal, and its
+    /// vertices with its area-weighted normal); returns that weighted
+    /// normal and, for a quad, its corner positions. `None` for a dead face.
+    fn add_reference(&mut self, mesh: &Mesh, f: FaceId) -> Option<(DVec3, Option<[DVec3; 4]>)> {
+        if !mesh.is_face_alive(f) {
+            return None;
+        }
+        let vs: Vec<VertexId> = mesh.face_vertices(f).collect();
+        let p: Vec<DVec3> = vs.iter().map(|&v| mesh.position(v)).collect();
+        let n = newell_normal(&p);
+        let quad = <[DVec3; 4]>::try_from(p.as_slice()).ok();
+        let weighted = quad.map_or(n, |q| n * area4(&q));
+        self.before.push((f, n));
+        self.local.push((vs, weighted));
+        Some((weighted, quad))
     }
 
     /// Area-weighted normal of the captured faces that share a vertex with
