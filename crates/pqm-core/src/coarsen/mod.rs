@@ -807,13 +807,15 @@ impl Coarsener {
         if self.queue.len() == self.queue.capacity() && self.queue.capacity() >= PRUNE_MIN_CAPACITY
         {
             // full: drop the stale entries before the buffer grows; if
-            // that freed less than half, make room for another half (so a
-            // pruning, linear in the queue, is paid for by at least half a
-            // queue of pushes, and growth copies are amortized)
+            // that freed less than a quarter, grow by a quarter (so a
+            // pruning, linear in the queue, is paid for by at least a
+            // quarter queue of pushes, and growth copies are amortized;
+            // growing by a half instead put the queue's slack and its
+            // growth copy above the step logs' peak: 505 vs 500 B/quad)
             self.prune_stale();
             let cap = self.queue.capacity();
-            if self.queue.len() > cap / 2 {
-                self.queue.reserve_exact(cap / 2);
+            if self.queue.len() > cap - cap / 4 {
+                self.queue.reserve_exact(cap / 4);
             }
         }
         self.queue.push(Entry { cost, cand, stamps });
