@@ -225,19 +225,8 @@ pub fn quad_twisted(p: [DVec3; 4], margin: f64) -> bool {
 /// ill-conditioned: a straight corner, or a twisted (non-planar) one whose
 /// cross product is nearly perpendicular to the quad's normal.
 pub fn quad_projected_corner_sine(p: [DVec3; 4]) -> f64 {
-    let n = newell_normal(&p);
-    (0..4)
-        .map(|i| {
-            let e1 = p[(i + 1) % 4] - p[i];
-            let e2 = p[(i + 3) % 4] - p[i];
-            let l = e1.length() * e2.length();
-            if l > 0.0 {
-                e1.cross(e2).dot(n) / l
-            } else {
-                0.0
-            }
-        })
-        .fold(f64::INFINITY, f64::min)
+    // the twist with no margin: min(0, s / 2) is 0
+    quad_twist(p, 0.0)
 }
 
 impl GeometryGuard {
