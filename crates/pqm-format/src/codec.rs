@@ -818,7 +818,7 @@ fn build_split_into(
         return Err(format!("split of vertex {m}: both wings are vertex {b}"));
     }
     let base = [m, d, c, b];
-    let appended = [0, 1, 2, 3].map(|t| base[(t + rot) % 4]);
+    let appended = rotl(base, rot as u8);
     let in_a = |t: usize| {
         if i < j {
             i <= t && t < j
@@ -1089,9 +1089,17 @@ fn put_residual(out: &mut Vec<u8>, pred: [u32; 3], p: [u32; 3]) {
     }
 }
 
+/// `q` rotated left by `t`: `rotl(q, t)[k] = q[(k + t) mod 4]` (the
+/// rotation rule of every record form's 2-bit rotation codes).
+#[inline]
+pub(crate) fn rotl(q: [u32; 4], t: u8) -> [u32; 4] {
+    let t = t as usize;
+    [q[t & 3], q[(t + 1) & 3], q[(t + 2) & 3], q[(t + 3) & 3]]
+}
+
 /// Checks that the 4 corners of `q` are distinct; `what` names the face in
 /// the error (a closure, so that no string is built on the hot path).
-fn check_distinct(q: &[u32; 4], what: impl FnOnce() -> String) -> Result<(), String> {
+pub(crate) fn check_distinct(q: &[u32; 4], what: impl FnOnce() -> String) -> Result<(), String> {
     for a in 0..4 {
         for b in a + 1..4 {
             if q[a] == q[b] {
@@ -1511,8 +1519,7 @@ fn decode_patch(
                 *qc = corner(rd, cur)?;
             }
         }
-        let rot = (mask >> 4) as usize;
-        let q = [0, 1, 2, 3].map(|k| q[(k + rot) % 4]);
+        let q = rotl(q, (mask >> 4) as u8);
         check_distinct(&q, || format!("rewritten slot {s}"))?;
         r.rewritten.push((s, q));
     }

@@ -8,7 +8,7 @@
 //! equals the record exactly — so whatever the derivation guesses, a file
 //! never holds a form-4 record that decodes to something else.
 
-use crate::codec::{MeshState, QRecord, Star};
+use crate::codec::{check_distinct, rotl, MeshState, QRecord, Star};
 
 /// The 24 permutations of `0..4` in lexicographic order (spec §7.10 step 5:
 /// permutation number `t` is `PERMS[t]`).
@@ -76,17 +76,6 @@ pub struct Scratch {
     entries: Vec<(u32, u32)>,
     /// Fan quads, rotated, `X0`'s then `X1`'s.
     fan: Vec<[u32; 4]>,
-}
-
-/// `q` rotated left by `t` (`G'[k] = G[(k + t) mod 4]`).
-#[inline]
-fn rotl(q: [u32; 4], t: u8) -> [u32; 4] {
-    let t = t as usize;
-    [q[t & 3], q[(t + 1) & 3], q[(t + 2) & 3], q[(t + 3) & 3]]
-}
-
-fn distinct(q: &[u32; 4]) -> bool {
-    q[0] != q[1] && q[0] != q[2] && q[0] != q[3] && q[1] != q[2] && q[1] != q[3] && q[2] != q[3]
 }
 
 /// The star of anchor `a` into `sc.stars[0]`; an error when §7.5 rejects
@@ -230,11 +219,7 @@ pub fn build(
             }
             q
         };
-        if !distinct(&q) {
-            return Err(format!(
-                "edge split: rewritten slot {slot} repeats a vertex"
-            ));
-        }
+        check_distinct(&q, || format!("edge split: rewritten slot {slot}"))?;
         out.rewritten.push((slot, q));
         i += 1 + twin.is_some() as usize;
     }
@@ -244,9 +229,7 @@ pub fn build(
     out.appended.resize(4, [0; 4]);
     for (i, q) in canon.into_iter().enumerate() {
         let q = rotl(q, (ra >> (2 * i)) & 3);
-        if !distinct(&q) {
-            return Err(format!("edge split: appended quad {i} repeats a vertex"));
-        }
+        check_distinct(&q, || format!("edge split: appended quad {i}"))?;
         out.appended[pf[i] as usize] = q;
     }
     Ok(())
