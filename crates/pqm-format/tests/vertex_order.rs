@@ -20,49 +20,6 @@ fn deltas() -> EncodeOptions {
     }
 }
 
-/// Replaces `pm.vertex_order` by a locally coherent order, as real inputs
-/// have: a depth-first walk of the finest level from canonical vertex 0
-/// (input index = visit index), then `swaps` random transpositions.
-fn coherent_order(pm: &mut ProgressiveMesh, seed: u64, swaps: usize) {
-    let (pos, quads) = pm.level_quads(pm.records.len());
-    let n = pos.len();
-    let mut nbr = vec![Vec::new(); n];
-    for q in &quads {
-        for k in 0..4 {
-            nbr[q[k] as usize].push(q[(k + 1) % 4]);
-            nbr[q[k] as usize].push(q[(k + 2) % 4]);
-        }
-    }
-    let mut order = vec![u32::MAX; n];
-    let mut next = 0u32;
-    for s in 0..n {
-        if order[s] != u32::MAX {
-            continue;
-        }
-        let mut stack = vec![s];
-        while let Some(v) = stack.pop() {
-            if order[v] != u32::MAX {
-                continue;
-            }
-            order[v] = next;
-            next += 1;
-            stack.extend(nbr[v].iter().rev().map(|&w| w as usize));
-        }
-    }
-    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    let mut rnd = |m: usize| {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        (x % m as u64) as usize
-    };
-    for _ in 0..swaps.min(n) {
-        let (a, b) = (rnd(n), rnd(n));
-        order.swap(a, b);
-    }
-    pm.vertex_order = order;
-}
-
 /// Offset of the first optional section (right after the last chunk).
 fn sections_start(bytes: &[u8]) -> usize {
     let dec = decode_all(bytes, Limits::default()).unwrap();
@@ -136,7 +93,7 @@ fn gen(seed: u64, splits: usize, coherent: Option<usize>) -> ProgressiveMesh {
         ..GenOptions::new(seed, splits)
     });
     if let Some(swaps) = coherent {
-        coherent_order(&mut pm, seed, swaps);
+        pqm_format::vectors::coherent_vertex_order(&mut pm, seed, swaps);
     }
     pm
 }
