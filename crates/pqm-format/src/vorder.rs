@@ -166,13 +166,15 @@ impl Unassigned {
     }
 }
 
+/// Per vertex: [`ASSIGNED`], or the last step whose list holds it (`j + 1`;
+/// 0: none yet). One array, so a candidate costs one memory access.
+const ASSIGNED: u32 = u32::MAX;
+
 /// The state both sides keep while walking the input order.
 struct Walk {
     adj: Adjacency,
     base: usize,
-    assigned: Vec<bool>,
-    /// `listed[v] == j + 1`: `v` is in step `j`'s list.
-    listed: Vec<u32>,
+    mark: Vec<u32>,
     list: Vec<u32>,
     /// Canonical vertex of each input vertex so far.
     inv: Vec<u32>,
@@ -183,13 +185,20 @@ struct Walk {
     after_escape: usize,
 }
 
+/// How far [`Walk::candidates`] builds the list: both sides need only its
+/// first entries — up to the named vertex, or to entry `i` — and the whole
+/// list only for an escape (to prove the vertex is not in it).
+enum Until {
+    Vertex(u32),
+    Len(usize),
+}
+
 impl Walk {
     fn new(n: usize, quads: &[[u32; 4]], base: usize) -> Result<Walk, String> {
         Ok(Walk {
             adj: Adjacency::new(n, quads)?,
             base: base.min(n),
-            assigned: vec![false; n],
-            listed: vec![0; n],
+            mark: vec![0; n],
             list: Vec::with_capacity(MAX_LIST),
             inv: Vec::with_capacity(n),
             low_base: 0,
@@ -198,52 +207,74 @@ impl Walk {
         })
     }
 
-    /// Builds the candidate list of the next input vertex (spec §8.2).
-    fn candidates(&mut self) {
+    fn low(&self) -> Option<u32> {
+        (self.low_base < self.base).then_some(self.low_base as u32)
+    }
+
+    /// Builds the candidate list of the next input vertex (spec §8.2), in
+    /// order, stopping early as `until` allows.
+    fn candidates(&mut self, until: Until) {
         let j = self.inv.len();
         let stamp = j as u32 + 1;
         self.list.clear();
-        let low_base = (self.low_base < self.base).then_some(self.low_base as u32);
+        let low = self.low();
         let Walk {
             adj,
-            assigned,
-            listed,
+            mark,
             list,
             inv,
             ..
         } = self;
+        // Adds `x` if it qualifies; true when the list is as long as needed.
         let mut add = |x: u32| {
-            if list.len() < MAX_LIST
-                && !assigned[x as usize]
-                && listed[x as usize] != stamp
-                && Some(x) != low_base
-            {
-                listed[x as usize] = stamp;
+            let m = &mut mark[x as usize];
+            if *m != ASSIGNED && *m != stamp && Some(x) != low {
+                *m = stamp;
                 list.push(x);
+                let done = match until {
+                    Until::Vertex(t) => x == t,
+                    Until::Len(l) => list.len() >= l,
+                };
+                return done || list.len() >= MAX_LIST;
             }
+            false
         };
         let recent = |k: usize| inv[j - k];
-        for k in 1..=RECENT.min(j) {
-            let h = recent(k);
-            adj.e(h).iter().chain(adj.d(h)).for_each(|&w| add(w));
-        }
-        for k in 1..=RECENT_EE.min(j) {
-            for &w in adj.e(recent(k)) {
-                adj.e(w).iter().for_each(|&x| add(x));
+        'build: {
+            for k in 1..=RECENT.min(j) {
+                let h = recent(k);
+                for &w in adj.e(h).iter().chain(adj.d(h)) {
+                    if add(w) {
+                        break 'build;
+                    }
+                }
             }
-        }
-        for k in 1..=RECENT.min(j) {
-            for &w in adj.d(recent(k)) {
-                adj.d(w).iter().for_each(|&x| add(x));
+            for k in 1..=RECENT_EE.min(j) {
+                for &w in adj.e(recent(k)) {
+                    for &x in adj.e(w) {
+                        if add(x) {
+                            break 'build;
+                        }
+                    }
+                }
+            }
+            for k in 1..=RECENT.min(j) {
+                for &w in adj.d(recent(k)) {
+                    for &x in adj.d(w) {
+                        if add(x) {
+                            break 'build;
+                        }
+                    }
+                }
             }
         }
     }
 
     fn assign(&mut self, t: u32) {
-        self.assigned[t as usize] = true;
+        self.mark[t as usize] = ASSIGNED;
         self.free.remove(t as usize);
         self.inv.push(t);
-        while self.low_base < self.base && self.assigned[self.low_base] {
+        while self.low_base < self.base && self.mark[self.low_base] == ASSIGNED {
             self.low_base += 1;
         }
     }
@@ -268,11 +299,14 @@ pub fn encode(order: &[u32], quads: &[[u32; 4]], base: usize) -> Result<Vec<u8>,
     let mut symbols = Vec::with_capacity(n);
     let mut ranks = Vec::new();
     for &t in &inv {
-        w.candidates();
-        if w.low_base < w.base && t as usize == w.low_base {
+        if w.low() == Some(t) {
             symbols.push(SYM_BASE);
-        } else if let Some(i) = w.list.iter().position(|&x| x == t) {
-            symbols.push(i as u8);
+            w.assign(t);
+            continue;
+        }
+        w.candidates(Until::Vertex(t));
+        if w.list.last() == Some(&t) {
+            symbols.push((w.list.len() - 1) as u8);
         } else {
             symbols.push(SYM_ESCAPE);
             let r = w.free.below(t as usize) as i64;
@@ -305,10 +339,10 @@ pub fn decode(
     let mut w = Walk::new(n, quads, base)?;
     let mut order = vec![0u32; n];
     for (j, &s) in symbols.iter().enumerate() {
-        w.candidates();
         let t = match s {
-            SYM_BASE if w.low_base < w.base => w.low_base as u32,
-            SYM_BASE => return Err(format!("VNBR symbol {j}: no base vertex is left")),
+            SYM_BASE => w
+                .low()
+                .ok_or_else(|| format!("VNBR symbol {j}: no base vertex is left"))?,
             SYM_ESCAPE => {
                 let d = ranks.s()?;
                 let r0 = w.free.below(w.after_escape) as i64;
@@ -321,22 +355,28 @@ pub fn decode(
                         w.free.left
                     ));
                 };
-                let t = w.free.select(r as u64);
-                let stamp = j as u32 + 1;
-                if w.listed[t] == stamp || (w.low_base < w.base && t == w.low_base) {
+                let t = w.free.select(r as u64) as u32;
+                // Naming `low` by an escape is refused (symbol 254 does
+                // it); a vertex the list holds is not looked for: that
+                // would cost a whole list per escape, which is most of the
+                // time on incoherent inputs (spec §8.2).
+                if w.low() == Some(t) {
                     return Err(format!(
-                        "VNBR symbol {j}: escape names vertex {t}, which has a symbol"
+                        "VNBR symbol {j}: escape names base vertex {t}, which symbol 254 names"
                     ));
                 }
-                w.after_escape = t + 1;
-                t as u32
+                w.after_escape = t as usize + 1;
+                t
             }
-            i => *w.list.get(i as usize).ok_or_else(|| {
-                format!(
-                    "VNBR symbol {j} = {i} but the list has {} candidates",
-                    w.list.len()
-                )
-            })?,
+            i => {
+                w.candidates(Until::Len(i as usize + 1));
+                *w.list.get(i as usize).ok_or_else(|| {
+                    format!(
+                        "VNBR symbol {j} = {i} but the list has {} candidates",
+                        w.list.len()
+                    )
+                })?
+            }
         };
         order[t as usize] = j as u32;
         w.assign(t);

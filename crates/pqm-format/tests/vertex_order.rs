@@ -261,7 +261,7 @@ fn hostile_vnbr_sections_are_rejected() {
     let mut p = vec![255u8];
     p.resize(n as usize, 0);
     put_u(&mut p, 0);
-    reject(&p, len(&p), "has a symbol");
+    reject(&p, len(&p), "which symbol 254 names");
     // Bytes left over.
     let mut p = good.clone();
     p.push(0);

@@ -6,7 +6,8 @@
  * a candidate list built from the canonical vertices of the last input
  * vertices (their edge / diagonal neighbours and 2-rings), 254 for the
  * smallest unassigned base vertex, or 255 followed by a rank among the
- * unassigned vertices. Every byte is hostile: errors are thrown as plain
+ * unassigned vertices. A list is built only as far as its symbol needs (an
+ * escape needs none). Every byte is hostile: errors are thrown as plain
  * strings that the caller wraps with the section.
  */
 
@@ -48,12 +49,15 @@ function adjacency(n, quads, nf) {
     for (let c = at[v]; c < at[v + 1]; c++) {
       const s = corners[c] & ~3;
       const k = corners[c] & 3;
-      for (const off of [1, 3]) {
-        const w = quads[s + ((k + off) & 3)];
-        if (mark[w] !== v) {
-          mark[w] = v;
-          if (ne - e0 < NBR_CAP) e[ne++] = w;
-        }
+      const w1 = quads[s + ((k + 1) & 3)];
+      if (mark[w1] !== v) {
+        mark[w1] = v;
+        if (ne - e0 < NBR_CAP) e[ne++] = w1;
+      }
+      const w3 = quads[s + ((k + 3) & 3)];
+      if (mark[w3] !== v) {
+        mark[w3] = v;
+        if (ne - e0 < NBR_CAP) e[ne++] = w3;
       }
     }
     const d0 = nd;
@@ -85,8 +89,9 @@ export function decodeVnbr(payload, n, quads, nf, base) {
   const { eAt, e, dAt, d } = adjacency(n, quads, nf);
   base = Math.min(base, n);
   const ranks = new Reader(payload, n, payload.length, 'VNBR ranks');
-  const assigned = new Uint8Array(n);
-  const listed = new Uint32Array(n); // listed[v] === j + 1: v is in step j's list
+  // mark[v]: ASSIGNED, or the last step j + 1 whose list holds v (0: none)
+  const ASSIGNED = 0xffffffff;
+  const mark = new Uint32Array(n);
   const list = new Uint32Array(MAX_LIST);
   const inv = new Uint32Array(n);
   const order = new Uint32Array(n);
@@ -96,44 +101,51 @@ export function decodeVnbr(payload, n, quads, nf, base) {
   let left = n;
   let top = 1;
   while (top * 2 <= n) top *= 2;
-  const below = (v) => {
-    let s = 0;
-    for (let i = v; i > 0; i -= i & -i) s += fen[i];
-    return s;
-  };
   let low = 0; // smallest unassigned base vertex (base when none is left)
   let after = 0; // rank reference p: one past the last escaped vertex
-  for (let j = 0; j < n; j++) {
-    const stamp = j + 1;
-    const lowV = low < base ? low : -1;
-    let len = 0;
-    const add = (x) => {
-      if (len < MAX_LIST && !assigned[x] && listed[x] !== stamp && x !== lowV) {
-        listed[x] = stamp;
-        list[len++] = x;
-      }
-    };
+  let len = 0;
+  let stamp = 0;
+  let lowV = -1;
+  let need = 0;
+  // Appends x if it qualifies; true once the list has `need` entries.
+  const add = (x) => {
+    const m = mark[x];
+    if (m !== ASSIGNED && m !== stamp && x !== lowV) {
+      mark[x] = stamp;
+      list[len++] = x;
+      return len >= need;
+    }
+    return false;
+  };
+  // The candidate list of input vertex j (spec §8.2), built only as far as
+  // entry need − 1: a symbol s needs no more (an escape needs no list).
+  const build = (j) => {
+    len = 0;
     const r1 = Math.min(4, j);
     for (let k = 1; k <= r1; k++) {
       const h = inv[j - k];
-      for (let i = eAt[h]; i < eAt[h + 1]; i++) add(e[i]);
-      for (let i = dAt[h]; i < dAt[h + 1]; i++) add(d[i]);
+      for (let i = eAt[h]; i < eAt[h + 1]; i++) if (add(e[i])) return;
+      for (let i = dAt[h]; i < dAt[h + 1]; i++) if (add(d[i])) return;
     }
     const r2 = Math.min(8, j);
     for (let k = 1; k <= r2; k++) {
       const h = inv[j - k];
       for (let i = eAt[h]; i < eAt[h + 1]; i++) {
         const w = e[i];
-        for (let m = eAt[w]; m < eAt[w + 1]; m++) add(e[m]);
+        for (let m = eAt[w]; m < eAt[w + 1]; m++) if (add(e[m])) return;
       }
     }
     for (let k = 1; k <= r1; k++) {
       const h = inv[j - k];
       for (let i = dAt[h]; i < dAt[h + 1]; i++) {
         const w = d[i];
-        for (let m = dAt[w]; m < dAt[w + 1]; m++) add(d[m]);
+        for (let m = dAt[w]; m < dAt[w + 1]; m++) if (add(d[m])) return;
       }
     }
+  };
+  for (let j = 0; j < n; j++) {
+    stamp = j + 1;
+    lowV = low < base ? low : -1;
     const s = payload[j];
     let t;
     if (s === SYM_BASE) {
@@ -141,7 +153,8 @@ export function decodeVnbr(payload, n, quads, nf, base) {
       t = lowV;
     } else if (s === SYM_ESCAPE) {
       const dr = ranks.s();
-      const r0 = below(after);
+      let r0 = 0;
+      for (let i = after; i > 0; i -= i & -i) r0 += fen[i];
       const r = r0 + dr;
       if (!(r >= 0 && r < left)) throw `VNBR symbol ${j}: rank ${r0} + ${dr} outside 0..${left}`;
       // the unassigned vertex with r unassigned vertices below it
@@ -154,20 +167,22 @@ export function decodeVnbr(payload, n, quads, nf, base) {
         }
       }
       t = pos;
-      if (listed[t] === stamp || t === lowV) {
-        throw `VNBR symbol ${j}: escape names vertex ${t}, which has a symbol`;
-      }
+      // naming low by an escape is refused (symbol 254 does it); a vertex
+      // the list holds is not looked for (spec §8.2)
+      if (t === lowV) throw `VNBR symbol ${j}: escape names base vertex ${t}, which symbol 254 names`;
       after = t + 1;
     } else {
+      need = s + 1;
+      build(j);
       if (s >= len) throw `VNBR symbol ${j} = ${s} but the list has ${len} candidates`;
       t = list[s];
     }
     order[t] = j;
     inv[j] = t;
-    assigned[t] = 1;
+    mark[t] = ASSIGNED;
     for (let i = t + 1; i <= n; i += i & -i) fen[i]--;
     left--;
-    while (low < base && assigned[low]) low++;
+    while (low < base && mark[low] === ASSIGNED) low++;
   }
   if (ranks.remaining() !== 0) throw `${ranks.remaining()} unused bytes in VNBR`;
   return order;
