@@ -85,7 +85,7 @@ fn assert_order(bytes: &[u8], pm: &ProgressiveMesh, tag: &[u8; 4]) {
 
 fn gen(seed: u64, splits: usize, coherent: Option<usize>) -> ProgressiveMesh {
     let mut pm = testgen::generate_with(&GenOptions {
-        base: if seed % 2 == 0 {
+        base: if seed.is_multiple_of(2) {
             BaseShape::Box { n: 2 }
         } else {
             BaseShape::Grid { nx: 3, ny: 2 }
