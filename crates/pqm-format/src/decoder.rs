@@ -1046,10 +1046,11 @@ impl Decoder {
             .header
             .as_ref()
             .ok_or_else(|| DecodeError::Internal("section before header".into()))?;
-        let (n, flag) = if neighbours {
-            (h.final_vertex_count, FLAG_VERTEX_NEIGHBOURS)
+        let n = h.final_vertex_count;
+        let flag = if neighbours {
+            FLAG_VERTEX_NEIGHBOURS
         } else {
-            (h.final_vertex_count, FLAG_VERTEX_ORDER)
+            FLAG_VERTEX_ORDER
         };
         if h.flags & flag == 0 {
             return Err(bad(format!(

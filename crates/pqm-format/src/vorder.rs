@@ -65,11 +65,14 @@ impl Adjacency {
             }
         }
         let mut mark = vec![u32::MAX; n];
+        // Exact bounds (what the decoder's memory estimate counts): at most
+        // two edge neighbours and one diagonal one per corner, and the caps.
+        let corners_n = at[n] as usize;
         let mut a = Adjacency {
             e_at: Vec::with_capacity(n + 1),
-            e: Vec::new(),
+            e: Vec::with_capacity((2 * corners_n).min(NBR_CAP * n)),
             d_at: Vec::with_capacity(n + 1),
-            d: Vec::new(),
+            d: Vec::with_capacity(corners_n.min(NBR_CAP * n)),
         };
         a.e_at.push(0);
         a.d_at.push(0);
