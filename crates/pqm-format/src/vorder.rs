@@ -28,11 +28,12 @@ const RECENT: usize = 4;
 const RECENT_EE: usize = 8;
 
 /// Per vertex: its first [`NBR_CAP`] edge neighbours `E(v)` and diagonal
-/// neighbours `D(v)` in spec order (compressed rows).
+/// neighbours `D(v)` in spec order (compressed rows; both row starts of a
+/// vertex side by side, so a vertex's two lists cost one miss to find).
 struct Adjacency {
-    e_at: Vec<u32>,
+    /// `[start in e, start in d]` per vertex, and the ends.
+    at: Vec<[u32; 2]>,
     e: Vec<u32>,
-    d_at: Vec<u32>,
     d: Vec<u32>,
 }
 
@@ -68,14 +69,18 @@ impl Adjacency {
         // Exact bounds (what the decoder's memory estimate counts): at most
         // two edge neighbours and one diagonal one per corner, and the caps.
         let corners_n = at[n] as usize;
+        let e_max = (2 * corners_n).min(NBR_CAP * n);
+        if e_max > u32::MAX as usize {
+            return Err(format!(
+                "{corners_n} corners: too many for VNBR's 32-bit rows"
+            ));
+        }
         let mut a = Adjacency {
-            e_at: Vec::with_capacity(n + 1),
-            e: Vec::with_capacity((2 * corners_n).min(NBR_CAP * n)),
-            d_at: Vec::with_capacity(n + 1),
+            at: Vec::with_capacity(n + 1),
+            e: Vec::with_capacity(e_max),
             d: Vec::with_capacity(corners_n.min(NBR_CAP * n)),
         };
-        a.e_at.push(0);
-        a.d_at.push(0);
+        a.at.push([0, 0]);
         for v in 0..n {
             let cs = &corners[at[v] as usize..at[v + 1] as usize];
             let corner = |c: u32, off: usize| quads[c as usize / 4][(c as usize % 4 + off) % 4];
@@ -101,18 +106,19 @@ impl Adjacency {
                     }
                 }
             }
-            a.e_at.push(a.e.len() as u32);
-            a.d_at.push(a.d.len() as u32);
+            a.at.push([a.e.len() as u32, a.d.len() as u32]);
         }
         Ok(a)
     }
 
     fn e(&self, v: u32) -> &[u32] {
-        &self.e[self.e_at[v as usize] as usize..self.e_at[v as usize + 1] as usize]
+        let v = v as usize;
+        &self.e[self.at[v][0] as usize..self.at[v + 1][0] as usize]
     }
 
     fn d(&self, v: u32) -> &[u32] {
-        &self.d[self.d_at[v as usize] as usize..self.d_at[v as usize + 1] as usize]
+        let v = v as usize;
+        &self.d[self.at[v][1] as usize..self.at[v + 1][1] as usize]
     }
 }
 

@@ -637,6 +637,21 @@ export class PqmDecoder {
         `${sec.tag} uncompressed length ${sec.uncompressedLen} outside ${n}..=${max} for ${n} vertices`,
       );
     }
+    // The section's buffer and working arrays count against the memory
+    // budget, which the header and table checks did not cover (the same
+    // estimate as the Rust decoder's): VORD 5 bytes per vertex, VNBR at most
+    // 48 per vertex and 64 per quad.
+    const h = this._header;
+    let payloadTotal = h.baseUncompressedLen + sec.uncompressedLen;
+    for (const c of this._chunks) payloadTotal += c.uncompressedLen;
+    const est =
+      estimateMemory(n, h.finalFaceCount, h.recordCount, payloadTotal) +
+      (neighbours ? 48 * n + 64 * h.finalFaceCount : 5 * n);
+    if (est > this.limits.maxMemoryBytes) {
+      throw limitsExceeded(
+        `${sec.tag} section: estimated memory ${est} bytes > maxMemoryBytes ${this.limits.maxMemoryBytes}`,
+      );
+    }
     try {
       const payload = decompressFrame(b, sec.uncompressedLen);
       if (neighbours) {

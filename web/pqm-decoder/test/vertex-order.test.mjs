@@ -5,7 +5,7 @@
 // however the bytes come; each reject rule of §8.2 as a hand-made section.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { PqmDecoder, PqmError, decodeAll } from '../src/index.js';
+import { PqmDecoder, PqmError, decodeAll, estimateMemory } from '../src/index.js';
 import { testFiles, fnv1a64, randomPieces, rng, varint, svarint } from './helpers.mjs';
 import { unpack, pack, setHeader } from './repack.mjs';
 
@@ -137,5 +137,20 @@ test('random VNBR payloads never crash: a PqmError or a permutation', () => {
     } catch (e) {
       assert.ok(e instanceof PqmError, e.stack);
     }
+  }
+});
+
+test('the vertex-order section counts against the memory budget, as in Rust', () => {
+  for (const name of ['box_vnbr', 'box_vord']) {
+    const whole = decodeAll(byName[name].bytes);
+    const h = whole.header;
+    const payload = h.baseUncompressedLen + whole.chunks.reduce((a, c) => a + c.uncompressedLen, 0);
+    const before = estimateMemory(h.finalVertexCount, h.finalFaceCount, h.recordCount, payload);
+    const d = new PqmDecoder({ limits: { maxMemoryBytes: before } });
+    throwsPqm(() => d.push(byName[name].bytes), { kind: 'limits', message: new RegExp(`${name === 'box_vnbr' ? 'VNBR' : 'VORD'} section`) }, name);
+    assert.equal(d.deepestLevel, d.finalLevel, `${name}: every chunk decoded`);
+    const roomy = new PqmDecoder({ limits: { maxMemoryBytes: before + 1e6 } });
+    roomy.push(byName[name].bytes);
+    assert.ok(roomy.vertexOrder);
   }
 });
