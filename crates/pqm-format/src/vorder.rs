@@ -10,7 +10,11 @@
 //! unassigned base vertex (base vertices keep the input's relative order,
 //! spec §8.2) and an escape followed by a rank among the unassigned
 //! vertices. Every step is linear in the list sizes, which are capped, so
-//! hostile meshes (huge valences) cannot make it quadratic.
+//! hostile meshes (huge valences) cannot make it quadratic; both sides build
+//! a list only as far as they need it (to the named vertex, or to the
+//! symbol's entry; no list for an escape on the reader's side). The
+//! constants were chosen by measuring the shared meshes (spec §8.2; `cargo
+//! run --release -p pqm-format --example vertex_order`).
 
 use crate::varint::{put_s, Reader};
 
