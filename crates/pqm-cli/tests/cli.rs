@@ -846,6 +846,49 @@ fn checked_in_procedural_fixtures_are_what_the_command_generates() {
     }
 }
 
+/// `--vertex-order-deltas` writes 3.0's VORD section instead of 3.1's VNBR;
+/// both decode to the same full level, in the input's order, and VNBR is the
+/// smaller file.
+#[test]
+fn vertex_order_deltas_writes_a_3_0_file_with_the_same_full_level() {
+    let d = TempDir::new().unwrap();
+    let (nbr, deltas) = (d.path().join("a.pqm"), d.path().join("b.pqm"));
+    let a = json_ok(&["encode", s(&spot()), "-o", s(&nbr)]);
+    let b = json_ok(&[
+        "encode",
+        s(&spot()),
+        "-o",
+        s(&deltas),
+        "--vertex-order-deltas",
+    ]);
+    let (ba, bb) = (
+        a["files"][0]["bytes"].as_u64().unwrap(),
+        b["files"][0]["bytes"].as_u64().unwrap(),
+    );
+    assert!(ba < bb, "VNBR {ba} bytes, VORD {bb}");
+    for (file, version) in [(&nbr, "3.1"), (&deltas, "3.0")] {
+        let info = json_ok(&["info", s(file)]);
+        assert_eq!(info["version"], version);
+        assert_eq!(info["has_vertex_order"], true);
+    }
+    let (oa, ob) = (d.path().join("a.obj"), d.path().join("b.obj"));
+    json_ok(&["decode", s(&nbr), "-o", s(&oa)]);
+    json_ok(&["decode", s(&deltas), "-o", s(&ob)]);
+    assert_eq!(std::fs::read(&oa).unwrap(), std::fs::read(&ob).unwrap());
+    // with --no-vertex-order the flag is a usage error (nothing to write)
+    pqm()
+        .args([
+            "encode",
+            s(&spot()),
+            "-o",
+            s(&nbr),
+            "--no-vertex-order",
+            "--vertex-order-deltas",
+        ])
+        .assert()
+        .code(2);
+}
+
 #[test]
 fn encode_without_vertex_order_is_smaller_and_the_same_mesh_up_to_renumbering() {
     let d = TempDir::new().unwrap();

@@ -264,6 +264,8 @@ pub struct Decoder {
     /// Decompressed payload of the chunk being decoded (reused).
     zbuf: Vec<u8>,
     vertex_order: Option<Vec<u32>>,
+    /// Which section gave `vertex_order` (`VORD` or `VNBR`).
+    vertex_order_tag: Option<[u8; 4]>,
     zstd: Option<zstd::bulk::Decompressor<'static>>,
     // Current level.
     level: usize,
@@ -328,6 +330,7 @@ impl Decoder {
             buffers: codec::DecodeScratch::default(),
             zbuf: Vec::new(),
             vertex_order: None,
+            vertex_order_tag: None,
             zstd: None,
             level: 0,
             q: Vec::new(),
@@ -517,18 +520,24 @@ impl Decoder {
         Ok(())
     }
 
-    /// At the end of the file: header flag bit 0 must agree with the
-    /// presence of a `VORD` section (spec §3, §8).
+    /// At the end of the file: header flag bits 0 and 1 must agree with
+    /// the presence of a `VORD` or `VNBR` section (spec §3, §8).
     fn check_vord_flag(&self) -> Result<(), DecodeError> {
-        let flag = self
-            .header
-            .as_ref()
-            .is_some_and(|h| h.flags & FLAG_VERTEX_ORDER != 0);
-        if flag && self.vertex_order.is_none() {
-            return Err(DecodeError::invalid(
-                Section::Trailer,
-                "header flag bit 0 announces a VORD section but the file has none",
-            ));
+        let flags = self.header.as_ref().map_or(0, |h| h.flags);
+        for (flag, tag) in [
+            (FLAG_VERTEX_ORDER, TAG_VORD),
+            (FLAG_VERTEX_NEIGHBOURS, TAG_VNBR),
+        ] {
+            if flags & flag != 0 && self.vertex_order_tag != Some(tag) {
+                return Err(DecodeError::invalid(
+                    Section::Trailer,
+                    format!(
+                        "header flag bit {} announces a {} section but the file has none",
+                        flag.trailing_zeros(),
+                        String::from_utf8_lossy(&tag)
+                    ),
+                ));
+            }
         }
         Ok(())
     }
@@ -1026,86 +1035,105 @@ impl Decoder {
         b: &[u8],
     ) -> Result<(), DecodeError> {
         Self::check_crc(Section::Optional(i), b, crc)?;
-        if tag != TAG_VORD {
-            return Ok(()); // unknown optional section: skipped (spec §8)
-        }
-        let (n, flags) = self
-            .header
-            .as_ref()
-            .map_or((0, 0), |h| (h.final_vertex_count, h.flags));
-        if flags & FLAG_VERTEX_ORDER == 0 {
-            return Err(DecodeError::invalid(
-                Section::Optional(i),
-                "a VORD section is present but header flag bit 0 is clear",
-            ));
-        }
-        if self.vertex_order.is_some() {
-            return Err(DecodeError::invalid(
-                Section::Optional(i),
-                "a second VORD section",
-            ));
-        }
-        // Every entry is one varint of 1 to 10 bytes (spec §8): bound the
-        // stated length before it sizes a buffer, then count the buffer and
-        // the permutation (4 bytes per entry, 1 for the seen-set) in the
-        // memory budget, which the header and table checks did not cover.
-        let (n64, ulen64) = (n as u64, ulen as u64);
-        if ulen64 < n64 || ulen64 > 10 * n64 {
-            return Err(DecodeError::invalid(
-                Section::Optional(i),
-                format!(
-                    "VORD uncompressed length {ulen} outside {n}..={} for {n} vertices",
-                    10 * n64
-                ),
-            ));
-        }
+        let neighbours = match tag {
+            TAG_VORD => false,
+            TAG_VNBR => true,
+            _ => return Ok(()), // unknown optional section: skipped (spec §8)
+        };
+        let name = if neighbours { "VNBR" } else { "VORD" };
+        let bad = |m: String| DecodeError::invalid(Section::Optional(i), m);
         let h = self
             .header
             .as_ref()
             .ok_or_else(|| DecodeError::Internal("section before header".into()))?;
+        let n = h.final_vertex_count;
+        let flag = if neighbours {
+            FLAG_VERTEX_NEIGHBOURS
+        } else {
+            FLAG_VERTEX_ORDER
+        };
+        if h.flags & flag == 0 {
+            return Err(bad(format!(
+                "a {name} section is present but header flag bit {} is clear",
+                flag.trailing_zeros()
+            )));
+        }
+        if self.vertex_order.is_some() {
+            return Err(bad(format!(
+                "a second vertex-order section ({name}; a file holds at most one VORD or VNBR)"
+            )));
+        }
+        // VORD: every entry is one varint of 1 to 10 bytes; VNBR: one
+        // symbol byte per vertex plus at most one rank varint per vertex
+        // (spec §8). Bound the stated length before it sizes a buffer, then
+        // count the buffer and the decoder's arrays in the memory budget,
+        // which the header and table checks did not cover: VORD 5 bytes per
+        // vertex (permutation, seen-set); VNBR at most 48 per vertex and 64
+        // per quad (permutation, walk state, corner lists, capped
+        // neighbour lists).
+        let (n64, ulen64) = (n as u64, ulen as u64);
+        let max = if neighbours { 11 * n64 } else { 10 * n64 };
+        if ulen64 < n64 || ulen64 > max {
+            return Err(bad(format!(
+                "{name} uncompressed length {ulen} outside {n}..={max} for {n} vertices"
+            )));
+        }
+        let state = if neighbours {
+            48 * n64 + 64 * h.final_face_count as u64
+        } else {
+            5 * n64
+        };
         let est = Limits::estimate(
             h.final_vertex_count as u64,
             h.final_face_count as u64,
             h.record_count as u64,
             self.payload_total + ulen64,
         )
-        .saturating_add(5 * n64);
+        .saturating_add(state);
         if est > self.limits.max_memory_bytes {
             return Err(DecodeError::LimitsExceeded(format!(
-                "VORD section: estimated memory {est} bytes > max_memory_bytes {}",
+                "{name} section: estimated memory {est} bytes > max_memory_bytes {}",
                 self.limits.max_memory_bytes
             )));
         }
+        let base = h.base_vertex_count as usize;
         let payload = self.decompress(Section::Optional(i), b, ulen)?;
-        let mut r = Reader::new(&payload, "VORD");
+        let order = if neighbours {
+            // Sections come after the last chunk, so the frontier is the
+            // finest level whatever level the caller is at.
+            let st = self
+                .frontier
+                .as_ref()
+                .filter(|st| st.q.len() == n as usize)
+                .ok_or_else(|| DecodeError::Internal("VNBR before the finest level".into()))?;
+            crate::vorder::decode(&payload, n as usize, &st.quads, base).map_err(bad)?
+        } else {
+            Self::decode_vord(&payload, n).map_err(bad)?
+        };
+        self.vertex_order = Some(order);
+        self.vertex_order_tag = Some(tag);
+        Ok(())
+    }
+
+    /// The `VORD` permutation: `n` svarint deltas (spec §8.1).
+    fn decode_vord(payload: &[u8], n: u32) -> Result<Vec<u32>, String> {
+        let mut r = Reader::new(payload, "VORD");
         let mut order = Vec::with_capacity(n as usize);
         let mut seen = vec![false; n as usize];
         let mut prev = 0i64;
         for k in 0..n {
-            let v = r
-                .s()
-                .map(|d| prev.saturating_add(d))
-                .map_err(|m| DecodeError::invalid(Section::Optional(i), m))?;
+            let v = prev.saturating_add(r.s()?);
             match usize::try_from(v).ok().and_then(|u| seen.get_mut(u)) {
                 Some(s) if !*s => *s = true,
-                _ => {
-                    return Err(DecodeError::invalid(
-                        Section::Optional(i),
-                        format!("VORD entry {k} = {v} is out of range or repeated"),
-                    ))
-                }
+                _ => return Err(format!("VORD entry {k} = {v} is out of range or repeated")),
             }
             order.push(v as u32);
             prev = v;
         }
         if r.remaining() != 0 {
-            return Err(DecodeError::invalid(
-                Section::Optional(i),
-                "unused bytes in VORD",
-            ));
+            return Err("unused bytes in VORD".into());
         }
-        self.vertex_order = Some(order);
-        Ok(())
+        Ok(order)
     }
 
     // ---- navigation -------------------------------------------------------
@@ -1359,8 +1387,8 @@ impl Decoder {
         Some((*self.recs.v_at.get(k)?, *self.recs.f_at.get(k)?))
     }
 
-    /// The `VORD` permutation (canonical id → input vertex index at the
-    /// finest level), once read.
+    /// The input vertex order (canonical id → input vertex index at the
+    /// finest level), once its `VORD` or `VNBR` section is read.
     pub fn vertex_order(&self) -> Option<&[u32]> {
         self.vertex_order.as_deref()
     }

@@ -54,8 +54,14 @@ pub struct EncodeOptions {
     /// version-1 prediction and no face-split form, for readers that
     /// predate 2.0 and to keep testing the 1.x rules.
     pub version_major: u16,
-    /// Write the `VORD` section when the mesh has a vertex order (default true).
+    /// Write the mesh's vertex order when it has one (default true): a
+    /// `VNBR` section (version 3.1, spec §8.2) for major version 3, a `VORD`
+    /// section for older majors or with `vertex_order_deltas`.
     pub vertex_order: bool,
+    /// Write the vertex order as the 3.0 `VORD` section (deltas, spec §8.1;
+    /// for 3.0 readers, which cannot read `VNBR`) instead of `VNBR`
+    /// (default false).
+    pub vertex_order_deltas: bool,
 }
 
 impl Default for EncodeOptions {
@@ -72,6 +78,7 @@ impl Default for EncodeOptions {
             edge_split_form: true,
             version_major: VERSION_MAJOR,
             vertex_order: true,
+            vertex_order_deltas: false,
         }
     }
 }
@@ -384,21 +391,38 @@ pub fn write(
     let mut sections: Vec<u8> = Vec::new();
     let mut section_count = 0u32;
     let mut flags = 0u32;
+    let mut minor = if opts.version_major == 1 {
+        VERSION_1_MINOR
+    } else {
+        0
+    };
     if opts.vertex_order && !mesh.vertex_order.is_empty() {
-        let mut payload = Vec::new();
-        let mut prev = 0i64;
-        for &o in &mesh.vertex_order {
-            put_s(&mut payload, o as i64 - prev);
-            prev = o as i64;
-        }
+        let neighbours = opts.version_major == VERSION_MAJOR && !opts.vertex_order_deltas;
+        let payload = if neighbours {
+            crate::vorder::encode(&mesh.vertex_order, &state.quads, mesh.base.vertex_count())
+                .map_err(EncodeError::InvalidMesh)?
+        } else {
+            let mut payload = Vec::new();
+            let mut prev = 0i64;
+            for &o in &mesh.vertex_order {
+                put_s(&mut payload, o as i64 - prev);
+                prev = o as i64;
+            }
+            payload
+        };
         let c = compress(&payload, opts)?;
-        sections.extend_from_slice(&TAG_VORD);
+        sections.extend_from_slice(if neighbours { &TAG_VNBR } else { &TAG_VORD });
         sections.extend_from_slice(&(c.len() as u32).to_le_bytes());
         sections.extend_from_slice(&(payload.len() as u32).to_le_bytes());
         sections.extend_from_slice(&crc32(&c).to_le_bytes());
         sections.extend_from_slice(&c);
         section_count += 1;
-        flags |= FLAG_VERTEX_ORDER;
+        if neighbours {
+            flags |= FLAG_VERTEX_NEIGHBOURS;
+            minor = VERSION_MINOR;
+        } else {
+            flags |= FLAG_VERTEX_ORDER;
+        }
     }
 
     let table_len = chunks.len() as u64 * CHUNK_ENTRY_LEN as u64 + 4;
@@ -414,11 +438,7 @@ pub fn write(
 
     let header = Header {
         version_major: opts.version_major,
-        version_minor: if opts.version_major == 1 {
-            VERSION_1_MINOR
-        } else {
-            VERSION_MINOR
-        },
+        version_minor: minor,
         header_len: HEADER_LEN,
         flags,
         quant_bits: opts.bits,

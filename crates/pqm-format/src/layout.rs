@@ -7,8 +7,9 @@ use byteorder::{ByteOrder, LittleEndian as LE};
 pub const MAGIC: [u8; 8] = [0x89, b'P', b'Q', b'M', 0x0D, 0x0A, 0x1A, 0x0A];
 /// Major version this crate writes by default, and the newest it reads.
 pub const VERSION_MAJOR: u16 = 3;
-/// Minor version this crate writes with [`VERSION_MAJOR`].
-pub const VERSION_MINOR: u16 = 0;
+/// Minor version this crate writes with [`VERSION_MAJOR`] when the file
+/// holds a `VNBR` section (3.1, spec §8.2); files without one are 3.0.
+pub const VERSION_MINOR: u16 = 1;
 /// Oldest major version this crate reads (and can write, for tests and old
 /// readers: 1.1, spec §9).
 pub const MIN_VERSION_MAJOR: u16 = 1;
@@ -24,6 +25,10 @@ pub const CHUNK_ENTRY_LEN: u16 = 36;
 pub const FLAG_VERTEX_ORDER: u32 = 1;
 /// Tag of the vertex-order section.
 pub const TAG_VORD: [u8; 4] = *b"VORD";
+/// Header flag: a `VNBR` section is present (version 3.1).
+pub const FLAG_VERTEX_NEIGHBOURS: u32 = 2;
+/// Tag of the vertex-order section coded against the mesh (version 3.1).
+pub const TAG_VNBR: [u8; 4] = *b"VNBR";
 /// Optional section header length (tag, compressed length, uncompressed length, CRC).
 pub const SECTION_HEADER_LEN: usize = 16;
 /// Largest header a reader accepts (sanity bound against hostile input).

@@ -52,6 +52,7 @@ pub mod error;
 pub mod layout;
 pub mod quant;
 pub mod varint;
+pub mod vorder;
 
 pub use decoder::{decode_all, quad_triangles, Change, Decoder, Event, Limits, Status, Target};
 pub use encoder::{write, write_to_vec, BitsPerVertex, EncodeOptions, EncodeReport, OpStats};

@@ -187,14 +187,16 @@ pub fn add_edge_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
     }
 }
 
-/// Every vector, generated deterministically. All but `edge_split` are
-/// written as 2.0 (a 3.0 file without edge splits differs only in its
-/// version field), so they keep their bytes and 2.0 readers keep reading
-/// them; `edge_split` is the 3.0 vector.
+/// Every vector, generated deterministically. All but `edge_split` and
+/// `box_vnbr` are written as 2.0 (a 3.0 file without edge splits differs
+/// only in its version field), so they keep their bytes and 2.0 readers
+/// keep reading them (`box_vord` keeps the 3.0 `VORD` section);
+/// `edge_split` is the 3.0 vector, `box_vnbr` the 3.1 one (a `VNBR`
+/// section).
 pub fn all() -> Vec<Vector> {
     let make = |name, gen: GenOptions, opts: EncodeOptions| {
         let opts = EncodeOptions {
-            version_major: if name == "edge_split" {
+            version_major: if name == "edge_split" || name == "box_vnbr" {
                 opts.version_major
             } else {
                 opts.version_major.min(2)
@@ -210,6 +212,9 @@ pub fn all() -> Vec<Vector> {
         }
         if name == "edge_split" {
             add_edge_splits(&mut pm, 30, 7);
+        }
+        if name == "box_vnbr" {
+            coherent_vertex_order(&mut pm, 8, 6);
         }
         let n = pm.records.len();
         let (bytes, r) = write_to_vec(&pm, &opts).expect("vector encodes");
@@ -316,6 +321,20 @@ pub fn all() -> Vec<Vector> {
                 ..EncodeOptions::default()
             },
         ),
+        // A 3.1 file: the vertex order in a VNBR section (spec §8.2), a
+        // coherent order with a few transpositions, so that candidates,
+        // the base-vertex symbol and escapes all occur.
+        make(
+            "box_vnbr",
+            GenOptions {
+                base: BaseShape::Box { n: 2 },
+                ..GenOptions::new(8, 60)
+            },
+            EncodeOptions {
+                chunk_records: Some(12),
+                ..EncodeOptions::default()
+            },
+        ),
         // A 1.1 file (version-1 prediction, no face-split form): the bytes
         // of `mixed_bits24` before format 2.0, kept so that every decoder
         // keeps testing the 1.x rules (spec §9).
@@ -333,6 +352,50 @@ pub fn fnv1a64(bytes: impl IntoIterator<Item = u8>) -> u64 {
     h
 }
 
+/// Replaces `pm.vertex_order` by a locally coherent order like those of
+/// real inputs: a depth-first walk of the finest level from canonical
+/// vertex 0 (input index = visit index), base vertices' input indices then
+/// put in canonical order (as the coarsener's are, spec §8.2), then `swaps`
+/// random transpositions (`seed`), which the `VNBR` coding must escape.
+pub fn coherent_vertex_order(pm: &mut ProgressiveMesh, seed: u64, swaps: usize) {
+    let (pos, quads) = pm.level_quads(pm.records.len());
+    let n = pos.len();
+    let mut nbr = vec![Vec::new(); n];
+    for q in &quads {
+        for k in 0..4 {
+            nbr[q[k] as usize].push(q[(k + 1) % 4]);
+            nbr[q[k] as usize].push(q[(k + 2) % 4]);
+        }
+    }
+    let mut order = vec![u32::MAX; n];
+    let mut next = 0u32;
+    for s in 0..n {
+        let mut stack = vec![s];
+        while let Some(v) = stack.pop() {
+            if order[v] != u32::MAX {
+                continue;
+            }
+            order[v] = next;
+            next += 1;
+            stack.extend(nbr[v].iter().rev().map(|&w| w as usize));
+        }
+    }
+    let b = pm.base.vertex_count().min(n);
+    order[..b].sort_unstable();
+    let mut x = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut rnd = |m: usize| {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        (x % m as u64) as usize
+    };
+    for _ in 0..swaps.min(n) {
+        let (a, c) = (rnd(n), rnd(n));
+        order.swap(a, c);
+    }
+    pm.vertex_order = order;
+}
+
 /// `(positions digest, quads digest)` of the decoder's current level.
 pub fn level_digests(dec: &Decoder) -> (u64, u64) {
     let p = fnv1a64(
@@ -345,14 +408,27 @@ pub fn level_digests(dec: &Decoder) -> (u64, u64) {
     (p, q)
 }
 
+/// FNV-1a 64 of a vertex order: each entry as u32 little-endian (spec §11).
+pub fn vertex_order_digest(order: &[u32]) -> u64 {
+    fnv1a64(order.iter().flat_map(|v| v.to_le_bytes()))
+}
+
 /// The JSON digest of `levels` (moves the decoder).
 pub fn digest_json(name: &str, dec: &mut Decoder, levels: &[usize], file_len: usize) -> String {
     let final_level = dec.deepest_level().unwrap_or(0);
     let mut s = String::new();
     let _ = write!(
         s,
-        "{{\n  \"file\": \"{name}.pqm\",\n  \"bytes\": {file_len},\n  \"final_level\": {final_level},\n  \"levels\": ["
+        "{{\n  \"file\": \"{name}.pqm\",\n  \"bytes\": {file_len},\n  \"final_level\": {final_level},\n"
     );
+    if let Some(o) = dec.vertex_order() {
+        let _ = writeln!(
+            s,
+            "  \"vertex_order_fnv1a64\": \"{:016x}\",",
+            vertex_order_digest(o)
+        );
+    }
+    s.push_str("  \"levels\": [");
     for (i, &k) in levels.iter().enumerate() {
         let _ = dec.set_level(Target::Level(k));
         let (p, q) = level_digests(dec);

@@ -558,9 +558,10 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
             ..
         }))
     ));
-    // The writer writes 3.0 by default and 2.0 or 1.1 on request; all read
-    // back to the same levels.
-    assert_eq!(&bytes[8..12], &[3, 0, 0, 0]);
+    // The writer writes 3.1 by default (a VNBR section: the mesh has a
+    // vertex order) and 2.0 or 1.1 on request; all read back to the same
+    // levels.
+    assert_eq!(&bytes[8..12], &[3, 0, 1, 0]);
     let v2 = encode(
         &pm,
         &EncodeOptions {
@@ -1244,10 +1245,19 @@ fn sections_start(bytes: &[u8]) -> usize {
     (c.offset + c.compressed_len as u64) as usize
 }
 
+/// Options writing the 3.0 `VORD` section (the default writes 3.1's
+/// `VNBR`, tested in `tests/vertex_order.rs`).
+fn vord_opts() -> EncodeOptions {
+    EncodeOptions {
+        vertex_order_deltas: true,
+        ..EncodeOptions::default()
+    }
+}
+
 #[test]
 fn vord_length_is_bounded_before_allocating() {
     let pm = testgen::generate(9, 80);
-    let bytes = encode(&pm, &EncodeOptions::default());
+    let bytes = encode(&pm, &vord_opts());
     let n = pm.final_vertex_count() as u32;
     assert!(n > 0 && !pm.vertex_order.is_empty());
     let at = sections_start(&bytes);
@@ -1303,7 +1313,7 @@ fn vord_length_is_bounded_before_allocating() {
 #[test]
 fn vord_flag_must_match_the_section() {
     let pm = testgen::generate(10, 50);
-    let with = encode(&pm, &EncodeOptions::default());
+    let with = encode(&pm, &vord_opts());
     let without = encode(
         &pm,
         &EncodeOptions {

@@ -34,6 +34,14 @@ fn checked_in_vectors_match_the_generator_and_their_digests() {
         )
         .unwrap();
         assert_eq!(json["bytes"].as_u64(), Some(on_disk.len() as u64));
+        // The vertex order (VORD or VNBR section) has its own digest.
+        assert_eq!(
+            json["vertex_order_fnv1a64"].as_str().map(str::to_string),
+            dec.vertex_order()
+                .map(|o| format!("{:016x}", vectors::vertex_order_digest(o))),
+            "{} vertex order",
+            v.name
+        );
         let levels = json["levels"].as_array().unwrap();
         assert_eq!(levels.len(), v.levels.len());
         for l in levels {
@@ -62,6 +70,23 @@ fn checked_in_vectors_match_the_generator_and_their_digests() {
             assert!(obj == vectors::obj(&dec), "{} level {k} OBJ", v.name);
         }
     }
+}
+
+/// `box_vord` keeps the 3.0 `VORD` section, `box_vnbr` is the 3.1 file
+/// with a `VNBR` section whose order is coherent but not trivial.
+#[test]
+fn both_vertex_order_sections_have_a_vector() {
+    let all = vectors::all();
+    let tag = |name: &str| {
+        let v = all.iter().find(|v| v.name == name).unwrap();
+        let dec = decode_all(&v.bytes, Limits::default()).unwrap();
+        let c = dec.chunks().last().unwrap();
+        let at = (c.offset + c.compressed_len as u64) as usize;
+        assert!(dec.vertex_order().is_some());
+        (v.bytes[at..at + 4].to_vec(), v.bytes[8..12].to_vec())
+    };
+    assert_eq!(tag("box_vord"), (b"VORD".to_vec(), vec![2, 0, 0, 0]));
+    assert_eq!(tag("box_vnbr"), (b"VNBR".to_vec(), vec![3, 0, 1, 0]));
 }
 
 #[test]

@@ -25,6 +25,7 @@ import { RecordLog, decodeBase, decodeChunk } from './codec.js';
 import { ByteQueue } from './queue.js';
 import { ensure } from './grow.js';
 import { Reader } from './reader.js';
+import { decodeVnbr } from './vertex-order.js';
 import { PqmError, crcMismatch, invalid, limitsExceeded } from './errors.js';
 
 const MAGIC = [0x89, 0x50, 0x51, 0x4d, 0x0d, 0x0a, 0x1a, 0x0a];
@@ -151,6 +152,7 @@ export class PqmDecoder {
     this._frontier = null;
     this._log = new RecordLog();
     this._vertexOrder = null;
+    this._vertexOrderTag = null; // which section gave it: 'VORD' or 'VNBR'
     this._sectionsRead = [];
     // quantization grid
     this._min = [0, 0, 0];
@@ -360,14 +362,19 @@ export class PqmDecoder {
   }
 
   /**
-   * The end of the file: header flag bit 0 announces a `VORD` section, so
-   * one must have been read (spec §3, §8) — known only here, since the
-   * sections come last.
+   * The end of the file: header flag bit 0 / 1 announces a `VORD` / `VNBR`
+   * section, so one must have been read (spec §3, §8) — known only here,
+   * since the sections come last.
    */
   _finish(events) {
     this._stage = 'done';
-    if (this._header.hasVertexOrder && this._vertexOrder === null) {
-      throw invalid('trailer', 'header flag bit 0 announces a VORD section but the file has none');
+    for (const [bit, tag] of [
+      [0, 'VORD'],
+      [1, 'VNBR'],
+    ]) {
+      if ((this._header.flags & (1 << bit)) !== 0 && this._vertexOrderTag !== tag) {
+        throw invalid('trailer', `header flag bit ${bit} announces a ${tag} section but the file has none`);
+      }
     }
     events.push({ type: 'finished' });
   }
@@ -424,7 +431,8 @@ export class PqmDecoder {
       bboxMax: [dv.getFloat64(88, true), dv.getFloat64(96, true), dv.getFloat64(104, true)],
       baseError: dv.getFloat32(112, true),
     };
-    h.hasVertexOrder = (h.flags & 1) !== 0;
+    // flag bit 0 announces a VORD section, bit 1 a VNBR one (spec §3, §8)
+    h.hasVertexOrder = (h.flags & 3) !== 0;
     const bad = (m) => invalid('header', m);
     if (h.quantBits < 8 || h.quantBits > 24) throw bad(`quantization bits ${h.quantBits} outside 8..=24`);
     if (h.chunkEntryLen < CHUNK_ENTRY_LEN || h.chunkEntryLen > MAX_CHUNK_ENTRY_LEN) {
@@ -605,20 +613,55 @@ export class PqmDecoder {
     const section = `optional section ${i} (${JSON.stringify(sec.tag)})`;
     const computed = crc32(b);
     if (computed !== sec.crc32) throw crcMismatch(section, sec.crc32, computed);
-    if (sec.tag !== 'VORD') return; // unknown optional section: skipped (spec §8)
-    // Flag bit 0 is set if and only if the file holds exactly one VORD (spec §3, §8).
-    if (!this._header.hasVertexOrder) {
-      throw invalid(section, 'a VORD section is present but header flag bit 0 is clear');
+    // VORD (deltas, §8.1) and VNBR (coded against the mesh, §8.2, version
+    // 3.1) give the same permutation; others are skipped (spec §8).
+    const neighbours = sec.tag === 'VNBR';
+    if (sec.tag !== 'VORD' && !neighbours) return;
+    // Flag bit 0 / 1 is set if and only if the file holds a VORD / VNBR
+    // section, and a file holds at most one of them (spec §3, §8).
+    const bit = neighbours ? 1 : 0;
+    if ((this._header.flags & (1 << bit)) === 0) {
+      throw invalid(section, `a ${sec.tag} section is present but header flag bit ${bit} is clear`);
     }
-    if (this._vertexOrder !== null) throw invalid(section, 'a second VORD section');
+    if (this._vertexOrder !== null) {
+      throw invalid(section, `a second vertex-order section (${sec.tag}; a file holds at most one VORD or VNBR)`);
+    }
     const n = this._header.finalVertexCount;
-    // Each entry is one varint of 1 to 10 bytes (spec §1): bound the payload
-    // before allocating for it.
-    if (sec.uncompressedLen < n || sec.uncompressedLen > 10 * n) {
-      throw invalid(section, `VORD payload of ${sec.uncompressedLen} bytes cannot hold ${n} entries`);
+    // VORD: each entry is one varint of 1 to 10 bytes (spec §1); VNBR: one
+    // symbol byte per vertex and at most one rank varint per vertex. Bound
+    // the payload before allocating for it.
+    const max = (neighbours ? 11 : 10) * n;
+    if (sec.uncompressedLen < n || sec.uncompressedLen > max) {
+      throw invalid(
+        section,
+        `${sec.tag} uncompressed length ${sec.uncompressedLen} outside ${n}..=${max} for ${n} vertices`,
+      );
+    }
+    // The section's buffer and working arrays count against the memory
+    // budget, which the header and table checks did not cover (the same
+    // estimate as the Rust decoder's): VORD 5 bytes per vertex, VNBR at most
+    // 48 per vertex and 64 per quad.
+    const h = this._header;
+    let payloadTotal = h.baseUncompressedLen + sec.uncompressedLen;
+    for (const c of this._chunks) payloadTotal += c.uncompressedLen;
+    const est =
+      estimateMemory(n, h.finalFaceCount, h.recordCount, payloadTotal) +
+      (neighbours ? 48 * n + 64 * h.finalFaceCount : 5 * n);
+    if (est > this.limits.maxMemoryBytes) {
+      throw limitsExceeded(
+        `${sec.tag} section: estimated memory ${est} bytes > maxMemoryBytes ${this.limits.maxMemoryBytes}`,
+      );
     }
     try {
       const payload = decompressFrame(b, sec.uncompressedLen);
+      if (neighbours) {
+        // Sections come after the last chunk: the frontier is the finest
+        // level whatever level the caller shows.
+        const st = this._frontier;
+        this._vertexOrder = decodeVnbr(payload, n, st.f, st.nf, this._header.baseVertexCount);
+        this._vertexOrderTag = 'VNBR';
+        return;
+      }
       const r = new Reader(payload, 0, payload.length, 'VORD');
       const order = new Uint32Array(n);
       const seen = new Uint8Array(n);
@@ -632,6 +675,7 @@ export class PqmDecoder {
       }
       if (r.remaining() !== 0) throw `${r.remaining()} unused bytes in VORD`;
       this._vertexOrder = order;
+      this._vertexOrderTag = 'VORD';
     } catch (e) {
       if (typeof e === 'string') throw invalid(section, e);
       throw e;
@@ -1019,7 +1063,7 @@ export class PqmDecoder {
     return [this._log.vAt[k], this._log.fAt[k]];
   }
 
-  /** The `VORD` permutation (canonical id → input vertex index), once read. */
+  /** The input vertex order (canonical id → input vertex index at the finest level), once its `VORD` or `VNBR` section is read. */
   get vertexOrder() {
     return this._vertexOrder;
   }

@@ -72,7 +72,8 @@ for (const file of files) {
     let p = whole.chunks.length ? whole.chunks.at(-1).end : baseStart + h.baseCompressedLen;
     for (let i = 0; i < h.sectionCount; i++) {
       const clen = new DataView(file.bytes.buffer, file.bytes.byteOffset).getUint32(p + 4, true);
-      throwsPqm(() => decodeAll(flip(file.bytes, p + 16)), { kind: 'crc', section: `optional section ${i} ("VORD")` }, 'VORD');
+      const tag = String.fromCharCode(...file.bytes.subarray(p, p + 4)); // VORD or VNBR
+      throwsPqm(() => decodeAll(flip(file.bytes, p + 16)), { kind: 'crc', section: `optional section ${i} ("${tag}")` }, tag);
       p += 16 + clen;
     }
   });

@@ -107,7 +107,7 @@ test('a second VORD section is an error naming it', () => {
   parts.sections.push({ ...parts.sections[0] });
   setHeader(parts, 48, 'Uint32', 2);
   const d = new PqmDecoder();
-  const e = throwsPqm(() => d.push(pack(parts)), { kind: 'invalid', section: 'optional section 1 ("VORD")', message: /second VORD/ }, 'two VORDs');
+  const e = throwsPqm(() => d.push(pack(parts)), { kind: 'invalid', section: 'optional section 1 ("VORD")', message: /second vertex-order section \(VORD/ }, 'two VORDs');
   // the first one was read and reported
   assert.equal(e.events.filter((x) => x.type === 'sectionReady').length, 1);
   assert.ok(d.vertexOrder instanceof Uint32Array);

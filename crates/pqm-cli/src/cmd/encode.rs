@@ -61,11 +61,16 @@ pub struct Args {
     pub chunk_bytes: u64,
     /// Leave out the vertex-order section: the full level then has the
     /// decoder's vertex order instead of the input's (as Draco and gltfpack
-    /// also reorder). Saves 7–19 bits per vertex (a permutation does not
-    /// compress); keep the default when something else refers to the input's
-    /// vertex indices.
+    /// also reorder). Saves 3–15 bits per vertex (format 3.1's `VNBR`
+    /// section, which codes the input order against the mesh); keep the
+    /// default when something else refers to the input's vertex indices.
     #[arg(long, help_heading = "File")]
     pub no_vertex_order: bool,
+    /// Write the vertex order as format 3.0's `VORD` section (deltas,
+    /// 4.7–22 bits per vertex) instead of 3.1's `VNBR`, for readers that
+    /// predate 3.1 (they skip `VNBR` and keep the decoder's order).
+    #[arg(long, help_heading = "File", conflicts_with = "no_vertex_order")]
+    pub vertex_order_deltas: bool,
 }
 
 /// What one encoded file reports.
@@ -235,6 +240,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         bits: args.bits,
         chunk_bytes: args.chunk_bytes as usize,
         vertex_order: !args.no_vertex_order,
+        vertex_order_deltas: args.vertex_order_deltas,
         ..Default::default()
     };
     let mut enc = None;

@@ -143,7 +143,9 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         final_faces: h.final_face_count,
         records: h.record_count,
         chunks: h.chunk_count,
-        has_vertex_order: h.flags & pqm_format::layout::FLAG_VERTEX_ORDER != 0,
+        has_vertex_order: h.flags
+            & (pqm_format::layout::FLAG_VERTEX_ORDER | pqm_format::layout::FLAG_VERTEX_NEIGHBOURS)
+            != 0,
         levels: level_rows(&dec),
     };
     if !status.finished {

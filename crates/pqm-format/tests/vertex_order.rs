@@ -1,0 +1,360 @@
+//! The vertex-order sections (spec §8): `VNBR` (3.1, coded against the
+//! finest level's adjacency) and `VORD` (3.0, deltas) both give back the
+//! mesh's permutation exactly, through every way of feeding the decoder; a
+//! hand-made `VNBR` breaking each reject rule is refused with a clear error.
+
+use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
+use pqm_core::ProgressiveMesh;
+use pqm_format::varint::{put_s, put_u};
+use pqm_format::*;
+use proptest::prelude::*;
+
+fn encode(pm: &ProgressiveMesh, opts: &EncodeOptions) -> Vec<u8> {
+    write_to_vec(pm, opts).expect("encode").0
+}
+
+fn deltas() -> EncodeOptions {
+    EncodeOptions {
+        vertex_order_deltas: true,
+        ..EncodeOptions::default()
+    }
+}
+
+/// Offset of the first optional section (right after the last chunk).
+fn sections_start(bytes: &[u8]) -> usize {
+    let dec = decode_all(bytes, Limits::default()).unwrap();
+    let c = dec.chunks().last().unwrap();
+    (c.offset + c.compressed_len as u64) as usize
+}
+
+fn patch_header(bytes: &mut [u8], f: impl FnOnce(&mut [u8])) {
+    f(&mut bytes[..120]);
+    let crc = crc32fast::hash(&bytes[..116]);
+    bytes[116..120].copy_from_slice(&crc.to_le_bytes());
+}
+
+/// One optional section: `tag`, a zstd frame of `payload` (stated length
+/// `ulen`), its CRC.
+fn section(tag: &[u8; 4], payload: &[u8], ulen: u32) -> Vec<u8> {
+    use zstd::zstd_safe::CParameter;
+    let mut c = zstd::bulk::Compressor::new(3).unwrap();
+    c.set_parameter(CParameter::ContentSizeFlag(true)).unwrap();
+    let z = c.compress(payload).unwrap();
+    let mut s = tag.to_vec();
+    s.extend_from_slice(&(z.len() as u32).to_le_bytes());
+    s.extend_from_slice(&ulen.to_le_bytes());
+    s.extend_from_slice(&crc32fast::hash(&z).to_le_bytes());
+    s.extend_from_slice(&z);
+    s
+}
+
+/// `bytes` with its sections replaced by `sections`, header flags `flags`.
+fn with_sections(bytes: &[u8], flags: u32, sections: &[Vec<u8>]) -> Vec<u8> {
+    let mut b = bytes[..sections_start(bytes)].to_vec();
+    patch_header(&mut b, |h| {
+        h[16..20].copy_from_slice(&flags.to_le_bytes());
+        h[48..52].copy_from_slice(&(sections.len() as u32).to_le_bytes());
+    });
+    for s in sections {
+        b.extend_from_slice(s);
+    }
+    b
+}
+
+fn invalid_message(r: Result<Vec<Event>, DecodeError>) -> (Section, String) {
+    match r {
+        Err(DecodeError::Format(FormatError::Invalid { section, message })) => (section, message),
+        other => panic!("expected an invalid-input error, got {other:?}"),
+    }
+}
+
+/// The VNBR payload the encoder wrote into `bytes`.
+fn vnbr_payload(bytes: &[u8]) -> Vec<u8> {
+    let at = sections_start(bytes);
+    assert_eq!(&bytes[at..at + 4], b"VNBR");
+    let clen = u32::from_le_bytes(bytes[at + 4..at + 8].try_into().unwrap()) as usize;
+    zstd::stream::decode_all(&bytes[at + 16..at + 16 + clen]).unwrap()
+}
+
+fn assert_order(bytes: &[u8], pm: &ProgressiveMesh, tag: &[u8; 4]) {
+    let at = sections_start(bytes);
+    assert_eq!(&bytes[at..at + 4], tag);
+    let dec = decode_all(bytes, Limits::default()).unwrap();
+    assert_eq!(dec.vertex_order(), Some(&pm.vertex_order[..]));
+}
+
+fn gen(seed: u64, splits: usize, coherent: Option<usize>) -> ProgressiveMesh {
+    let mut pm = testgen::generate_with(&GenOptions {
+        base: if seed.is_multiple_of(2) {
+            BaseShape::Box { n: 2 }
+        } else {
+            BaseShape::Grid { nx: 3, ny: 2 }
+        },
+        ..GenOptions::new(seed, splits)
+    });
+    if let Some(swaps) = coherent {
+        pqm_format::vectors::coherent_vertex_order(&mut pm, seed, swaps);
+    }
+    pm
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Random and coherent orders round-trip through VNBR (default) and
+    /// VORD; the file is 3.1 with flag bit 1 for VNBR, 3.0 with bit 0 for
+    /// VORD; VNBR is never larger than VORD by more than its worst case.
+    #[test]
+    fn vnbr_and_vord_round_trip(
+        seed in 0u64..10_000,
+        splits in 1usize..120,
+        coherent in prop::option::of(0usize..40),
+    ) {
+        let pm = gen(seed, splits, coherent);
+        let v = encode(&pm, &EncodeOptions::default());
+        assert_order(&v, &pm, b"VNBR");
+        prop_assert_eq!(&v[8..12], &[3, 0, 1, 0]);
+        prop_assert_eq!(Header::parse(&v[..120]).flags, 2);
+        let d = encode(&pm, &deltas());
+        assert_order(&d, &pm, b"VORD");
+        prop_assert_eq!(&d[8..12], &[3, 0, 0, 0]);
+        prop_assert_eq!(Header::parse(&d[..120]).flags, 1);
+        // Everything but the section is the same bytes.
+        let (sv, sd) = (sections_start(&v), sections_start(&d));
+        prop_assert_eq!(&v[20..116], &d[20..116]);
+        prop_assert_eq!(&v[120..sv], &d[120..sd]);
+        // 2.0 and 1.1 files keep VORD (their minors have no VNBR).
+        for major in [1, 2] {
+            let old = encode(&pm, &EncodeOptions { version_major: major, ..EncodeOptions::default() });
+            assert_order(&old, &pm, b"VORD");
+        }
+    }
+
+    /// A caller at a coarse level when the section arrives still gets the
+    /// finest level's permutation (the section is coded against it).
+    #[test]
+    fn vnbr_decodes_whatever_level_the_caller_is_at(
+        seed in 0u64..10_000,
+        splits in 1usize..80,
+        swaps in 0usize..20,
+        piece in 1usize..200,
+    ) {
+        let pm = gen(seed, splits, Some(swaps));
+        let bytes = encode(&pm, &EncodeOptions { chunk_records: Some(7), ..EncodeOptions::default() });
+        for forward_only in [false, true] {
+            let mut dec = if forward_only {
+                Decoder::forward_only(Limits::default())
+            } else {
+                Decoder::new(Limits::default())
+            };
+            for p in bytes.chunks(piece) {
+                for e in dec.push(p).unwrap() {
+                    if let Event::ChunkReady(i) = e {
+                        // Stay at level 0 (general) or follow (forward-only).
+                        if forward_only || i == 0 {
+                            dec.set_level(Target::Level(if forward_only { usize::MAX } else { 0 })).unwrap();
+                        }
+                    }
+                }
+            }
+            prop_assert!(dec.status().finished);
+            prop_assert_eq!(dec.vertex_order(), Some(&pm.vertex_order[..]));
+        }
+    }
+}
+
+/// Coherent orders cost a few bits per vertex; random ones about what VORD
+/// costs (the escapes' ranks).
+#[test]
+fn coherent_orders_are_cheaper_than_deltas() {
+    let pm = gen(3, 600, Some(0));
+    let n = pm.final_vertex_count();
+    assert!(n > 600);
+    let v = encode(&pm, &EncodeOptions::default());
+    let d = encode(&pm, &deltas());
+    let (sv, sd) = (v.len() - sections_start(&v), d.len() - sections_start(&d));
+    let bits = |s: usize| 8.0 * s as f64 / n as f64;
+    assert!(
+        bits(sv) < 0.5 * bits(sd) && bits(sv) < 4.0,
+        "VNBR {:.2} vs VORD {:.2} bits per vertex",
+        bits(sv),
+        bits(sd)
+    );
+}
+
+#[test]
+fn one_byte_at_a_time_equals_all_at_once_and_every_prefix_is_safe() {
+    let pm = gen(4, 60, Some(10));
+    let bytes = encode(
+        &pm,
+        &EncodeOptions {
+            chunk_records: Some(9),
+            ..EncodeOptions::default()
+        },
+    );
+    let mut whole = Decoder::new(Limits::default());
+    let ev_whole = whole.push(&bytes).unwrap();
+    let mut single = Decoder::new(Limits::default());
+    let mut ev_single = Vec::new();
+    for b in bytes.chunks(1) {
+        ev_single.extend(single.push(b).unwrap());
+    }
+    assert_eq!(ev_whole, ev_single);
+    assert_eq!(whole.vertex_order(), single.vertex_order());
+    assert_eq!(whole.vertex_order(), Some(&pm.vertex_order[..]));
+    // Every prefix: no error, no order before the section is whole, every
+    // chunk it holds decoded.
+    let at = sections_start(&bytes);
+    for len in 0..bytes.len() {
+        let mut d = Decoder::new(Limits::default());
+        d.push(&bytes[..len]).unwrap();
+        assert!(d.vertex_order().is_none(), "prefix {len}");
+        assert!(!d.status().finished);
+        if len >= at {
+            assert_eq!(d.deepest_level(), Some(pm.records.len()));
+        }
+    }
+}
+
+/// Each reject rule of spec §8.2, as a hand-made section on a real file.
+#[test]
+fn hostile_vnbr_sections_are_rejected() {
+    let pm = gen(6, 40, Some(5));
+    let bytes = encode(&pm, &EncodeOptions::default());
+    let h = Header::parse(&bytes[..120]);
+    let n = h.final_vertex_count;
+    let base = h.base_vertex_count;
+    assert!(base > 0 && base < n);
+    let good = vnbr_payload(&bytes);
+    // The helpers rebuild a file that decodes.
+    let ok = with_sections(&bytes, 2, &[section(b"VNBR", &good, good.len() as u32)]);
+    assert_eq!(
+        decode_all(&ok, Limits::default()).unwrap().vertex_order(),
+        Some(&pm.vertex_order[..])
+    );
+    let reject = |payload: &[u8], ulen: u32, want: &str| {
+        let b = with_sections(&bytes, 2, &[section(b"VNBR", payload, ulen)]);
+        let (s, m) = invalid_message(Decoder::new(Limits::default()).push(&b));
+        assert_eq!(s, Section::Optional(0), "{m}");
+        assert!(m.contains(want), "want {want:?}, got {m:?}");
+    };
+    let len = |p: &[u8]| p.len() as u32;
+    // Symbol 0 at the first input vertex: its list is empty.
+    let mut p = good.clone();
+    p[0] = 0;
+    reject(&p, len(&p), "candidates");
+    // Symbol 254 once every base vertex is assigned.
+    let p = vec![254u8; n as usize];
+    reject(&p, len(&p), "no base vertex is left");
+    // An escape whose rank is out of range, or missing.
+    let mut p = vec![254u8; base as usize];
+    p.resize(n as usize, 255);
+    let mut q = p.clone();
+    put_s(&mut q, n as i64);
+    reject(&q, len(&q), "rank");
+    let mut q = p.clone();
+    put_s(&mut q, -1);
+    reject(&q, len(&q), "rank");
+    reject(&p, len(&p), "ends early");
+    // An escape naming a vertex that has a symbol: the first input vertex
+    // by rank 0 is base vertex 0, which symbol 254 names.
+    let mut p = vec![255u8];
+    p.resize(n as usize, 0);
+    put_u(&mut p, 0);
+    reject(&p, len(&p), "which symbol 254 names");
+    // Bytes left over.
+    let mut p = good.clone();
+    p.push(0);
+    reject(&p, len(&p), "unused bytes");
+    // Fewer bytes than symbols (within the stated length's bounds the
+    // frame's real size must match: checked by the frame rule).
+    let p = good[..n as usize - 1].to_vec();
+    let b = with_sections(&bytes, 2, &[section(b"VNBR", &p, n)]);
+    assert!(Decoder::new(Limits::default()).push(&b).is_err());
+    // Stated uncompressed length outside n..=11n, before decompressing.
+    for claim in [n - 1, 11 * n + 1, u32::MAX] {
+        reject(&good, claim, "uncompressed length");
+    }
+    // Flag bit 1 clear, VNBR with VORD, two VNBR, flag without a section.
+    let vnbr = section(b"VNBR", &good, len(&good));
+    let d = encode(&pm, &deltas());
+    let vord = d[sections_start(&d)..].to_vec();
+    for (flags, secs, want) in [
+        (0, vec![vnbr.clone()], "flag bit 1 is clear"),
+        (1, vec![vnbr.clone()], "flag bit 1 is clear"),
+        (3, vec![vord.clone(), vnbr.clone()], "at most one"),
+        (3, vec![vnbr.clone(), vord.clone()], "at most one"),
+        (2, vec![vnbr.clone(), vnbr.clone()], "at most one"),
+    ] {
+        let b = with_sections(&bytes, flags, &secs);
+        let (_, m) = invalid_message(Decoder::new(Limits::default()).push(&b));
+        assert!(m.contains(want), "flags {flags}: want {want:?}, got {m:?}");
+    }
+    for (flags, secs) in [
+        (2, vec![]),
+        (3, vec![vnbr.clone()]),
+        (3, vec![vord.clone()]),
+    ] {
+        let b = with_sections(&bytes, flags, &secs);
+        let (s, m) = invalid_message(Decoder::new(Limits::default()).push(&b));
+        assert_eq!(s, Section::Trailer, "{m}");
+        assert!(m.contains("announces"), "{m}");
+    }
+    // A 3.0 reader's view: an unknown tag is skipped. Renamed, the section
+    // leaves the file valid without an order.
+    let b = with_sections(&bytes, 0, &[section(b"XNBR", &good, len(&good))]);
+    let dec = decode_all(&b, Limits::default()).unwrap();
+    assert!(dec.vertex_order().is_none());
+    assert!(dec.status().finished);
+}
+
+/// Within its bounds, the VNBR state counts against the memory budget.
+#[test]
+fn vnbr_memory_is_budgeted() {
+    let pm = gen(8, 80, Some(3));
+    let bytes = encode(&pm, &EncodeOptions::default());
+    let dec = decode_all(&bytes, Limits::default()).unwrap();
+    let h = dec.header().unwrap().clone();
+    let payload = h.base_uncompressed_len as u64
+        + dec
+            .chunks()
+            .iter()
+            .map(|c| c.uncompressed_len as u64)
+            .sum::<u64>();
+    let before = Limits::estimate(
+        h.final_vertex_count as u64,
+        h.final_face_count as u64,
+        h.record_count as u64,
+        payload,
+    );
+    let mut d = Decoder::new(Limits {
+        max_memory_bytes: before,
+        ..Limits::default()
+    });
+    assert!(matches!(d.push(&bytes), Err(DecodeError::LimitsExceeded(m)) if m.contains("VNBR")));
+    assert_eq!(d.status().chunks_ready, h.chunk_count);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Random VNBR payloads over a real mesh never panic and, when they
+    /// decode, give a permutation.
+    #[test]
+    fn random_vnbr_payloads_never_panic(seed in 0u64..1000, bytes in prop::collection::vec(any::<u8>(), 0..600)) {
+        let pm = gen(seed % 4, 30, Some(2));
+        let file = encode(&pm, &EncodeOptions::default());
+        let n = pm.final_vertex_count();
+        let mut p = bytes;
+        // Mostly small symbols, so the walk gets somewhere.
+        for b in p.iter_mut().take(n) {
+            if *b < 250 { *b %= 6; }
+        }
+        let b = with_sections(&file, 2, &[section(b"VNBR", &p, p.len() as u32)]);
+        if let Ok(dec) = decode_all(&b, Limits::default()) {
+            let mut o = dec.vertex_order().unwrap().to_vec();
+            o.sort_unstable();
+            prop_assert!(o.iter().enumerate().all(|(i, &v)| v as usize == i));
+        }
+    }
+}
