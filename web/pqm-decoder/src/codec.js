@@ -230,7 +230,16 @@ export function cornerIn(f, s4, v) {
  * every slot after the base ones.
  */
 export class RecordLog {
-  constructor() {
+  /**
+   * @param {boolean} [forward] one-way decoding (PqmDecoder's `forwardOnly`):
+   * `moved` and `rw` hold only the entries of the chunk being decoded (the
+   * decoder takes what the next change reports from them when the chunk
+   * commits and then empties them), `newCodes`, `app` and `ops` stay empty
+   * (the frontier holds the appended vertices and quads), and
+   * `movedAt` / `rwAt` are not kept.
+   */
+  constructor(forward = false) {
+    this.forward = forward;
     this.ops = new Uint8Array(0);
     this.nRecords = 0;
     this.vAt = new Uint32Array(0);
@@ -254,13 +263,17 @@ export class RecordLog {
       const max = this.maxLevels;
       this.vAt = ensure(this.vAt, n + 1, n, max);
       this.fAt = ensure(this.fAt, n + 1, n, max);
-      this.movedAt = ensure(this.movedAt, n + 1, n, max);
-      this.rwAt = ensure(this.rwAt, n + 1, n, max);
+      if (!this.forward) {
+        this.movedAt = ensure(this.movedAt, n + 1, n, max);
+        this.rwAt = ensure(this.rwAt, n + 1, n, max);
+      }
     }
     this.vAt[n] = v;
     this.fAt[n] = f;
-    this.movedAt[n] = this.nMoved;
-    this.rwAt[n] = this.nRw;
+    if (!this.forward) {
+      this.movedAt[n] = this.nMoved;
+      this.rwAt[n] = this.nRw;
+    }
     this.levels = n + 1;
   }
 }
@@ -411,14 +424,20 @@ export function decodeChunk(payload, index, info, st, log, h) {
     nApp: log.nApp,
   };
   const first = log.nRecords;
+  const forward = log.forward;
+  const nv0 = st.nv;
+  const nf0 = st.nf;
   let t = 0;
   try {
     for (; t < info.recordCount; t++) {
       decodeRecord(ctx);
-      if (log.nRecords + 1 > log.ops.length) {
-        log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords, log.maxLevels);
+      if (!forward) {
+        if (log.nRecords + 1 > log.ops.length) {
+          log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords, log.maxLevels);
+        }
+        log.ops[log.nRecords] = ctx.lastOp;
       }
-      log.ops[log.nRecords++] = ctx.lastOp;
+      log.nRecords++;
       log.pushLevel(st.nv, st.nf);
     }
     for (const s of streams) {
@@ -432,11 +451,44 @@ export function decodeChunk(payload, index, info, st, log, h) {
       throw `records reach ${st.nv} vertices and ${st.nf} faces, the chunk table says ${info.vertexCount} and ${info.faceCount}`;
     }
   } catch (e) {
+    // One-way decoding has no other copy of the deepest committed level:
+    // the frontier goes back to it (the general decoder's levels live in
+    // the log, so its frontier is simply dropped).
+    if (forward) rollBack(st, log, saved.nMoved, saved.nRw, nv0, nf0);
     Object.assign(log, saved);
     if (typeof e !== 'string') throw e;
     if (t < 0) throw invalid(section, e);
     throw badRecord(index, first + t, e);
   }
+}
+
+/**
+ * Undoes on the frontier the log entries from `nMoved` / `nRw` on (those of
+ * a chunk that failed; each entry is logged before its write, so they cover
+ * every write made) and truncates it to `nv` vertices and `nf` slots, then
+ * lists the slots afresh (O(mesh), once, on a failure).
+ */
+function rollBack(st, log, nMoved, nRw, nv, nf) {
+  const q = st.q;
+  const f = st.f;
+  const M = log.moved;
+  const R = log.rw;
+  for (let e = log.nRw - 1; e >= nRw; e--) {
+    const s4 = 4 * R[5 * e];
+    f[s4] ^= R[5 * e + 1];
+    f[s4 + 1] ^= R[5 * e + 2];
+    f[s4 + 2] ^= R[5 * e + 3];
+    f[s4 + 3] ^= R[5 * e + 4];
+  }
+  for (let e = log.nMoved - 1; e >= nMoved; e--) {
+    const o = 16 * M[4 * e];
+    q[o] -= M[4 * e + 1];
+    q[o + 1] -= M[4 * e + 2];
+    q[o + 2] -= M[4 * e + 3];
+  }
+  st.nv = nv;
+  st.nf = nf;
+  st.rebuild();
 }
 
 /** Decodes one record and applies it to the frontier, logging undo data. */
@@ -548,18 +600,23 @@ export function appendQuad(ctx, a, b, c, d) {
   f[4 * slot + 2] = c;
   f[4 * slot + 3] = d;
   st.nf = slot + 1;
+  if (!log.forward) logAppended(log, st.maxF, a, b, c, d);
+  st.add(a, slot);
+  st.add(b, slot);
+  st.add(c, slot);
+  st.add(d, slot);
+}
+
+/** The general log's copy of an appended quad (the level move reads it). */
+function logAppended(log, maxF, a, b, c, d) {
   const n = log.nApp;
-  if (4 * (n + 1) > log.app.length) log.app = ensure(log.app, 4 * (n + 1), 4 * n, 4 * st.maxF);
+  if (4 * (n + 1) > log.app.length) log.app = ensure(log.app, 4 * (n + 1), 4 * n, 4 * maxF);
   const ap = log.app;
   ap[4 * n] = a;
   ap[4 * n + 1] = b;
   ap[4 * n + 2] = c;
   ap[4 * n + 3] = d;
   log.nApp = n + 1;
-  st.add(a, slot);
-  st.add(b, slot);
-  st.add(c, slot);
-  st.add(d, slot);
 }
 
 /** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
@@ -574,6 +631,7 @@ export function appendVertex(ctx) {
   q[16 * v + 2] = ctx.cz;
   q[16 * v + LEN] = 0;
   st.nv = v + 1;
+  if (log.forward) return;
   const n = log.nNew;
   if (3 * (n + 1) > log.newCodes.length) {
     log.newCodes = ensure(log.newCodes, 3 * (n + 1), 3 * n, 3 * st.maxV);
