@@ -1053,14 +1053,54 @@ function canonicalStar(st, m, sc) {
   const sN = sc.N;
   const sO = sc.O;
   const sP = sc.P;
-  const K = st.star(m, S, sK);
+  // Frontier.star fused with the corner reads: the slots ascending first
+  // (the list is in m's record, in cache), then one read of each quad for
+  // its corner and neighbours — the K quad reads are the record's first
+  // touches of scattered memory, so they go out back to back with no
+  // dependent work between them.
+  const q = st.q;
+  const b = m << 4;
+  const K = q[b + LEN];
+  if (K > 255) throw `vertex ${m} is in more than 255 faces`;
   if (K < 1) throw `vertex ${m} is in no face`;
+  const xs = K > INLINE ? st.big.get(m).s : null;
+  for (let t = 0; t < K; t++) {
+    const slot = t < INLINE ? q[b + AT + t] : xs[t - INLINE];
+    let i = t;
+    while (i > 0 && S[i - 1] > slot) {
+      S[i] = S[i - 1];
+      i--;
+    }
+    S[i] = slot;
+  }
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
-    const k = sK[i];
-    sN[i] = f[s4 + ((k + 1) & 3)];
-    sO[i] = f[s4 + ((k + 2) & 3)];
-    sP[i] = f[s4 + ((k + 3) & 3)];
+    const v0 = f[s4];
+    const v1 = f[s4 + 1];
+    const v2 = f[s4 + 2];
+    const v3 = f[s4 + 3];
+    // the lists are exact: m is at one of the four corners
+    if (v0 === m) {
+      sK[i] = 0;
+      sN[i] = v1;
+      sO[i] = v2;
+      sP[i] = v3;
+    } else if (v1 === m) {
+      sK[i] = 1;
+      sN[i] = v2;
+      sO[i] = v3;
+      sP[i] = v0;
+    } else if (v2 === m) {
+      sK[i] = 2;
+      sN[i] = v3;
+      sO[i] = v0;
+      sP[i] = v1;
+    } else {
+      sK[i] = 3;
+      sN[i] = v0;
+      sO[i] = v1;
+      sP[i] = v2;
+    }
   }
   // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
   // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
