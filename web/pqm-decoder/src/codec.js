@@ -185,6 +185,29 @@ export class Frontier {
     return K;
   }
 
+  /**
+   * The slots holding `m`, ascending, into `slots` (at least 255 entries);
+   * returns their number. Throws a message string past 255 faces (spec
+   * §7.5: K ≤ 255). Reads `m`'s record only, no quad.
+   */
+  sortedSlots(m, slots) {
+    const q = this.q;
+    const b = m << 4;
+    const K = q[b + LEN];
+    if (K > 255) throw `vertex ${m} is in more than 255 faces`;
+    const xs = K > INLINE ? this.big.get(m).s : null;
+    for (let t = 0; t < K; t++) {
+      const slot = t < INLINE ? q[b + AT + t] : xs[t - INLINE];
+      let i = t;
+      while (i > 0 && slots[i - 1] > slot) {
+        slots[i] = slots[i - 1];
+        i--;
+      }
+      slots[i] = slot;
+    }
+    return K;
+  }
+
   /** Room for `nv` vertices and `nf` slots. */
   reserve(nv, nf) {
     const mv = this.maxV;
@@ -1058,21 +1081,8 @@ function canonicalStar(st, m, sc) {
   // its corner and neighbours — the K quad reads are the record's first
   // touches of scattered memory, so they go out back to back with no
   // dependent work between them.
-  const q = st.q;
-  const b = m << 4;
-  const K = q[b + LEN];
-  if (K > 255) throw `vertex ${m} is in more than 255 faces`;
+  const K = st.sortedSlots(m, S);
   if (K < 1) throw `vertex ${m} is in no face`;
-  const xs = K > INLINE ? st.big.get(m).s : null;
-  for (let t = 0; t < K; t++) {
-    const slot = t < INLINE ? q[b + AT + t] : xs[t - INLINE];
-    let i = t;
-    while (i > 0 && S[i - 1] > slot) {
-      S[i] = S[i - 1];
-      i--;
-    }
-    S[i] = slot;
-  }
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
     const v0 = f[s4];
@@ -1350,10 +1360,11 @@ function decodeFaceSplit(ctx, sym) {
   const m = ctx.vcur + ctx.refs.s();
   if (m < 0 || m >= V) throw `face-split vertex ${m} outside 0..${V}`;
   ctx.vcur = m;
-  // 2. S ascending, no walk (Frontier.star sorts by slot).
+  // 2. S ascending, no walk: only the slot list is sorted, and only the
+  // split quad is read (the others' corners are not needed, and each quad
+  // read is a first touch of scattered memory).
   const sS = starA.S;
-  const sK = starA.C;
-  const K = st.star(m, sS, sK);
+  const K = st.sortedSlots(m, sS);
   if (K < 1) throw `vertex ${m} is in no face`;
   // 3. the split slot
   const x = ctx.conn.u();
@@ -1361,7 +1372,7 @@ function decodeFaceSplit(ctx, sym) {
   if (t >= K) throw `face index ${t} of vertex ${m} outside 0..${K}`;
   const swap = x % 2;
   const s = sS[t];
-  const k = sK[t];
+  const k = cornerIn(st.f, 4 * s, m);
   // 4. the halves A = (m, p, o, c) and B = (m, c, o, q)
   const f = st.f;
   const s4 = 4 * s;
