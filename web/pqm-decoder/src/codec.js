@@ -1180,7 +1180,8 @@ function canonicalStar(st, m, sc) {
 const starA = new StarScratch();
 const starB = new StarScratch();
 const sLink = new Int32Array(257);
-const sSideC = new Int32Array(256);
+/** Per star face (index into S) of a split: 1 on side C, 0 on side A. */
+const sSide = new Uint8Array(256);
 
 /** Split form (spec §7.5). */
 function decodeSplit(ctx, sym) {
@@ -1235,6 +1236,7 @@ function decodeSplit(ctx, sym) {
         saz += q[o + 2];
       }
       nA++;
+      sSide[idx] = 0;
     } else {
       if (moves) {
         const o = 16 * sO[idx];
@@ -1242,7 +1244,8 @@ function decodeSplit(ctx, sym) {
         scy += q[o + 1];
         scz += q[o + 2];
       }
-      sSideC[nC++] = S[idx];
+      nC++;
+      sSide[idx] = 1;
     }
   }
 
@@ -1313,29 +1316,52 @@ function decodeSplit(ctx, sym) {
   readCode(ctx, px, py, pz, 'split vertex', m, ' (c)');
   appendVertex(ctx);
 
-  // 5. the explicit record: side-C slots by ascending slot, m → c.
-  const sideC = sSideC;
-  for (let t = 1; t < nC; t++) {
-    const x = sideC[t];
-    let u = t;
-    while (u > 0 && sideC[u - 1] > x) {
-      sideC[u] = sideC[u - 1];
-      u--;
+  // 5. the explicit record — side-C slots by ascending slot (S is
+  // ascending), m → c — written straight into the frontier: one corner per
+  // slot (m's, known from the star), its log entry (the XOR is m ^ c at
+  // that corner), and the lists whole when m's is inline: m keeps its
+  // side-A slots, the new c takes the side-C ones (what rewriteSlot's
+  // per-slot remove and add would leave, without a scan of m's list each).
+  const log = ctx.log;
+  let n = log.nRw;
+  if (5 * (n + nC) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + nC), 5 * n);
+  const r = log.rw;
+  const fq = st.f;
+  const qs = st.q; // appendVertex may have grown it
+  const sC = sc.C;
+  const x = m ^ c;
+  const whole = K <= INLINE;
+  const bm = (m << 4) + AT;
+  const bc = (c << 4) + AT;
+  let nAk = 0;
+  let nCk = 0;
+  for (let idx = 0; idx < K; idx++) {
+    const s = S[idx];
+    if (sSide[idx] === 0) {
+      if (whole) qs[bm + nAk] = s;
+      nAk++;
+      continue;
     }
-    sideC[u] = x;
+    const k = sC[idx];
+    const o = 5 * n++;
+    r[o] = s;
+    r[o + 1] = k === 0 ? x : 0;
+    r[o + 2] = k === 1 ? x : 0;
+    r[o + 3] = k === 2 ? x : 0;
+    r[o + 4] = k === 3 ? x : 0;
+    fq[4 * s + k] = c;
+    if (whole) {
+      qs[bc + nCk] = s;
+    } else {
+      st.remove(m, s);
+      st.add(c, s);
+    }
+    nCk++;
   }
-  for (let t = 0; t < nC; t++) {
-    const s = sideC[t];
-    const s4 = 4 * s;
-    const fq = st.f;
-    rewriteSlot(
-      ctx,
-      s,
-      fq[s4] === m ? c : fq[s4],
-      fq[s4 + 1] === m ? c : fq[s4 + 1],
-      fq[s4 + 2] === m ? c : fq[s4 + 2],
-      fq[s4 + 3] === m ? c : fq[s4 + 3],
-    );
+  log.nRw = n;
+  if (whole) {
+    qs[(m << 4) + LEN] = nAk;
+    qs[(c << 4) + LEN] = nCk;
   }
   // Q'[t] = B[(t + rot) mod 4] with B = (m, d, c, b)
   const rot = (sym >> 4) & 3;
