@@ -155,6 +155,8 @@ export class Frontier {
   }
 
   /**
+   * (The reference form of what canonicalStar and the face split read
+   * fused with their own work; the tests check the lists with it.)
    * The star of vertex `m`: the slots holding it, ascending, into `slots`,
    * and the corner (0..3) of `m` in each into `corners`; returns their
    * number. Throws a message string past 255 faces (spec §7.5: K ≤ 255).
