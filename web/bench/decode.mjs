@@ -6,7 +6,9 @@
 // goes: zstd (fzstd, every frame), CRC-32 (every section), the records
 // (the rest of the push) and the move to the finest level.
 //
-//   node bench/decode.mjs [FILE.pqm ...] [--runs N]
+//   node bench/decode.mjs [FILE.pqm ...] [--runs N] [--forward]
+//
+// --forward: the one-way decoder (`forwardOnly: true`).
 //
 // Times are medians over --runs runs after warm-up runs (at least 3, and
 // until 300 ms of CPU: a small file decodes in a few ms, far from enough
@@ -23,6 +25,8 @@ const here = path.dirname(fileURLToPath(import.meta.url));
 const args = process.argv.slice(2);
 const runsAt = args.indexOf('--runs');
 const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
+const forwardAt = args.indexOf('--forward');
+const options = forwardAt >= 0 && args.splice(forwardAt, 1).length > 0 ? { forwardOnly: true } : {};
 let files = args;
 if (files.length === 0) {
   const dirs = [path.join(here, 'data'), path.join(here, '../pqm-decoder/test/data'), path.join(here, '../../spec/vectors')];
@@ -57,7 +61,7 @@ for (const file of files) {
   for (let r = 0; r < runs + 1; r++) {
     let d = null;
     const push = measure(() => {
-      d = new PqmDecoder();
+      d = new PqmDecoder(options);
       d.push(bytes);
     });
     const level = measure(() => d.setLevel({ level: d.deepestLevel }));
@@ -70,7 +74,7 @@ for (const file of files) {
       for (const [o, n] of sections) crc32(bytes, o, o + n);
     });
     const pieces = measure(() => {
-      const s = new PqmDecoder();
+      const s = new PqmDecoder(options);
       for (let o = 0; o < bytes.length; o += 65536) s.push(bytes.subarray(o, o + 65536));
       s.setLevel({ level: s.deepestLevel });
     });
@@ -95,7 +99,7 @@ for (const file of files) {
   const pct = (x) => `${((100 * x) / cpu).toFixed(0)} %`;
   const mfs = (ms) => ((faces / ms) * 1000) / 1e6;
   console.log(
-    `${path.relative(process.cwd(), file)}: ${(bytes.length / 1024).toFixed(0)} KiB (${(uncompressed / 1024).toFixed(0)} KiB uncompressed), ` +
+    `${path.relative(process.cwd(), file)}${options.forwardOnly ? ' (forward-only)' : ''}: ${(bytes.length / 1024).toFixed(0)} KiB (${(uncompressed / 1024).toFixed(0)} KiB uncompressed), ` +
       `${h.baseFaceCount} → ${faces} faces, ${h.recordCount} records, ${h.chunkCount} chunks`,
   );
   console.log(

@@ -6,7 +6,9 @@
 // them (raw zstd frames, CRCs recomputed, so the mutations reach the
 // structural checks), decodes each with both decoders and reports every file
 // where they disagree (one accepts, the other rejects, or both accept with
-// different finest meshes).
+// different finest meshes), and every file where the forward-only JS
+// decoder (`forwardOnly: true`) differs from the general one, in its
+// outcome or in the deepest level it keeps after an error.
 //
 //   cargo build --release --manifest-path tools/make-pqm/Cargo.toml
 //   node tools/diff-fuzz.mjs [COUNT] [SEED]          (from web/)
@@ -15,7 +17,7 @@ import { tmpdir } from 'node:os';
 import { execFileSync } from 'node:child_process';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { decodeAll, PqmError } from '../pqm-decoder/src/index.js';
+import { PqmDecoder, PqmError } from '../pqm-decoder/src/index.js';
 import { testFiles, levelDigests, rng } from '../pqm-decoder/test/helpers.mjs';
 import { unpack, pack, rawZstdFrame, concat } from '../pqm-decoder/test/repack.mjs';
 
@@ -115,15 +117,32 @@ function mutate(parts) {
   return `header field ${off}`;
 }
 
-function jsOutcome(bytes) {
+/**
+ * What the JS decoder makes of a file: `ok LEVEL DIGESTS` or `err MESSAGE`
+ * (compared with the Rust decoder's), then after ` | ` the deepest level it
+ * keeps after an error (compared between the general and the forward-only
+ * decoder, which must roll its frontier back to it).
+ */
+function jsOutcome(bytes, forwardOnly = false) {
+  const d = new PqmDecoder({ forwardOnly });
+  let out;
   try {
-    const d = decodeAll(bytes);
+    d.push(bytes);
+    d.end();
     d.setLevel({ level: d.deepestLevel });
     const g = levelDigests(d);
     return `ok ${d.deepestLevel} ${g.positions} ${g.quads}`;
   } catch (e) {
     if (!(e instanceof PqmError)) return `CRASH ${e && e.stack}`;
-    return `err ${e.message}`;
+    out = `err ${e.message}`;
+  }
+  try {
+    if (d.deepestLevel === null) return out;
+    d.setLevel({ level: d.deepestLevel });
+    const g = levelDigests(d);
+    return `${out} | kept ${d.deepestLevel} ${g.positions} ${g.quads}`;
+  } catch (e) {
+    return `CRASH after the error: ${e && e.stack}`;
   }
 }
 
@@ -138,14 +157,14 @@ for (let n = 0; n < count; n++) {
   const bytes = pack(parts, m.frame ? { frame: m.frame } : {});
   const file = path.join(dir, `${n}.pqm`);
   writeFileSync(file, bytes);
-  cases.push({ n, name: f.name, what, file, js: jsOutcome(bytes) });
+  cases.push({ n, name: f.name, what, file, js: jsOutcome(bytes), fwd: jsOutcome(bytes, true) });
 }
 // The unmodified files, repacked, must decode identically too.
 for (const f of files) {
   const file = path.join(dir, `${f.name}.repacked.pqm`);
   const bytes = pack(unpack(f.bytes));
   writeFileSync(file, bytes);
-  cases.push({ n: f.name, name: f.name, what: 'repacked', file, js: jsOutcome(bytes) });
+  cases.push({ n: f.name, name: f.name, what: 'repacked', file, js: jsOutcome(bytes), fwd: jsOutcome(bytes, true) });
 }
 const out = execFileSync(tool, ['check', ...cases.map((c) => c.file)], { maxBuffer: 1 << 28 }).toString();
 const rust = new Map();
@@ -161,7 +180,7 @@ for (const c of cases) {
   const r = rust.get(c.file);
   const jsOk = c.js.startsWith('ok');
   const rOk = r.startsWith('ok');
-  if (c.js.startsWith('CRASH') || jsOk !== rOk || (jsOk && c.js !== r)) mismatches.push({ ...c, rust: r });
+  if (c.js.includes('CRASH') || jsOk !== rOk || (jsOk && c.js !== r) || c.fwd !== c.js) mismatches.push({ ...c, rust: r });
   else {
     agree++;
     if (!jsOk) bothErr++;
@@ -169,7 +188,7 @@ for (const c of cases) {
 }
 console.log(`${cases.length} files: ${agree} agree (${bothErr} rejected by both), ${mismatches.length} disagree`);
 for (const m of mismatches.slice(0, Number(process.env.SHOW ?? 30))) {
-  console.log(`- ${m.name} #${m.n} (${m.what})\n    js:   ${m.js}\n    rust: ${m.rust}`);
+  console.log(`- ${m.name} #${m.n} (${m.what})\n    js:   ${m.js}\n    fwd:  ${m.fwd}\n    rust: ${m.rust}`);
 }
 rmSync(dir, { recursive: true, force: true });
 process.exitCode = mismatches.length ? 1 : 0;

@@ -155,6 +155,8 @@ export class Frontier {
   }
 
   /**
+   * (The reference form of what canonicalStar and the face split read
+   * fused with their own work; the tests check the lists with it.)
    * The star of vertex `m`: the slots holding it, ascending, into `slots`,
    * and the corner (0..3) of `m` in each into `corners`; returns their
    * number. Throws a message string past 255 faces (spec §7.5: K ≤ 255).
@@ -181,6 +183,29 @@ export class Frontier {
       }
       slots[i] = slot;
       corners[i] = k;
+    }
+    return K;
+  }
+
+  /**
+   * The slots holding `m`, ascending, into `slots` (at least 255 entries);
+   * returns their number. Throws a message string past 255 faces (spec
+   * §7.5: K ≤ 255). Reads `m`'s record only, no quad.
+   */
+  sortedSlots(m, slots) {
+    const q = this.q;
+    const b = m << 4;
+    const K = q[b + LEN];
+    if (K > 255) throw `vertex ${m} is in more than 255 faces`;
+    const xs = K > INLINE ? this.big.get(m).s : null;
+    for (let t = 0; t < K; t++) {
+      const slot = t < INLINE ? q[b + AT + t] : xs[t - INLINE];
+      let i = t;
+      while (i > 0 && slots[i - 1] > slot) {
+        slots[i] = slots[i - 1];
+        i--;
+      }
+      slots[i] = slot;
     }
     return K;
   }
@@ -230,7 +255,16 @@ export function cornerIn(f, s4, v) {
  * every slot after the base ones.
  */
 export class RecordLog {
-  constructor() {
+  /**
+   * @param {boolean} [forward] one-way decoding (PqmDecoder's `forwardOnly`):
+   * `moved` and `rw` hold only the entries of the chunk being decoded (the
+   * decoder takes what the next change reports from them when the chunk
+   * commits and then empties them), `newCodes`, `app` and `ops` stay empty
+   * (the frontier holds the appended vertices and quads), and
+   * `movedAt` / `rwAt` are not kept.
+   */
+  constructor(forward = false) {
+    this.forward = forward;
     this.ops = new Uint8Array(0);
     this.nRecords = 0;
     this.vAt = new Uint32Array(0);
@@ -254,13 +288,17 @@ export class RecordLog {
       const max = this.maxLevels;
       this.vAt = ensure(this.vAt, n + 1, n, max);
       this.fAt = ensure(this.fAt, n + 1, n, max);
-      this.movedAt = ensure(this.movedAt, n + 1, n, max);
-      this.rwAt = ensure(this.rwAt, n + 1, n, max);
+      if (!this.forward) {
+        this.movedAt = ensure(this.movedAt, n + 1, n, max);
+        this.rwAt = ensure(this.rwAt, n + 1, n, max);
+      }
     }
     this.vAt[n] = v;
     this.fAt[n] = f;
-    this.movedAt[n] = this.nMoved;
-    this.rwAt[n] = this.nRw;
+    if (!this.forward) {
+      this.movedAt[n] = this.nMoved;
+      this.rwAt[n] = this.nRw;
+    }
     this.levels = n + 1;
   }
 }
@@ -411,14 +449,20 @@ export function decodeChunk(payload, index, info, st, log, h) {
     nApp: log.nApp,
   };
   const first = log.nRecords;
+  const forward = log.forward;
+  const nv0 = st.nv;
+  const nf0 = st.nf;
   let t = 0;
   try {
     for (; t < info.recordCount; t++) {
       decodeRecord(ctx);
-      if (log.nRecords + 1 > log.ops.length) {
-        log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords, log.maxLevels);
+      if (!forward) {
+        if (log.nRecords + 1 > log.ops.length) {
+          log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords, log.maxLevels);
+        }
+        log.ops[log.nRecords] = ctx.lastOp;
       }
-      log.ops[log.nRecords++] = ctx.lastOp;
+      log.nRecords++;
       log.pushLevel(st.nv, st.nf);
     }
     for (const s of streams) {
@@ -432,11 +476,44 @@ export function decodeChunk(payload, index, info, st, log, h) {
       throw `records reach ${st.nv} vertices and ${st.nf} faces, the chunk table says ${info.vertexCount} and ${info.faceCount}`;
     }
   } catch (e) {
+    // One-way decoding has no other copy of the deepest committed level:
+    // the frontier goes back to it (the general decoder's levels live in
+    // the log, so its frontier is simply dropped).
+    if (forward) rollBack(st, log, saved.nMoved, saved.nRw, nv0, nf0);
     Object.assign(log, saved);
     if (typeof e !== 'string') throw e;
     if (t < 0) throw invalid(section, e);
     throw badRecord(index, first + t, e);
   }
+}
+
+/**
+ * Undoes on the frontier the log entries from `nMoved` / `nRw` on (those of
+ * a chunk that failed; each entry is logged before its write, so they cover
+ * every write made) and truncates it to `nv` vertices and `nf` slots, then
+ * lists the slots afresh (O(mesh), once, on a failure).
+ */
+function rollBack(st, log, nMoved, nRw, nv, nf) {
+  const q = st.q;
+  const f = st.f;
+  const M = log.moved;
+  const R = log.rw;
+  for (let e = log.nRw - 1; e >= nRw; e--) {
+    const s4 = 4 * R[5 * e];
+    f[s4] ^= R[5 * e + 1];
+    f[s4 + 1] ^= R[5 * e + 2];
+    f[s4 + 2] ^= R[5 * e + 3];
+    f[s4 + 3] ^= R[5 * e + 4];
+  }
+  for (let e = log.nMoved - 1; e >= nMoved; e--) {
+    const o = 16 * M[4 * e];
+    q[o] -= M[4 * e + 1];
+    q[o + 1] -= M[4 * e + 2];
+    q[o + 2] -= M[4 * e + 3];
+  }
+  st.nv = nv;
+  st.nf = nf;
+  st.rebuild();
 }
 
 /** Decodes one record and applies it to the frontier, logging undo data. */
@@ -548,18 +625,23 @@ export function appendQuad(ctx, a, b, c, d) {
   f[4 * slot + 2] = c;
   f[4 * slot + 3] = d;
   st.nf = slot + 1;
+  if (!log.forward) logAppended(log, st.maxF, a, b, c, d);
+  st.add(a, slot);
+  st.add(b, slot);
+  st.add(c, slot);
+  st.add(d, slot);
+}
+
+/** The general log's copy of an appended quad (the level move reads it). */
+function logAppended(log, maxF, a, b, c, d) {
   const n = log.nApp;
-  if (4 * (n + 1) > log.app.length) log.app = ensure(log.app, 4 * (n + 1), 4 * n, 4 * st.maxF);
+  if (4 * (n + 1) > log.app.length) log.app = ensure(log.app, 4 * (n + 1), 4 * n, 4 * maxF);
   const ap = log.app;
   ap[4 * n] = a;
   ap[4 * n + 1] = b;
   ap[4 * n + 2] = c;
   ap[4 * n + 3] = d;
   log.nApp = n + 1;
-  st.add(a, slot);
-  st.add(b, slot);
-  st.add(c, slot);
-  st.add(d, slot);
 }
 
 /** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
@@ -574,6 +656,7 @@ export function appendVertex(ctx) {
   q[16 * v + 2] = ctx.cz;
   q[16 * v + LEN] = 0;
   st.nv = v + 1;
+  if (log.forward) return;
   const n = log.nNew;
   if (3 * (n + 1) > log.newCodes.length) {
     log.newCodes = ensure(log.newCodes, 3 * (n + 1), 3 * n, 3 * st.maxV);
@@ -995,14 +1078,41 @@ function canonicalStar(st, m, sc) {
   const sN = sc.N;
   const sO = sc.O;
   const sP = sc.P;
-  const K = st.star(m, S, sK);
+  // Frontier.star fused with the corner reads: the slots ascending first
+  // (the list is in m's record, in cache), then one read of each quad for
+  // its corner and neighbours — the K quad reads are the record's first
+  // touches of scattered memory, so they go out back to back with no
+  // dependent work between them.
+  const K = st.sortedSlots(m, S);
   if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
-    const k = sK[i];
-    sN[i] = f[s4 + ((k + 1) & 3)];
-    sO[i] = f[s4 + ((k + 2) & 3)];
-    sP[i] = f[s4 + ((k + 3) & 3)];
+    const v0 = f[s4];
+    const v1 = f[s4 + 1];
+    const v2 = f[s4 + 2];
+    const v3 = f[s4 + 3];
+    // the lists are exact: m is at one of the four corners
+    if (v0 === m) {
+      sK[i] = 0;
+      sN[i] = v1;
+      sO[i] = v2;
+      sP[i] = v3;
+    } else if (v1 === m) {
+      sK[i] = 1;
+      sN[i] = v2;
+      sO[i] = v3;
+      sP[i] = v0;
+    } else if (v2 === m) {
+      sK[i] = 2;
+      sN[i] = v3;
+      sO[i] = v0;
+      sP[i] = v1;
+    } else {
+      sK[i] = 3;
+      sN[i] = v0;
+      sO[i] = v1;
+      sP[i] = v2;
+    }
   }
   // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
   // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
@@ -1072,7 +1182,8 @@ function canonicalStar(st, m, sc) {
 const starA = new StarScratch();
 const starB = new StarScratch();
 const sLink = new Int32Array(257);
-const sSideC = new Int32Array(256);
+/** Per star face (index into S) of a split: 1 on side C, 0 on side A. */
+const sSide = new Uint8Array(256);
 
 /** Split form (spec §7.5). */
 function decodeSplit(ctx, sym) {
@@ -1127,6 +1238,7 @@ function decodeSplit(ctx, sym) {
         saz += q[o + 2];
       }
       nA++;
+      sSide[idx] = 0;
     } else {
       if (moves) {
         const o = 16 * sO[idx];
@@ -1134,7 +1246,8 @@ function decodeSplit(ctx, sym) {
         scy += q[o + 1];
         scz += q[o + 2];
       }
-      sSideC[nC++] = S[idx];
+      nC++;
+      sSide[idx] = 1;
     }
   }
 
@@ -1205,29 +1318,52 @@ function decodeSplit(ctx, sym) {
   readCode(ctx, px, py, pz, 'split vertex', m, ' (c)');
   appendVertex(ctx);
 
-  // 5. the explicit record: side-C slots by ascending slot, m → c.
-  const sideC = sSideC;
-  for (let t = 1; t < nC; t++) {
-    const x = sideC[t];
-    let u = t;
-    while (u > 0 && sideC[u - 1] > x) {
-      sideC[u] = sideC[u - 1];
-      u--;
+  // 5. the explicit record — side-C slots by ascending slot (S is
+  // ascending), m → c — written straight into the frontier: one corner per
+  // slot (m's, known from the star), its log entry (the XOR is m ^ c at
+  // that corner), and the lists whole when m's is inline: m keeps its
+  // side-A slots, the new c takes the side-C ones (what rewriteSlot's
+  // per-slot remove and add would leave, without a scan of m's list each).
+  const log = ctx.log;
+  let n = log.nRw;
+  if (5 * (n + nC) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + nC), 5 * n);
+  const r = log.rw;
+  const fq = st.f;
+  const qs = st.q; // appendVertex may have grown it
+  const sC = sc.C;
+  const x = m ^ c;
+  const whole = K <= INLINE;
+  const bm = (m << 4) + AT;
+  const bc = (c << 4) + AT;
+  let nAk = 0;
+  let nCk = 0;
+  for (let idx = 0; idx < K; idx++) {
+    const s = S[idx];
+    if (sSide[idx] === 0) {
+      if (whole) qs[bm + nAk] = s;
+      nAk++;
+      continue;
     }
-    sideC[u] = x;
+    const k = sC[idx];
+    const o = 5 * n++;
+    r[o] = s;
+    r[o + 1] = k === 0 ? x : 0;
+    r[o + 2] = k === 1 ? x : 0;
+    r[o + 3] = k === 2 ? x : 0;
+    r[o + 4] = k === 3 ? x : 0;
+    fq[4 * s + k] = c;
+    if (whole) {
+      qs[bc + nCk] = s;
+    } else {
+      st.remove(m, s);
+      st.add(c, s);
+    }
+    nCk++;
   }
-  for (let t = 0; t < nC; t++) {
-    const s = sideC[t];
-    const s4 = 4 * s;
-    const fq = st.f;
-    rewriteSlot(
-      ctx,
-      s,
-      fq[s4] === m ? c : fq[s4],
-      fq[s4 + 1] === m ? c : fq[s4 + 1],
-      fq[s4 + 2] === m ? c : fq[s4 + 2],
-      fq[s4 + 3] === m ? c : fq[s4 + 3],
-    );
+  log.nRw = n;
+  if (whole) {
+    qs[(m << 4) + LEN] = nAk;
+    qs[(c << 4) + LEN] = nCk;
   }
   // Q'[t] = B[(t + rot) mod 4] with B = (m, d, c, b)
   const rot = (sym >> 4) & 3;
@@ -1252,10 +1388,11 @@ function decodeFaceSplit(ctx, sym) {
   const m = ctx.vcur + ctx.refs.s();
   if (m < 0 || m >= V) throw `face-split vertex ${m} outside 0..${V}`;
   ctx.vcur = m;
-  // 2. S ascending, no walk (Frontier.star sorts by slot).
+  // 2. S ascending, no walk: only the slot list is sorted, and only the
+  // split quad is read (the others' corners are not needed, and each quad
+  // read is a first touch of scattered memory).
   const sS = starA.S;
-  const sK = starA.C;
-  const K = st.star(m, sS, sK);
+  const K = st.sortedSlots(m, sS);
   if (K < 1) throw `vertex ${m} is in no face`;
   // 3. the split slot
   const x = ctx.conn.u();
@@ -1263,7 +1400,7 @@ function decodeFaceSplit(ctx, sym) {
   if (t >= K) throw `face index ${t} of vertex ${m} outside 0..${K}`;
   const swap = x % 2;
   const s = sS[t];
-  const k = sK[t];
+  const k = cornerIn(st.f, 4 * s, m);
   // 4. the halves A = (m, p, o, c) and B = (m, c, o, q)
   const f = st.f;
   const s4 = 4 * s;

@@ -130,7 +130,15 @@ const range = (start, end) => ({ start, end });
  */
 export class PqmDecoder {
   /**
-   * @param {{limits?: {maxVertices?: number, maxFaces?: number, maxMemoryBytes?: number}}} [options]
+   * `forwardOnly: true` makes a one-way decoder (like the Rust decoder's
+   * `Decoder::forward_only`), for a loader that only streams towards full
+   * detail: it keeps no per-record log (a chunk's undo data only until the
+   * chunk commits), so it moves only *to the deepest decoded level* —
+   * `refineTo` / `setLevel` with a target that resolves to it; any other
+   * move is a `parameter` error. Everything else (input, checks, limits,
+   * events, the levels it reaches and the `Change`s it reports) is the same
+   * as the default decoder's; it needs less memory and decodes faster.
+   * @param {{limits?: {maxVertices?: number, maxFaces?: number, maxMemoryBytes?: number}, forwardOnly?: boolean}} [options]
    */
   constructor(options = {}) {
     const l = options.limits ?? {};
@@ -150,7 +158,16 @@ export class PqmDecoder {
     this._chunks = [];
     this._chunksReady = 0;
     this._frontier = null;
-    this._log = new RecordLog();
+    this._forward = options.forwardOnly === true;
+    this._log = new RecordLog(this._forward);
+    // forward-only: the ids below the current level's counts that committed
+    // chunks moved / rewrote since the last move (what its Change reports),
+    // each once (marked with the pending epoch in _vMark / _fMark)
+    this._pendMoved = new Uint32Array(64);
+    this._nPendMoved = 0;
+    this._pendRw = new Uint32Array(64);
+    this._nPendRw = 0;
+    this._pendEpoch = 0;
     this._vertexOrder = null;
     this._vertexOrderTag = null; // which section gave it: 'VORD' or 'VNBR'
     this._sectionsRead = [];
@@ -607,6 +624,49 @@ export class PqmDecoder {
     }
     decodeChunk(payload, i, info, this._frontier, this._log, this._header);
     this._chunksReady = i + 1;
+    if (this._forward) this._dropChunkLog();
+  }
+
+  /**
+   * Forward-only, after a chunk commits: keeps of its log only the ids the
+   * next move's Change reports (below the current level's counts, each
+   * once), then empties the log, so its buffers are reused by the next
+   * chunk and stay the size of one chunk's entries.
+   */
+  _dropChunkLog() {
+    const log = this._log;
+    const vl = this._nv;
+    const fl = this._nf;
+    if (this._pendEpoch === 0) this._pendEpoch = this._nextEpoch(vl, fl);
+    const epoch = this._pendEpoch;
+    const vMark = this._vMark;
+    const fMark = this._fMark;
+    const M = log.moved;
+    const R = log.rw;
+    let moved = this._pendMoved;
+    let n = this._nPendMoved;
+    for (let e = 0; e < log.nMoved; e++) {
+      const v = M[4 * e];
+      if (v < vl && vMark[v] !== epoch) {
+        vMark[v] = epoch;
+        if (n === moved.length) moved = this._pendMoved = ensure(moved, n + 1);
+        moved[n++] = v;
+      }
+    }
+    this._nPendMoved = n;
+    let rw = this._pendRw;
+    n = this._nPendRw;
+    for (let e = 0; e < log.nRw; e++) {
+      const s = R[5 * e];
+      if (s < fl && fMark[s] !== epoch) {
+        fMark[s] = epoch;
+        if (n === rw.length) rw = this._pendRw = ensure(rw, n + 1);
+        rw[n++] = s;
+      }
+    }
+    this._nPendRw = n;
+    log.nMoved = 0;
+    log.nRw = 0;
   }
 
   _onSection(i, sec, b) {
@@ -776,6 +836,7 @@ export class PqmDecoder {
   }
 
   _goTo(to) {
+    if (this._forward) return this._forwardTo(to);
     const from = this._level;
     const log = this._log;
     const vFrom = log.vAt[from];
@@ -892,6 +953,85 @@ export class PqmDecoder {
       facesRewritten: rwSorted,
       facesAppended: range(fMin, fTo),
       facesTruncated: range(fTo, Math.max(fFrom, fTo)),
+    });
+  }
+
+  /**
+   * Forward-only move: to the deepest decoded level, which is the
+   * frontier, so the current level copies the frontier's codes and quads of
+   * what the committed chunks appended, moved or rewrote since the last
+   * move (the pending ids, collected when each chunk committed). The same
+   * level and Change as the general decoder's move.
+   */
+  _forwardTo(to) {
+    const from = this._level;
+    const deepest = this.deepestLevel;
+    if (to !== from && (to < from || to !== deepest)) {
+      throw new PqmError(
+        'parameter',
+        `a forward-only decoder moves only to the deepest decoded level (${deepest}), not from level ${from} to ${to}`,
+      );
+    }
+    const st = this._frontier;
+    const vFrom = this._nv;
+    const fFrom = this._nf;
+    const vTo = to === from ? vFrom : st.nv;
+    const fTo = to === from ? fFrom : st.nf;
+    const movedSorted = this._pendMoved.slice(0, to === from ? 0 : this._nPendMoved).sort();
+    const rwSorted = this._pendRw.slice(0, to === from ? 0 : this._nPendRw).sort();
+    if (to !== from) {
+      this._reserve(vTo, fTo);
+      const q = this._q;
+      const pos = this._pos;
+      const sq = st.q;
+      for (let v = vFrom; v < vTo; v++) {
+        q[3 * v] = sq[16 * v];
+        q[3 * v + 1] = sq[16 * v + 1];
+        q[3 * v + 2] = sq[16 * v + 2];
+      }
+      for (let i = 0; i < movedSorted.length; i++) {
+        const v = movedSorted[i];
+        q[3 * v] = sq[16 * v];
+        q[3 * v + 1] = sq[16 * v + 1];
+        q[3 * v + 2] = sq[16 * v + 2];
+      }
+      this._dequantizeInto(pos, q, vFrom, vTo);
+      const [x0, y0, z0] = this._min;
+      const [sx, sy, sz] = this._step;
+      for (let i = 0; i < movedSorted.length; i++) {
+        const o = 3 * movedSorted[i];
+        pos[o] = x0 + q[o] * sx;
+        pos[o + 1] = y0 + q[o + 1] * sy;
+        pos[o + 2] = z0 + q[o + 2] * sz;
+      }
+      const quads = this._quads;
+      const sf = st.f;
+      quads.set(sf.subarray(4 * fFrom, 4 * fTo), 4 * fFrom);
+      this._writeTrisRange(fFrom, fTo);
+      for (let i = 0; i < rwSorted.length; i++) {
+        const s4 = 4 * rwSorted[i];
+        quads[s4] = sf[s4];
+        quads[s4 + 1] = sf[s4 + 1];
+        quads[s4 + 2] = sf[s4 + 2];
+        quads[s4 + 3] = sf[s4 + 3];
+        this._writeTrisRange(rwSorted[i], rwSorted[i] + 1);
+      }
+      this._nPendMoved = 0;
+      this._nPendRw = 0;
+      this._pendEpoch = 0;
+      this._level = to;
+      this._nv = vTo;
+      this._nf = fTo;
+    }
+    return new Change({
+      fromLevel: from,
+      toLevel: to,
+      verticesAppended: range(vFrom, vTo),
+      verticesRemoved: range(vTo, vTo),
+      verticesMoved: movedSorted,
+      facesRewritten: rwSorted,
+      facesAppended: range(fFrom, fTo),
+      facesTruncated: range(fTo, fTo),
     });
   }
 

@@ -29,6 +29,11 @@ function walk(st, m) {
   const S = new Int32Array(256);
   const C = new Int32Array(256);
   const K = st.star(m, S, C);
+  // sortedSlots (what the face split and canonicalStar read) lists the same
+  // slots in the same order
+  const T = new Int32Array(256);
+  assert.equal(st.sortedSlots(m, T), K);
+  assert.deepEqual([...T.subarray(0, K)], [...S.subarray(0, K)]);
   return { slots: [...S.subarray(0, K)], corners: [...C.subarray(0, K)] };
 }
 
@@ -89,4 +94,5 @@ test('a star of more than 255 faces is an error, not an overflow', () => {
   for (let s = 0; s < st.nf; s++) st.f.set([0, 1 + 2 * s, 2 + 2 * s, 599], 4 * s);
   st.rebuild();
   assert.throws(() => st.star(0, new Int32Array(256), new Int32Array(256)), (e) => /more than 255 faces/.test(e));
+  assert.throws(() => st.sortedSlots(0, new Int32Array(256)), (e) => /more than 255 faces/.test(e));
 });

@@ -67,6 +67,30 @@ class FakeGpu {
   }
 }
 
+for (const file of files) {
+  test(`${file.name}: a forward-only decoder streams into the same GPU copy, uploading the same elements`, () => {
+    const run = (decoder) => {
+      const pm = new PQMProgressiveMesh(decoder, { maxGap: 0 });
+      const gpu = new FakeGpu();
+      for (const piece of randomPieces(file.bytes, rng(5), 1500)) {
+        pm.push(piece);
+        if (pm.geometry && pm.decoder.deepestLevel !== null) {
+          gpu.render(pm);
+          gpu.check(pm, `${file.name} streaming`);
+          assert.equal(pm.level, pm.decoder.deepestLevel);
+        }
+      }
+      pm.decoder.end();
+      return { pm, gpu };
+    };
+    const g = run(new PqmDecoder());
+    const w = run(new PqmDecoder({ forwardOnly: true }));
+    assert.equal(w.gpu.elementsUploaded, g.gpu.elementsUploaded);
+    assert.deepEqual([...w.pm.decoder.triangleIndices], [...g.pm.decoder.triangleIndices]);
+    assert.deepEqual([...w.pm.decoder.positions], [...g.pm.decoder.positions]);
+  });
+}
+
 test('coalesce merges runs with small gaps', () => {
   assert.deepEqual(coalesce([{ start: 0, end: 2 }, { start: 5, end: 6 }, { start: 50, end: 51 }], 3), [
     { start: 0, end: 6 },
