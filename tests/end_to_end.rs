@@ -6,6 +6,17 @@ use pqm::core::coarsen::{CoarsenOptions, Coarsener};
 use pqm::core::{shapes, IndexedMesh, Mesh};
 use pqm::format::{decode_all, write_to_vec, Decoder, EncodeOptions, Limits, Target};
 
+/// A shared mesh as quads: read, and split once (linear) when it is not
+/// quad-only, as `pqm encode` does.
+fn read_quads(path: &std::path::Path) -> IndexedMesh {
+    let src = pqm::core::io::read_mesh(path).unwrap();
+    if src.is_quad_only() {
+        return src;
+    }
+    pqm::core::subdivide::catmull_clark_split(&src, pqm::core::subdivide::SplitMode::Linear)
+        .unwrap()
+}
+
 fn coarsen(src: &IndexedMesh, target: usize) -> pqm::core::ProgressiveMesh {
     let mesh = Mesh::from_indexed(src).unwrap();
     let opts = CoarsenOptions {
@@ -62,14 +73,7 @@ fn coarsened_torus_round_trips_through_the_format() {
 fn every_level_of_real_meshes_decodes_exactly() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/meshes/quad");
     for (name, target) in [("fandisk_quads.off", 250), ("spot_control_mesh.obj", 100)] {
-        let mut src = pqm::core::io::read_mesh(&dir.join(name)).unwrap();
-        if !src.is_quad_only() {
-            src = pqm::core::subdivide::catmull_clark_split(
-                &src,
-                pqm::core::subdivide::SplitMode::Linear,
-            )
-            .unwrap();
-        }
+        let src = read_quads(&dir.join(name));
         let pm = coarsen(&src, target);
         let (bytes, _) = write_to_vec(&pm, &EncodeOptions::default()).unwrap();
         let mut dec = Decoder::new(Limits::default());
@@ -102,14 +106,7 @@ fn real_vertex_orders_round_trip_and_vnbr_is_smaller() {
         ("spot_control_mesh.obj", 100),
         ("suzanne.obj", 300),
     ] {
-        let mut src = pqm::core::io::read_mesh(&dir.join(name)).unwrap();
-        if !src.is_quad_only() {
-            src = pqm::core::subdivide::catmull_clark_split(
-                &src,
-                pqm::core::subdivide::SplitMode::Linear,
-            )
-            .unwrap();
-        }
+        let src = read_quads(&dir.join(name));
         let pm = coarsen(&src, target);
         let mut sizes = Vec::new();
         for deltas in [false, true] {
