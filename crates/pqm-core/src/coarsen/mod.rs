@@ -40,10 +40,10 @@
 //! [`Coarsener::set_prune_slack`], [`CoarsenReport::peak_queue`]). A
 //! candidate is named by face and corner (never by half-edge id, which an
 //! undo may renumber) and the pop order is a total order, so the output
-//! does not depend on when pruning runs. Scoring only reads the mesh, so a
-//! batch of candidates is scored in parallel (rayon, per-thread scratch)
-//! and pushed in candidate order: the output does not depend on the thread
-//! count either.
+//! does not depend on when pruning runs. Scoring only reads the mesh, so
+//! the whole mesh's candidates (at the start and at each phase change) are
+//! scored in parallel (rayon, per-thread scratch) and pushed in candidate
+//! order: the output does not depend on the thread count either.
 
 pub mod features;
 pub mod record;
@@ -82,7 +82,12 @@ pub const RELAX_ITERATIONS: u32 = 2;
 /// step is relaxed.
 pub const RELAX_BELOW_JACOBIAN: f64 = 0.5;
 /// Fewer candidates than this are scored on the calling thread (a
-/// parallel split would cost more than it saves).
+/// parallel split would cost more than it saves). Only whole-mesh scorings
+/// (the start and each phase change) are split at all: a commit re-scores a
+/// few hundred candidates, and splitting those over the pool measured
+/// slower than scoring them on the loop's thread (bunny bench, 2 cores:
+/// 30.1 → 25.6 s CPU, wall 34 → 25–31 s on a loaded machine), since each
+/// batch waited for the other thread to wake and take its half.
 const PARALLEL_MIN_CANDIDATES: usize = 32;
 /// Faces scored per batch when the whole mesh is queued: bounds the
 /// candidate and cost lists (which would otherwise add ≈ 100 bytes per
@@ -606,48 +611,21 @@ impl Coarsener {
     /// now and then with the current face count.
     pub fn run(&mut self, progress: &mut dyn FnMut(usize)) -> CoarsenReport {
         // Doublets in the input go first: every later step assumes none.
-        let all: Vec<VertexId> = self.mesh.vertices().collect();
-        self.remove_doublets_committed(&all);
-        let faces: Vec<FaceId> = self.mesh.faces().collect();
-        self.push_faces(&faces, &[]);
+        rayon::scope(|_| {
+            let all: Vec<VertexId> = self.mesh.vertices().collect();
+            self.remove_doublets_committed(&all);
+            let faces: Vec<FaceId> = self.mesh.faces().collect();
+            self.push_faces(&faces, &[]);
+        });
         let target = self.target_faces();
-        let mut since = 0;
-        while self.mesh.face_count() > target {
-            let Some(e) = self.queue.pop() else {
-                if self.cap < MAX_VALENCE || self.limit_deviation {
-                    // phase done: first allow valence MAX_VALENCE, then
-                    // drop the surface-deviation limit; score everything
-                    // again
-                    if self.cap < MAX_VALENCE {
-                        self.cap = MAX_VALENCE;
-                    } else {
-                        self.limit_deviation = false;
-                    }
-                    let faces: Vec<FaceId> = self.mesh.faces().collect();
-                    self.push_faces(&faces, &[]);
-                    continue;
-                }
-                self.report.stop = Some(StopReason::NothingLegal);
-                break;
-            };
-            // The queue drains while the step logs grow: give its slack
-            // back so the two peaks do not add up (at most once per
-            // halving, so the copies are amortized; the order is unchanged).
-            if self.queue.capacity() > PRUNE_MIN_CAPACITY
-                && self.queue.len() < self.queue.capacity() / 4
-            {
-                self.queue.shrink_to(self.queue.len() * 2);
-            }
-            if !self.fresh(&e) {
-                continue;
-            }
-            if self.try_commit(e.cand) {
-                since += 1;
-                if since >= 256 {
-                    since = 0;
-                    progress(self.mesh.face_count());
-                }
-            }
+        // The loop runs on a thread of the rayon pool, so the scoring of each
+        // re-scored neighbourhood (a few hundred candidates) is split with
+        // the calling thread taking part, instead of being injected into the
+        // pool from outside and waited for: per commit that cost two
+        // cross-thread wake-ups, and the caller sat idle. `progress` need
+        // not be `Send`, so the pool is left every 256 commits to call it.
+        while rayon::scope(|_| self.steps(target, 256)) {
+            progress(self.mesh.face_count());
         }
         // The queue's slack (and, when nothing legal was left, the whole
         // queue) is not needed any more: free it before the records are built.
@@ -665,6 +643,50 @@ impl Coarsener {
         progress(self.mesh.face_count());
         self.report.error = self.error;
         self.report.clone()
+    }
+
+    /// Pops and tries candidates until the face target is reached or
+    /// nothing is legal (`false`), or `commits` steps were committed
+    /// (`true`: call again).
+    fn steps(&mut self, target: usize, commits: usize) -> bool {
+        let mut since = 0;
+        while self.mesh.face_count() > target {
+            let Some(e) = self.queue.pop() else {
+                if self.cap < MAX_VALENCE || self.limit_deviation {
+                    // phase done: first allow valence MAX_VALENCE, then
+                    // drop the surface-deviation limit; score everything
+                    // again
+                    if self.cap < MAX_VALENCE {
+                        self.cap = MAX_VALENCE;
+                    } else {
+                        self.limit_deviation = false;
+                    }
+                    let faces: Vec<FaceId> = self.mesh.faces().collect();
+                    self.push_faces(&faces, &[]);
+                    continue;
+                }
+                self.report.stop = Some(StopReason::NothingLegal);
+                return false;
+            };
+            // The queue drains while the step logs grow: give its slack
+            // back so the two peaks do not add up (at most once per
+            // halving, so the copies are amortized; the order is unchanged).
+            if self.queue.capacity() > PRUNE_MIN_CAPACITY
+                && self.queue.len() < self.queue.capacity() / 4
+            {
+                self.queue.shrink_to(self.queue.len() * 2);
+            }
+            if !self.fresh(&e) {
+                continue;
+            }
+            if self.try_commit(e.cand) {
+                since += 1;
+                if since >= commits {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// The coarsest mesh plus refinement records in canonical numbering.
@@ -747,7 +769,8 @@ impl Coarsener {
     /// face with the smaller id — unless the other face is outside the batch
     /// (its entry for the edge went stale with this face's stamp and will not
     /// be pushed again), in which case this face pushes it. They are scored
-    /// in parallel, then pushed in that order (the pop order is a total
+    /// (in parallel when the whole mesh is queued: `batch` empty), then
+    /// pushed in that order (the pop order is a total
     /// order, so only the set of entries matters). A long list (the whole
     /// mesh) is scored in chunks of [`SCORE_CHUNK_FACES`], each chunk's
     /// queueable entries added to a buffer grown to exactly fit them: no
@@ -783,7 +806,8 @@ impl Coarsener {
             }
         }
         let this = &*self;
-        let costs: Vec<Option<f64>> = if cands.len() < PARALLEL_MIN_CANDIDATES {
+        let parallel = batch.is_empty() && cands.len() >= PARALLEL_MIN_CANDIDATES;
+        let costs: Vec<Option<f64>> = if !parallel {
             SCRATCH.with(|s| {
                 let s = &mut s.borrow_mut();
                 cands.iter().map(|&c| this.score(c, s)).collect()
