@@ -492,6 +492,66 @@ fn free_score_scratch() {
     rayon::broadcast(|_| free());
 }
 
+/// The neighbours after the step of touched slot `k` into `s.nb` (kept
+/// edges, then the edges of the inserted quads, each once), unless already
+/// there; `s.nb_range[k]` is where. A vertex that merges away gets none.
+fn fill_neighbours(
+    m: &Mesh,
+    patch: &Patch,
+    fmark: &[u32],
+    epoch: u32,
+    s: &mut ScoreScratch,
+    k: usize,
+) {
+    if s.nb_range[k].0 != usize::MAX {
+        return;
+    }
+    let v = s.touched[k];
+    let kept = |f: Option<FaceId>| f.is_some_and(|f| fmark[f.idx()] != epoch);
+    let start = s.nb.len();
+    if !patch.merged.iter().any(|g| g.0 == v) {
+        for h in m.outgoing(v) {
+            if kept(m.face(h)) || kept(m.face(m.twin(h))) {
+                let w = m.to_vertex(h).0;
+                if !s.nb[start..].contains(&w) {
+                    s.nb.push(w);
+                }
+            }
+        }
+        let mut c = s.corner_head[k];
+        while c != u32::MAX {
+            let (q, i) = (&patch.add[c as usize / 4], c as usize % 4);
+            for w in [q[(i + 1) % 4].0, q[(i + 3) % 4].0] {
+                if !s.nb[start..].contains(&w) {
+                    s.nb.push(w);
+                }
+            }
+            c = s.corner_next[c as usize];
+        }
+    }
+    s.nb_range[k] = (start, s.nb.len());
+}
+
+/// `(valence after, ideal valence after)` of touched vertex `v` whose
+/// neighbours after are `nb[lo..hi]`; `None` when it merges away or keeps
+/// no edge.
+fn after_of(m: &Mesh, patch: &Patch, v: VertexId, lo: usize, hi: usize) -> Option<(usize, usize)> {
+    if hi == lo || patch.merged.iter().any(|g| g.0 == v) {
+        return None;
+    }
+    let boundary = m.is_boundary_vertex(v)
+        || patch
+            .merged
+            .iter()
+            .any(|g| g.1 == v && m.is_boundary_vertex(g.0));
+    let ideal = match (boundary, m.is_boundary_vertex(v)) {
+        (false, _) => 4,
+        (true, true) => m.ideal_valence(v),
+        (true, false) => 3,
+    };
+    Some((hi - lo, ideal))
+}
+
 impl ScoreScratch {
     /// Empties the lists and starts a new epoch for a mesh of `vertices`
     /// vertex ids and `faces` face ids.
@@ -754,10 +814,12 @@ impl Coarsener {
         // Scoring builds the patch but leaves the (costlier) topology check
         // to commit time: a candidate that fails it is dropped when popped
         // and comes back only when its neighbourhood changes.
-        if let Cand::Qv(f, d) = cand {
-            if self.qv_over_cap(f, d) {
-                return None;
-            }
+        let fails = match cand {
+            Cand::Qv(f, d) => self.qv_over_cap(f, d),
+            Cand::Qe(f, i, _) => self.qe_degenerates(f, i),
+        };
+        if fails {
+            return None;
         }
         let mut patch = std::mem::take(&mut s.patch);
         let cost = match self.build_topology(cand, &mut patch) {
@@ -838,6 +900,32 @@ impl Coarsener {
             })
             .count();
         n - lost > bound
+    }
+
+    /// True when the qeMerge across `f`'s edge `i` certainly fails to
+    /// build because an endpoint is an interior vertex of valence 3: its
+    /// third face (a quad or a triangle) holds both vertices that merge into
+    /// it and collapses to fewer than three vertices (`qe_merge`: "a face
+    /// degenerates"). Checked before building the patch, which gathers and
+    /// maps every face around the six vertices first. Only for scoring: a
+    /// popped candidate is built in full, so its rejection reason is the
+    /// operator's.
+    fn qe_degenerates(&self, f: FaceId, i: u8) -> bool {
+        let m = &self.mesh;
+        let Some(h) = face_edge(m, f, i) else {
+            return false;
+        };
+        let Ok(site) = ops::qe_merge::qe_site(m, h) else {
+            return false;
+        };
+        let [a, _, _, d, _, _] = site.v;
+        [a, d].into_iter().any(|x| {
+            !m.is_boundary_vertex(x)
+                && m.outgoing(x).take(4).count() == 3
+                && m.vertex_faces(x)
+                    .filter(|&g| g != site.q1 && g != site.q2)
+                    .all(|g| m.face_degree(g) <= 4)
+        })
     }
 
     /// [`Coarsener::score`] of a built patch.
@@ -1137,14 +1225,6 @@ impl Coarsener {
             let (e, k) = vmark[v.idx()];
             (e == epoch).then_some(k as usize)
         };
-        let kept = |f: Option<FaceId>| f.is_some_and(|f| fmark[f.idx()] != epoch);
-        let is_merged = |v: VertexId| patch.merged.iter().any(|g| g.0 == v);
-        let mut dev_b = 0usize;
-        for &v in &s.touched {
-            let (val, ideal) = (m.valence(v), m.ideal_valence(v));
-            s.before.push((val, ideal));
-            dev_b = dev_b.max(val.abs_diff(ideal));
-        }
         // corners of the inserted quads, linked per touched vertex (every
         // inserted vertex is a vertex of a removed face)
         s.corner_head.resize(s.touched.len(), u32::MAX);
@@ -1158,51 +1238,55 @@ impl Coarsener {
                 s.corner_next.push(next);
             }
         }
-        // neighbours after of each surviving touched vertex (CSR in `nb`):
-        // kept edges, then the edges of the inserted quads, each once
-        for (k, &v) in s.touched.iter().enumerate() {
-            let start = s.nb.len();
-            if !is_merged(v) {
-                for h in m.outgoing(v) {
-                    if kept(m.face(h)) || kept(m.face(m.twin(h))) {
-                        let w = m.to_vertex(h).0;
-                        if !s.nb[start..].contains(&w) {
-                            s.nb.push(w);
-                        }
-                    }
-                }
-                let mut c = s.corner_head[k];
-                while c != u32::MAX {
-                    let (q, i) = (&patch.add[c as usize / 4], c as usize % 4);
-                    for w in [q[(i + 1) % 4].0, q[(i + 3) % 4].0] {
-                        if !s.nb[start..].contains(&w) {
-                            s.nb.push(w);
-                        }
-                    }
-                    c = s.corner_next[c as usize];
+        // Neighbours after (CSR in `nb`) are filled per slot on demand: the
+        // merge targets and their neighbours first, since a target over
+        // the valence cap (most refused scorings) makes the rest moot. This
+        // is the cap test of the loop below for those vertices alone, so
+        // the verdict is the same.
+        s.nb_range.resize(s.touched.len(), (usize::MAX, 0));
+        for gi in 0..patch.merged.len() {
+            let t = patch.merged[gi].1;
+            if patch.merged[..gi].iter().any(|g| g.1 == t) {
+                continue;
+            }
+            let Some(k) = local(t) else {
+                continue;
+            };
+            fill_neighbours(m, patch, &fmark, epoch, s, k);
+            let (lo, hi) = s.nb_range[k];
+            let Some((val, ideal)) = after_of(m, patch, t, lo, hi) else {
+                continue;
+            };
+            if ideal == 4 && val == 2 {
+                continue;
+            }
+            let mut lost = 0;
+            for i in lo..hi {
+                let w = VertexId(s.nb[i]);
+                if let Some(j) = local(w) {
+                    fill_neighbours(m, patch, &fmark, epoch, s, j);
+                    let (a, b) = s.nb_range[j];
+                    lost += (after_of(m, patch, w, a, b) == Some((2, 4))) as usize;
                 }
             }
-            s.nb_range.push((start, s.nb.len()));
+            if val - lost > self.cap.max(m.valence(t)) {
+                s.vmark = vmark;
+                s.fmark = fmark;
+                return None;
+            }
+        }
+        let mut dev_b = 0usize;
+        for &v in &s.touched {
+            let (val, ideal) = (m.valence(v), m.ideal_valence(v));
+            s.before.push((val, ideal));
+            dev_b = dev_b.max(val.abs_diff(ideal));
         }
         // (valence after, ideal after) per touched slot; `None` when the
         // vertex merges away or keeps no edge
-        for (k, &v) in s.touched.iter().enumerate() {
+        for k in 0..s.touched.len() {
+            fill_neighbours(m, patch, &fmark, epoch, s, k);
             let (lo, hi) = s.nb_range[k];
-            let after = if hi == lo || is_merged(v) {
-                None
-            } else {
-                let boundary = m.is_boundary_vertex(v)
-                    || patch
-                        .merged
-                        .iter()
-                        .any(|g| g.1 == v && m.is_boundary_vertex(g.0));
-                let ideal = match (boundary, m.is_boundary_vertex(v)) {
-                    (false, _) => 4,
-                    (true, true) => m.ideal_valence(v),
-                    (true, false) => 3,
-                };
-                Some((hi - lo, ideal))
-            };
+            let after = after_of(m, patch, s.touched[k], lo, hi);
             s.after.push(after);
         }
         // doublets the step triggers: interior valence-2 survivors vanish and
