@@ -811,19 +811,29 @@ impl Coarsener {
     /// valence cap. Pure (reads the mesh only), so candidates can be scored
     /// in parallel.
     fn score(&self, cand: Cand, s: &mut ScoreScratch) -> Option<f64> {
+        self.score_with(cand, s, true)
+    }
+
+    /// [`Coarsener::score`], with or without the shortcuts that end it
+    /// before the full computation would ([`Coarsener::qv_over_cap`],
+    /// [`Coarsener::qe_degenerates`], the merge targets' cap test in
+    /// [`Coarsener::cost`]): the result is the same either way (a unit test
+    /// compares the two).
+    fn score_with(&self, cand: Cand, s: &mut ScoreScratch, shortcuts: bool) -> Option<f64> {
         // Scoring builds the patch but leaves the (costlier) topology check
         // to commit time: a candidate that fails it is dropped when popped
         // and comes back only when its neighbourhood changes.
-        let fails = match cand {
-            Cand::Qv(f, d) => self.qv_over_cap(f, d),
-            Cand::Qe(f, i, _) => self.qe_degenerates(f, i),
-        };
+        let fails = shortcuts
+            && match cand {
+                Cand::Qv(f, d) => self.qv_over_cap(f, d),
+                Cand::Qe(f, i, _) => self.qe_degenerates(f, i),
+            };
         if fails {
             return None;
         }
         let mut patch = std::mem::take(&mut s.patch);
         let cost = match self.build_topology(cand, &mut patch) {
-            Ok(place) => self.score_patch(cand, &mut patch, place, s),
+            Ok(place) => self.score_patch(cand, &mut patch, place, s, shortcuts),
             Err(_) => None,
         };
         s.patch = patch;
@@ -935,6 +945,7 @@ impl Coarsener {
         patch: &mut Patch,
         place: Place,
         s: &mut ScoreScratch,
+        shortcuts: bool,
     ) -> Option<f64> {
         if matches!(cand, Cand::Qe(_, _, k) if k != 0) {
             self.place_patch(place, patch);
@@ -949,7 +960,7 @@ impl Coarsener {
                 return None;
             }
         }
-        self.cost(cand, patch, place, s)
+        self.cost(cand, patch, place, s, shortcuts)
     }
 
     /// Queues the candidates of `faces` (live ones): both qvMerge diagonals
@@ -1198,6 +1209,7 @@ impl Coarsener {
         patch: &mut Patch,
         place: Place,
         s: &mut ScoreScratch,
+        shortcuts: bool,
     ) -> Option<f64> {
         // --- V: ideal-vertex fraction before/after over the touched vertices.
         // Valences after count the distinct neighbours over kept and
@@ -1244,7 +1256,8 @@ impl Coarsener {
         // is the cap test of the loop below for those vertices alone, so
         // the verdict is the same.
         s.nb_range.resize(s.touched.len(), (usize::MAX, 0));
-        for gi in 0..patch.merged.len() {
+        let early = if shortcuts { patch.merged.len() } else { 0 };
+        for gi in 0..early {
             let t = patch.merged[gi].1;
             if patch.merged[..gi].iter().any(|g| g.1 == t) {
                 continue;
@@ -2179,6 +2192,68 @@ impl Coarsener {
 mod tests {
     use super::*;
     use crate::shapes;
+
+    /// Scoring's shortcuts never change a score: on meshes with and
+    /// without boundary, under both valence caps and both placements, at
+    /// several stages of coarsening, every candidate of every face scores
+    /// bit for bit the same with the shortcuts as without them — and the
+    /// shortcuts do fire (else the comparison would prove nothing).
+    #[test]
+    fn scoring_shortcuts_change_no_score() {
+        let closed = shapes::noisy(&shapes::torus(24, 12, 1.0, 0.35), 0.1, 3);
+        let open = shapes::noisy(&shapes::grid(16, 12, 1.0, 0.75), 0.05, 5);
+        let mut fired = [0usize; 2];
+        let mut compared = 0usize;
+        for (src, placement) in [
+            (&closed, Placement::Qem),
+            (&closed, Placement::Subset),
+            (&open, Placement::Qem),
+        ] {
+            let mesh = Mesh::from_indexed(src).unwrap();
+            let opts = CoarsenOptions {
+                placement,
+                ..Default::default()
+            };
+            let mut c = Coarsener::with_defaults(mesh, 180.0, &[], opts).expect("features");
+            let all: Vec<VertexId> = c.mesh.vertices().collect();
+            c.remove_doublets_committed(&all);
+            let faces: Vec<FaceId> = c.mesh.faces().collect();
+            c.push_faces(&faces, &[]);
+            let mut s = ScoreScratch::default();
+            for _stage in 0..5 {
+                for cap in [FIRST_PHASE_MAX_VALENCE, MAX_VALENCE] {
+                    c.cap = cap;
+                    let faces: Vec<FaceId> = c.mesh.faces().collect();
+                    for f in faces {
+                        let mut cands = vec![Cand::Qv(f, 0), Cand::Qv(f, 1)];
+                        cands.extend((0..4).map(|i| Cand::Qe(f, i, 0)));
+                        for cand in cands {
+                            match cand {
+                                Cand::Qv(f, d) => fired[0] += c.qv_over_cap(f, d) as usize,
+                                Cand::Qe(f, i, _) => fired[1] += c.qe_degenerates(f, i) as usize,
+                            }
+                            let fast = c.score_with(cand, &mut s, true);
+                            let full = c.score_with(cand, &mut s, false);
+                            assert_eq!(
+                                fast.map(f64::to_bits),
+                                full.map(f64::to_bits),
+                                "{cand:?} scores differently with the shortcuts"
+                            );
+                            compared += 1;
+                        }
+                    }
+                }
+                c.cap = FIRST_PHASE_MAX_VALENCE;
+                let target = c.mesh.face_count() * 3 / 4;
+                c.steps(target, usize::MAX);
+            }
+        }
+        assert!(
+            fired[0] > 0 && fired[1] > 0,
+            "a shortcut never fired: {fired:?}"
+        );
+        assert!(compared > 1000);
+    }
 
     /// The wide rescue's relaxation ([`Coarsener::relax_keeping`]) leaves no
     /// quad of its `keep` set under `min(MIN_NEW_QUAD_JACOBIAN, its value
