@@ -40,10 +40,10 @@
 //! [`Coarsener::set_prune_slack`], [`CoarsenReport::peak_queue`]). A
 //! candidate is named by face and corner (never by half-edge id, which an
 //! undo may renumber) and the pop order is a total order, so the output
-//! does not depend on when pruning runs. Scoring only reads the mesh, so a
-//! batch of candidates is scored in parallel (rayon, per-thread scratch)
-//! and pushed in candidate order: the output does not depend on the thread
-//! count either.
+//! does not depend on when pruning runs. Scoring only reads the mesh, so
+//! the whole mesh's candidates (at the start and at each phase change) are
+//! scored in parallel (rayon, per-thread scratch) and pushed in candidate
+//! order: the output does not depend on the thread count either.
 
 pub mod features;
 pub mod record;
@@ -82,7 +82,12 @@ pub const RELAX_ITERATIONS: u32 = 2;
 /// step is relaxed.
 pub const RELAX_BELOW_JACOBIAN: f64 = 0.5;
 /// Fewer candidates than this are scored on the calling thread (a
-/// parallel split would cost more than it saves).
+/// parallel split would cost more than it saves). Only whole-mesh scorings
+/// (the start and each phase change) are split at all: a commit re-scores a
+/// few hundred candidates, and splitting those over the pool measured
+/// slower than scoring them on the loop's thread (bunny bench, 2 cores:
+/// 30.1 → 25.6 s CPU, wall 34 → 25–31 s on a loaded machine), since each
+/// batch waited for the other thread to wake and take its half.
 const PARALLEL_MIN_CANDIDATES: usize = 32;
 /// Faces scored per batch when the whole mesh is queued: bounds the
 /// candidate and cost lists (which would otherwise add ≈ 100 bytes per
@@ -346,6 +351,23 @@ fn face_edge(m: &Mesh, f: FaceId, i: u8) -> Option<HalfedgeId> {
     m.face_halfedges(f).nth(i as usize)
 }
 
+/// The QEM placement a built patch still needs ([`Coarsener::place_patch`]):
+/// the merge groups and their feature constraints.
+#[derive(Clone, Copy, Debug)]
+enum Place {
+    /// Positions already in the patch (subset placement).
+    Done,
+    /// A qvMerge's diagonal pair.
+    Qv([VertexId; 2], GroupConstraint),
+    /// A qeMerge's groups `[a, b, f]` and `[d, c, e]`.
+    Qe(
+        [VertexId; 3],
+        GroupConstraint,
+        [VertexId; 3],
+        GroupConstraint,
+    ),
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Entry {
     cost: f64,
@@ -468,6 +490,66 @@ fn free_score_scratch() {
     let free = || SCRATCH.with(|s| *s.borrow_mut() = ScoreScratch::default());
     free();
     rayon::broadcast(|_| free());
+}
+
+/// The neighbours after the step of touched slot `k` into `s.nb` (kept
+/// edges, then the edges of the inserted quads, each once), unless already
+/// there; `s.nb_range[k]` is where. A vertex that merges away gets none.
+fn fill_neighbours(
+    m: &Mesh,
+    patch: &Patch,
+    fmark: &[u32],
+    epoch: u32,
+    s: &mut ScoreScratch,
+    k: usize,
+) {
+    if s.nb_range[k].0 != usize::MAX {
+        return;
+    }
+    let v = s.touched[k];
+    let kept = |f: Option<FaceId>| f.is_some_and(|f| fmark[f.idx()] != epoch);
+    let start = s.nb.len();
+    if !patch.merged.iter().any(|g| g.0 == v) {
+        for h in m.outgoing(v) {
+            if kept(m.face(h)) || kept(m.face(m.twin(h))) {
+                let w = m.to_vertex(h).0;
+                if !s.nb[start..].contains(&w) {
+                    s.nb.push(w);
+                }
+            }
+        }
+        let mut c = s.corner_head[k];
+        while c != u32::MAX {
+            let (q, i) = (&patch.add[c as usize / 4], c as usize % 4);
+            for w in [q[(i + 1) % 4].0, q[(i + 3) % 4].0] {
+                if !s.nb[start..].contains(&w) {
+                    s.nb.push(w);
+                }
+            }
+            c = s.corner_next[c as usize];
+        }
+    }
+    s.nb_range[k] = (start, s.nb.len());
+}
+
+/// `(valence after, ideal valence after)` of touched vertex `v` whose
+/// neighbours after are `nb[lo..hi]`; `None` when it merges away or keeps
+/// no edge.
+fn after_of(m: &Mesh, patch: &Patch, v: VertexId, lo: usize, hi: usize) -> Option<(usize, usize)> {
+    if hi == lo || patch.merged.iter().any(|g| g.0 == v) {
+        return None;
+    }
+    let boundary = m.is_boundary_vertex(v)
+        || patch
+            .merged
+            .iter()
+            .any(|g| g.1 == v && m.is_boundary_vertex(g.0));
+    let ideal = match (boundary, m.is_boundary_vertex(v)) {
+        (false, _) => 4,
+        (true, true) => m.ideal_valence(v),
+        (true, false) => 3,
+    };
+    Some((hi - lo, ideal))
 }
 
 impl ScoreScratch {
@@ -606,48 +688,21 @@ impl Coarsener {
     /// now and then with the current face count.
     pub fn run(&mut self, progress: &mut dyn FnMut(usize)) -> CoarsenReport {
         // Doublets in the input go first: every later step assumes none.
-        let all: Vec<VertexId> = self.mesh.vertices().collect();
-        self.remove_doublets_committed(&all);
-        let faces: Vec<FaceId> = self.mesh.faces().collect();
-        self.push_faces(&faces, &[]);
+        rayon::scope(|_| {
+            let all: Vec<VertexId> = self.mesh.vertices().collect();
+            self.remove_doublets_committed(&all);
+            let faces: Vec<FaceId> = self.mesh.faces().collect();
+            self.push_faces(&faces, &[]);
+        });
         let target = self.target_faces();
-        let mut since = 0;
-        while self.mesh.face_count() > target {
-            let Some(e) = self.queue.pop() else {
-                if self.cap < MAX_VALENCE || self.limit_deviation {
-                    // phase done: first allow valence MAX_VALENCE, then
-                    // drop the surface-deviation limit; score everything
-                    // again
-                    if self.cap < MAX_VALENCE {
-                        self.cap = MAX_VALENCE;
-                    } else {
-                        self.limit_deviation = false;
-                    }
-                    let faces: Vec<FaceId> = self.mesh.faces().collect();
-                    self.push_faces(&faces, &[]);
-                    continue;
-                }
-                self.report.stop = Some(StopReason::NothingLegal);
-                break;
-            };
-            // The queue drains while the step logs grow: give its slack
-            // back so the two peaks do not add up (at most once per
-            // halving, so the copies are amortized; the order is unchanged).
-            if self.queue.capacity() > PRUNE_MIN_CAPACITY
-                && self.queue.len() < self.queue.capacity() / 4
-            {
-                self.queue.shrink_to(self.queue.len() * 2);
-            }
-            if !self.fresh(&e) {
-                continue;
-            }
-            if self.try_commit(e.cand) {
-                since += 1;
-                if since >= 256 {
-                    since = 0;
-                    progress(self.mesh.face_count());
-                }
-            }
+        // The loop runs on a thread of the rayon pool, so the scoring of each
+        // re-scored neighbourhood (a few hundred candidates) is split with
+        // the calling thread taking part, instead of being injected into the
+        // pool from outside and waited for: per commit that cost two
+        // cross-thread wake-ups, and the caller sat idle. `progress` need
+        // not be `Send`, so the pool is left every 256 commits to call it.
+        while rayon::scope(|_| self.steps(target, 256)) {
+            progress(self.mesh.face_count());
         }
         // The queue's slack (and, when nothing legal was left, the whole
         // queue) is not needed any more: free it before the records are built.
@@ -665,6 +720,50 @@ impl Coarsener {
         progress(self.mesh.face_count());
         self.report.error = self.error;
         self.report.clone()
+    }
+
+    /// Pops and tries candidates until the face target is reached or
+    /// nothing is legal (`false`), or `commits` steps were committed
+    /// (`true`: call again).
+    fn steps(&mut self, target: usize, commits: usize) -> bool {
+        let mut since = 0;
+        while self.mesh.face_count() > target {
+            let Some(e) = self.queue.pop() else {
+                if self.cap < MAX_VALENCE || self.limit_deviation {
+                    // phase done: first allow valence MAX_VALENCE, then
+                    // drop the surface-deviation limit; score everything
+                    // again
+                    if self.cap < MAX_VALENCE {
+                        self.cap = MAX_VALENCE;
+                    } else {
+                        self.limit_deviation = false;
+                    }
+                    let faces: Vec<FaceId> = self.mesh.faces().collect();
+                    self.push_faces(&faces, &[]);
+                    continue;
+                }
+                self.report.stop = Some(StopReason::NothingLegal);
+                return false;
+            };
+            // The queue drains while the step logs grow: give its slack
+            // back so the two peaks do not add up (at most once per
+            // halving, so the copies are amortized; the order is unchanged).
+            if self.queue.capacity() > PRUNE_MIN_CAPACITY
+                && self.queue.len() < self.queue.capacity() / 4
+            {
+                self.queue.shrink_to(self.queue.len() * 2);
+            }
+            if !self.fresh(&e) {
+                continue;
+            }
+            if self.try_commit(e.cand) {
+                since += 1;
+                if since >= commits {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// The coarsest mesh plus refinement records in canonical numbering.
@@ -712,21 +811,144 @@ impl Coarsener {
     /// valence cap. Pure (reads the mesh only), so candidates can be scored
     /// in parallel.
     fn score(&self, cand: Cand, s: &mut ScoreScratch) -> Option<f64> {
+        self.score_with(cand, s, true)
+    }
+
+    /// [`Coarsener::score`], with or without the shortcuts that end it
+    /// before the full computation would ([`Coarsener::qv_over_cap`],
+    /// [`Coarsener::qe_degenerates`], the merge targets' cap test in
+    /// [`Coarsener::cost`]): the result is the same either way (a unit test
+    /// compares the two).
+    fn score_with(&self, cand: Cand, s: &mut ScoreScratch, shortcuts: bool) -> Option<f64> {
         // Scoring builds the patch but leaves the (costlier) topology check
         // to commit time: a candidate that fails it is dropped when popped
         // and comes back only when its neighbourhood changes.
+        let fails = shortcuts
+            && match cand {
+                Cand::Qv(f, d) => self.qv_over_cap(f, d),
+                Cand::Qe(f, i, _) => self.qe_degenerates(f, i),
+            };
+        if fails {
+            return None;
+        }
         let mut patch = std::mem::take(&mut s.patch);
-        let cost = self
-            .build_into(cand, &mut patch)
-            .ok()
-            .and_then(|()| self.score_patch(cand, &patch, s));
+        let cost = match self.build_topology(cand, &mut patch) {
+            Ok(place) => self.score_patch(cand, &mut patch, place, s, shortcuts),
+            Err(_) => None,
+        };
         s.patch = patch;
         cost
     }
 
+    /// True when the qvMerge of `f`'s diagonal `d` would certainly be
+    /// scored `None` because its merged vertex breaks the valence cap: the
+    /// same verdict [`Coarsener::cost`] reaches, from the two vertices'
+    /// rings alone, without building the patch (about 60 % of the scored
+    /// qvMerges on the bunny end there; `false` = score it in full).
+    ///
+    /// For interior diagonal vertices `a`, `c` that share no face but `f`
+    /// (otherwise the build fails), the survivor's neighbours after are
+    /// exactly `N(a) ∪ N(c)`; a common neighbour loses one edge, any other
+    /// keeps its valence, so the neighbours the simulated doublet removals
+    /// take are the interior ones left at valence 2. `cost` compares the
+    /// survivor's valence with `cap.max(its valence before)`; the larger of
+    /// the two valences before is used here, so this never says `true`
+    /// where `cost` would queue the candidate.
+    fn qv_over_cap(&self, f: FaceId, d: u8) -> bool {
+        const MAX_RING: usize = 16;
+        let m = &self.mesh;
+        if !m.is_face_alive(f) {
+            return false;
+        }
+        let Some(q) = m.quad_vertices(f) else {
+            return false;
+        };
+        let (a, c) = (q[d as usize], q[d as usize + 2]);
+        if m.is_boundary_vertex(a) || m.is_boundary_vertex(c) {
+            return false;
+        }
+        // N(a) ∪ N(c), with a flag for the common neighbours
+        let mut ring = [(VertexId(0), false); 2 * MAX_RING];
+        let mut n = 0;
+        let mut val_a = 0;
+        for h in m.outgoing(a) {
+            let w = m.to_vertex(h);
+            if val_a == MAX_RING || ring[..n].iter().any(|r| r.0 == w) {
+                return false;
+            }
+            ring[n] = (w, false);
+            n += 1;
+            val_a += 1;
+        }
+        let mut val_c = 0;
+        for h in m.outgoing(c) {
+            let w = m.to_vertex(h);
+            if val_c == MAX_RING || w == a {
+                return false;
+            }
+            val_c += 1;
+            match ring[..val_a].iter_mut().find(|r| r.0 == w) {
+                Some(r) => r.1 = true,
+                None => {
+                    if ring[val_a..n].iter().any(|r| r.0 == w) {
+                        return false;
+                    }
+                    ring[n] = (w, false);
+                    n += 1;
+                }
+            }
+        }
+        let bound = self.cap.max(val_a).max(val_c);
+        if n <= bound {
+            return false;
+        }
+        // neighbours left at valence 2 inside: gone with their doublets
+        let lost = ring[..n]
+            .iter()
+            .filter(|&&(w, common)| {
+                !m.is_boundary_vertex(w) && m.outgoing(w).take(4).count() == 2 + common as usize
+            })
+            .count();
+        n - lost > bound
+    }
+
+    /// True when the qeMerge across `f`'s edge `i` certainly fails to
+    /// build because an endpoint is an interior vertex of valence 3: its
+    /// third face (a quad or a triangle) holds both vertices that merge into
+    /// it and collapses to fewer than three vertices (`qe_merge`: "a face
+    /// degenerates"). Checked before building the patch, which gathers and
+    /// maps every face around the six vertices first. Only for scoring: a
+    /// popped candidate is built in full, so its rejection reason is the
+    /// operator's.
+    fn qe_degenerates(&self, f: FaceId, i: u8) -> bool {
+        let m = &self.mesh;
+        let Some(h) = face_edge(m, f, i) else {
+            return false;
+        };
+        let Ok(site) = ops::qe_merge::qe_site(m, h) else {
+            return false;
+        };
+        let [a, _, _, d, _, _] = site.v;
+        [a, d].into_iter().any(|x| {
+            !m.is_boundary_vertex(x)
+                && m.outgoing(x).take(4).count() == 3
+                && m.vertex_faces(x)
+                    .filter(|&g| g != site.q1 && g != site.q2)
+                    .all(|g| m.face_degree(g) <= 4)
+        })
+    }
+
     /// [`Coarsener::score`] of a built patch.
-    fn score_patch(&self, cand: Cand, patch: &Patch, s: &mut ScoreScratch) -> Option<f64> {
+    fn score_patch(
+        &self,
+        cand: Cand,
+        patch: &mut Patch,
+        place: Place,
+        s: &mut ScoreScratch,
+        shortcuts: bool,
+    ) -> Option<f64> {
         if matches!(cand, Cand::Qe(_, _, k) if k != 0) {
+            self.place_patch(place, patch);
             // A crossing fan spans A–D with quads that E does not judge by
             // shape: queue it only if every new quad starts out well shaped.
             let m = &self.mesh;
@@ -738,7 +960,7 @@ impl Coarsener {
                 return None;
             }
         }
-        self.cost(cand, patch, s)
+        self.cost(cand, patch, place, s, shortcuts)
     }
 
     /// Queues the candidates of `faces` (live ones): both qvMerge diagonals
@@ -747,7 +969,8 @@ impl Coarsener {
     /// face with the smaller id — unless the other face is outside the batch
     /// (its entry for the edge went stale with this face's stamp and will not
     /// be pushed again), in which case this face pushes it. They are scored
-    /// in parallel, then pushed in that order (the pop order is a total
+    /// (in parallel when the whole mesh is queued: `batch` empty), then
+    /// pushed in that order (the pop order is a total
     /// order, so only the set of entries matters). A long list (the whole
     /// mesh) is scored in chunks of [`SCORE_CHUNK_FACES`], each chunk's
     /// queueable entries added to a buffer grown to exactly fit them: no
@@ -783,7 +1006,8 @@ impl Coarsener {
             }
         }
         let this = &*self;
-        let costs: Vec<Option<f64>> = if cands.len() < PARALLEL_MIN_CANDIDATES {
+        let parallel = batch.is_empty() && cands.len() >= PARALLEL_MIN_CANDIDATES;
+        let costs: Vec<Option<f64>> = if !parallel {
             SCRATCH.with(|s| {
                 let s = &mut s.borrow_mut();
                 cands.iter().map(|&c| this.score(c, s)).collect()
@@ -840,13 +1064,17 @@ impl Coarsener {
     /// Builds the candidate's patch, with feature rule 1 and placement.
     fn build(&self, cand: Cand) -> Result<Patch, Reject> {
         let mut patch = Patch::default();
-        self.build_into(cand, &mut patch)?;
+        let place = self.build_topology(cand, &mut patch)?;
+        self.place_patch(place, &mut patch);
         Ok(patch)
     }
 
-    /// [`Coarsener::build`] into `out`, reusing its buffers (scoring builds
-    /// a patch for every candidate).
-    fn build_into(&self, cand: Cand, out: &mut Patch) -> Result<(), Reject> {
+    /// The candidate's patch into `out` (its buffers reused: scoring builds
+    /// a patch for every candidate) with feature rule 1, but with the
+    /// QEM positions of its merged vertices left to [`Coarsener::place_patch`]
+    /// (the topology never depends on them): most scored candidates are
+    /// dropped for their valences before a position is needed.
+    fn build_topology(&self, cand: Cand, out: &mut Patch) -> Result<Place, Reject> {
         match cand {
             Cand::Qv(f, d) => {
                 let q = self
@@ -860,8 +1088,7 @@ impl Coarsener {
                     GroupConstraint::Pinned(v) => v == c,
                     _ => c < a,
                 };
-                let mut pos = self.place(&[a, c], con);
-                if self.opts.placement == Placement::Subset {
+                let (pos, place) = if self.opts.placement == Placement::Subset {
                     // keep whichever vertex the summed quadric likes better
                     // (a pinned one always), at its own position
                     if !matches!(con, GroupConstraint::Pinned(_)) {
@@ -870,9 +1097,22 @@ impl Coarsener {
                         let (pa, pc) = (self.mesh.position(a), self.mesh.position(c));
                         keep_second = q.evaluate(pc) < q.evaluate(pa);
                     }
-                    pos = self.mesh.position(if keep_second { c } else { a });
-                }
-                ops::qv_merge::qv_merge_patch_into(&self.mesh, f, d as usize, keep_second, pos, out)
+                    (
+                        self.mesh.position(if keep_second { c } else { a }),
+                        Place::Done,
+                    )
+                } else {
+                    (DVec3::ZERO, Place::Qv([a, c], con))
+                };
+                ops::qv_merge::qv_merge_patch_into(
+                    &self.mesh,
+                    f,
+                    d as usize,
+                    keep_second,
+                    pos,
+                    out,
+                )?;
+                Ok(place)
             }
             Cand::Qe(face, i, k) => {
                 let h = face_edge(&self.mesh, face, i)
@@ -881,7 +1121,7 @@ impl Coarsener {
                 let [a, b, c, d, e, f] = site.v;
                 let ca = self.features.check_group(&[a, b, f])?;
                 let cd = self.features.check_group(&[d, c, e])?;
-                let (pa, pd) =
+                let (pa, pd, place) =
                     if self.opts.placement == Placement::Subset {
                         // the shared edge's endpoints keep their ids, so they
                         // keep their positions: a constraint elsewhere (a pinned
@@ -897,15 +1137,34 @@ impl Coarsener {
                                 )),
                             }
                         }
-                        (self.mesh.position(a), self.mesh.position(d))
+                        (self.mesh.position(a), self.mesh.position(d), Place::Done)
                     } else {
-                        (self.place(&[a, b, f], ca), self.place(&[d, c, e], cd))
+                        (
+                            DVec3::ZERO,
+                            DVec3::ZERO,
+                            Place::Qe([a, b, f], ca, [d, c, e], cd),
+                        )
                     };
                 let cross = QE_VARIANTS
                     .get(k as usize)
                     .copied()
                     .unwrap_or([false, false]);
-                ops::qe_merge::qe_merge_patch_into(&self.mesh, h, pa, pd, cross, out)
+                ops::qe_merge::qe_merge_patch_into(&self.mesh, h, pa, pd, cross, out)?;
+                Ok(place)
+            }
+        }
+    }
+
+    /// Puts the QEM positions that [`Coarsener::build_topology`] left out
+    /// into the patch's moves (a qvMerge moves its survivor, a qeMerge `A`
+    /// then `D`: the order the operators list them in).
+    fn place_patch(&self, place: Place, patch: &mut Patch) {
+        match place {
+            Place::Done => {}
+            Place::Qv(group, con) => patch.moved[0].1 = self.place(&group, con),
+            Place::Qe(ga, ca, gd, cd) => {
+                patch.moved[0].1 = self.place(&ga, ca);
+                patch.moved[1].1 = self.place(&gd, cd);
             }
         }
     }
@@ -944,7 +1203,14 @@ impl Coarsener {
 
     /// The paper's error `E` for a built patch; `None` when the step would
     /// push a vertex past [`MAX_VALENCE`] (and past its valence before).
-    fn cost(&self, cand: Cand, patch: &Patch, s: &mut ScoreScratch) -> Option<f64> {
+    fn cost(
+        &self,
+        cand: Cand,
+        patch: &mut Patch,
+        place: Place,
+        s: &mut ScoreScratch,
+        shortcuts: bool,
+    ) -> Option<f64> {
         // --- V: ideal-vertex fraction before/after over the touched vertices.
         // Valences after count the distinct neighbours over kept and
         // inserted faces. Each touched vertex gets a local slot so its
@@ -971,14 +1237,6 @@ impl Coarsener {
             let (e, k) = vmark[v.idx()];
             (e == epoch).then_some(k as usize)
         };
-        let kept = |f: Option<FaceId>| f.is_some_and(|f| fmark[f.idx()] != epoch);
-        let is_merged = |v: VertexId| patch.merged.iter().any(|g| g.0 == v);
-        let mut dev_b = 0usize;
-        for &v in &s.touched {
-            let (val, ideal) = (m.valence(v), m.ideal_valence(v));
-            s.before.push((val, ideal));
-            dev_b = dev_b.max(val.abs_diff(ideal));
-        }
         // corners of the inserted quads, linked per touched vertex (every
         // inserted vertex is a vertex of a removed face)
         s.corner_head.resize(s.touched.len(), u32::MAX);
@@ -992,51 +1250,56 @@ impl Coarsener {
                 s.corner_next.push(next);
             }
         }
-        // neighbours after of each surviving touched vertex (CSR in `nb`):
-        // kept edges, then the edges of the inserted quads, each once
-        for (k, &v) in s.touched.iter().enumerate() {
-            let start = s.nb.len();
-            if !is_merged(v) {
-                for h in m.outgoing(v) {
-                    if kept(m.face(h)) || kept(m.face(m.twin(h))) {
-                        let w = m.to_vertex(h).0;
-                        if !s.nb[start..].contains(&w) {
-                            s.nb.push(w);
-                        }
-                    }
-                }
-                let mut c = s.corner_head[k];
-                while c != u32::MAX {
-                    let (q, i) = (&patch.add[c as usize / 4], c as usize % 4);
-                    for w in [q[(i + 1) % 4].0, q[(i + 3) % 4].0] {
-                        if !s.nb[start..].contains(&w) {
-                            s.nb.push(w);
-                        }
-                    }
-                    c = s.corner_next[c as usize];
+        // Neighbours after (CSR in `nb`) are filled per slot on demand: the
+        // merge targets and their neighbours first, since a target over
+        // the valence cap (most refused scorings) makes the rest moot. This
+        // is the cap test of the loop below for those vertices alone, so
+        // the verdict is the same.
+        s.nb_range.resize(s.touched.len(), (usize::MAX, 0));
+        let early = if shortcuts { patch.merged.len() } else { 0 };
+        for gi in 0..early {
+            let t = patch.merged[gi].1;
+            if patch.merged[..gi].iter().any(|g| g.1 == t) {
+                continue;
+            }
+            let Some(k) = local(t) else {
+                continue;
+            };
+            fill_neighbours(m, patch, &fmark, epoch, s, k);
+            let (lo, hi) = s.nb_range[k];
+            let Some((val, ideal)) = after_of(m, patch, t, lo, hi) else {
+                continue;
+            };
+            if ideal == 4 && val == 2 {
+                continue;
+            }
+            let mut lost = 0;
+            for i in lo..hi {
+                let w = VertexId(s.nb[i]);
+                if let Some(j) = local(w) {
+                    fill_neighbours(m, patch, &fmark, epoch, s, j);
+                    let (a, b) = s.nb_range[j];
+                    lost += (after_of(m, patch, w, a, b) == Some((2, 4))) as usize;
                 }
             }
-            s.nb_range.push((start, s.nb.len()));
+            if val - lost > self.cap.max(m.valence(t)) {
+                s.vmark = vmark;
+                s.fmark = fmark;
+                return None;
+            }
+        }
+        let mut dev_b = 0usize;
+        for &v in &s.touched {
+            let (val, ideal) = (m.valence(v), m.ideal_valence(v));
+            s.before.push((val, ideal));
+            dev_b = dev_b.max(val.abs_diff(ideal));
         }
         // (valence after, ideal after) per touched slot; `None` when the
         // vertex merges away or keeps no edge
-        for (k, &v) in s.touched.iter().enumerate() {
+        for k in 0..s.touched.len() {
+            fill_neighbours(m, patch, &fmark, epoch, s, k);
             let (lo, hi) = s.nb_range[k];
-            let after = if hi == lo || is_merged(v) {
-                None
-            } else {
-                let boundary = m.is_boundary_vertex(v)
-                    || patch
-                        .merged
-                        .iter()
-                        .any(|g| g.1 == v && m.is_boundary_vertex(g.0));
-                let ideal = match (boundary, m.is_boundary_vertex(v)) {
-                    (false, _) => 4,
-                    (true, true) => m.ideal_valence(v),
-                    (true, false) => 3,
-                };
-                Some((hi - lo, ideal))
-            };
+            let after = after_of(m, patch, s.touched[k], lo, hi);
             s.after.push(after);
         }
         // doublets the step triggers: interior valence-2 survivors vanish and
@@ -1109,6 +1372,9 @@ impl Coarsener {
         if over_cap {
             return None;
         }
+        // only now are the positions needed (`A` reads them)
+        self.place_patch(place, patch);
+        let patch = &*patch;
         let m = &self.mesh;
         // --- D: importance-weighted moved distance
         let imp = |vs: &[VertexId]| {
@@ -1926,6 +2192,68 @@ impl Coarsener {
 mod tests {
     use super::*;
     use crate::shapes;
+
+    /// Scoring's shortcuts never change a score: on meshes with and
+    /// without boundary, under both valence caps and both placements, at
+    /// several stages of coarsening, every candidate of every face scores
+    /// bit for bit the same with the shortcuts as without them — and the
+    /// shortcuts do fire (else the comparison would prove nothing).
+    #[test]
+    fn scoring_shortcuts_change_no_score() {
+        let closed = shapes::noisy(&shapes::torus(24, 12, 1.0, 0.35), 0.1, 3);
+        let open = shapes::noisy(&shapes::grid(16, 12, 1.0, 0.75), 0.05, 5);
+        let mut fired = [0usize; 2];
+        let mut compared = 0usize;
+        for (src, placement) in [
+            (&closed, Placement::Qem),
+            (&closed, Placement::Subset),
+            (&open, Placement::Qem),
+        ] {
+            let mesh = Mesh::from_indexed(src).unwrap();
+            let opts = CoarsenOptions {
+                placement,
+                ..Default::default()
+            };
+            let mut c = Coarsener::with_defaults(mesh, 180.0, &[], opts).expect("features");
+            let all: Vec<VertexId> = c.mesh.vertices().collect();
+            c.remove_doublets_committed(&all);
+            let faces: Vec<FaceId> = c.mesh.faces().collect();
+            c.push_faces(&faces, &[]);
+            let mut s = ScoreScratch::default();
+            for _stage in 0..5 {
+                for cap in [FIRST_PHASE_MAX_VALENCE, MAX_VALENCE] {
+                    c.cap = cap;
+                    let faces: Vec<FaceId> = c.mesh.faces().collect();
+                    for f in faces {
+                        let mut cands = vec![Cand::Qv(f, 0), Cand::Qv(f, 1)];
+                        cands.extend((0..4).map(|i| Cand::Qe(f, i, 0)));
+                        for cand in cands {
+                            match cand {
+                                Cand::Qv(f, d) => fired[0] += c.qv_over_cap(f, d) as usize,
+                                Cand::Qe(f, i, _) => fired[1] += c.qe_degenerates(f, i) as usize,
+                            }
+                            let fast = c.score_with(cand, &mut s, true);
+                            let full = c.score_with(cand, &mut s, false);
+                            assert_eq!(
+                                fast.map(f64::to_bits),
+                                full.map(f64::to_bits),
+                                "{cand:?} scores differently with the shortcuts"
+                            );
+                            compared += 1;
+                        }
+                    }
+                }
+                c.cap = FIRST_PHASE_MAX_VALENCE;
+                let target = c.mesh.face_count() * 3 / 4;
+                c.steps(target, usize::MAX);
+            }
+        }
+        assert!(
+            fired[0] > 0 && fired[1] > 0,
+            "a shortcut never fired: {fired:?}"
+        );
+        assert!(compared > 1000);
+    }
 
     /// The wide rescue's relaxation ([`Coarsener::relax_keeping`]) leaves no
     /// quad of its `keep` set under `min(MIN_NEW_QUAD_JACOBIAN, its value
