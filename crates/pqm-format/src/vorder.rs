@@ -152,7 +152,7 @@ impl Unassigned {
     fn new(n: usize) -> Self {
         let words = n.div_ceil(64);
         let mut bits = vec![u64::MAX; words];
-        if n % 64 != 0 {
+        if !n.is_multiple_of(64) {
             bits[words - 1] = (1u64 << (n % 64)) - 1;
         }
         // Linear Fenwick build: each node adds itself into its parent.
