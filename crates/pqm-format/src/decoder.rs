@@ -1500,7 +1500,11 @@ impl Decoder {
     /// (dequantized positions). `level_error[k]` is the error of the last
     /// chunk boundary at or before `k` — an upper bound, since the file
     /// stores errors per chunk only. `None` before the base mesh and for a
-    /// [`Decoder::forward_only`] decoder (it keeps no records).
+    /// [`Decoder::forward_only`] decoder (it keeps no records). Its
+    /// `vertex_order` is the file's once every level is decoded (this
+    /// decodes the section if [`Decoder::vertex_order`] has not), and empty
+    /// before, without a section, or when the section is bad (call
+    /// [`Decoder::vertex_order`] for the error).
     pub fn to_progressive_mesh(&self) -> Option<ProgressiveMesh> {
         if self.forward_only {
             return None;

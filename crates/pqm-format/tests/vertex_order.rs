@@ -270,6 +270,12 @@ fn hostile_vnbr_sections_are_rejected() {
                 assert_eq!(dec.level(), k);
                 assert_eq!(dec.quads(), &pm.level_quads(k).1[..]);
             }
+            // The records are whole; only the order is left out.
+            if !forward_only {
+                let back = dec.to_progressive_mesh().unwrap();
+                assert_eq!(back.records.len(), pm.records.len());
+                assert!(back.vertex_order.is_empty());
+            }
         }
     };
     // Bounds checked when the section arrives: the push fails, naming it.
