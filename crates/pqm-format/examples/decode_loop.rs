@@ -7,10 +7,13 @@
 //! codes, so that an A/B pair of builds can be checked to decode the same
 //! mesh.
 //!
-//! With `forward` as third argument the decoder is
-//! [`Decoder::forward_only`] (no undo data: one-way decoding).
+//! With `forward` after `N` the decoder is [`Decoder::forward_only`] (no
+//! undo data: one-way decoding). With `order` the timed part also asks for
+//! the vertex order ([`Decoder::vertex_order`], which decodes the `VORD` /
+//! `VNBR` section on first use): what an exporter pays, and what every
+//! decode paid when the section was read on arrival.
 //!
-//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N] [forward]`
+//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N] [forward] [order]`
 
 use pqm_format::{decode_all, DecodeError, Decoder, Limits, Target};
 
@@ -27,11 +30,13 @@ fn decode_forward(bytes: &[u8]) -> Result<Decoder, DecodeError> {
 fn main() {
     let mut args = std::env::args().skip(1);
     let Some(f) = args.next() else {
-        eprintln!("usage: decode_loop FILE.pqm [N]");
+        eprintln!("usage: decode_loop FILE.pqm [N] [forward] [order]");
         std::process::exit(2);
     };
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
-    let forward = args.next().is_some_and(|a| a == "forward");
+    let rest: Vec<String> = args.collect();
+    let forward = rest.iter().any(|a| a == "forward");
+    let order = rest.iter().any(|a| a == "order");
     let bytes = match std::fs::read(&f) {
         Ok(b) => b,
         Err(e) => {
@@ -60,6 +65,12 @@ fn main() {
             eprintln!("{f}: {e}");
             std::process::exit(1);
         }
+        if order {
+            if let Err(e) = d.vertex_order() {
+                eprintln!("{f}: {e}");
+                std::process::exit(1);
+            }
+        }
         faces = d.quads().len();
         best = best.min(t.elapsed().as_secs_f64());
         // Outside the timed part.
@@ -74,8 +85,9 @@ fn main() {
         }
     }
     println!(
-        "{f}{}: best of {n}: {:.2} ms, {:.2} M faces/s, checksum {sum:016x}",
+        "{f}{}{}: best of {n}: {:.2} ms, {:.2} M faces/s, checksum {sum:016x}",
         if forward { " (forward-only)" } else { "" },
+        if order { " (+ vertex order)" } else { "" },
         best * 1e3,
         faces as f64 / best / 1e6
     );

@@ -37,7 +37,11 @@ fn main() {
                 };
                 let (out, r) = write_to_vec(&pm, &opts).map_err(|e| e.to_string())?;
                 let back = decode_all(&out, Limits::none()).map_err(|e| e.to_string())?;
-                orders.push(back.vertex_order().map(<[u32]>::to_vec));
+                orders.push(
+                    back.vertex_order()
+                        .map_err(|e| e.to_string())?
+                        .map(<[u32]>::to_vec),
+                );
                 // The section header (16 bytes) is counted with its section.
                 cells.push((8.0 * r.section_bytes as f64 / n, r.file_bits_per_vertex));
             }

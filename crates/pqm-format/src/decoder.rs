@@ -26,6 +26,17 @@ use byteorder::{ByteOrder, LittleEndian as LE};
 use glam::DVec3;
 use pqm_core::{IndexedMesh, OpKind, ProgressiveMesh, SplitRecord};
 use std::ops::Range;
+use std::sync::OnceLock;
+
+/// A `VORD` or `VNBR` section kept compressed until the order is asked for.
+struct PendingOrder {
+    /// Index of the optional section (for errors).
+    index: u32,
+    /// `VNBR` (else `VORD`).
+    neighbours: bool,
+    compressed: Vec<u8>,
+    uncompressed_len: u32,
+}
 
 /// Resource budget of a decoder. The header's counts and the chunk table's
 /// sizes are checked against it before anything is allocated.
@@ -263,9 +274,13 @@ pub struct Decoder {
     buffers: codec::DecodeScratch,
     /// Decompressed payload of the chunk being decoded (reused).
     zbuf: Vec<u8>,
-    vertex_order: Option<Vec<u32>>,
-    /// Which section gave `vertex_order` (`VORD` or `VNBR`).
-    vertex_order_tag: Option<[u8; 4]>,
+    /// The vertex-order section as it arrived, checked only as far as is
+    /// cheap (CRC, flags, one section, length and memory bounds): decoding
+    /// it costs as much as a large part of the levels and only exporters
+    /// need it, so [`Decoder::vertex_order`] decodes it on first use.
+    vertex_order_section: Option<PendingOrder>,
+    /// The decoded order (or why the section is bad), once asked for.
+    vertex_order: OnceLock<Result<Vec<u32>, DecodeError>>,
     zstd: Option<zstd::bulk::Decompressor<'static>>,
     // Current level.
     level: usize,
@@ -329,8 +344,8 @@ impl Decoder {
             rec: codec::QRecord::default(),
             buffers: codec::DecodeScratch::default(),
             zbuf: Vec::new(),
-            vertex_order: None,
-            vertex_order_tag: None,
+            vertex_order_section: None,
+            vertex_order: OnceLock::new(),
             zstd: None,
             level: 0,
             q: Vec::new(),
@@ -528,7 +543,14 @@ impl Decoder {
             (FLAG_VERTEX_ORDER, TAG_VORD),
             (FLAG_VERTEX_NEIGHBOURS, TAG_VNBR),
         ] {
-            if flags & flag != 0 && self.vertex_order_tag != Some(tag) {
+            let present = self.vertex_order_section.as_ref().map(|p| {
+                if p.neighbours {
+                    TAG_VNBR
+                } else {
+                    TAG_VORD
+                }
+            });
+            if flags & flag != 0 && present != Some(tag) {
                 return Err(DecodeError::invalid(
                     Section::Trailer,
                     format!(
@@ -745,30 +767,13 @@ impl Decoder {
         out: &mut Vec<u8>,
     ) -> Result<(), DecodeError> {
         if self.zstd.is_none() {
-            let mut d = zstd::bulk::Decompressor::new()
-                .map_err(|e| DecodeError::Internal(e.to_string()))?;
-            d.set_parameter(zstd::zstd_safe::DParameter::WindowLogMax(MAX_WINDOW_LOG))
-                .map_err(|e| DecodeError::Internal(e.to_string()))?;
-            self.zstd = Some(d);
+            self.zstd = Some(new_zstd()?);
         }
-        check_single_frame(data, ulen).map_err(|m| DecodeError::invalid(section, m))?;
         let d = self
             .zstd
             .as_mut()
             .ok_or_else(|| DecodeError::Internal("no zstd context".into()))?;
-        // `ulen` was counted in the memory estimate (chunk table check).
-        out.clear();
-        out.reserve(ulen as usize);
-        let n = d
-            .decompress_to_buffer(data, out)
-            .map_err(|e| DecodeError::invalid(section, format!("zstd: {e}")))?;
-        if n != ulen as usize || out.len() != n {
-            return Err(DecodeError::invalid(
-                section,
-                format!("decompressed to {n} bytes, expected {ulen}"),
-            ));
-        }
-        Ok(())
+        decompress_frame(d, section, data, ulen, out)
     }
 
     fn check_crc(section: Section, data: &[u8], stored: u32) -> Result<(), DecodeError> {
@@ -1058,7 +1063,7 @@ impl Decoder {
                 flag.trailing_zeros()
             )));
         }
-        if self.vertex_order.is_some() {
+        if self.vertex_order_section.is_some() {
             return Err(bad(format!(
                 "a second vertex-order section ({name}; a file holds at most one VORD or VNBR)"
             )));
@@ -1096,23 +1101,56 @@ impl Decoder {
                 self.limits.max_memory_bytes
             )));
         }
-        let base = h.base_vertex_count as usize;
-        let payload = self.decompress(Section::Optional(i), b, ulen)?;
-        let order = if neighbours {
-            // Sections come after the last chunk, so the frontier is the
-            // finest level whatever level the caller is at.
+        // The frame's structure is cheap to check now; decompressing and
+        // the permutation wait until the order is first asked for (spec §8:
+        // a reader may defer them).
+        check_single_frame(b, ulen).map_err(bad)?;
+        self.vertex_order_section = Some(PendingOrder {
+            index: i,
+            neighbours,
+            compressed: b.to_vec(),
+            uncompressed_len: ulen,
+        });
+        Ok(())
+    }
+
+    /// Decodes the kept vertex-order section (see [`Decoder::vertex_order`]).
+    fn decode_vertex_order(&self, p: &PendingOrder) -> Result<Vec<u32>, DecodeError> {
+        let section = Section::Optional(p.index);
+        let bad = |m: String| DecodeError::invalid(section, m);
+        let h = self
+            .header
+            .as_ref()
+            .ok_or_else(|| DecodeError::Internal("section before header".into()))?;
+        let n = h.final_vertex_count;
+        let mut zstd = new_zstd()?;
+        let mut payload = Vec::new();
+        decompress_frame(
+            &mut zstd,
+            section,
+            &p.compressed,
+            p.uncompressed_len,
+            &mut payload,
+        )?;
+        if p.neighbours {
+            // Sections come after the last chunk and nothing changes the
+            // frontier after it, so the frontier is the finest level
+            // whatever level the caller is at.
             let st = self
                 .frontier
                 .as_ref()
                 .filter(|st| st.q.len() == n as usize)
                 .ok_or_else(|| DecodeError::Internal("VNBR before the finest level".into()))?;
-            crate::vorder::decode(&payload, n as usize, &st.quads, base).map_err(bad)?
+            crate::vorder::decode(
+                &payload,
+                n as usize,
+                &st.quads,
+                h.base_vertex_count as usize,
+            )
+            .map_err(bad)
         } else {
-            Self::decode_vord(&payload, n).map_err(bad)?
-        };
-        self.vertex_order = Some(order);
-        self.vertex_order_tag = Some(tag);
-        Ok(())
+            Self::decode_vord(&payload, n).map_err(bad)
+        }
     }
 
     /// The `VORD` permutation: `n` svarint deltas (spec §8.1).
@@ -1388,9 +1426,25 @@ impl Decoder {
     }
 
     /// The input vertex order (canonical id → input vertex index at the
-    /// finest level), once its `VORD` or `VNBR` section is read.
-    pub fn vertex_order(&self) -> Option<&[u32]> {
-        self.vertex_order.as_deref()
+    /// finest level); `Ok(None)` until a `VORD` or `VNBR` section has
+    /// arrived (and for files without one).
+    ///
+    /// The section is decoded here, on the first call, not when it arrives
+    /// (only exporters need the order, and decoding it costs a large part
+    /// of a whole-file decode); later calls return the cached result. A bad
+    /// section is then a [`DecodeError::Format`] naming it, returned by
+    /// every call; it affects only the order, never the levels (spec §8).
+    pub fn vertex_order(&self) -> Result<Option<&[u32]>, DecodeError> {
+        let Some(p) = &self.vertex_order_section else {
+            return Ok(None);
+        };
+        match self
+            .vertex_order
+            .get_or_init(|| self.decode_vertex_order(p))
+        {
+            Ok(order) => Ok(Some(order)),
+            Err(e) => Err(e.duplicate()),
+        }
     }
 
     /// Progress: what is decoded, what is missing.
@@ -1446,7 +1500,11 @@ impl Decoder {
     /// (dequantized positions). `level_error[k]` is the error of the last
     /// chunk boundary at or before `k` — an upper bound, since the file
     /// stores errors per chunk only. `None` before the base mesh and for a
-    /// [`Decoder::forward_only`] decoder (it keeps no records).
+    /// [`Decoder::forward_only`] decoder (it keeps no records). Its
+    /// `vertex_order` is the file's once every level is decoded (this
+    /// decodes the section if [`Decoder::vertex_order`] has not), and empty
+    /// before, without a section, or when the section is bad (call
+    /// [`Decoder::vertex_order`] for the error).
     pub fn to_progressive_mesh(&self) -> Option<ProgressiveMesh> {
         if self.forward_only {
             return None;
@@ -1501,7 +1559,13 @@ impl Decoder {
         }
         let vertex_order =
             if self.deepest_level() == self.header.as_ref().map(|h| h.record_count as usize) {
-                self.vertex_order.clone().unwrap_or_default()
+                // An undecodable order is left out, as if the file had
+                // none ([`Decoder::vertex_order`] says why).
+                self.vertex_order()
+                    .ok()
+                    .flatten()
+                    .map(<[u32]>::to_vec)
+                    .unwrap_or_default()
             } else {
                 Vec::new()
             };
@@ -1577,6 +1641,40 @@ fn check_block_sizes(data: &[u8]) -> Result<(), String> {
         if last {
             break;
         }
+    }
+    Ok(())
+}
+
+/// A zstd context that refuses windows beyond [`MAX_WINDOW_LOG`].
+fn new_zstd() -> Result<zstd::bulk::Decompressor<'static>, DecodeError> {
+    let mut d =
+        zstd::bulk::Decompressor::new().map_err(|e| DecodeError::Internal(e.to_string()))?;
+    d.set_parameter(zstd::zstd_safe::DParameter::WindowLogMax(MAX_WINDOW_LOG))
+        .map_err(|e| DecodeError::Internal(e.to_string()))?;
+    Ok(d)
+}
+
+/// Decompresses the single frame `data` of `ulen` bytes into `out`
+/// (cleared first; its buffer is reused).
+fn decompress_frame(
+    d: &mut zstd::bulk::Decompressor<'static>,
+    section: Section,
+    data: &[u8],
+    ulen: u32,
+    out: &mut Vec<u8>,
+) -> Result<(), DecodeError> {
+    check_single_frame(data, ulen).map_err(|m| DecodeError::invalid(section, m))?;
+    // `ulen` was counted in the memory estimate (chunk table check).
+    out.clear();
+    out.reserve(ulen as usize);
+    let n = d
+        .decompress_to_buffer(data, out)
+        .map_err(|e| DecodeError::invalid(section, format!("zstd: {e}")))?;
+    if n != ulen as usize || out.len() != n {
+        return Err(DecodeError::invalid(
+            section,
+            format!("decompressed to {n} bytes, expected {ulen}"),
+        ));
     }
     Ok(())
 }

@@ -107,6 +107,18 @@ pub enum DecodeError {
 }
 
 impl DecodeError {
+    /// The same error again (`std::io::Error` is not `Clone`: an I/O error
+    /// keeps its kind and message).
+    pub(crate) fn duplicate(&self) -> DecodeError {
+        match self {
+            DecodeError::Format(e) => DecodeError::Format(e.clone()),
+            DecodeError::Io(e) => DecodeError::Io(std::io::Error::new(e.kind(), e.to_string())),
+            DecodeError::LimitsExceeded(m) => DecodeError::LimitsExceeded(m.clone()),
+            DecodeError::Parameter(m) => DecodeError::Parameter(m.clone()),
+            DecodeError::Internal(m) => DecodeError::Internal(m.clone()),
+        }
+    }
+
     pub(crate) fn invalid(section: Section, message: impl Into<String>) -> Self {
         DecodeError::Format(FormatError::Invalid {
             section,

@@ -32,13 +32,14 @@ const RECENT: usize = 4;
 const RECENT_EE: usize = 8;
 
 /// Per vertex: its first [`NBR_CAP`] edge neighbours `E(v)` and diagonal
-/// neighbours `D(v)` in spec order (compressed rows; both row starts of a
-/// vertex side by side, so a vertex's two lists cost one miss to find).
+/// neighbours `D(v)` in spec order, in one compressed row `E(v) D(v)`: the
+/// walk reads both lists of a recent vertex, which then are one run of
+/// memory (one miss, not two).
 struct Adjacency {
-    /// `[start in e, start in d]` per vertex, and the ends.
+    /// `[start of E(v), start of D(v)]` per vertex, and the end; `D(v)`
+    /// ends where `E(v + 1)` starts.
     at: Vec<[u32; 2]>,
-    e: Vec<u32>,
-    d: Vec<u32>,
+    rows: Vec<u32>,
 }
 
 impl Adjacency {
@@ -73,74 +74,102 @@ impl Adjacency {
         // Exact bounds (what the decoder's memory estimate counts): at most
         // two edge neighbours and one diagonal one per corner, and the caps.
         let corners_n = at[n] as usize;
-        let e_max = (2 * corners_n).min(NBR_CAP * n);
-        if e_max > u32::MAX as usize {
+        let rows_max = (2 * corners_n).min(NBR_CAP * n) + corners_n.min(NBR_CAP * n);
+        if rows_max > u32::MAX as usize {
             return Err(format!(
                 "{corners_n} corners: too many for VNBR's 32-bit rows"
             ));
         }
         let mut a = Adjacency {
             at: Vec::with_capacity(n + 1),
-            e: Vec::with_capacity(e_max),
-            d: Vec::with_capacity(corners_n.min(NBR_CAP * n)),
+            rows: Vec::with_capacity(rows_max),
         };
-        a.at.push([0, 0]);
         for v in 0..n {
             let cs = &corners[at[v] as usize..at[v + 1] as usize];
             let corner = |c: u32, off: usize| quads[c as usize / 4][(c as usize % 4 + off) % 4];
-            let (mut ne, mut nd) = (0, 0);
+            let e_start = a.rows.len();
+            let mut ne = 0;
             for &c in cs {
                 for w in [corner(c, 1), corner(c, 3)] {
                     if mark[w as usize] != v as u32 {
                         mark[w as usize] = v as u32;
                         if ne < NBR_CAP {
-                            a.e.push(w);
+                            a.rows.push(w);
                             ne += 1;
                         }
                     }
                 }
             }
+            let d_start = a.rows.len();
+            let mut nd = 0;
             for &c in cs {
                 let w = corner(c, 2);
                 if mark[w as usize] != v as u32 {
                     mark[w as usize] = v as u32;
                     if nd < NBR_CAP {
-                        a.d.push(w);
+                        a.rows.push(w);
                         nd += 1;
                     }
                 }
             }
-            a.at.push([a.e.len() as u32, a.d.len() as u32]);
+            a.at.push([e_start as u32, d_start as u32]);
         }
+        a.at.push([a.rows.len() as u32; 2]);
         Ok(a)
     }
 
     fn e(&self, v: u32) -> &[u32] {
         let v = v as usize;
-        &self.e[self.at[v][0] as usize..self.at[v + 1][0] as usize]
+        &self.rows[self.at[v][0] as usize..self.at[v][1] as usize]
     }
 
     fn d(&self, v: u32) -> &[u32] {
         let v = v as usize;
-        &self.d[self.at[v][1] as usize..self.at[v + 1][1] as usize]
+        &self.rows[self.at[v][1] as usize..self.at[v + 1][0] as usize]
+    }
+
+    /// `E(v)` then `D(v)`, one slice.
+    fn ed(&self, v: u32) -> &[u32] {
+        let v = v as usize;
+        &self.rows[self.at[v][0] as usize..self.at[v + 1][0] as usize]
     }
 }
 
-/// Counts of unassigned vertices (a Fenwick tree over `0..n`).
+/// The unassigned vertices of `0..n`: one bit per vertex, and a Fenwick
+/// tree of the counts per 64-bit word. Every step removes a vertex and an
+/// escape asks a rank and a select: the tree has `n / 64` nodes, so it
+/// stays in the first-level cache where a tree over the vertices (16 times
+/// larger, spread over megabytes on large meshes) missed at each level.
 struct Unassigned {
+    /// Bit `v % 64` of word `v / 64`: `v` is unassigned.
+    bits: Vec<u64>,
+    /// Node `i` covers words `(i − lowbit(i), i]` (1-based).
     t: Vec<u32>,
     left: usize,
 }
 
 impl Unassigned {
     fn new(n: usize) -> Self {
-        // Every vertex starts unassigned: node i covers (i − lowbit(i), i].
-        let t = (0..=n).map(|i| (i & i.wrapping_neg()) as u32).collect();
-        Unassigned { t, left: n }
+        let words = n.div_ceil(64);
+        let mut bits = vec![u64::MAX; words];
+        if !n.is_multiple_of(64) {
+            bits[words - 1] = (1u64 << (n % 64)) - 1;
+        }
+        // Linear Fenwick build: each node adds itself into its parent.
+        let mut t = vec![0u32; words + 1];
+        for i in 1..=words {
+            t[i] += bits[i - 1].count_ones();
+            let p = i + (i & i.wrapping_neg());
+            if p <= words {
+                t[p] += t[i];
+            }
+        }
+        Unassigned { bits, t, left: n }
     }
 
     fn remove(&mut self, v: usize) {
-        let mut i = v + 1;
+        self.bits[v / 64] &= !(1u64 << (v % 64));
+        let mut i = v / 64 + 1;
         while i < self.t.len() {
             self.t[i] -= 1;
             i += i & i.wrapping_neg();
@@ -148,12 +177,16 @@ impl Unassigned {
         self.left -= 1;
     }
 
-    /// Unassigned vertices below `v`.
+    /// Unassigned vertices below `v` (`v ≤ n`).
     fn below(&self, v: usize) -> u64 {
-        let (mut i, mut s) = (v, 0u64);
+        let w = v / 64;
+        let (mut i, mut s) = (w, 0u64);
         while i > 0 {
             s += self.t[i] as u64;
             i -= i & i.wrapping_neg();
+        }
+        if let Some(&b) = self.bits.get(w) {
+            s += (b & ((1u64 << (v % 64)) - 1)).count_ones() as u64;
         }
         s
     }
@@ -161,21 +194,33 @@ impl Unassigned {
     /// The unassigned vertex with `r` unassigned vertices below it
     /// (`r < left`).
     fn select(&self, mut r: u64) -> usize {
-        let n = self.t.len() - 1;
+        let words = self.t.len() - 1;
+        // The word holding it: the last whose predecessors hold ≤ r.
         let mut pos = 0;
-        let mut step = if n == 0 {
+        let mut step = if words == 0 {
             0
         } else {
-            1 << (usize::BITS - 1 - n.leading_zeros())
+            1 << (usize::BITS - 1 - words.leading_zeros())
         };
         while step > 0 {
-            if pos + step <= n && (self.t[pos + step] as u64) <= r {
+            if pos + step <= words && (self.t[pos + step] as u64) <= r {
                 pos += step;
                 r -= self.t[pos] as u64;
             }
             step >>= 1;
         }
-        pos
+        // Bit `r` (0-based) among the word's set bits, by halves.
+        let mut x = self.bits.get(pos).copied().unwrap_or(0);
+        let mut at = 0;
+        for half in [32u32, 16, 8, 4, 2, 1] {
+            let c = (x & ((1u64 << half) - 1)).count_ones() as u64;
+            if r >= c {
+                r -= c;
+                x >>= half;
+                at += half as usize;
+            }
+        }
+        64 * pos + at
     }
 }
 
@@ -256,7 +301,7 @@ impl Walk {
         'build: {
             for k in 1..=RECENT.min(j) {
                 let h = recent(k);
-                for &w in adj.e(h).iter().chain(adj.d(h)) {
+                for &w in adj.ed(h) {
                     if add(w) {
                         break 'build;
                     }
@@ -406,15 +451,24 @@ mod tests {
 
     #[test]
     fn select_inverts_below() {
-        let mut u = Unassigned::new(37);
-        for v in [0, 5, 6, 20, 36] {
-            u.remove(v);
+        // One word, several words, a multiple of 64, removals at word ends.
+        for n in [1usize, 37, 64, 200, 1000] {
+            let mut u = Unassigned::new(n);
+            let gone: Vec<usize> = (0..n)
+                .filter(|v| v % 7 == 0 || v % 64 == 63 || (v * 31) % 11 == 3)
+                .collect();
+            for &v in &gone {
+                u.remove(v);
+            }
+            let free: Vec<usize> = (0..n).filter(|v| !gone.contains(v)).collect();
+            for v in 0..=n {
+                let want = free.iter().filter(|&&f| f < v).count() as u64;
+                assert_eq!(u.below(v), want, "n {n}, below {v}");
+            }
+            for (r, &v) in free.iter().enumerate() {
+                assert_eq!(u.select(r as u64), v, "n {n}, rank {r}");
+            }
+            assert_eq!(u.left, free.len());
         }
-        let free: Vec<usize> = (0..37).filter(|v| ![0, 5, 6, 20, 36].contains(v)).collect();
-        for (r, &v) in free.iter().enumerate() {
-            assert_eq!(u.below(v), r as u64);
-            assert_eq!(u.select(r as u64), v);
-        }
-        assert_eq!(u.left, free.len());
     }
 }

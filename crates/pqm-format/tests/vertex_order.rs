@@ -1,7 +1,9 @@
 //! The vertex-order sections (spec §8): `VNBR` (3.1, coded against the
 //! finest level's adjacency) and `VORD` (3.0, deltas) both give back the
 //! mesh's permutation exactly, through every way of feeding the decoder; a
-//! hand-made `VNBR` breaking each reject rule is refused with a clear error.
+//! hand-made `VNBR` breaking each reject rule is refused with a clear error
+//! (the cheap rules when the section arrives, the payload's when the order
+//! is first asked for: the levels stay usable then, spec §8).
 
 use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
 use pqm_core::ProgressiveMesh;
@@ -61,7 +63,7 @@ fn with_sections(bytes: &[u8], flags: u32, sections: &[Vec<u8>]) -> Vec<u8> {
     b
 }
 
-fn invalid_message(r: Result<Vec<Event>, DecodeError>) -> (Section, String) {
+fn invalid_message<T: std::fmt::Debug>(r: Result<T, DecodeError>) -> (Section, String) {
     match r {
         Err(DecodeError::Format(FormatError::Invalid { section, message })) => (section, message),
         other => panic!("expected an invalid-input error, got {other:?}"),
@@ -80,7 +82,7 @@ fn assert_order(bytes: &[u8], pm: &ProgressiveMesh, tag: &[u8; 4]) {
     let at = sections_start(bytes);
     assert_eq!(&bytes[at..at + 4], tag);
     let dec = decode_all(bytes, Limits::default()).unwrap();
-    assert_eq!(dec.vertex_order(), Some(&pm.vertex_order[..]));
+    assert_eq!(dec.vertex_order().unwrap(), Some(&pm.vertex_order[..]));
 }
 
 fn gen(seed: u64, splits: usize, coherent: Option<usize>) -> ProgressiveMesh {
@@ -158,7 +160,9 @@ proptest! {
                 }
             }
             prop_assert!(dec.status().finished);
-            prop_assert_eq!(dec.vertex_order(), Some(&pm.vertex_order[..]));
+            prop_assert_eq!(dec.vertex_order().unwrap(), Some(&pm.vertex_order[..]));
+            // Asked for again: the cached order.
+            prop_assert_eq!(dec.vertex_order().unwrap(), Some(&pm.vertex_order[..]));
         }
     }
 }
@@ -200,15 +204,18 @@ fn one_byte_at_a_time_equals_all_at_once_and_every_prefix_is_safe() {
         ev_single.extend(single.push(b).unwrap());
     }
     assert_eq!(ev_whole, ev_single);
-    assert_eq!(whole.vertex_order(), single.vertex_order());
-    assert_eq!(whole.vertex_order(), Some(&pm.vertex_order[..]));
+    assert_eq!(
+        whole.vertex_order().unwrap(),
+        single.vertex_order().unwrap()
+    );
+    assert_eq!(whole.vertex_order().unwrap(), Some(&pm.vertex_order[..]));
     // Every prefix: no error, no order before the section is whole, every
     // chunk it holds decoded.
     let at = sections_start(&bytes);
     for len in 0..bytes.len() {
         let mut d = Decoder::new(Limits::default());
         d.push(&bytes[..len]).unwrap();
-        assert!(d.vertex_order().is_none(), "prefix {len}");
+        assert_eq!(d.vertex_order().unwrap(), None, "prefix {len}");
         assert!(!d.status().finished);
         if len >= at {
             assert_eq!(d.deepest_level(), Some(pm.records.len()));
@@ -229,10 +236,50 @@ fn hostile_vnbr_sections_are_rejected() {
     // The helpers rebuild a file that decodes.
     let ok = with_sections(&bytes, 2, &[section(b"VNBR", &good, good.len() as u32)]);
     assert_eq!(
-        decode_all(&ok, Limits::default()).unwrap().vertex_order(),
+        decode_all(&ok, Limits::default())
+            .unwrap()
+            .vertex_order()
+            .unwrap(),
         Some(&pm.vertex_order[..])
     );
+    // A bad payload: the file decodes, every level is reachable, and the
+    // order is the error naming the section, on every call.
     let reject = |payload: &[u8], ulen: u32, want: &str| {
+        let b = with_sections(&bytes, 2, &[section(b"VNBR", payload, ulen)]);
+        for forward_only in [false, true] {
+            let mut dec = if forward_only {
+                Decoder::forward_only(Limits::default())
+            } else {
+                Decoder::new(Limits::default())
+            };
+            dec.push(&b).unwrap();
+            assert!(dec.status().finished && !dec.status().failed);
+            for _ in 0..2 {
+                let (s, m) = invalid_message(dec.vertex_order());
+                assert_eq!(s, Section::Optional(0), "{m}");
+                assert!(m.contains(want), "want {want:?}, got {m:?}");
+            }
+            let last = pm.records.len();
+            let levels: Vec<usize> = if forward_only {
+                vec![last]
+            } else {
+                vec![last, 0, last]
+            };
+            for k in levels {
+                dec.set_level(Target::Level(k)).unwrap();
+                assert_eq!(dec.level(), k);
+                assert_eq!(dec.quads(), &pm.level_quads(k).1[..]);
+            }
+            // The records are whole; only the order is left out.
+            if !forward_only {
+                let back = dec.to_progressive_mesh().unwrap();
+                assert_eq!(back.records.len(), pm.records.len());
+                assert!(back.vertex_order.is_empty());
+            }
+        }
+    };
+    // Bounds checked when the section arrives: the push fails, naming it.
+    let reject_early = |payload: &[u8], ulen: u32, want: &str| {
         let b = with_sections(&bytes, 2, &[section(b"VNBR", payload, ulen)]);
         let (s, m) = invalid_message(Decoder::new(Limits::default()).push(&b));
         assert_eq!(s, Section::Optional(0), "{m}");
@@ -273,7 +320,7 @@ fn hostile_vnbr_sections_are_rejected() {
     assert!(Decoder::new(Limits::default()).push(&b).is_err());
     // Stated uncompressed length outside n..=11n, before decompressing.
     for claim in [n - 1, 11 * n + 1, u32::MAX] {
-        reject(&good, claim, "uncompressed length");
+        reject_early(&good, claim, "uncompressed length");
     }
     // Flag bit 1 clear, VNBR with VORD, two VNBR, flag without a section.
     let vnbr = section(b"VNBR", &good, len(&good));
@@ -304,7 +351,7 @@ fn hostile_vnbr_sections_are_rejected() {
     // leaves the file valid without an order.
     let b = with_sections(&bytes, 0, &[section(b"XNBR", &good, len(&good))]);
     let dec = decode_all(&b, Limits::default()).unwrap();
-    assert!(dec.vertex_order().is_none());
+    assert_eq!(dec.vertex_order().unwrap(), None);
     assert!(dec.status().finished);
 }
 
@@ -352,7 +399,9 @@ proptest! {
         }
         let b = with_sections(&file, 2, &[section(b"VNBR", &p, p.len() as u32)]);
         if let Ok(dec) = decode_all(&b, Limits::default()) {
-            let mut o = dec.vertex_order().unwrap().to_vec();
+            // Decoded on access: an error or a permutation.
+            let Ok(Some(o)) = dec.vertex_order() else { return Ok(()) };
+            let mut o = o.to_vec();
             o.sort_unstable();
             prop_assert!(o.iter().enumerate().all(|(i, &v)| v as usize == i));
         }

@@ -20,7 +20,7 @@
  * a fault is a `PqmError` naming the section, chunk and record.
  */
 import { crc32 } from './crc32.js';
-import { decompressFrame } from './zstd.js';
+import { checkFrameHeader, decompressFrame } from './zstd.js';
 import { RecordLog, decodeBase, decodeChunk } from './codec.js';
 import { ByteQueue } from './queue.js';
 import { ensure } from './grow.js';
@@ -168,8 +168,13 @@ export class PqmDecoder {
     this._pendRw = new Uint32Array(64);
     this._nPendRw = 0;
     this._pendEpoch = 0;
-    this._vertexOrder = null;
-    this._vertexOrderTag = null; // which section gave it: 'VORD' or 'VNBR'
+    // The vertex-order section is kept compressed when it arrives and
+    // decoded on the first read of `vertexOrder` (only exporters need it,
+    // and decoding it costs a large part of a whole-file decode).
+    this._vertexOrderTag = null; // which section is present: 'VORD' or 'VNBR'
+    this._vertexOrderSection = null; // {section, bytes, uncompressedLen}
+    this._vertexOrder = null; // the decoded order, once read
+    this._vertexOrderError = null; // or why the section is bad
     this._sectionsRead = [];
     // quantization grid
     this._min = [0, 0, 0];
@@ -683,7 +688,7 @@ export class PqmDecoder {
     if ((this._header.flags & (1 << bit)) === 0) {
       throw invalid(section, `a ${sec.tag} section is present but header flag bit ${bit} is clear`);
     }
-    if (this._vertexOrder !== null) {
+    if (this._vertexOrderTag !== null) {
       throw invalid(section, `a second vertex-order section (${sec.tag}; a file holds at most one VORD or VNBR)`);
     }
     const n = this._header.finalVertexCount;
@@ -712,15 +717,31 @@ export class PqmDecoder {
         `${sec.tag} section: estimated memory ${est} bytes > maxMemoryBytes ${this.limits.maxMemoryBytes}`,
       );
     }
+    // The frame's structure is cheap to check now; decompressing and the
+    // permutation wait until the order is first read (spec §8: a reader may
+    // defer them). The bytes are copied: they may view the caller's buffer.
     try {
-      const payload = decompressFrame(b, sec.uncompressedLen);
-      if (neighbours) {
-        // Sections come after the last chunk: the frontier is the finest
-        // level whatever level the caller shows.
+      checkFrameHeader(b, sec.uncompressedLen);
+    } catch (e) {
+      if (typeof e === 'string') throw invalid(section, e);
+      throw e;
+    }
+    this._vertexOrderTag = sec.tag;
+    this._vertexOrderSection = { section, bytes: b.slice(), uncompressedLen: sec.uncompressedLen };
+  }
+
+  /** Decodes the kept vertex-order section (see `vertexOrder`). */
+  _decodeVertexOrder() {
+    const { section, bytes, uncompressedLen } = this._vertexOrderSection;
+    const n = this._header.finalVertexCount;
+    try {
+      const payload = decompressFrame(bytes, uncompressedLen);
+      if (this._vertexOrderTag === 'VNBR') {
+        // Sections come after the last chunk and nothing changes the
+        // frontier after it: it is the finest level whatever level the
+        // caller shows.
         const st = this._frontier;
-        this._vertexOrder = decodeVnbr(payload, n, st.f, st.nf, this._header.baseVertexCount);
-        this._vertexOrderTag = 'VNBR';
-        return;
+        return decodeVnbr(payload, n, st.f, st.nf, this._header.baseVertexCount);
       }
       const r = new Reader(payload, 0, payload.length, 'VORD');
       const order = new Uint32Array(n);
@@ -734,8 +755,7 @@ export class PqmDecoder {
         prev = v;
       }
       if (r.remaining() !== 0) throw `${r.remaining()} unused bytes in VORD`;
-      this._vertexOrder = order;
-      this._vertexOrderTag = 'VORD';
+      return order;
     } catch (e) {
       if (typeof e === 'string') throw invalid(section, e);
       throw e;
@@ -1203,8 +1223,27 @@ export class PqmDecoder {
     return [this._log.vAt[k], this._log.fAt[k]];
   }
 
-  /** The input vertex order (canonical id → input vertex index at the finest level), once its `VORD` or `VNBR` section is read. */
+  /**
+   * The input vertex order (canonical id → input vertex index at the finest
+   * level), or null until a `VORD` or `VNBR` section has arrived (and for
+   * files without one).
+   *
+   * The section is decoded on the first read, not when it arrives (only
+   * exporters need the order); later reads return the same array. A bad
+   * section then throws a PqmError (kind 'invalid', naming the section), on
+   * every read; it affects only the order, never the levels (spec §8).
+   * @type {Uint32Array | null}
+   */
   get vertexOrder() {
+    if (this._vertexOrderSection === null) return null;
+    if (this._vertexOrder === null && this._vertexOrderError === null) {
+      try {
+        this._vertexOrder = this._decodeVertexOrder();
+      } catch (e) {
+        this._vertexOrderError = e;
+      }
+    }
+    if (this._vertexOrderError !== null) throw this._vertexOrderError;
     return this._vertexOrder;
   }
 

@@ -2,7 +2,9 @@
 // coded against the finest level's adjacency), mirroring the Rust tests
 // (crates/pqm-format/tests/vertex_order.rs): every file's order matches its
 // JSON digest (the Rust decoder's), whatever level the caller is at and
-// however the bytes come; each reject rule of §8.2 as a hand-made section.
+// however the bytes come; each reject rule of §8.2 as a hand-made section
+// (the payload's rules when the order is first read: the levels stay usable,
+// spec §8).
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { PqmDecoder, PqmError, decodeAll, estimateMemory } from '../src/index.js';
@@ -62,6 +64,12 @@ for (const file of files) {
       assert.equal(d.level, 0, how);
       assert.equal(orderDigest(d.vertexOrder), file.digest.vertex_order_fnv1a64, how);
     }
+    // forward-only, one byte at a time: the order read after the end, twice
+    const f = new PqmDecoder({ forwardOnly: true });
+    for (const piece of randomPieces(file.bytes, () => 0, 1)) f.push(piece);
+    f.end();
+    assert.equal(orderDigest(f.vertexOrder), file.digest.vertex_order_fnv1a64, 'forward-only');
+    assert.equal(f.vertexOrder, f.vertexOrder, 'cached');
   });
 }
 
@@ -82,7 +90,25 @@ test('hand-made VNBR sections breaking each rule of spec §8.2 are rejected', ()
   const S = 'optional section 0 ("VNBR")';
   // the repacker alone keeps it valid
   assert.equal(orderDigest(decodeAll(withVnbr(good)).vertexOrder), byName.box_vnbr.digest.vertex_order_fnv1a64);
-  const reject = (payload, message, what) =>
+  // a bad payload: the file decodes, every level is reachable, and reading
+  // the order throws, on every read, in both modes
+  const reject = (payload, message, what) => {
+    const bytes = withVnbr(payload);
+    for (const forwardOnly of [false, true]) {
+      const d = new PqmDecoder({ forwardOnly });
+      d.push(bytes);
+      d.end();
+      assert.ok(d.status().finished, what);
+      const levels = forwardOnly ? [d.finalLevel] : [d.finalLevel, 0, d.finalLevel];
+      for (let i = 0; i < 2; i++) throwsPqm(() => d.vertexOrder, { kind: 'invalid', section: S, message }, what);
+      for (const level of levels) {
+        d.setLevel({ level });
+        assert.equal(d.level, level, what);
+      }
+    }
+  };
+  // bounds checked when the section arrives: the push throws, naming it
+  const rejectEarly = (payload, message, what) =>
     throwsPqm(() => decodeAll(withVnbr(payload)), { kind: 'invalid', section: S, message }, what);
   reject([0, ...good.subarray(1)], /list has 0 candidates/, 'symbol past the list');
   reject(new Array(n).fill(254), /no base vertex is left/, 'symbol 254 with no base vertex left');
@@ -94,8 +120,8 @@ test('hand-made VNBR sections breaking each rule of spec §8.2 are rejected', ()
   reject([...good, 0], /unused bytes/, 'bytes left over');
   // uncompressed length outside n..=11n, before decompressing: the repacker
   // states the real length, so shorten or pad the payload itself
-  reject(good.subarray(0, n - 1), /uncompressed length/, 'fewer than n bytes');
-  reject(new Uint8Array(11 * n + 1), /uncompressed length/, 'more than 11 n bytes');
+  rejectEarly(good.subarray(0, n - 1), /uncompressed length/, 'fewer than n bytes');
+  rejectEarly(new Uint8Array(11 * n + 1), /uncompressed length/, 'more than 11 n bytes');
 });
 
 test('VNBR and the header flags: bit 1 iff the section, at most one VORD or VNBR', () => {

@@ -119,7 +119,8 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let final_level = dec.header().map_or(level, |h| h.record_count as usize);
     let mut mesh = dec.to_indexed_mesh();
     if level == final_level {
-        if let Some(order) = dec.vertex_order() {
+        // Decoded here, on first use; a bad section fails the export.
+        if let Some(order) = dec.vertex_order().map_err(|e| anyhow!("{name}: {e}"))? {
             match to_input_order(&mesh, order) {
                 Some(m) => mesh = m,
                 None => ctx.warn(format!(

@@ -240,6 +240,10 @@ fn load_pqm(path: &Path, ctx: &Ctx) -> anyhow::Result<Vec<u8>> {
     let mut dec = Decoder::new(Limits::default());
     dec.push(&data)
         .map_err(|e| anyhow!("{}: not a valid .pqm file: {e}", path.display()))?;
+    // The decoder reads the vertex order only when asked (spec §8); ask, so
+    // a damaged section is refused here too.
+    dec.vertex_order()
+        .map_err(|e| anyhow!("{}: not a valid .pqm file: {e}", path.display()))?;
     if dec.header().is_none() {
         bail!(
             "{}: not a .pqm file ({} bytes are not enough for a .pqm header and chunk table)",
