@@ -142,7 +142,7 @@ fn spot_to_700() {
         Bars {
             target: Target::Faces(700),
             max_faces: 700,
-            min_ideal: 0.86, // (target 0.85; 86.6 % today)
+            min_ideal: 0.85, // (target 0.85; 86.6 % today, 85.4-86.6 % under reordered queues)
             min_sj_median: 0.85,
             max_hausdorff: 0.02,
         },
