@@ -673,14 +673,22 @@ let gRw = new Int32Array(256);
 let gApp = new Int32Array(256);
 let gExtra = new Int32Array(64);
 
+/**
+ * Vertex `ctx.vcur + delta` read from `refs` (spec §7.2's vertex cursor),
+ * which must be below `limit`; moves the cursor to it.
+ */
+export function vertexRef(ctx, limit, what) {
+  const v = ctx.vcur + ctx.refs.s();
+  if (v < 0 || v >= limit) throw `${what} ${v} outside 0..${limit}`;
+  ctx.vcur = v;
+  return v;
+}
+
 /** Resolves a corner code (spec §7.4) of the record being decoded. */
 function cornerCode(ctx, V, nNew, nRw, f) {
   const x = ctx.conn.u();
   if (x === 0) {
-    const v = ctx.vcur + ctx.refs.s();
-    const limit = V + nNew;
-    if (v < 0 || v >= limit) throw `explicit vertex ${v} outside 0..${limit}`;
-    ctx.vcur = v;
+    const v = vertexRef(ctx, V + nNew, 'explicit vertex');
     if (ctx.nExtra === gExtra.length) gExtra = ensure(gExtra, ctx.nExtra + 1);
     gExtra[ctx.nExtra++] = v;
     return v;
@@ -718,10 +726,8 @@ function decodeGeneral(ctx) {
   // 2. moved vertices: applied at once, so that predictions see them.
   let prevMoved = -1;
   for (let i = 0; i < nMoved; i++) {
-    const v = ctx.vcur + ctx.refs.s();
-    if (v < 0 || v >= V) throw `moved vertex ${v} outside 0..${V}`;
+    const v = vertexRef(ctx, V, 'moved vertex');
     if (v <= prevMoved) throw `moved vertex ${v} does not follow ${prevMoved}`;
-    ctx.vcur = v;
     prevMoved = v;
     const q = st.q;
     readCode(ctx, q[16 * v], q[16 * v + 1], q[16 * v + 2], 'moved vertex', v, '');
@@ -1193,9 +1199,7 @@ function decodeSplit(ctx, sym) {
   if (V >= ctx.VF || NF >= ctx.FF) {
     throw `a vertex split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
   }
-  const m = ctx.vcur + ctx.refs.s();
-  if (m < 0 || m >= V) throw `split vertex ${m} outside 0..${V}`;
-  ctx.vcur = m;
+  const m = vertexRef(ctx, V, 'split vertex');
 
   // 2. canonical star of m.
   const sc = starA;
@@ -1385,9 +1389,7 @@ function decodeFaceSplit(ctx, sym) {
   if (V >= ctx.VF || NF >= ctx.FF) {
     throw `a face split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
   }
-  const m = ctx.vcur + ctx.refs.s();
-  if (m < 0 || m >= V) throw `face-split vertex ${m} outside 0..${V}`;
-  ctx.vcur = m;
+  const m = vertexRef(ctx, V, 'face-split vertex');
   // 2. S ascending, no walk: only the slot list is sorted, and only the
   // split quad is read (the others' corners are not needed, and each quad
   // read is a first touch of scattered memory).
@@ -1491,9 +1493,7 @@ function decodeEdgeSplit(ctx) {
     throw `an edge split needs 4 new vertices and 4 faces, the file's final counts allow ${ctx.VF - V} and ${ctx.FF - NF}`;
   }
   // 1.–3. the endpoints and their stars
-  const A = ctx.vcur + ctx.refs.s();
-  if (A < 0 || A >= V) throw `edge-split anchor ${A} outside 0..${V}`;
-  ctx.vcur = A;
+  const A = vertexRef(ctx, V, 'edge-split anchor');
   const conn = ctx.conn;
   const sa = starA;
   const KA = canonicalStar(st, A, sa);

@@ -11,7 +11,7 @@
  * Written from the spec; shares only the apply/log primitives with the
  * general form (codec.js).
  */
-import { readCode, logMove, checkDistinct, finishRecord, degree } from './codec.js';
+import { readCode, logMove, checkDistinct, finishRecord, degree, vertexRef } from './codec.js';
 
 const MAX_STAR = 255;
 const MAX_CORNERS = 4096;
@@ -268,9 +268,7 @@ export function decodeLocal(ctx, sym) {
   const conn = ctx.conn;
   const V = st.nv;
   const NF = st.nf;
-  const m = ctx.vcur + ctx.refs.s();
-  if (m < 0 || m >= V) throw `local-form anchor ${m} outside 0..${V}`;
-  ctx.vcur = m;
+  const m = vertexRef(ctx, V, 'local-form anchor');
   neighbourhood(st, m);
   const nR = curR;
 
