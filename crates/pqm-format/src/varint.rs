@@ -49,6 +49,7 @@ impl<'a> Reader<'a> {
         self.buf.len() - self.pos
     }
     /// One raw byte.
+    #[inline]
     pub fn byte(&mut self) -> Result<u8, String> {
         let b = *self
             .buf
@@ -60,19 +61,45 @@ impl<'a> Reader<'a> {
     /// One unsigned LEB128 value.
     #[inline]
     pub fn u(&mut self) -> Result<u64, String> {
-        // Fast path: most values in a record fit in one byte.
-        if let Some(&b) = self.buf.get(self.pos) {
+        // Fast paths: most values in a record fit in one byte, most of the
+        // rest (position residuals) in two.
+        let pos = self.pos;
+        if let Some(&b) = self.buf.get(pos) {
             if b < 0x80 {
-                self.pos += 1;
+                self.pos = pos + 1;
                 return Ok(b as u64);
+            }
+            if let Some(&b1) = self.buf.get(pos + 1) {
+                if b1 < 0x80 {
+                    self.pos = pos + 2;
+                    return Ok((b & 0x7f) as u64 | (b1 as u64) << 7);
+                }
             }
         }
         self.u_multi()
     }
 
-    /// [`Reader::u`] for values of two bytes or more (and the errors).
+    /// [`Reader::u`] for values of three bytes or more (and the errors).
     #[inline(never)]
     fn u_multi(&mut self) -> Result<u64, String> {
+        // With 10 bytes left (the longest varint) one fixed-size window is
+        // read without a bounds check per byte; nearer the end, the checked
+        // loop (same values, same errors).
+        if let Some(w) = self.buf.get(self.pos..self.pos + 10) {
+            let mut v: u64 = 0;
+            for (i, &b) in w.iter().enumerate() {
+                let bits = (b & 0x7f) as u64;
+                if i == 9 && bits > 1 {
+                    return Err(format!("stream {}: varint overflows 64 bits", self.name));
+                }
+                v |= bits << (7 * i);
+                if b & 0x80 == 0 {
+                    self.pos += i + 1;
+                    return Ok(v);
+                }
+            }
+            return Err(format!("stream {}: varint longer than 10 bytes", self.name));
+        }
         let mut v: u64 = 0;
         for i in 0..10 {
             let b = self.byte()?;
@@ -88,10 +115,11 @@ impl<'a> Reader<'a> {
         Err(format!("stream {}: varint longer than 10 bytes", self.name))
     }
     /// One unsigned value that must be `<= max` (`what` names it in errors).
+    #[inline]
     pub fn u_max(&mut self, max: u64, what: &str) -> Result<u64, String> {
         let v = self.u()?;
         if v > max {
-            return Err(format!("{what} = {v} exceeds {max}"));
+            return Err(too_large(what, v, max));
         }
         Ok(v)
     }
@@ -111,6 +139,13 @@ impl<'a> Reader<'a> {
     }
 }
 
+/// The error of [`Reader::u_max`] (cold: only bad input gets here).
+#[cold]
+#[inline(never)]
+fn too_large(what: &str, v: u64, max: u64) -> String {
+    format!("{what} = {v} exceeds {max}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,6 +161,36 @@ mod tests {
             prop_assert_eq!(r.u().unwrap(), u);
             prop_assert_eq!(r.s().unwrap(), s);
             prop_assert_eq!(r.remaining(), 0);
+        }
+    }
+
+    proptest! {
+        /// The windowed fast path (10 bytes left) and the checked loop near
+        /// the end of a stream read the same value and the same length, for
+        /// any value and any padding after it (0 = the value ends the
+        /// stream), and reject the same malformed bytes.
+        #[test]
+        fn fast_and_checked_paths_agree(u in any::<u64>(), pad in 0usize..12, junk in any::<[u8; 10]>()) {
+            let mut out = Vec::new();
+            put_u(&mut out, u);
+            let len = out.len();
+            out.extend(std::iter::repeat_n(0x80u8, pad));
+            let mut r = Reader::new(&out, "t");
+            prop_assert_eq!(r.u().unwrap(), u);
+            prop_assert_eq!(r.remaining(), pad);
+            prop_assert_eq!(out.len() - r.remaining(), len);
+            // Arbitrary bytes: a varint that ends within the first `k < 10`
+            // bytes (the checked loop: fewer than 10 left) reads the same
+            // with 10 more bytes after it (the window).
+            let k = pad % 10;
+            let mut checked = Reader::new(&junk[..k], "t");
+            if let Ok(v) = checked.u() {
+                let mut padded = junk[..k].to_vec();
+                padded.extend([0u8; 10]);
+                let mut windowed = Reader::new(&padded, "t");
+                prop_assert_eq!(windowed.u().unwrap(), v);
+                prop_assert_eq!(windowed.remaining(), 10 + checked.remaining());
+            }
         }
     }
 
