@@ -1025,44 +1025,81 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16, nf: &NewFac
     predict_from(st, r, v0, x, major, entries)
 }
 
-/// [`predict`] without [`NewFaces`], for the usual new vertex in a handful
-/// of record quads: the record quads containing `x` are collected by one
-/// scan, in the order [`NewFaces`] lists them (record quad order; within a
-/// quad, corners descending), into a stack buffer — which gives the same
-/// prediction without building the lists. `None` when `x` is in more than
-/// [`SCAN_MAX`] record quads (the caller then builds the lists, which keep
-/// a hostile record linear).
-fn predict_scan(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16) -> Option<[u32; 3]> {
-    let mut buf = [([0u32; 4], 0usize); SCAN_MAX];
-    let mut n = 0usize;
-    let quads = r.appended.iter().chain(r.rewritten.iter().map(|w| &w.1));
-    for quad in quads {
-        for k in (0..4).rev() {
-            if quad[k] == x {
-                *buf.get_mut(n)? = (*quad, k);
-                n += 1;
-            }
-        }
+/// [`predict`] without [`NewFaces`], for a record with few new vertices:
+/// the record quads containing `x` are found by one scan, in the order
+/// [`NewFaces`] lists them (record quad order; within a quad, corners
+/// descending), and fed straight to [`predict_from`] (one pass, nothing
+/// buffered) — the same prediction without building the lists. A scan is
+/// linear in the record, so callers use it only for a bounded number of
+/// new vertices per record (one for the split and face-split forms, four
+/// for the edge split, at most `SCAN_NEW` in the general and local forms);
+/// the lists keep a hostile record with many new vertices linear.
+fn predict_scan(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16) -> [u32; 3] {
+    let mut p = Prediction::new(st, r, v0, x, major);
+    // Two plain loops and four unrolled compares per quad (an iterator
+    // chain here was measured at 3× the instructions).
+    for quad in &r.appended {
+        p.add_quad(quad);
     }
-    Some(predict_from(st, r, v0, x, major, buf[..n].iter().copied()))
+    for (_, quad) in &r.rewritten {
+        p.add_quad(quad);
+    }
+    p.finish()
 }
-
-/// Most record quads containing one new vertex that [`predict_scan`]
-/// handles.
-const SCAN_MAX: usize = 8;
 
 /// The prediction of spec §7.6 for new vertex `x`, given the record quads
 /// containing `x` with the corner index of `x` in each (`entries`, in
-/// record quad order; cloned to walk them twice).
+/// record quad order).
 fn predict_from(
     st: &MeshState,
     r: &QRecord,
     v0: u32,
     x: u32,
     major: u16,
-    entries: impl Iterator<Item = ([u32; 4], usize)> + Clone,
+    entries: impl Iterator<Item = ([u32; 4], usize)>,
 ) -> [u32; 3] {
-    let known = |u: u32| -> Option<[u32; 3]> {
+    let mut p = Prediction::new(st, r, v0, x, major);
+    for (quad, k) in entries {
+        p.add(&quad, k);
+    }
+    p.finish()
+}
+
+/// The running state of one prediction (spec §7.6), fed the record quads
+/// containing the new vertex `x` in record quad order, in one pass: the
+/// parallelogram sum and count (from version 2 on) and the first entry,
+/// for the fallbacks.
+struct Prediction<'a> {
+    st: &'a MeshState,
+    r: &'a QRecord,
+    v0: u32,
+    x: u32,
+    major: u16,
+    sum: [i64; 3],
+    n: i64,
+    first: Option<([u32; 4], usize)>,
+}
+
+impl<'a> Prediction<'a> {
+    #[inline]
+    fn new(st: &'a MeshState, r: &'a QRecord, v0: u32, x: u32, major: u16) -> Self {
+        Prediction {
+            st,
+            r,
+            v0,
+            x,
+            major,
+            sum: [0; 3],
+            n: 0,
+            first: None,
+        }
+    }
+
+    /// The code of `u` if the decoder knows it at this point: an old vertex
+    /// (its moved code if the record moves it), or a new vertex before `x`.
+    #[inline]
+    fn known(&self, u: u32) -> Option<[u32; 3]> {
+        let (st, r, v0) = (self.st, self.r, self.v0);
         if u < v0 {
             if r.moved.is_empty() {
                 return Some(st.q[u as usize]);
@@ -1071,30 +1108,55 @@ fn predict_from(
                 Ok(i) => Some(r.moved[i].1),
                 Err(_) => Some(st.q[u as usize]),
             }
-        } else if u < x {
+        } else if u < self.x {
             r.new_pos.get((u - v0) as usize).copied()
         } else {
             None
         }
-    };
-    let qmax = st.qmax as i64;
-    if major >= 2 {
-        let (mut sum, mut n) = ([0i64; 3], 0i64);
-        for (quad, k) in entries.clone() {
-            let n1 = known(quad[(k + 1) & 3]);
-            let o = known(quad[(k + 2) & 3]);
-            let n3 = known(quad[(k + 3) & 3]);
-            if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
-                sum[0] += a[0] as i64 + c[0] as i64 - b[0] as i64;
-                sum[1] += a[1] as i64 + c[1] as i64 - b[1] as i64;
-                sum[2] += a[2] as i64 + c[2] as i64 - b[2] as i64;
-                n += 1;
+    }
+
+    /// Every corner of `quad` that is `x`, corners descending (the order
+    /// of [`NewFaces`]).
+    #[inline]
+    fn add_quad(&mut self, quad: &[u32; 4]) {
+        let x = self.x;
+        for k in (0..4).rev() {
+            if quad[k] == x {
+                self.add(quad, k);
             }
         }
+    }
+
+    /// One entry: `x` is corner `k` of `quad`.
+    #[inline]
+    fn add(&mut self, quad: &[u32; 4], k: usize) {
+        if self.first.is_none() {
+            self.first = Some((*quad, k));
+        }
+        if self.major < 2 {
+            // Version 1 reads the first entry only.
+            return;
+        }
+        let n1 = self.known(quad[(k + 1) & 3]);
+        let o = self.known(quad[(k + 2) & 3]);
+        let n3 = self.known(quad[(k + 3) & 3]);
+        if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
+            self.sum[0] += a[0] as i64 + c[0] as i64 - b[0] as i64;
+            self.sum[1] += a[1] as i64 + c[1] as i64 - b[1] as i64;
+            self.sum[2] += a[2] as i64 + c[2] as i64 - b[2] as i64;
+            self.n += 1;
+        }
+    }
+
+    fn finish(&self) -> [u32; 3] {
+        let (st, r, v0, x) = (self.st, self.r, self.v0, self.x);
+        let qmax = st.qmax as i64;
+        let (sum, n) = (self.sum, self.n);
         if n > 0 {
-            // The floor the spec asks for: `div_euclid` by a positive count,
-            // which for the usual 1, 2 or 4 parallelograms is an arithmetic
-            // shift (the same value; a 64-bit division costs tens of cycles).
+            // The floor the spec asks for: `div_euclid` by a positive
+            // count, which for the usual 1, 2 or 4 parallelograms is an
+            // arithmetic shift (the same value; a 64-bit division costs
+            // tens of cycles).
             let floor = |s: i64| match n {
                 1 => s,
                 2 => s >> 1,
@@ -1107,34 +1169,33 @@ fn predict_from(
                 floor(sum[2]).clamp(0, qmax) as u32,
             ];
         }
-    }
-    let mut entries = entries;
-    if let Some((face, k)) = entries.next() {
-        let n1 = known(face[(k + 1) % 4]);
-        let o = known(face[(k + 2) % 4]);
-        let n3 = known(face[(k + 3) % 4]);
-        if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
-            return [0, 1, 2]
-                .map(|t| (a[t] as i64 + c[t] as i64 - b[t] as i64).clamp(0, qmax) as u32);
-        }
-        // Mean of the known ones (summed in place: no list per vertex).
-        let (mut sum, mut n) = ([0u64; 3], 0u64);
-        for p in [n1, o, n3].into_iter().flatten() {
-            for t in 0..3 {
-                sum[t] += p[t] as u64;
+        if let Some((face, k)) = self.first {
+            let n1 = self.known(face[(k + 1) % 4]);
+            let o = self.known(face[(k + 2) % 4]);
+            let n3 = self.known(face[(k + 3) % 4]);
+            if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
+                return [0, 1, 2]
+                    .map(|t| (a[t] as i64 + c[t] as i64 - b[t] as i64).clamp(0, qmax) as u32);
             }
-            n += 1;
+            // Mean of the known ones (summed in place: no list per vertex).
+            let (mut sum, mut n) = ([0u64; 3], 0u64);
+            for p in [n1, o, n3].into_iter().flatten() {
+                for t in 0..3 {
+                    sum[t] += p[t] as u64;
+                }
+                n += 1;
+            }
+            if n > 0 {
+                return sum.map(|x| (x / n) as u32);
+            }
         }
-        if n > 0 {
-            return sum.map(|x| (x / n) as u32);
+        if x > v0 {
+            if let Some(&p) = r.new_pos.last() {
+                return p;
+            }
         }
+        [st.qmax.div_ceil(2); 3]
     }
-    if x > v0 {
-        if let Some(&p) = r.new_pos.last() {
-            return p;
-        }
-    }
-    [st.qmax.div_ceil(2); 3]
 }
 
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
@@ -1347,10 +1408,7 @@ pub fn decode_record_into(
             let pred = if reflect_c {
                 reflect(st, m_old, r.moved.first().map_or(m_old, |mv| mv.1))
             } else {
-                predict_scan(st, r, v0, v0, major).unwrap_or_else(|| {
-                    sc.nf.build(r, v0, 1);
-                    predict(st, r, v0, v0, major, &sc.nf)
-                })
+                predict_scan(st, r, v0, v0, major)
             };
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
@@ -1374,10 +1432,7 @@ pub fn decode_record_into(
             let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
             r.rewritten.push((s, rewritten));
             r.appended.push(appended);
-            let pred = predict_scan(st, r, v0, v0, major).unwrap_or_else(|| {
-                sc.nf.build(r, v0, 1);
-                predict(st, r, v0, v0, major, &sc.nf)
-            });
+            let pred = predict_scan(st, r, v0, v0, major);
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
         }
@@ -1428,12 +1483,11 @@ fn decode_edge_split(
             .push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
     }
     crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
-    // One pass lists the record quads of all four new vertices, instead of
-    // a scan of the record per vertex (measured: the same speed on loki;
-    // linear in the record for any input).
-    sc.nf.build(r, v0, 4);
+    // Four scans of the record (its 4 appended quads and the stars' faces),
+    // one per new vertex: fewer instructions than building the lists
+    // first, and linear in the record for any input.
     for t in 0..4 {
-        let pred = predict(st, r, v0, v0 + t, major, &sc.nf);
+        let pred = predict_scan(st, r, v0, v0 + t, major);
         let p = add_residual(pred, &mut rd[POS], st.qmax)?;
         r.new_pos.push(p);
     }
@@ -1622,11 +1676,7 @@ fn decode_patch(
     let mut built = false;
     for t in 0..n_new {
         let x = v0 + t as u32;
-        let scanned = if n_new <= SCAN_NEW {
-            predict_scan(st, r, v0, x, major)
-        } else {
-            None
-        };
+        let scanned = (n_new <= SCAN_NEW).then(|| predict_scan(st, r, v0, x, major));
         let pred = match scanned {
             Some(p) => p,
             None => {

@@ -1011,8 +1011,14 @@ impl Decoder {
             // the current level; a forward-only decoder copies the frontier
             // instead, so it does not keep them.
             if !forward_only {
-                r.new_pos.extend_from_slice(&rec.new_pos);
-                r.appended.extend_from_slice(&rec.appended);
+                // Element by element: a record holds 1–4 of each, where
+                // `extend_from_slice` is a call to `memcpy`.
+                for &p in &rec.new_pos {
+                    r.new_pos.push(p);
+                }
+                for &q in &rec.appended {
+                    r.appended.push(q);
+                }
             }
             r.v_at.push(st.q.len() as u32);
             r.f_at.push(st.quads.len() as u32);
