@@ -167,6 +167,29 @@ fn grow<T: Clone>(v: &mut Vec<T>, len: usize, cap: usize, fill: T) {
     }
 }
 
+/// Hints the CPU to fetch `x[i]` into the cache (nothing for an index out
+/// of range, or off x86-64). It changes no result: a prefetch reads no
+/// value and cannot fault. The decoder is bound by the latency of scattered
+/// reads (a star's quads, its vertices' blocks and codes): issuing them all
+/// before the loop that uses them overlaps the misses, where the loop's
+/// data-dependent branches (insertion by slot) would replay them one by one.
+#[inline(always)]
+fn prefetch<T>(x: &[T], i: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(r) = x.get(i) {
+        // SAFETY: `_mm_prefetch` is a hint: it dereferences nothing, cannot
+        // fault, and SSE (which provides it) is part of the x86-64
+        // baseline; `r` is a valid reference anyway.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                (r as *const T).cast::<i8>(),
+            )
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (x, i);
+}
+
 /// Corners stored in a vertex's own block (see [`MeshState`]).
 pub const INLINE: usize = 7;
 
@@ -398,6 +421,56 @@ impl MeshState {
         }
         if nx != NIL {
             self.ov_links[nx as usize][1] = pv;
+        }
+    }
+
+    /// Prefetches (see [`prefetch`]) for the next three records, a
+    /// pipeline of dependent reads, one stage per record: the block of the
+    /// anchor three records on; the quads of the one two on (its block was
+    /// fetched one record ago); the codes and blocks of the vertices of
+    /// the next one's faces (its quads were fetched one record ago) — what
+    /// its star, prediction and corner links read. The anchors are guessed
+    /// from the `refs` stream: the split, face-split, edge-split and local
+    /// forms read one reference, their anchor, so the next values there
+    /// are the next records' first references. A wrong guess (a
+    /// general-form record, the end of the chunk) costs a few useless
+    /// fetches, nothing else.
+    #[inline]
+    fn prefetch_ahead(&self, refs: &Reader, m: u32) {
+        let [d1, d2, d3] = refs.peek_s3();
+        let nv = self.inline.len() as i64;
+        let at = |v: i64| (0..nv).contains(&v).then_some(v as usize);
+        let Some(m1) = d1.map(|d| (m as i64).wrapping_add(d)) else {
+            return;
+        };
+        let m2 = d2.map(|d| m1.wrapping_add(d));
+        let m3 = m2.zip(d3).map(|(v, d)| v.wrapping_add(d));
+        if let Some(v) = m3.and_then(at) {
+            prefetch(&self.inline, v);
+        }
+        if let Some(v) = m2.and_then(at) {
+            let b = &self.inline[v].0;
+            let k = ((b[0] & !OVERFLOW) as usize).min(INLINE);
+            for &c in &b[1..=k] {
+                prefetch(&self.quads, (c >> 2) as usize);
+            }
+        }
+        if let Some(v) = at(m1) {
+            let b = &self.inline[v].0;
+            let k = ((b[0] & !OVERFLOW) as usize).min(INLINE);
+            prefetch(&self.q, v);
+            for &c in &b[1..=k] {
+                if let Some(q) = self.quads.get((c >> 2) as usize) {
+                    // Per face the next corner (a link vertex: its code and
+                    // block) and the far one (its code): the previous
+                    // corner is the next face's next one. Few fetches, so
+                    // that they do not queue behind each other.
+                    let a = q[(c as usize + 1) & 3] as usize;
+                    prefetch(&self.q, a);
+                    prefetch(&self.inline, a);
+                    prefetch(&self.q, q[(c as usize + 2) & 3] as usize);
+                }
+            }
         }
     }
 
@@ -1379,6 +1452,7 @@ pub fn decode_record_into(
             if local {
                 let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
                 cur.vref = m;
+                st.prefetch_ahead(&rd[REFS], m);
                 st.local_faces_with(m, &mut sc.marks, &mut sc.local)?;
             }
             decode_patch(st, rd, cur, max_v, max_f, local, major, sc, r)?;
@@ -1389,6 +1463,7 @@ pub fn decode_record_into(
             }
             let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
             cur.vref = m;
+            st.prefetch_ahead(&rd[REFS], m);
             st.star_into(m, &mut sc.star)?;
             let star = &sc.star;
             let l = star.link.len();
@@ -1425,6 +1500,7 @@ pub fn decode_record_into(
             }
             let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
             cur.vref = m;
+            st.prefetch_ahead(&rd[REFS], m);
             st.slots_at(m, &mut sc.slots)?;
             let n = sc.slots.len() as u64;
             let x = rd[CONN].u_max(2 * n - 1, "face-split index")?;
@@ -1459,6 +1535,7 @@ fn decode_edge_split(
     }
     let a = vref(cur.vref, rd[REFS].s()?, v0, "edge split")?;
     cur.vref = a;
+    st.prefetch_ahead(&rd[REFS], a);
     // The anchor's star first: `r` is bounded by its size.
     let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
     let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
@@ -2350,6 +2427,29 @@ mod tests {
         } else {
             gcd(b, a % b)
         }
+    }
+
+    /// Prefetching is a hint: any index (in range, past the end, of an
+    /// empty slice) is accepted and changes nothing; the look-ahead on
+    /// arbitrary `refs` bytes and anchors (out of range too) never panics.
+    #[test]
+    fn prefetch_is_a_no_op_on_any_index() {
+        let (st, _) = fan(8, 3, false);
+        let before = (st.q.clone(), st.quads.clone());
+        for i in [0usize, 1, 7, 8, 1 << 20, usize::MAX] {
+            super::prefetch(&st.quads, i);
+            super::prefetch(&st.q, i);
+            super::prefetch::<u32>(&[], i);
+        }
+        let bytes: Vec<u8> = (0..=255u8).collect();
+        for start in 0..bytes.len() {
+            let refs = crate::varint::Reader::new(&bytes[start..], "refs");
+            for m in [0u32, 1, 8, 16, 17, u32::MAX] {
+                st.prefetch_ahead(&refs, m);
+            }
+        }
+        assert_eq!((st.q.clone(), st.quads.clone()), before);
+        check_corners(&st).unwrap();
     }
 
     /// Quads with four distinct corners below `nv`, from arbitrary words.

@@ -165,8 +165,20 @@ pub fn build(
                 "edge split: n1 = {n1}, m = {m} do not fit the {k} faces of vertex {xv}"
             ));
         }
-        let g = |i: usize| s.faces[(rho + i) % k];
-        let lam = |i: usize| s.link[(rho + i) % k];
+        // `(rho + i) mod k` without a division (tens of cycles, ~20 per
+        // record): `rho < k` and every `i` used here is `< k`.
+        let wrap = |i: usize| {
+            let w = rho + i;
+            if w < k {
+                w
+            } else if w < 2 * k {
+                w - k
+            } else {
+                w % k
+            }
+        };
+        let g = |i: usize| s.faces[wrap(i)];
+        let lam = |i: usize| s.link[wrap(i)];
         for i in (0..=n1).chain(n1 + m + 1..k) {
             let t = if i <= n1 { 2 * x } else { 2 * x + 1 };
             entries.push((g(i) as u64) << 32 | t as u64);

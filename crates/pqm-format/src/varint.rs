@@ -129,6 +129,34 @@ impl<'a> Reader<'a> {
     pub fn s(&mut self) -> Result<i64, String> {
         Ok(unzigzag(self.u()?))
     }
+    /// The next three zigzag-coded values, without consuming them (`None`
+    /// past the end or for a malformed varint): the decoder's look-ahead
+    /// for prefetching, never a value it decodes with.
+    pub fn peek_s3(&self) -> [Option<i64>; 3] {
+        let mut out = [None; 3];
+        let mut pos = self.pos;
+        for o in out.iter_mut() {
+            let mut v: u64 = 0;
+            let mut done = false;
+            for i in 0..10 {
+                let Some(&b) = self.buf.get(pos) else {
+                    return out;
+                };
+                pos += 1;
+                v |= ((b & 0x7f) as u64).wrapping_shl(7 * i);
+                if b & 0x80 == 0 {
+                    done = true;
+                    break;
+                }
+            }
+            if !done {
+                return out;
+            }
+            *o = Some(unzigzag(v));
+        }
+        out
+    }
+
     /// `n` raw bytes.
     pub fn bytes(&mut self, n: usize) -> Result<&'a [u8], String> {
         if n > self.remaining() {
@@ -191,6 +219,35 @@ mod tests {
                 let mut windowed = Reader::new(&padded, "t");
                 prop_assert_eq!(windowed.u().unwrap(), v);
                 prop_assert_eq!(windowed.remaining(), 10 + checked.remaining());
+            }
+        }
+    }
+
+    proptest! {
+        /// The look-ahead reads what the next three `s()` calls return (as
+        /// far as they succeed) and consumes nothing.
+        #[test]
+        fn peek_sees_the_next_values(
+            vals in proptest::collection::vec(any::<i64>(), 0..4),
+            cut in 0usize..40,
+        ) {
+            let mut out = Vec::new();
+            for &v in &vals {
+                put_s(&mut out, v);
+            }
+            let out = &out[..cut.min(out.len())];
+            let r = Reader::new(out, "t");
+            let peeked = r.peek_s3();
+            prop_assert_eq!(r.remaining(), out.len());
+            let mut r2 = r.clone();
+            for p in peeked {
+                match r2.s() {
+                    Ok(v) => prop_assert_eq!(p, Some(v)),
+                    Err(_) => {
+                        prop_assert_eq!(p, None);
+                        break;
+                    }
+                }
             }
         }
     }
