@@ -167,8 +167,7 @@ fn grow<T: Clone>(v: &mut Vec<T>, len: usize, cap: usize, fill: T) {
     }
 }
 
-/// Hints the CPU to fetch `x[i]` into the cache (nothing for an index out
-/// of range, or off x86-64). It changes no result: a prefetch reads no
+/// Hints the CPU to fetch `x[i]` into the cache (off x86-64: nothing). It changes no result: a prefetch reads no
 /// value and cannot fault. The decoder is bound by the latency of scattered
 /// reads (a star's quads, its vertices' blocks and codes): issuing them all
 /// before the loop that uses them overlaps the misses, where the loop's
@@ -176,15 +175,14 @@ fn grow<T: Clone>(v: &mut Vec<T>, len: usize, cap: usize, fill: T) {
 #[inline(always)]
 fn prefetch<T>(x: &[T], i: usize) {
     #[cfg(target_arch = "x86_64")]
-    if let Some(r) = x.get(i) {
-        // SAFETY: `_mm_prefetch` is a hint: it dereferences nothing, cannot
-        // fault, and SSE (which provides it) is part of the x86-64
-        // baseline; `r` is a valid reference anyway.
-        unsafe {
-            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                (r as *const T).cast::<i8>(),
-            )
-        }
+    {
+        // No bounds check: the address is only a hint (`wrapping_add`
+        // forms it without the in-bounds requirement of `add`).
+        let p = x.as_ptr().wrapping_add(i).cast::<i8>();
+        // SAFETY: `_mm_prefetch` dereferences nothing and cannot fault,
+        // whatever the address (out of range, unmapped: the hint is
+        // dropped); SSE, which provides it, is part of the x86-64 baseline.
+        unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p) }
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (x, i);
@@ -463,8 +461,7 @@ impl MeshState {
                 if let Some(q) = self.quads.get((c >> 2) as usize) {
                     // Per face the next corner (a link vertex: its code and
                     // block) and the far one (its code): the previous
-                    // corner is the next face's next one. Few fetches, so
-                    // that they do not queue behind each other.
+                    // corner is the next face's next one.
                     let a = q[(c as usize + 1) & 3] as usize;
                     prefetch(&self.q, a);
                     prefetch(&self.inline, a);
@@ -685,6 +682,14 @@ impl MeshState {
     /// than [`MAX_SPLIT_STAR`] (counting stops there, so a hostile fan costs
     /// no more than 256 faces).
     pub fn slots_at(&self, m: u32, out: &mut Vec<u32>) -> Result<(), String> {
+        self.slots_at_unsorted(m, out)?;
+        sort_distinct(out);
+        Ok(())
+    }
+
+    /// [`MeshState::slots_at`] in block order (not sorted), same errors:
+    /// the decoder needs only one slot of a given rank.
+    fn slots_at_unsorted(&self, m: u32, out: &mut Vec<u32>) -> Result<(), String> {
         out.clear();
         for c in self.corner_ids(m) {
             if out.len() == MAX_SPLIT_STAR {
@@ -697,7 +702,6 @@ impl MeshState {
         if out.is_empty() {
             return Err(format!("vertex {m} has 0 faces (face split needs 1..=255)"));
         }
-        sort_distinct(out);
         Ok(())
     }
 
@@ -1501,10 +1505,19 @@ pub fn decode_record_into(
             let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
             cur.vref = m;
             st.prefetch_ahead(&rd[REFS], m);
-            st.slots_at(m, &mut sc.slots)?;
+            st.slots_at_unsorted(m, &mut sc.slots)?;
             let n = sc.slots.len() as u64;
             let x = rd[CONN].u_max(2 * n - 1, "face-split index")?;
-            let s = sc.slots[(x >> 1) as usize];
+            // The slot of rank `x / 2` in ascending order, by counting the
+            // smaller ones (a vertex is a corner of a quad at most once, so
+            // the slots are distinct): no sort of the 4–6 slots and no
+            // sort buffer to clear per record.
+            let rank = (x >> 1) as usize;
+            let slots = &sc.slots;
+            let s = *slots
+                .iter()
+                .find(|&&v| slots.iter().filter(|&&y| y < v).count() == rank)
+                .ok_or("face-split slots are not distinct")?;
             let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
             r.rewritten.push((s, rewritten));
             r.appended.push(appended);

@@ -136,6 +136,16 @@ impl<'a> Reader<'a> {
         let mut out = [None; 3];
         let mut pos = self.pos;
         for o in out.iter_mut() {
+            // One-byte values (most anchors' deltas) first.
+            match self.buf.get(pos) {
+                Some(&b) if b < 0x80 => {
+                    pos += 1;
+                    *o = Some(unzigzag(b as u64));
+                    continue;
+                }
+                None => return out,
+                _ => {}
+            }
             let mut v: u64 = 0;
             let mut done = false;
             for i in 0..10 {
