@@ -763,6 +763,40 @@ impl MeshState {
         let Star { faces, link } = out;
         faces.clear();
         link.clear();
+        // The usual interior star without the rewind: when the `succ` walk
+        // from index 0 visits all `n` faces and returns to 0, and no vertex
+        // is the previous corner `pv` of two faces, then `pred` inverts
+        // `succ` (`pred(succ(f))` is the one face whose `pv` is
+        // `nx[succ(f)] = pv[f]`: `f`), so [`fan_walk`]'s rewind from 0
+        // would come back to 0 after `n` steps — interior, starting at 0 —
+        // and its walk is this one. Anything else (a boundary, a repeated
+        // link vertex, a broken fan) takes the general walk.
+        let mut distinct = true;
+        for a in 0..n {
+            for b in a + 1..n {
+                distinct &= pv[a] != pv[b];
+            }
+        }
+        if distinct && n >= 2 {
+            let mut order = [0u8; STAR_SMALL];
+            let (mut f, mut len, mut seen) = (0usize, 1usize, 1u32);
+            loop {
+                match succ(f) {
+                    Some(0) if len == n => {
+                        faces.extend(order[..n].iter().map(|&i| fs[i as usize]));
+                        link.extend(order[..n].iter().map(|&i| nx[i as usize]));
+                        return Ok(());
+                    }
+                    Some(g) if g != 0 && seen & (1 << g) == 0 && len < n => {
+                        order[len] = g as u8;
+                        len += 1;
+                        seen |= 1 << g;
+                        f = g;
+                    }
+                    _ => break,
+                }
+            }
+        }
         let last = fan_walk(n, succ, pred, |i| {
             faces.push(fs[i]);
             link.push(nx[i]);
