@@ -766,9 +766,8 @@ impl MeshState {
         // branch-free compare of all `STAR_SMALL` entries into a bit mask
         // was measured: 40 % more instructions per star — the early exit
         // of this scan wins at the usual valence 4–6.)
-        let first_other = |keys: &[u32; STAR_SMALL], key: u32, f: usize| {
-            (0..n).find(|&g| keys[g] == key && g != f)
-        };
+        let first_other =
+            |keys: &[u32; STAR_SMALL], key: u32, f: usize| first_other_in(&keys[..n], key, f);
         let succ = |f: usize| first_other(&nx, pv[f], f);
         let pred = |f: usize| first_other(&pv, nx[f], f);
         let Star { faces, link } = out;
@@ -864,6 +863,16 @@ impl MeshState {
         }
         Ok(())
     }
+}
+
+/// The first index `g != f` of `keys` holding `key` (the scans of
+/// [`MeshState::star_into`]; always inlined: it is called from two closures
+/// and the fast path, and out of line its call cost as much as the scan).
+#[inline(always)]
+fn first_other_in(keys: &[u32], key: u32, f: usize) -> Option<usize> {
+    keys.iter()
+        .enumerate()
+        .position(|(g, &k)| k == key && g != f)
 }
 
 /// Stars of at most this many faces are built on the stack by
@@ -1257,6 +1266,18 @@ impl<'a> Prediction<'a> {
         }
         if self.major < 2 {
             // Version 1 reads the first entry only.
+            return;
+        }
+        let (u1, u2, u3) = (quad[(k + 1) & 3], quad[(k + 2) & 3], quad[(k + 3) & 3]);
+        if self.r.moved.is_empty() && u1 < self.v0 && u2 < self.v0 && u3 < self.v0 {
+            // The usual case (a subset-placement file moves nothing): three
+            // old codes, what `known` gives, without its `Option`s.
+            let q = &self.st.q;
+            let (a, b, c) = (q[u1 as usize], q[u2 as usize], q[u3 as usize]);
+            self.sum[0] += a[0] as i64 + c[0] as i64 - b[0] as i64;
+            self.sum[1] += a[1] as i64 + c[1] as i64 - b[1] as i64;
+            self.sum[2] += a[2] as i64 + c[2] as i64 - b[2] as i64;
+            self.n += 1;
             return;
         }
         let n1 = self.known(quad[(k + 1) & 3]);
