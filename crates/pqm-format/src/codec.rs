@@ -1369,6 +1369,8 @@ pub(crate) fn rotl(q: [u32; 4], t: u8) -> [u32; 4] {
 
 /// Checks that the 4 corners of `q` are distinct; `what` names the face in
 /// the error (a closure, so that no string is built on the hot path).
+/// Always inlined: six compares, where a call cost as much.
+#[inline(always)]
 pub(crate) fn check_distinct(q: &[u32; 4], what: impl FnOnce() -> String) -> Result<(), String> {
     // All six comparisons at once (no branch per pair): a quad with a
     // repeated corner is an error, so the hot path is one test.

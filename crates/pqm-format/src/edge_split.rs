@@ -242,13 +242,16 @@ pub fn build(
     }
     let [x0, x1] = ends;
     let canon = [[x0, u(1), u(2), x1], [x0, x1, u(3), u(0)], tri[0], tri[1]];
-    out.appended.clear();
-    out.appended.resize(4, [0; 4]);
+    // Placed in a stack array, then copied in one go (a `resize` of the
+    // list cost more than the placement).
+    let mut app = [[0u32; 4]; 4];
     for (i, q) in canon.into_iter().enumerate() {
         let q = rotl(q, (ra >> (2 * i)) & 3);
         check_distinct(&q, || format!("edge split: appended quad {i}"))?;
-        out.appended[pf[i] as usize] = q;
+        app[pf[i] as usize] = q;
     }
+    out.appended.clear();
+    out.appended.extend_from_slice(&app);
     Ok(())
 }
 
