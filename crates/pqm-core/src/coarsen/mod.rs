@@ -488,6 +488,9 @@ struct ScoreScratch {
     /// Neighbours after the step, `nb[nb_range[k].0..nb_range[k].1]`.
     nb: Vec<u32>,
     nb_range: Vec<(usize, usize)>,
+    /// Valence before the step, counted by [`fill_neighbours`]' ring walk
+    /// (`u32::MAX` until then), so a touched vertex's ring is walked once.
+    val_before: Vec<u32>,
     /// `(valence, ideal valence)` after the step, `None` when gone.
     after: Vec<Option<(usize, usize)>>,
     /// Removed by a doublet the step triggers.
@@ -534,7 +537,9 @@ fn fill_neighbours(
     let kept = |f: Option<FaceId>| f.is_some_and(|f| fmark[f.idx()] != epoch);
     let start = s.nb.len();
     if !patch.merged.iter().any(|g| g.0 == v) {
+        let mut valence = 0;
         for h in m.outgoing(v) {
+            valence += 1;
             if kept(m.face(h)) || kept(m.face(m.twin(h))) {
                 let w = m.to_vertex(h).0;
                 if !s.nb[start..].contains(&w) {
@@ -542,6 +547,7 @@ fn fill_neighbours(
                 }
             }
         }
+        s.val_before[k] = valence;
         let mut c = s.corner_head[k];
         while c != u32::MAX {
             let (q, i) = (&patch.add[c as usize / 4], c as usize % 4);
@@ -596,6 +602,7 @@ impl ScoreScratch {
         self.before.clear();
         self.nb.clear();
         self.nb_range.clear();
+        self.val_before.clear();
         self.after.clear();
         self.gone.clear();
         self.corner_head.clear();
@@ -1449,6 +1456,7 @@ impl Coarsener {
         // is the cap test of the loop below for those vertices alone, so
         // the verdict is the same.
         s.nb_range.resize(s.touched.len(), (usize::MAX, 0));
+        s.val_before.resize(s.touched.len(), u32::MAX);
         let early = if shortcuts { patch.merged.len() } else { 0 };
         for gi in 0..early {
             let t = patch.merged[gi].1;
@@ -1475,17 +1483,11 @@ impl Coarsener {
                     lost += (after_of(m, patch, w, a, b) == Some((2, 4))) as usize;
                 }
             }
-            if val - lost > self.cap.max(m.valence(t)) {
+            if val - lost > self.cap.max(s.val_before[k] as usize) {
                 s.vmark = vmark;
                 s.fmark = fmark;
                 return None;
             }
-        }
-        let mut dev_b = 0usize;
-        for &v in &s.touched {
-            let (val, ideal) = (m.valence(v), m.ideal_valence(v));
-            s.before.push((val, ideal));
-            dev_b = dev_b.max(val.abs_diff(ideal));
         }
         // (valence after, ideal after) per touched slot; `None` when the
         // vertex merges away or keeps no edge
@@ -1494,6 +1496,17 @@ impl Coarsener {
             let (lo, hi) = s.nb_range[k];
             let after = after_of(m, patch, s.touched[k], lo, hi);
             s.after.push(after);
+        }
+        // valences before (walked above, but for the vertices merging away)
+        let mut dev_b = 0usize;
+        for (k, &v) in s.touched.iter().enumerate() {
+            let val = match s.val_before[k] {
+                u32::MAX => m.valence(v),
+                n => n as usize,
+            };
+            let ideal = m.ideal_valence(v);
+            s.before.push((val, ideal));
+            dev_b = dev_b.max(val.abs_diff(ideal));
         }
         // doublets the step triggers: interior valence-2 survivors vanish and
         // their two neighbours lose an edge each
