@@ -1796,12 +1796,21 @@ impl Coarsener {
         // free vertex of the inserted quads (not only the badly shaped ones)
         // and check again. Only vertices whose faces are all in
         // `after_faces` move, so the guard still sees every changed quad.
-        if guard_ok && RESCUE_ITERATIONS > 0 && guard.check(&self.mesh, &after_faces).is_err() {
-            let wide = self.relax_set(&patch, &inserted, true);
-            for (v, p) in self.relax(&wide, RESCUE_ITERATIONS) {
-                if !relaxed.iter().any(|r| r.0 == v) {
-                    relaxed.push((v, p));
+        // (`after_check`: the guard's verdict on `after_faces` at the current
+        // positions, kept while nothing moves: the check is pure, so a step
+        // that passes at once is checked once, not three times)
+        let mut after_check: Option<Result<(), Reject>> = None;
+        if guard_ok && RESCUE_ITERATIONS > 0 {
+            let verdict = guard.check(&self.mesh, &after_faces);
+            if verdict.is_err() {
+                let wide = self.relax_set(&patch, &inserted, true);
+                for (v, p) in self.relax(&wide, RESCUE_ITERATIONS) {
+                    if !relaxed.iter().any(|r| r.0 == v) {
+                        relaxed.push((v, p));
+                    }
                 }
+            } else {
+                after_check = Some(verdict);
             }
         }
         // Still failing, a step that adds no defect gets a wider try: relax
@@ -1809,7 +1818,16 @@ impl Coarsener {
         // [`WIDE_RESCUE_ITERATIONS`]) and check every face around those.
         let mut check_faces = after_faces.clone();
         let mut widened = false;
-        if guard_ok && wide_rescue && guard.check(&self.mesh, &after_faces).is_err() {
+        let still_failing = |c: &Coarsener, after_check: &mut Option<Result<(), Reject>>| {
+            let verdict = after_check
+                .take()
+                .unwrap_or_else(|| guard.check(&c.mesh, &after_faces));
+            let failing = verdict.is_err();
+            *after_check = Some(verdict);
+            failing
+        };
+        if guard_ok && wide_rescue && still_failing(self, &mut after_check) {
+            after_check = None;
             widened = true;
             let ring: Vec<VertexId> = {
                 let mut vs: Vec<VertexId> = Vec::new();
@@ -1862,7 +1880,12 @@ impl Coarsener {
             self.mesh.is_vertex_alive(v) && self.mesh.valence(v) > self.cap.max(before)
         }) {
             Err("valence above the cap")
-        } else if let Err(Reject::Geometry(why)) = guard.check(&self.mesh, &check_faces) {
+        } else if let Err(Reject::Geometry(why)) = match after_check {
+            // unwidened, `check_faces` is `after_faces` and nothing moved
+            // since that verdict
+            Some(verdict) if !widened => verdict,
+            _ => guard.check(&self.mesh, &check_faces),
+        } {
             Err(why)
         } else if self.surface_deviation(&moves, &composed)
             > self.deviation_limit(&moves, &composed)
