@@ -521,7 +521,8 @@ fn free_score_scratch() {
 
 /// The neighbours after the step of touched slot `k` into `s.nb` (kept
 /// edges, then the edges of the inserted quads, each once), unless already
-/// there; `s.nb_range[k]` is where. A vertex that merges away gets none.
+/// there; `s.nb_range[k]` is where, `s.after[k]` its [`after_of`]. A vertex
+/// that merges away gets none.
 fn fill_neighbours(
     m: &Mesh,
     patch: &Patch,
@@ -560,6 +561,7 @@ fn fill_neighbours(
         }
     }
     s.nb_range[k] = (start, s.nb.len());
+    s.after[k] = after_of(m, patch, v, start, s.nb.len());
 }
 
 /// `(valence after, ideal valence after)` of touched vertex `v` whose
@@ -1457,6 +1459,7 @@ impl Coarsener {
         // the verdict is the same.
         s.nb_range.resize(s.touched.len(), (usize::MAX, 0));
         s.val_before.resize(s.touched.len(), u32::MAX);
+        s.after.resize(s.touched.len(), None);
         let early = if shortcuts { patch.merged.len() } else { 0 };
         for gi in 0..early {
             let t = patch.merged[gi].1;
@@ -1468,7 +1471,7 @@ impl Coarsener {
             };
             fill_neighbours(m, patch, &fmark, epoch, s, k);
             let (lo, hi) = s.nb_range[k];
-            let Some((val, ideal)) = after_of(m, patch, t, lo, hi) else {
+            let Some((val, ideal)) = s.after[k] else {
                 continue;
             };
             if ideal == 4 && val == 2 {
@@ -1479,8 +1482,7 @@ impl Coarsener {
                 let w = VertexId(s.nb[i]);
                 if let Some(j) = local(w) {
                     fill_neighbours(m, patch, &fmark, epoch, s, j);
-                    let (a, b) = s.nb_range[j];
-                    lost += (after_of(m, patch, w, a, b) == Some((2, 4))) as usize;
+                    lost += (s.after[j] == Some((2, 4))) as usize;
                 }
             }
             if val - lost > self.cap.max(s.val_before[k] as usize) {
@@ -1493,9 +1495,6 @@ impl Coarsener {
         // vertex merges away or keeps no edge
         for k in 0..s.touched.len() {
             fill_neighbours(m, patch, &fmark, epoch, s, k);
-            let (lo, hi) = s.nb_range[k];
-            let after = after_of(m, patch, s.touched[k], lo, hi);
-            s.after.push(after);
         }
         // valences before (walked above, but for the vertices merging away)
         let mut dev_b = 0usize;
