@@ -102,15 +102,35 @@ pub struct PatchResult {
     pub removed_faces: Vec<FaceId>,
 }
 
+/// One half-edge: the vertex it points to, the next and previous half-edges
+/// of its loop and its face (`NONE` on the boundary).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C, align(16))]
+struct He {
+    to: u32,
+    next: u32,
+    prev: u32,
+    face: u32,
+}
+
+impl He {
+    const NONE: He = He {
+        to: NONE,
+        next: NONE,
+        prev: NONE,
+        face: NONE,
+    };
+}
+
 /// A half-edge polygon mesh (see the module documentation).
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
     positions: Vec<DVec3>,
     v_out: Vec<u32>,
-    h_to: Vec<u32>,
-    h_next: Vec<u32>,
-    h_prev: Vec<u32>,
-    h_face: Vec<u32>,
+    /// Half-edges, one record each (target, next, prev, face): a ring or
+    /// face walk reads one record per step, and a twin pair (`h`, `h ^ 1`)
+    /// shares 32 bytes, instead of a miss in each of four arrays.
+    he: Vec<He>,
     e_alive: Vec<bool>,
     f_he: Vec<u32>,
     free_edges: Vec<u32>,
@@ -186,6 +206,19 @@ impl Mesh {
             f_he: Vec::with_capacity(m.face_count()),
             ..Default::default()
         };
+        // One edge per run of equal (min, max) keys. Reserved with a little
+        // headroom: a patch takes its new edges before it frees its old
+        // ones, so the first patches on a mesh whose free list is still
+        // empty push a few edges; without headroom that first push would
+        // double the half-edge buffer (the coarsener's peak heap went
+        // 477 → 526 bytes per input quad on the bunny).
+        let n_edges = 1 + keys
+            .windows(2)
+            .filter(|w| (w[0].0, w[0].1) != (w[1].0, w[1].1))
+            .count();
+        const EDGE_HEADROOM: usize = 256;
+        mesh.he.reserve_exact(2 * (n_edges + EDGE_HEADROOM));
+        mesh.e_alive.reserve_exact(n_edges + EDGE_HEADROOM);
         let mut i = 0;
         while i < keys.len() {
             let (a, b, _) = keys[i];
@@ -209,8 +242,8 @@ impl Mesh {
                 corner_he[corner] = h;
             }
             // set targets: half-edge 2e goes a→b, 2e+1 goes b→a
-            mesh.h_to[2 * e as usize] = b;
-            mesh.h_to[2 * e as usize + 1] = a;
+            mesh.he[2 * e as usize].to = b;
+            mesh.he[2 * e as usize + 1].to = a;
             i = j;
         }
         for (f, face) in m.faces().enumerate() {
@@ -219,9 +252,9 @@ impl Mesh {
             for i in 0..n {
                 let h = corner_he[base + i] as usize;
                 let hn = corner_he[base + (i + 1) % n];
-                mesh.h_next[h] = hn;
-                mesh.h_prev[hn as usize] = h as u32;
-                mesh.h_face[h] = f as u32;
+                mesh.he[h].next = hn;
+                mesh.he[hn as usize].prev = h as u32;
+                mesh.he[h].face = f as u32;
                 mesh.v_out[face[i] as usize] = h as u32;
             }
             // the half-edge entering corner 0, so the face reads from corner 0
@@ -232,9 +265,9 @@ impl Mesh {
         // Boundary half-edges: prefer them as the vertex's outgoing half-edge,
         // and count them to detect non-manifold vertices.
         let mut boundary_out = vec![0u8; nv];
-        for h in 0..mesh.h_to.len() {
-            if mesh.h_face[h] == NONE {
-                let from = mesh.h_to[h ^ 1] as usize;
+        for h in 0..mesh.he.len() {
+            if mesh.he[h].face == NONE {
+                let from = mesh.he[h ^ 1].to as usize;
                 boundary_out[from] = boundary_out[from].saturating_add(1);
                 if boundary_out[from] > 1 {
                     return err(format!(
@@ -246,19 +279,19 @@ impl Mesh {
         }
         // Link boundary loops: for a boundary half-edge h into v, next(h) is v's
         // boundary outgoing half-edge (unique, checked above).
-        for h in 0..mesh.h_to.len() {
-            if mesh.h_face[h] == NONE {
-                let v = mesh.h_to[h] as usize;
+        for h in 0..mesh.he.len() {
+            if mesh.he[h].face == NONE {
+                let v = mesh.he[h].to as usize;
                 let o = mesh.v_out[v];
-                mesh.h_next[h] = o;
-                mesh.h_prev[o as usize] = h as u32;
+                mesh.he[h].next = o;
+                mesh.he[o as usize].prev = h as u32;
             }
         }
         // A vertex is manifold when walking its ring from v_out visits all of
         // its outgoing half-edges.
         let mut out_count = vec![0u32; nv];
-        for h in 0..mesh.h_to.len() {
-            out_count[mesh.h_to[h ^ 1] as usize] += 1;
+        for h in 0..mesh.he.len() {
+            out_count[mesh.he[h ^ 1].to as usize] += 1;
         }
         for (v, &count) in out_count.iter().enumerate() {
             let walked = mesh
@@ -327,10 +360,7 @@ impl Mesh {
         let e = self.e_alive.len() as u32;
         self.e_alive.push(true);
         for _ in 0..2 {
-            self.h_to.push(NONE);
-            self.h_next.push(NONE);
-            self.h_prev.push(NONE);
-            self.h_face.push(NONE);
+            self.he.push(He::NONE);
         }
         self.n_edges += 1;
         e
@@ -360,7 +390,7 @@ impl Mesh {
     }
     /// Size of the half-edge id space (live and deleted).
     pub fn halfedge_capacity(&self) -> usize {
-        self.h_to.len()
+        self.he.len()
     }
     /// True when the vertex id is in range and not deleted.
     #[inline]
@@ -391,7 +421,7 @@ impl Mesh {
     }
     /// Live half-edges in id order.
     pub fn halfedges(&self) -> impl Iterator<Item = HalfedgeId> + '_ {
-        (0..self.h_to.len() as u32)
+        (0..self.he.len() as u32)
             .map(HalfedgeId)
             .filter(|&h| self.is_halfedge_alive(h))
     }
@@ -414,22 +444,22 @@ impl Mesh {
     /// The vertex `h` points to.
     #[inline]
     pub fn to_vertex(&self, h: HalfedgeId) -> VertexId {
-        VertexId(self.h_to[h.idx()])
+        VertexId(self.he[h.idx()].to)
     }
     /// The vertex `h` leaves.
     #[inline]
     pub fn from_vertex(&self, h: HalfedgeId) -> VertexId {
-        VertexId(self.h_to[h.idx() ^ 1])
+        VertexId(self.he[h.idx() ^ 1].to)
     }
     /// The next half-edge in `h`'s face (or boundary) loop.
     #[inline]
     pub fn next(&self, h: HalfedgeId) -> HalfedgeId {
-        HalfedgeId(self.h_next[h.idx()])
+        HalfedgeId(self.he[h.idx()].next)
     }
     /// The previous half-edge in `h`'s face (or boundary) loop.
     #[inline]
     pub fn prev(&self, h: HalfedgeId) -> HalfedgeId {
-        HalfedgeId(self.h_prev[h.idx()])
+        HalfedgeId(self.he[h.idx()].prev)
     }
     /// The opposite half-edge.
     #[inline]
@@ -439,13 +469,13 @@ impl Mesh {
     /// The face of `h`; `None` for a boundary half-edge.
     #[inline]
     pub fn face(&self, h: HalfedgeId) -> Option<FaceId> {
-        let f = self.h_face[h.idx()];
+        let f = self.he[h.idx()].face;
         (f != NONE).then_some(FaceId(f))
     }
     /// True when `h` has no face.
     #[inline]
     pub fn is_boundary_halfedge(&self, h: HalfedgeId) -> bool {
-        self.h_face[h.idx()] == NONE
+        self.he[h.idx()].face == NONE
     }
     /// True when either side of `h`'s edge has no face.
     #[inline]
@@ -461,7 +491,7 @@ impl Mesh {
     #[inline]
     pub fn is_boundary_vertex(&self, v: VertexId) -> bool {
         let h = self.v_out[v.idx()];
-        h != NONE && self.h_face[h as usize] == NONE
+        h != NONE && self.he[h as usize].face == NONE
     }
     /// One half-edge of `f`.
     #[inline]
@@ -606,7 +636,7 @@ impl Mesh {
     /// Boundary loops, each as its half-edges in loop order (starting at the
     /// smallest half-edge id, loops sorted by that id).
     pub fn boundary_loops(&self) -> Vec<Vec<HalfedgeId>> {
-        let mut seen = vec![false; self.h_to.len()];
+        let mut seen = vec![false; self.he.len()];
         let mut loops = Vec::new();
         for h in self.halfedges() {
             if !self.is_boundary_halfedge(h) || seen[h.idx()] {
@@ -618,7 +648,7 @@ impl Mesh {
                 seen[c.idx()] = true;
                 lp.push(c);
                 c = self.next(c);
-                if c == h || lp.len() > self.h_to.len() {
+                if c == h || lp.len() > self.he.len() {
                     break;
                 }
             }
@@ -677,7 +707,7 @@ impl Mesh {
     /// [`Mesh::validate`] without the dual-chord test: the half-edge structure
     /// is consistent, manifold and oriented (doublets allowed).
     pub fn validate_structure(&self) -> Result<(), MeshError> {
-        let nh = self.h_to.len();
+        let nh = self.he.len();
         let mut count_v = 0;
         let mut count_f = 0;
         let mut count_e = 0;
@@ -688,23 +718,23 @@ impl Mesh {
             count_e += 1;
             for h in [2 * e, 2 * e + 1] {
                 let hid = HalfedgeId(h as u32);
-                let (n, p, to) = (self.h_next[h], self.h_prev[h], self.h_to[h]);
+                let (n, p, to) = (self.he[h].next, self.he[h].prev, self.he[h].to);
                 if n as usize >= nh || p as usize >= nh || !self.is_vertex_alive(VertexId(to)) {
                     return err(format!("half-edge {h} has a dangling link"));
                 }
                 if !self.e_alive[n as usize / 2] || !self.e_alive[p as usize / 2] {
                     return err(format!("half-edge {h} links to a deleted edge"));
                 }
-                if self.h_prev[n as usize] != h as u32 || self.h_next[p as usize] != h as u32 {
+                if self.he[n as usize].prev != h as u32 || self.he[p as usize].next != h as u32 {
                     return err(format!("half-edge {h}: next/prev are not inverse"));
                 }
                 if self.from_vertex(HalfedgeId(n)) != VertexId(to) {
                     return err(format!("half-edge {h}: next does not start where it ends"));
                 }
-                if self.h_face[n as usize] != self.h_face[h] {
+                if self.he[n as usize].face != self.he[h].face {
                     return err(format!("half-edge {h}: next is in another face"));
                 }
-                let f = self.h_face[h];
+                let f = self.he[h].face;
                 if f != NONE && !self.is_face_alive(FaceId(f)) {
                     return err(format!("half-edge {h} belongs to deleted face {f}"));
                 }
@@ -712,11 +742,11 @@ impl Mesh {
                     return err(format!("half-edge {h} is a loop at vertex {to}"));
                 }
             }
-            if self.h_face[2 * e] == NONE && self.h_face[2 * e + 1] == NONE {
+            if self.he[2 * e].face == NONE && self.he[2 * e + 1].face == NONE {
                 return err(format!(
                     "edge {}-{} has no face",
-                    self.h_to[2 * e + 1],
-                    self.h_to[2 * e]
+                    self.he[2 * e + 1].to,
+                    self.he[2 * e].to
                 ));
             }
         }
@@ -728,7 +758,7 @@ impl Mesh {
             }
             count_f += 1;
             let h0 = self.f_he[f] as usize;
-            if h0 >= nh || !self.e_alive[h0 / 2] || self.h_face[h0] != f as u32 {
+            if h0 >= nh || !self.e_alive[h0 / 2] || self.he[h0].face != f as u32 {
                 return err(format!("face {f} has a bad half-edge"));
             }
             vs.clear();
@@ -761,7 +791,7 @@ impl Mesh {
             }
             count_v += 1;
             let h = self.v_out[v] as usize;
-            if h >= nh || !self.e_alive[h / 2] || self.h_to[h ^ 1] != v as u32 {
+            if h >= nh || !self.e_alive[h / 2] || self.he[h ^ 1].to != v as u32 {
                 return err(format!("vertex {v} has a bad outgoing half-edge"));
             }
             if !self.positions[v].is_finite() {
@@ -1036,7 +1066,7 @@ impl Mesh {
         for &f in remove {
             let hs: smallvec_lite::SmallH = self.face_halfedges(f).collect();
             for &h in hs.iter() {
-                self.h_face[h.idx()] = NONE;
+                self.he[h.idx()].face = NONE;
             }
         }
         // 3. Insert the new faces, reusing half-edges where the edge exists.
@@ -1059,28 +1089,28 @@ impl Mesh {
                 let (a, b) = (face[i].0, face[(i + 1) % face.len()].0);
                 let found = outs
                     .iter()
-                    .find(|&&(from, h)| from == a && self.h_to[h as usize] == b);
+                    .find(|&&(from, h)| from == a && self.he[h as usize].to == b);
                 let h = match found {
                     Some(&(_, h)) => h,
                     None => {
                         let e = self.new_edge_raw();
                         let h = 2 * e;
-                        self.h_to[h as usize] = b;
-                        self.h_to[h as usize + 1] = a;
-                        self.h_face[h as usize + 1] = NONE;
+                        self.he[h as usize].to = b;
+                        self.he[h as usize + 1].to = a;
+                        self.he[h as usize + 1].face = NONE;
                         outs.push((a, h));
                         outs.push((b, h + 1));
                         h
                     }
                 };
-                debug_assert_eq!(self.h_face[h as usize], NONE, "half-edge {a}->{b} in use");
-                self.h_face[h as usize] = fid;
+                debug_assert_eq!(self.he[h as usize].face, NONE, "half-edge {a}->{b} in use");
+                self.he[h as usize].face = fid;
                 hs.push(h);
             }
             for i in 0..hs.len() {
                 let (h, n) = (hs[i], hs[(i + 1) % hs.len()]);
-                self.h_next[h as usize] = n;
-                self.h_prev[n as usize] = h;
+                self.he[h as usize].next = n;
+                self.he[n as usize].prev = h;
             }
             // the half-edge entering corner 0: the face reads back as given
             self.f_he[fid as usize] = hs[hs.len() - 1];
@@ -1097,7 +1127,7 @@ impl Mesh {
             if !self.e_alive[e] {
                 return false;
             }
-            if self.h_face[2 * e] == NONE && self.h_face[2 * e + 1] == NONE {
+            if self.he[2 * e].face == NONE && self.he[2 * e + 1].face == NONE {
                 self.e_alive[e] = false;
                 self.free_edges.push(e as u32);
                 self.n_edges -= 1;
@@ -1117,10 +1147,10 @@ impl Mesh {
                 if any == NONE {
                     any = h;
                 }
-                if self.h_face[h as usize] == NONE {
+                if self.he[h as usize].face == NONE {
                     out_b = h;
                 }
-                if self.h_face[h as usize ^ 1] == NONE {
+                if self.he[h as usize ^ 1].face == NONE {
                     in_b = h ^ 1;
                 }
             }
@@ -1138,8 +1168,8 @@ impl Mesh {
             }
             if out_b != NONE {
                 debug_assert!(in_b != NONE);
-                self.h_next[in_b as usize] = out_b;
-                self.h_prev[out_b as usize] = in_b;
+                self.he[in_b as usize].next = out_b;
+                self.he[out_b as usize].prev = in_b;
                 self.v_out[v as usize] = out_b;
             } else {
                 self.v_out[v as usize] = any;
