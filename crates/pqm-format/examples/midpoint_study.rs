@@ -34,6 +34,8 @@
 //! file). Worth taking in a future major version together with other
 //! changes, not alone.
 
+#![allow(clippy::needless_range_loop)] // per-axis loops over three arrays read best indexed
+
 use pqm_format::codec::{MeshState, QRecord};
 use pqm_format::varint::{put_s, put_u};
 use pqm_format::{decode_all, Limits};
