@@ -929,7 +929,11 @@ impl Decoder {
         let n_f = (info.face_count as usize)
             .saturating_sub(st.quads.len())
             .min(cap);
-        r.reserve(n_rec, n_v, n_f);
+        if self.forward_only {
+            r.reserve(n_rec, 0, 0);
+        } else {
+            r.reserve(n_rec, n_v, n_f);
+        }
         st.reserve(n_v, n_f);
         let result = Self::decode_chunk_records(
             i,
@@ -941,6 +945,7 @@ impl Decoder {
             r,
             &mut self.rec,
             &mut self.buffers,
+            self.forward_only,
         );
         if result.is_err() {
             for k in (k0..r.op.len()).rev() {
@@ -981,6 +986,7 @@ impl Decoder {
         r: &mut Records,
         rec: &mut codec::QRecord,
         buffers: &mut codec::DecodeScratch,
+        forward_only: bool,
     ) -> Result<(), FormatError> {
         let mut cur = Cursors::default();
         for t in 0..info.record_count {
@@ -1001,8 +1007,19 @@ impl Decoder {
             })?;
             st.apply_logged(rec, &mut r.moved, &mut r.rw);
             r.op.push(rec.op);
-            r.new_pos.extend_from_slice(&rec.new_pos);
-            r.appended.extend_from_slice(&rec.appended);
+            // The explicit new vertices and quads serve only a replay onto
+            // the current level; a forward-only decoder copies the frontier
+            // instead, so it does not keep them.
+            if !forward_only {
+                // Element by element: a record holds 1–4 of each, where
+                // `extend_from_slice` is a call to `memcpy`.
+                for &p in &rec.new_pos {
+                    r.new_pos.push(p);
+                }
+                for &q in &rec.appended {
+                    r.appended.push(q);
+                }
+            }
             r.v_at.push(st.q.len() as u32);
             r.f_at.push(st.quads.len() as u32);
             r.moved_at.push(r.moved.len());

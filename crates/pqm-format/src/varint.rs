@@ -49,6 +49,7 @@ impl<'a> Reader<'a> {
         self.buf.len() - self.pos
     }
     /// One raw byte.
+    #[inline]
     pub fn byte(&mut self) -> Result<u8, String> {
         let b = *self
             .buf
@@ -57,22 +58,49 @@ impl<'a> Reader<'a> {
         self.pos += 1;
         Ok(b)
     }
-    /// One unsigned LEB128 value.
-    #[inline]
+    /// One unsigned LEB128 value (always inlined: a handful of
+    /// instructions per call site on the one- and two-byte paths).
+    #[inline(always)]
     pub fn u(&mut self) -> Result<u64, String> {
-        // Fast path: most values in a record fit in one byte.
-        if let Some(&b) = self.buf.get(self.pos) {
+        // Fast paths: most values in a record fit in one byte, most of the
+        // rest (position residuals) in two.
+        let pos = self.pos;
+        if let Some(&b) = self.buf.get(pos) {
             if b < 0x80 {
-                self.pos += 1;
+                self.pos = pos + 1;
                 return Ok(b as u64);
+            }
+            if let Some(&b1) = self.buf.get(pos + 1) {
+                if b1 < 0x80 {
+                    self.pos = pos + 2;
+                    return Ok((b & 0x7f) as u64 | (b1 as u64) << 7);
+                }
             }
         }
         self.u_multi()
     }
 
-    /// [`Reader::u`] for values of two bytes or more (and the errors).
+    /// [`Reader::u`] for values of three bytes or more (and the errors).
     #[inline(never)]
     fn u_multi(&mut self) -> Result<u64, String> {
+        // With 10 bytes left (the longest varint) one fixed-size window is
+        // read without a bounds check per byte; nearer the end, the checked
+        // loop (same values, same errors).
+        if let Some(w) = self.buf.get(self.pos..self.pos + 10) {
+            let mut v: u64 = 0;
+            for (i, &b) in w.iter().enumerate() {
+                let bits = (b & 0x7f) as u64;
+                if i == 9 && bits > 1 {
+                    return Err(format!("stream {}: varint overflows 64 bits", self.name));
+                }
+                v |= bits << (7 * i);
+                if b & 0x80 == 0 {
+                    self.pos += i + 1;
+                    return Ok(v);
+                }
+            }
+            return Err(format!("stream {}: varint longer than 10 bytes", self.name));
+        }
         let mut v: u64 = 0;
         for i in 0..10 {
             let b = self.byte()?;
@@ -88,18 +116,57 @@ impl<'a> Reader<'a> {
         Err(format!("stream {}: varint longer than 10 bytes", self.name))
     }
     /// One unsigned value that must be `<= max` (`what` names it in errors).
+    #[inline(always)]
     pub fn u_max(&mut self, max: u64, what: &str) -> Result<u64, String> {
         let v = self.u()?;
         if v > max {
-            return Err(format!("{what} = {v} exceeds {max}"));
+            return Err(too_large(what, v, max));
         }
         Ok(v)
     }
     /// One zigzag-coded signed value.
-    #[inline]
+    #[inline(always)]
     pub fn s(&mut self) -> Result<i64, String> {
         Ok(unzigzag(self.u()?))
     }
+    /// The next three zigzag-coded values, without consuming them (`None`
+    /// past the end or for a malformed varint): the decoder's look-ahead
+    /// for prefetching, never a value it decodes with.
+    pub fn peek_s3(&self) -> [Option<i64>; 3] {
+        let mut out = [None; 3];
+        let mut pos = self.pos;
+        for o in out.iter_mut() {
+            // One-byte values (most anchors' deltas) first.
+            match self.buf.get(pos) {
+                Some(&b) if b < 0x80 => {
+                    pos += 1;
+                    *o = Some(unzigzag(b as u64));
+                    continue;
+                }
+                None => return out,
+                _ => {}
+            }
+            let mut v: u64 = 0;
+            let mut done = false;
+            for i in 0..10 {
+                let Some(&b) = self.buf.get(pos) else {
+                    return out;
+                };
+                pos += 1;
+                v |= ((b & 0x7f) as u64).wrapping_shl(7 * i);
+                if b & 0x80 == 0 {
+                    done = true;
+                    break;
+                }
+            }
+            if !done {
+                return out;
+            }
+            *o = Some(unzigzag(v));
+        }
+        out
+    }
+
     /// `n` raw bytes.
     pub fn bytes(&mut self, n: usize) -> Result<&'a [u8], String> {
         if n > self.remaining() {
@@ -109,6 +176,13 @@ impl<'a> Reader<'a> {
         self.pos += n;
         Ok(s)
     }
+}
+
+/// The error of [`Reader::u_max`] (cold: only bad input gets here).
+#[cold]
+#[inline(never)]
+fn too_large(what: &str, v: u64, max: u64) -> String {
+    format!("{what} = {v} exceeds {max}")
 }
 
 #[cfg(test)]
@@ -126,6 +200,65 @@ mod tests {
             prop_assert_eq!(r.u().unwrap(), u);
             prop_assert_eq!(r.s().unwrap(), s);
             prop_assert_eq!(r.remaining(), 0);
+        }
+    }
+
+    proptest! {
+        /// The windowed fast path (10 bytes left) and the checked loop near
+        /// the end of a stream read the same value and the same length, for
+        /// any value and any padding after it (0 = the value ends the
+        /// stream), and reject the same malformed bytes.
+        #[test]
+        fn fast_and_checked_paths_agree(u in any::<u64>(), pad in 0usize..12, junk in any::<[u8; 10]>()) {
+            let mut out = Vec::new();
+            put_u(&mut out, u);
+            let len = out.len();
+            out.extend(std::iter::repeat_n(0x80u8, pad));
+            let mut r = Reader::new(&out, "t");
+            prop_assert_eq!(r.u().unwrap(), u);
+            prop_assert_eq!(r.remaining(), pad);
+            prop_assert_eq!(out.len() - r.remaining(), len);
+            // Arbitrary bytes: a varint that ends within the first `k < 10`
+            // bytes (the checked loop: fewer than 10 left) reads the same
+            // with 10 more bytes after it (the window).
+            let k = pad % 10;
+            let mut checked = Reader::new(&junk[..k], "t");
+            if let Ok(v) = checked.u() {
+                let mut padded = junk[..k].to_vec();
+                padded.extend([0u8; 10]);
+                let mut windowed = Reader::new(&padded, "t");
+                prop_assert_eq!(windowed.u().unwrap(), v);
+                prop_assert_eq!(windowed.remaining(), 10 + checked.remaining());
+            }
+        }
+    }
+
+    proptest! {
+        /// The look-ahead reads what the next three `s()` calls return (as
+        /// far as they succeed) and consumes nothing.
+        #[test]
+        fn peek_sees_the_next_values(
+            vals in proptest::collection::vec(any::<i64>(), 0..4),
+            cut in 0usize..40,
+        ) {
+            let mut out = Vec::new();
+            for &v in &vals {
+                put_s(&mut out, v);
+            }
+            let out = &out[..cut.min(out.len())];
+            let r = Reader::new(out, "t");
+            let peeked = r.peek_s3();
+            prop_assert_eq!(r.remaining(), out.len());
+            let mut r2 = r.clone();
+            for p in peeked {
+                match r2.s() {
+                    Ok(v) => prop_assert_eq!(p, Some(v)),
+                    Err(_) => {
+                        prop_assert_eq!(p, None);
+                        break;
+                    }
+                }
+            }
         }
     }
 
