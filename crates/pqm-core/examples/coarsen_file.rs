@@ -2,6 +2,11 @@
 //! (the `pqm coarsen` command is the user-facing tool).
 //!
 //! `cargo run --release -p pqm-core --example coarsen_file -- IN TARGET_FACES [OUT]`
+//!
+//! `PQM_SMOOTHING=none|local|global` picks the smoothing,
+//! `PQM_GLOBAL_ITERS=N` the iterations of the final global smoothing
+//! (default: the coarsener's). On loki → 2,000: 1 → 78.2 % ideal, SJ median
+//! 0.793; 5 → 0.807; 20 → 0.792, same ideal fraction and Hausdorff.
 use pqm_core::coarsen::{CoarsenOptions, Coarsener, Smoothing};
 use pqm_core::{io, subdivide, Mesh};
 use std::time::Instant;
@@ -24,6 +29,10 @@ fn main() {
     let opts = CoarsenOptions {
         target_faces: Some(target),
         smoothing,
+        global_smoothing_iterations: std::env::var("PQM_GLOBAL_ITERS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0),
         ..Default::default()
     };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");

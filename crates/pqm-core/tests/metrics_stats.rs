@@ -41,6 +41,7 @@ fn json_has_exactly_the_documented_fields() {
             "components",
             "euler",
             "faces",
+            "forced_irregular",
             "genus",
             "other_faces",
             "quads",

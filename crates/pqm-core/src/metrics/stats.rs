@@ -38,6 +38,11 @@ pub struct MeshStats {
     pub scaled_jacobian: ScaledJacobianStats,
     /// Vertex structure `{ideal_fraction, extraordinary, worst}`.
     pub valence: ValenceStats,
+    /// Irregular vertices the topology forces on a doublet-free quad mesh
+    /// (8 per closed sphere; see [`super::topology`]): `extraordinary` can
+    /// never go below it, so it bounds the ideal fraction any coarsening
+    /// can reach at a given vertex count.
+    pub forced_irregular: usize,
     /// Symmetric Hausdorff `{max, mean}` to the reference, in units of the
     /// reference's bounding-box diagonal; only present when a reference is given.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -61,6 +66,7 @@ pub fn mesh_stats(mesh: &IndexedMesh, reference: Option<&IndexedMesh>) -> MeshSt
         euler: topo.euler,
         scaled_jacobian: scaled_jacobian(mesh).stats,
         valence: valence(mesh).stats,
+        forced_irregular: topo.forced_irregular,
         hausdorff: reference.map(|r| hausdorff(mesh, r, &HausdorffOptions::default()).symmetric),
     }
 }
@@ -101,6 +107,16 @@ impl fmt::Display for MeshStats {
                 self.valence.worst
             ),
         )?;
+        if self.forced_irregular > 0 {
+            row(
+                f,
+                "forced irregular",
+                format!(
+                    "{} (the least a quad mesh of this topology has without valence-2 vertices)",
+                    self.forced_irregular
+                ),
+            )?;
+        }
         if let Some(h) = &self.hausdorff {
             row(
                 f,

@@ -19,6 +19,16 @@
 //!   component. It is the genus for orientable manifold meshes; for other
 //!   inputs the per-component value is rounded down (`div_euclid`) and can be
 //!   meaningless (a Möbius strip gives 0).
+//! * **Forced irregular vertices** — `Σ_c max(0, 4 χ_c)` over the *closed*
+//!   components (no boundary edge). On a closed quad mesh every edge has two
+//!   face sides, so `4F = 2E` and `Σ_v (4 − valence_v) = 4V − 2E = 4χ`; a
+//!   vertex of valence 3 adds 1 and none adds more unless it has valence 2
+//!   (a doublet, which the coarsener removes). So a closed genus-0 component
+//!   (`χ = 2`) of a doublet-free quad mesh has at least 8 irregular
+//!   vertices, whatever its connectivity — the cube's 8 corners: a lower
+//!   bound on `extraordinary` (see [`super::valence`]) that no coarsener can
+//!   beat without changing the topology. Components with a boundary are left
+//!   out (their corners may be ideal at valence 2).
 //!
 //! All counts are `O(n log n)` (edge table by sorting) plus near-linear union-find.
 
@@ -47,6 +57,9 @@ pub struct Topology {
     pub boundary_loops: usize,
     /// `Σ_c (2 − χ_c − b_c) / 2`.
     pub genus: i64,
+    /// `Σ_c max(0, 4 χ_c)` over closed components: at least this many
+    /// vertices of a doublet-free quad mesh of this topology are irregular.
+    pub forced_irregular: usize,
 }
 
 /// Computes the [`Topology`] of `mesh`.
@@ -103,10 +116,14 @@ pub fn topology(mesh: &IndexedMesh) -> Topology {
     }
     let mut genus = 0i64;
     let mut component_count = 0usize;
+    let mut forced_irregular = 0usize;
     for r in 0..n {
         if is_root[r] {
             component_count += 1;
             genus += (2 - chi[r] - loops[r]).div_euclid(2);
+            if loops[r] == 0 {
+                forced_irregular += (4 * chi[r]).max(0) as usize;
+            }
         }
     }
     Topology {
@@ -119,5 +136,6 @@ pub fn topology(mesh: &IndexedMesh) -> Topology {
         components: component_count,
         boundary_loops,
         genus,
+        forced_irregular,
     }
 }

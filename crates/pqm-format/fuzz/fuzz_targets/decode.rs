@@ -2,7 +2,9 @@
 //!
 //! * Mode 0 (raw bytes): the input is a `.pqm` file; pushing it whole and
 //!   pushing it split at a point chosen by the input must give the same
-//!   outcome, the same events and the same deepest level and mesh.
+//!   outcome, the same events and the same deepest level and mesh; a
+//!   [`Decoder::forward_only`] decoder fed the split input must reach the
+//!   same outcome, deepest level and mesh.
 //! * Mode 1 (record streams): the input is the five record streams of a
 //!   chunk, decoded against a valid generated mesh under the 1.x, 2.0 or
 //!   3.0 rules (bypasses CRCs so the record decoder itself is exercised).
@@ -60,6 +62,36 @@ fn outcome(
     )
 }
 
+/// [`Decoder::forward_only`] on the same parts: whether every push
+/// succeeded, the deepest level and its mesh.
+fn forward(parts: &[&[u8]]) -> (bool, Option<usize>, Vec<[u32; 4]>, Vec<[u32; 3]>) {
+    let limits = Limits {
+        max_vertices: 1 << 20,
+        max_faces: 1 << 20,
+        max_memory_bytes: 256 << 20,
+    };
+    let mut d = Decoder::forward_only(limits);
+    let mut ok = true;
+    for p in parts {
+        if d.push(p).is_err() {
+            ok = false;
+            break;
+        }
+    }
+    if d.deepest_level().is_some() {
+        let c = d
+            .refine_to(Target::Level(usize::MAX))
+            .expect("deepest level");
+        assert_eq!(Some(c.to_level), d.deepest_level());
+    }
+    (
+        ok,
+        d.deepest_level(),
+        d.quads().to_vec(),
+        d.position_codes().to_vec(),
+    )
+}
+
 fuzz_target!(|data: &[u8]| {
     let Some((&mode, rest)) = data.split_first() else {
         return;
@@ -81,6 +113,12 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!(whole.2, split.2);
         assert_eq!(whole.3, split.3);
         assert_eq!(whole.4, split.4);
+        // The one-way decoder keeps the same deepest level, error or not.
+        let fwd = forward(&[&rest[..at], &rest[at..]]);
+        assert_eq!(whole.0, fwd.0);
+        assert_eq!(whole.2, fwd.1);
+        assert_eq!(whole.3, fwd.2);
+        assert_eq!(whole.4, fwd.3);
     } else {
         use pqm_format::codec::{decode_record, Cursors, MeshState};
         use pqm_format::varint::Reader;
