@@ -1004,6 +1004,135 @@ function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
 }
 
 /**
+ * predictNew for records with few new vertices (at most SCAN_NEW: an edge
+ * split has 4), with no grouping pass: the corners holding `x` are found
+ * by a straight scan of the record's quads, appended ones first, then the
+ * rewritten ones by ascending slot — the order of spec §7.6 that
+ * groupCorners / scanCorners produce, so the first match is the first
+ * quad of the fallback and the sums are the same. A scan of a few dozen
+ * corners per new vertex costs less than filling and reading the buckets
+ * (the edge split's grouping and prediction were ≈ 10 % of bunny's decode).
+ */
+function predictScan(ctx, x, V, nApp, app, nRw, rwNew) {
+  const q = ctx.st.q;
+  const qmax = ctx.qmax;
+  const na = 4 * nApp;
+  const nr = 4 * nRw;
+  let sx = 0, sy = 0, sz = 0, n = 0;
+  // the first quad holding x (fallback): which array and the corner index
+  let firstArr = null;
+  let first = -1;
+  if (ctx.v2) {
+    for (let i = 0; i < na; i++) {
+      if (app[i] !== x) continue;
+      const o = i & ~3;
+      const c = i & 3;
+      const n1 = app[o + ((c + 1) & 3)];
+      const op = app[o + ((c + 2) & 3)];
+      const n3 = app[o + ((c + 3) & 3)];
+      if (first < 0) {
+        first = i;
+        firstArr = app;
+      }
+      if (n1 < x && op < x && n3 < x) {
+        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+        n++;
+      }
+    }
+    for (let i = 0; i < nr; i++) {
+      if (rwNew[i] !== x) continue;
+      const o = i & ~3;
+      const c = i & 3;
+      const n1 = rwNew[o + ((c + 1) & 3)];
+      const op = rwNew[o + ((c + 2) & 3)];
+      const n3 = rwNew[o + ((c + 3) & 3)];
+      if (first < 0) {
+        first = i;
+        firstArr = rwNew;
+      }
+      if (n1 < x && op < x && n3 < x) {
+        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+        n++;
+      }
+    }
+    if (n > 0) {
+      ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
+      ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
+      ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+      return;
+    }
+  } else {
+    for (let i = 0; i < na && first < 0; i++) {
+      if (app[i] === x) {
+        first = i;
+        firstArr = app;
+      }
+    }
+    for (let i = 0; i < nr && first < 0; i++) {
+      if (rwNew[i] === x) {
+        first = i;
+        firstArr = rwNew;
+      }
+    }
+  }
+  if (first >= 0) {
+    const arr = firstArr;
+    const o = first & ~3;
+    const c = first & 3;
+    const n1 = arr[o + ((c + 1) & 3)];
+    const op = arr[o + ((c + 2) & 3)];
+    const n3 = arr[o + ((c + 3) & 3)];
+    const k1 = n1 < x;
+    const ko = op < x;
+    const k3 = n3 < x;
+    if (k1 && ko && k3) {
+      // parallelogram
+      ctx.px = clamp(q[16 * n1] + q[16 * n3] - q[16 * op], qmax);
+      ctx.py = clamp(q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1], qmax);
+      ctx.pz = clamp(q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2], qmax);
+      return;
+    }
+    if (k1 || ko || k3) {
+      // mean of the known ones (codes are ≥ 0: floor = truncation)
+      let mx = 0, my = 0, mz = 0, m = 0;
+      if (k1) {
+        mx += q[16 * n1];
+        my += q[16 * n1 + 1];
+        mz += q[16 * n1 + 2];
+        m++;
+      }
+      if (ko) {
+        mx += q[16 * op];
+        my += q[16 * op + 1];
+        mz += q[16 * op + 2];
+        m++;
+      }
+      if (k3) {
+        mx += q[16 * n3];
+        my += q[16 * n3 + 1];
+        mz += q[16 * n3 + 2];
+        m++;
+      }
+      ctx.px = Math.floor(mx / m);
+      ctx.py = Math.floor(my / m);
+      ctx.pz = Math.floor(mz / m);
+      return;
+    }
+  }
+  if (x > V) {
+    ctx.px = q[16 * (x - 1)];
+    ctx.py = q[16 * (x - 1) + 1];
+    ctx.pz = q[16 * (x - 1) + 2];
+  } else {
+    ctx.px = ctx.py = ctx.pz = ctx.half;
+  }
+}
+
+/**
  * The end of a general- or local-form record (spec §7.4 steps 6 and the
  * apply of §7.1): new vertex codes against the §7.6 prediction, then the
  * rewritten slots (`slots`, ascending) and the appended quads.
@@ -1016,10 +1145,16 @@ export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
     predictOnly(ctx, V, nApp, app, nRw, rwNew);
     readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V, '');
     appendVertex(ctx);
+  } else if (nNew <= SCAN_NEW && nNew > 0) {
+    st.reserve(V + nNew, NF);
+    for (let k = 0; k < nNew; k++) {
+      predictScan(ctx, V + k, V, nApp, app, nRw, rwNew);
+      readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V + k, '');
+      appendVertex(ctx);
+    }
   } else if (nNew > 0) {
     st.reserve(V + nNew, NF);
-    if (nNew <= SCAN_NEW) scanCorners(V, nNew, rwNew, nRw, app, nApp);
-    else groupCorners(V, nNew, rwNew, nRw, app, nApp);
+    groupCorners(V, nNew, rwNew, nRw, app, nApp);
     for (let k = 0; k < nNew; k++) {
       predictNew(ctx, V + k, V, nApp, app, rwNew);
       readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V + k, '');
