@@ -1258,6 +1258,43 @@ function canonicalStar(st, m, sc) {
   // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
   // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
   // first index found.
+  //
+  // Fast path (interior vertices, most of them): walk succ from face 0. If
+  // that walk comes back to face 0 through all K faces, succ is a cyclic
+  // permutation, so no two faces share an n (only the smallest of them
+  // could be a succ: a frontier quad's four corners are distinct, so n(i)
+  // ≠ p(i) and "other" never skips one) nor a p (two faces with one p
+  // have one succ): pred is
+  // succ's inverse, the rewind from 0 comes back to 0, and the star is
+  // interior with start 0 — exactly what the rewind and walk below give.
+  // Otherwise (a boundary, or a reject) they run as specified.
+  const sList = sc.list;
+  {
+    // succ is a function, so a walk from 0 that comes back to 0 is a cycle
+    // of distinct faces: back to 0 after exactly K steps means all K faces
+    let last = 0;
+    let len = 1;
+    let g = -1;
+    sList[0] = 0;
+    for (;;) {
+      const p = sP[last];
+      g = -1;
+      for (let j = 0; j < K; j++) {
+        if (j !== last && sN[j] === p) {
+          g = j;
+          break;
+        }
+      }
+      if (g <= 0 || len === K) break;
+      sList[len++] = g;
+      last = g;
+    }
+    if (g === 0 && len === K) {
+      sc.K = K;
+      sc.boundary = false;
+      return K;
+    }
+  }
   // Rewind.
   let start = -1;
   let boundary = false;
@@ -1289,7 +1326,6 @@ function canonicalStar(st, m, sc) {
     sIn.fill(0);
   }
   const gen = sc.gen;
-  const sList = sc.list;
   let len = 0;
   sList[len++] = start;
   sIn[start] = gen;
