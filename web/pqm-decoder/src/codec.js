@@ -1628,8 +1628,39 @@ function decodeFaceSplit(ctx, sym) {
   fB[0] = m; fB[1] = c; fB[2] = o; fB[3] = qv;
   const X = swap ? fB : fA;
   const Y = swap ? fA : fB;
-  rewriteSlot(ctx, s, X[rotX], X[(rotX + 1) & 3], X[(rotX + 2) & 3], X[(rotX + 3) & 3]);
+  // X keeps m and o and one of p / q, and takes c: exactly one vertex
+  // leaves slot s (q for A, p for B) and c enters it — what rewriteSlot's
+  // set comparison would find, without its 32 compares
+  rewriteSwap(ctx, s, X[rotX], X[(rotX + 1) & 3], X[(rotX + 2) & 3], X[(rotX + 3) & 3], swap ? p : qv, c);
   appendQuad(ctx, Y[rotY], Y[(rotY + 1) & 3], Y[(rotY + 2) & 3], Y[(rotY + 3) & 3]);
+}
+
+/**
+ * rewriteSlot for a rewrite that the caller knows replaces vertex `out` of
+ * the slot by `inV` (which is not in it) and permutes the rest: the same
+ * log entry, quad and lists, with one list removal and one addition.
+ */
+function rewriteSwap(ctx, slot, a, b, c, d, out, inV) {
+  const st = ctx.st;
+  const log = ctx.log;
+  const f = st.f;
+  const n = log.nRw;
+  if (5 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + 1), 5 * n);
+  const r = log.rw;
+  const o = 5 * n;
+  const s4 = 4 * slot;
+  r[o] = slot;
+  r[o + 1] = a ^ f[s4];
+  r[o + 2] = b ^ f[s4 + 1];
+  r[o + 3] = c ^ f[s4 + 2];
+  r[o + 4] = d ^ f[s4 + 3];
+  log.nRw = n + 1;
+  f[s4] = a;
+  f[s4 + 1] = b;
+  f[s4 + 2] = c;
+  f[s4 + 3] = d;
+  st.remove(out, slot);
+  st.add(inV, slot);
 }
 const fsA = new Int32Array(4);
 const fsB = new Int32Array(4);
