@@ -1003,9 +1003,11 @@ function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
   }
 }
 
-// predictScan's corner lists (see there), grown on demand
-let gNewA = new Int32Array(64);
-let gNewR = new Int32Array(256);
+// predictScan's corner buckets (see there), grown on demand, and their fill
+let gNewA = new Int32Array(256);
+let gNewR = new Int32Array(1024);
+const gCntA = new Int32Array(SCAN_NEW);
+const gCntR = new Int32Array(SCAN_NEW);
 
 /**
  * predictNew for records with few new vertices (at most SCAN_NEW: an edge
@@ -1016,25 +1018,24 @@ let gNewR = new Int32Array(256);
  * quad of the fallback and the sums are the same. A scan of a few dozen
  * corners per new vertex costs less than filling and reading the buckets
  * (the edge split's grouping and prediction were ≈ 10 % of bunny's decode).
- * The scan runs over the corner indices that hold a new vertex at all
- * (`gNewA` / `gNewR`, ascending, `nApp` / `nRw` of them, collected once
- * per record by finishRecord): an edge split's rewritten quads hold few.
+ * The scan runs over the corners that hold `x` (its buckets in `gNewA` /
+ * `gNewR`: `nA` appended ones from `aFrom`, `nR` rewritten ones from
+ * `rFrom`, ascending, filled in one pass per record by finishRecord).
  */
-function predictScan(ctx, x, V, app, nApp, rwNew, nRw) {
+function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
   const q = ctx.st.q;
   const qmax = ctx.qmax;
   const ai = gNewA;
   const ri = gNewR;
-  const na = nApp;
-  const nr = nRw;
+  const aTo = aFrom + nA;
+  const rTo = rFrom + nR;
   let sx = 0, sy = 0, sz = 0, n = 0;
   // the first quad holding x (fallback): which array and the corner index
   let firstArr = null;
   let first = -1;
   if (ctx.v2) {
-    for (let t = 0; t < na; t++) {
+    for (let t = aFrom; t < aTo; t++) {
       const i = ai[t];
-      if (app[i] !== x) continue;
       const o = i & ~3;
       const c = i & 3;
       const n1 = app[o + ((c + 1) & 3)];
@@ -1051,9 +1052,8 @@ function predictScan(ctx, x, V, app, nApp, rwNew, nRw) {
         n++;
       }
     }
-    for (let t = 0; t < nr; t++) {
+    for (let t = rFrom; t < rTo; t++) {
       const i = ri[t];
-      if (rwNew[i] !== x) continue;
       const o = i & ~3;
       const c = i & 3;
       const n1 = rwNew[o + ((c + 1) & 3)];
@@ -1076,19 +1076,12 @@ function predictScan(ctx, x, V, app, nApp, rwNew, nRw) {
       ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
       return;
     }
-  } else {
-    for (let t = 0; t < na && first < 0; t++) {
-      if (app[ai[t]] === x) {
-        first = ai[t];
-        firstArr = app;
-      }
-    }
-    for (let t = 0; t < nr && first < 0; t++) {
-      if (rwNew[ri[t]] === x) {
-        first = ri[t];
-        firstArr = rwNew;
-      }
-    }
+  } else if (nA > 0) {
+    first = ai[aFrom];
+    firstArr = app;
+  } else if (nR > 0) {
+    first = ri[rFrom];
+    firstArr = rwNew;
   }
   if (first >= 0) {
     const arr = firstArr;
@@ -1158,20 +1151,33 @@ export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
     appendVertex(ctx);
   } else if (nNew <= SCAN_NEW && nNew > 0) {
     st.reserve(V + nNew, NF);
-    // the corners holding a new vertex, ascending (an edge split: ≈ one
-    // per rewritten quad, three or four per appended one)
+    // the corners holding each new vertex k, ascending, in bucket k
+    // (stride na / nr: room for any record), appended and rewritten apart;
+    // an edge split has ≈ one per rewritten quad, three or four per
+    // appended one
     const na = 4 * nApp;
     const nr = 4 * nRw;
-    if (na > gNewA.length) gNewA = new Int32Array(2 * na);
-    if (nr > gNewR.length) gNewR = new Int32Array(2 * nr);
+    if (SCAN_NEW * na > gNewA.length) gNewA = new Int32Array(2 * SCAN_NEW * na);
+    if (SCAN_NEW * nr > gNewR.length) gNewR = new Int32Array(2 * SCAN_NEW * nr);
     const ai = gNewA;
     const ri = gNewR;
-    let nai = 0;
-    let nri = 0;
-    for (let i = 0; i < na; i++) if (app[i] >= V) ai[nai++] = i;
-    for (let i = 0; i < nr; i++) if (rwNew[i] >= V) ri[nri++] = i;
+    const ca = gCntA;
+    const cr = gCntR;
     for (let k = 0; k < nNew; k++) {
-      predictScan(ctx, V + k, V, app, nai, rwNew, nri);
+      ca[k] = 0;
+      cr[k] = 0;
+    }
+    // every corner is below V + nNew (corner codes resolve there)
+    for (let i = 0; i < na; i++) {
+      const k = app[i] - V;
+      if (k >= 0) ai[k * na + ca[k]++] = i;
+    }
+    for (let i = 0; i < nr; i++) {
+      const k = rwNew[i] - V;
+      if (k >= 0) ri[k * nr + cr[k]++] = i;
+    }
+    for (let k = 0; k < nNew; k++) {
+      predictScan(ctx, V + k, V, app, k * na, ca[k], rwNew, k * nr, cr[k]);
       readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V + k, '');
       appendVertex(ctx);
     }
@@ -1792,8 +1798,9 @@ function decodeEdgeSplit(ctx) {
     const S = sc.S;
     const list = sc.list;
     const rot = eRot[x];
-    for (let i = 0; i < K; i++) {
-      const idx = list[(rho + i) % K];
+    // w = (rho + i) mod K, stepped (a division per face otherwise)
+    for (let i = 0, w = rho % K; i < K; i++, w = w + 1 === K ? 0 : w + 1) {
+      const idx = list[w];
       const slot = S[idx];
       const fan = i > n1 && i <= n1 + m;
       let e;
@@ -1809,14 +1816,20 @@ function decodeEdgeSplit(ctx) {
         eQuad[e4 + 2] = f[s4 + 2];
         eQuad[e4 + 3] = f[s4 + 3];
       } else {
-        // is the slot in X0's star? (S ascending: binary search)
+        // is the slot in X0's star? The lists are exact: if and only if X0
+        // is one of its corners (X1 is at C; N, O, P are the others), and
+        // then S ascending finds its index (binary search) — most faces
+        // of X1's star skip the search
         const S0 = s0.S;
-        let lo = 0;
-        let hi = K0;
-        while (lo < hi) {
-          const mid = (lo + hi) >> 1;
-          if (S0[mid] < slot) lo = mid + 1;
-          else hi = mid;
+        let lo = K0;
+        if (sc.N[idx] === X0 || sc.O[idx] === X0 || sc.P[idx] === X0) {
+          lo = 0;
+          let hi = K0;
+          while (lo < hi) {
+            const mid = (lo + hi) >> 1;
+            if (S0[mid] < slot) lo = mid + 1;
+            else hi = mid;
+          }
         }
         if (lo < K0 && S0[lo] === slot) {
           e = eOfS0[lo];
@@ -1842,7 +1855,7 @@ function decodeEdgeSplit(ctx) {
       // (X, P_2m−1, P_2m, u2), with P_2j = N and P_2j+1 = O of h_j and
       // P_2m = the link entry of the first second-sector face
       const j = i - n1 - 1;
-      const next = list[(rho + i + 1) % K];
+      const next = list[w + 1 === K ? 0 : w + 1];
       const g1 = sc.O[idx];
       const g2 = sc.N[next];
       const g3 = j < m - 1 ? sc.O[next] : u2;
