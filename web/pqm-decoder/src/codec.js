@@ -818,44 +818,11 @@ export function groupCorners(V, nNew, rwNew, nRw, app, nApp) {
 
 /**
  * Records with at most this many new vertices (a qeMerge inverse has 4)
- * fill gOcc by one pass into a bucket per new vertex (stride: all corners)
- * and a copy: cheaper than the counting sort's two passes, prefix sums and
- * clearing for so few.
+ * bucket their corners by new vertex in one pass and predict from the
+ * buckets (finishRecord, predictScan): cheaper than the counting sort's two
+ * passes, prefix sums and clearing for so few.
  */
 const SCAN_NEW = 4;
-let gScan = new Int32Array(256);
-let gScanCount = new Int32Array(SCAN_NEW);
-
-/** groupCorners by one pass (meant for nNew ≤ SCAN_NEW; any nNew works); same result. */
-export function scanCorners(V, nNew, rwNew, nRw, app, nApp) {
-  const na = 4 * nApp;
-  const nr = 4 * nRw;
-  const tot = na + nr;
-  if (nNew * tot > gScan.length) gScan = new Int32Array(2 * nNew * tot);
-  if (tot > gOcc.length) gOcc = new Int32Array(2 * tot);
-  if (nNew + 1 > gOccAt.length) gOccAt = new Int32Array(2 * nNew + 2);
-  if (nNew > gScanCount.length) gScanCount = new Int32Array(nNew);
-  const b = gScan;
-  const cnt = gScanCount;
-  cnt.fill(0, 0, nNew);
-  // every corner code resolves below V + nNew: k < nNew
-  for (let i = 0; i < na; i++) {
-    const k = app[i] - V;
-    if (k >= 0) b[k * tot + cnt[k]++] = i;
-  }
-  for (let i = 0; i < nr; i++) {
-    const k = rwNew[i] - V;
-    if (k >= 0) b[k * tot + cnt[k]++] = na + i;
-  }
-  const occ = gOcc;
-  const at = gOccAt;
-  let n = 0;
-  for (let k = 0; k < nNew; k++) {
-    at[k] = n;
-    for (let j = k * tot, end = j + cnt[k]; j < end; j++) occ[n++] = b[j];
-  }
-  at[nNew] = n;
-}
 
 /** The grouping gOcc / gOccAt as arrays (for tests): per new vertex, its corner indices. */
 export function groupedCorners(nNew) {
@@ -1011,16 +978,13 @@ const gCntR = new Int32Array(SCAN_NEW);
 
 /**
  * predictNew for records with few new vertices (at most SCAN_NEW: an edge
- * split has 4), with no grouping pass: the corners holding `x` are found
- * by a straight scan of the record's quads, appended ones first, then the
- * rewritten ones by ascending slot — the order of spec §7.6 that
- * groupCorners / scanCorners produce, so the first match is the first
- * quad of the fallback and the sums are the same. A scan of a few dozen
- * corners per new vertex costs less than filling and reading the buckets
- * (the edge split's grouping and prediction were ≈ 10 % of bunny's decode).
- * The scan runs over the corners that hold `x` (its buckets in `gNewA` /
- * `gNewR`: `nA` appended ones from `aFrom`, `nR` rewritten ones from
- * `rFrom`, ascending, filled in one pass per record by finishRecord).
+ * split has 4), from buckets instead of the counting sort: finishRecord
+ * puts each corner holding a new vertex into that vertex's bucket in one
+ * pass (`gNewA` / `gNewR`, appended and rewritten corners apart,
+ * ascending), and `x` reads its `nA` appended corners from `aFrom` and
+ * `nR` rewritten ones from `rFrom` — appended first, then rewritten by
+ * ascending slot: the order of spec §7.6 (and of groupCorners), so the
+ * first one is the fallback's first quad and the sums are the same.
  */
 function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
   const q = ctx.st.q;
