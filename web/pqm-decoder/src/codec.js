@@ -879,8 +879,23 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
   }
   if (from < to) {
     const i = gOcc[from];
-    const arr = i < na ? app : rwNew;
-    const ci = i < na ? i : i - na;
+    predictFallback(ctx, x, V, i < na ? app : rwNew, i < na ? i : i - na);
+  } else {
+    predictFallback(ctx, x, V, null, -1);
+  }
+}
+
+/**
+ * §7.6's rule when no parallelogram counts (version 1: always): the first
+ * quad holding `x` — corner `ci` of `arr` (null: none) — gives its
+ * parallelogram if its three other corners are known (ids < x), else the
+ * floored mean of the known ones, else the previous new vertex's code (x >
+ * V) or the grid centre. Into ctx.px/py/pz.
+ */
+function predictFallback(ctx, x, V, arr, ci) {
+  const q = ctx.st.q;
+  const qmax = ctx.qmax;
+  if (arr !== null) {
     const o = ci & ~3;
     const c = ci & 3;
     const n1 = arr[o + ((c + 1) & 3)];
@@ -1047,57 +1062,7 @@ function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
     first = ri[rFrom];
     firstArr = rwNew;
   }
-  if (first >= 0) {
-    const arr = firstArr;
-    const o = first & ~3;
-    const c = first & 3;
-    const n1 = arr[o + ((c + 1) & 3)];
-    const op = arr[o + ((c + 2) & 3)];
-    const n3 = arr[o + ((c + 3) & 3)];
-    const k1 = n1 < x;
-    const ko = op < x;
-    const k3 = n3 < x;
-    if (k1 && ko && k3) {
-      // parallelogram
-      ctx.px = clamp(q[16 * n1] + q[16 * n3] - q[16 * op], qmax);
-      ctx.py = clamp(q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1], qmax);
-      ctx.pz = clamp(q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2], qmax);
-      return;
-    }
-    if (k1 || ko || k3) {
-      // mean of the known ones (codes are ≥ 0: floor = truncation)
-      let mx = 0, my = 0, mz = 0, m = 0;
-      if (k1) {
-        mx += q[16 * n1];
-        my += q[16 * n1 + 1];
-        mz += q[16 * n1 + 2];
-        m++;
-      }
-      if (ko) {
-        mx += q[16 * op];
-        my += q[16 * op + 1];
-        mz += q[16 * op + 2];
-        m++;
-      }
-      if (k3) {
-        mx += q[16 * n3];
-        my += q[16 * n3 + 1];
-        mz += q[16 * n3 + 2];
-        m++;
-      }
-      ctx.px = Math.floor(mx / m);
-      ctx.py = Math.floor(my / m);
-      ctx.pz = Math.floor(mz / m);
-      return;
-    }
-  }
-  if (x > V) {
-    ctx.px = q[16 * (x - 1)];
-    ctx.py = q[16 * (x - 1) + 1];
-    ctx.pz = q[16 * (x - 1) + 2];
-  } else {
-    ctx.px = ctx.py = ctx.pz = ctx.half;
-  }
+  predictFallback(ctx, x, V, firstArr, first);
 }
 
 /**
