@@ -3,7 +3,7 @@
 // shared VM the load drifts by more than most changes are worth, and two
 // separate `bench/decode.mjs` runs minutes apart cannot tell 5 % apart.
 //
-//   node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--pairs] [--forward]
+//   node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--pairs] [--forward | --forward-both]
 //
 // SRC_DIR is a copy of pqm-decoder/src (e.g. `git archive` of an older
 // commit, with `fzstd` resolvable from it); NEW_SRC_DIR defaults to this
@@ -14,7 +14,8 @@
 // drift less than medians on a loaded machine. Both trees must read the
 // file's version; with --pairs the files come in pairs (A's, then B's),
 // e.g. a mesh as a 2.0 file for an old tree and as a 3.0 file for this one;
-// with --forward B's decoder is one-way (`forwardOnly: true`).
+// with --forward B's decoder is one-way (`forwardOnly: true`), with
+// --forward-both both are.
 import { readFileSync, existsSync, statSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath, pathToFileURL } from 'node:url';
@@ -23,9 +24,12 @@ const here = path.dirname(fileURLToPath(import.meta.url));
 const args = process.argv.slice(2);
 const runsAt = args.indexOf('--runs');
 const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
-// --forward: B decodes with `forwardOnly: true` (A stays the general decoder)
+// --forward: B decodes with `forwardOnly: true` (A stays the general decoder);
+// --forward-both: both do (an old forward-only decoder against this one)
+const bothAt = args.indexOf('--forward-both');
+const forwardBoth = bothAt >= 0 && args.splice(bothAt, 1).length > 0;
 const forwardAt = args.indexOf('--forward');
-const forward = forwardAt >= 0 && args.splice(forwardAt, 1).length > 0;
+const forward = forwardBoth || (forwardAt >= 0 && args.splice(forwardAt, 1).length > 0);
 const dirs = [];
 while (args.length && existsSync(args[0]) && statSync(args[0]).isDirectory()) dirs.push(path.resolve(args.shift()));
 if (dirs.length === 0 || args.length === 0) {
@@ -53,7 +57,7 @@ for (const files of jobs) {
   const faces = [0, 0];
   const run = (k) => {
     const c0 = process.cpuUsage();
-    const d = new trees[k].PqmDecoder(k === 1 && forward ? { forwardOnly: true } : {});
+    const d = new trees[k].PqmDecoder((k === 1 || forwardBoth) && forward ? { forwardOnly: true } : {});
     d.push(bytes[k]);
     d.setLevel({ level: d.deepestLevel });
     faces[k] = d.faceCount;

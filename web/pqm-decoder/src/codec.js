@@ -818,44 +818,11 @@ export function groupCorners(V, nNew, rwNew, nRw, app, nApp) {
 
 /**
  * Records with at most this many new vertices (a qeMerge inverse has 4)
- * fill gOcc by one pass into a bucket per new vertex (stride: all corners)
- * and a copy: cheaper than the counting sort's two passes, prefix sums and
- * clearing for so few.
+ * bucket their corners by new vertex in one pass and predict from the
+ * buckets (finishRecord, predictScan): cheaper than the counting sort's two
+ * passes, prefix sums and clearing for so few.
  */
 const SCAN_NEW = 4;
-let gScan = new Int32Array(256);
-let gScanCount = new Int32Array(SCAN_NEW);
-
-/** groupCorners by one pass (meant for nNew ≤ SCAN_NEW; any nNew works); same result. */
-export function scanCorners(V, nNew, rwNew, nRw, app, nApp) {
-  const na = 4 * nApp;
-  const nr = 4 * nRw;
-  const tot = na + nr;
-  if (nNew * tot > gScan.length) gScan = new Int32Array(2 * nNew * tot);
-  if (tot > gOcc.length) gOcc = new Int32Array(2 * tot);
-  if (nNew + 1 > gOccAt.length) gOccAt = new Int32Array(2 * nNew + 2);
-  if (nNew > gScanCount.length) gScanCount = new Int32Array(nNew);
-  const b = gScan;
-  const cnt = gScanCount;
-  cnt.fill(0, 0, nNew);
-  // every corner code resolves below V + nNew: k < nNew
-  for (let i = 0; i < na; i++) {
-    const k = app[i] - V;
-    if (k >= 0) b[k * tot + cnt[k]++] = i;
-  }
-  for (let i = 0; i < nr; i++) {
-    const k = rwNew[i] - V;
-    if (k >= 0) b[k * tot + cnt[k]++] = na + i;
-  }
-  const occ = gOcc;
-  const at = gOccAt;
-  let n = 0;
-  for (let k = 0; k < nNew; k++) {
-    at[k] = n;
-    for (let j = k * tot, end = j + cnt[k]; j < end; j++) occ[n++] = b[j];
-  }
-  at[nNew] = n;
-}
 
 /** The grouping gOcc / gOccAt as arrays (for tests): per new vertex, its corner indices. */
 export function groupedCorners(nNew) {
@@ -912,8 +879,23 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
   }
   if (from < to) {
     const i = gOcc[from];
-    const arr = i < na ? app : rwNew;
-    const ci = i < na ? i : i - na;
+    predictFallback(ctx, x, V, i < na ? app : rwNew, i < na ? i : i - na);
+  } else {
+    predictFallback(ctx, x, V, null, -1);
+  }
+}
+
+/**
+ * §7.6's rule when no parallelogram counts (version 1: always): the first
+ * quad holding `x` — corner `ci` of `arr` (null: none) — gives its
+ * parallelogram if its three other corners are known (ids < x), else the
+ * floored mean of the known ones, else the previous new vertex's code (x >
+ * V) or the grid centre. Into ctx.px/py/pz.
+ */
+function predictFallback(ctx, x, V, arr, ci) {
+  const q = ctx.st.q;
+  const qmax = ctx.qmax;
+  if (arr !== null) {
     const o = ci & ~3;
     const c = ci & 3;
     const n1 = arr[o + ((c + 1) & 3)];
@@ -1003,6 +985,86 @@ function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
   }
 }
 
+// predictScan's corner buckets (see there), grown on demand, and their fill
+let gNewA = new Int32Array(256);
+let gNewR = new Int32Array(1024);
+const gCntA = new Int32Array(SCAN_NEW);
+const gCntR = new Int32Array(SCAN_NEW);
+
+/**
+ * predictNew for records with few new vertices (at most SCAN_NEW: an edge
+ * split has 4), from buckets instead of the counting sort: finishRecord
+ * puts each corner holding a new vertex into that vertex's bucket in one
+ * pass (`gNewA` / `gNewR`, appended and rewritten corners apart,
+ * ascending), and `x` reads its `nA` appended corners from `aFrom` and
+ * `nR` rewritten ones from `rFrom` — appended first, then rewritten by
+ * ascending slot: the order of spec §7.6 (and of groupCorners), so the
+ * first one is the fallback's first quad and the sums are the same.
+ */
+function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
+  const q = ctx.st.q;
+  const qmax = ctx.qmax;
+  const ai = gNewA;
+  const ri = gNewR;
+  const aTo = aFrom + nA;
+  const rTo = rFrom + nR;
+  let sx = 0, sy = 0, sz = 0, n = 0;
+  // the first quad holding x (fallback): which array and the corner index
+  let firstArr = null;
+  let first = -1;
+  if (ctx.v2) {
+    for (let t = aFrom; t < aTo; t++) {
+      const i = ai[t];
+      const o = i & ~3;
+      const c = i & 3;
+      const n1 = app[o + ((c + 1) & 3)];
+      const op = app[o + ((c + 2) & 3)];
+      const n3 = app[o + ((c + 3) & 3)];
+      if (first < 0) {
+        first = i;
+        firstArr = app;
+      }
+      if (n1 < x && op < x && n3 < x) {
+        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+        n++;
+      }
+    }
+    for (let t = rFrom; t < rTo; t++) {
+      const i = ri[t];
+      const o = i & ~3;
+      const c = i & 3;
+      const n1 = rwNew[o + ((c + 1) & 3)];
+      const op = rwNew[o + ((c + 2) & 3)];
+      const n3 = rwNew[o + ((c + 3) & 3)];
+      if (first < 0) {
+        first = i;
+        firstArr = rwNew;
+      }
+      if (n1 < x && op < x && n3 < x) {
+        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+        n++;
+      }
+    }
+    if (n > 0) {
+      ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
+      ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
+      ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+      return;
+    }
+  } else if (nA > 0) {
+    first = ai[aFrom];
+    firstArr = app;
+  } else if (nR > 0) {
+    first = ri[rFrom];
+    firstArr = rwNew;
+  }
+  predictFallback(ctx, x, V, firstArr, first);
+}
+
 /**
  * The end of a general- or local-form record (spec §7.4 steps 6 and the
  * apply of §7.1): new vertex codes against the §7.6 prediction, then the
@@ -1016,10 +1078,41 @@ export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
     predictOnly(ctx, V, nApp, app, nRw, rwNew);
     readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V, '');
     appendVertex(ctx);
+  } else if (nNew <= SCAN_NEW && nNew > 0) {
+    st.reserve(V + nNew, NF);
+    // the corners holding each new vertex k, ascending, in bucket k
+    // (stride na / nr: room for any record), appended and rewritten apart;
+    // an edge split has ≈ one per rewritten quad, three or four per
+    // appended one
+    const na = 4 * nApp;
+    const nr = 4 * nRw;
+    if (SCAN_NEW * na > gNewA.length) gNewA = new Int32Array(2 * SCAN_NEW * na);
+    if (SCAN_NEW * nr > gNewR.length) gNewR = new Int32Array(2 * SCAN_NEW * nr);
+    const ai = gNewA;
+    const ri = gNewR;
+    const ca = gCntA;
+    const cr = gCntR;
+    for (let k = 0; k < nNew; k++) {
+      ca[k] = 0;
+      cr[k] = 0;
+    }
+    // every corner is below V + nNew (corner codes resolve there)
+    for (let i = 0; i < na; i++) {
+      const k = app[i] - V;
+      if (k >= 0) ai[k * na + ca[k]++] = i;
+    }
+    for (let i = 0; i < nr; i++) {
+      const k = rwNew[i] - V;
+      if (k >= 0) ri[k * nr + cr[k]++] = i;
+    }
+    for (let k = 0; k < nNew; k++) {
+      predictScan(ctx, V + k, V, app, k * na, ca[k], rwNew, k * nr, cr[k]);
+      readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V + k, '');
+      appendVertex(ctx);
+    }
   } else if (nNew > 0) {
     st.reserve(V + nNew, NF);
-    if (nNew <= SCAN_NEW) scanCorners(V, nNew, rwNew, nRw, app, nApp);
-    else groupCorners(V, nNew, rwNew, nRw, app, nApp);
+    groupCorners(V, nNew, rwNew, nRw, app, nApp);
     for (let k = 0; k < nNew; k++) {
       predictNew(ctx, V + k, V, nApp, app, rwNew);
       readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', V + k, '');
@@ -1123,6 +1216,43 @@ function canonicalStar(st, m, sc) {
   // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
   // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
   // first index found.
+  //
+  // Fast path (interior vertices, most of them): walk succ from face 0. If
+  // that walk comes back to face 0 through all K faces, succ is a cyclic
+  // permutation, so no two faces share an n (only the smallest of them
+  // could be a succ: a frontier quad's four corners are distinct, so n(i)
+  // ≠ p(i) and "other" never skips one) nor a p (two faces with one p
+  // have one succ): pred is
+  // succ's inverse, the rewind from 0 comes back to 0, and the star is
+  // interior with start 0 — exactly what the rewind and walk below give.
+  // Otherwise (a boundary, or a reject) they run as specified.
+  const sList = sc.list;
+  {
+    // succ is a function, so a walk from 0 that comes back to 0 is a cycle
+    // of distinct faces: back to 0 after exactly K steps means all K faces
+    let last = 0;
+    let len = 1;
+    let g = -1;
+    sList[0] = 0;
+    for (;;) {
+      const p = sP[last];
+      g = -1;
+      for (let j = 0; j < K; j++) {
+        if (j !== last && sN[j] === p) {
+          g = j;
+          break;
+        }
+      }
+      if (g <= 0 || len === K) break;
+      sList[len++] = g;
+      last = g;
+    }
+    if (g === 0 && len === K) {
+      sc.K = K;
+      sc.boundary = false;
+      return K;
+    }
+  }
   // Rewind.
   let start = -1;
   let boundary = false;
@@ -1154,7 +1284,6 @@ function canonicalStar(st, m, sc) {
     sIn.fill(0);
   }
   const gen = sc.gen;
-  const sList = sc.list;
   let len = 0;
   sList[len++] = start;
   sIn[start] = gen;
@@ -1434,8 +1563,39 @@ function decodeFaceSplit(ctx, sym) {
   fB[0] = m; fB[1] = c; fB[2] = o; fB[3] = qv;
   const X = swap ? fB : fA;
   const Y = swap ? fA : fB;
-  rewriteSlot(ctx, s, X[rotX], X[(rotX + 1) & 3], X[(rotX + 2) & 3], X[(rotX + 3) & 3]);
+  // X keeps m and o and one of p / q, and takes c: exactly one vertex
+  // leaves slot s (q for A, p for B) and c enters it — what rewriteSlot's
+  // set comparison would find, without its 32 compares
+  rewriteSwap(ctx, s, X[rotX], X[(rotX + 1) & 3], X[(rotX + 2) & 3], X[(rotX + 3) & 3], swap ? p : qv, c);
   appendQuad(ctx, Y[rotY], Y[(rotY + 1) & 3], Y[(rotY + 2) & 3], Y[(rotY + 3) & 3]);
+}
+
+/**
+ * rewriteSlot for a rewrite that the caller knows replaces vertex `out` of
+ * the slot by `inV` (which is not in it) and permutes the rest: the same
+ * log entry, quad and lists, with one list removal and one addition.
+ */
+function rewriteSwap(ctx, slot, a, b, c, d, out, inV) {
+  const st = ctx.st;
+  const log = ctx.log;
+  const f = st.f;
+  const n = log.nRw;
+  if (5 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + 1), 5 * n);
+  const r = log.rw;
+  const o = 5 * n;
+  const s4 = 4 * slot;
+  r[o] = slot;
+  r[o + 1] = a ^ f[s4];
+  r[o + 2] = b ^ f[s4 + 1];
+  r[o + 3] = c ^ f[s4 + 2];
+  r[o + 4] = d ^ f[s4 + 3];
+  log.nRw = n + 1;
+  f[s4] = a;
+  f[s4 + 1] = b;
+  f[s4 + 2] = c;
+  f[s4 + 3] = d;
+  st.remove(out, slot);
+  st.add(inV, slot);
 }
 const fsA = new Int32Array(4);
 const fsB = new Int32Array(4);
@@ -1567,8 +1727,9 @@ function decodeEdgeSplit(ctx) {
     const S = sc.S;
     const list = sc.list;
     const rot = eRot[x];
-    for (let i = 0; i < K; i++) {
-      const idx = list[(rho + i) % K];
+    // w = (rho + i) mod K, stepped (a division per face otherwise)
+    for (let i = 0, w = rho % K; i < K; i++, w = w + 1 === K ? 0 : w + 1) {
+      const idx = list[w];
       const slot = S[idx];
       const fan = i > n1 && i <= n1 + m;
       let e;
@@ -1584,14 +1745,20 @@ function decodeEdgeSplit(ctx) {
         eQuad[e4 + 2] = f[s4 + 2];
         eQuad[e4 + 3] = f[s4 + 3];
       } else {
-        // is the slot in X0's star? (S ascending: binary search)
+        // is the slot in X0's star? The lists are exact: if and only if X0
+        // is one of its corners (X1 is at C; N, O, P are the others), and
+        // then S ascending finds its index (binary search) — most faces
+        // of X1's star skip the search
         const S0 = s0.S;
-        let lo = 0;
-        let hi = K0;
-        while (lo < hi) {
-          const mid = (lo + hi) >> 1;
-          if (S0[mid] < slot) lo = mid + 1;
-          else hi = mid;
+        let lo = K0;
+        if (sc.N[idx] === X0 || sc.O[idx] === X0 || sc.P[idx] === X0) {
+          lo = 0;
+          let hi = K0;
+          while (lo < hi) {
+            const mid = (lo + hi) >> 1;
+            if (S0[mid] < slot) lo = mid + 1;
+            else hi = mid;
+          }
         }
         if (lo < K0 && S0[lo] === slot) {
           e = eOfS0[lo];
@@ -1617,7 +1784,7 @@ function decodeEdgeSplit(ctx) {
       // (X, P_2m−1, P_2m, u2), with P_2j = N and P_2j+1 = O of h_j and
       // P_2m = the link entry of the first second-sector face
       const j = i - n1 - 1;
-      const next = list[(rho + i + 1) % K];
+      const next = list[w + 1 === K ? 0 : w + 1];
       const g1 = sc.O[idx];
       const g2 = sc.N[next];
       const g3 = j < m - 1 ? sc.O[next] : u2;

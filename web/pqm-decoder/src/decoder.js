@@ -1001,40 +1001,18 @@ export class PqmDecoder {
     const rwSorted = this._pendRw.slice(0, to === from ? 0 : this._nPendRw).sort();
     if (to !== from) {
       this._reserve(vTo, fTo);
-      const q = this._q;
-      const pos = this._pos;
-      const sq = st.q;
-      for (let v = vFrom; v < vTo; v++) {
-        q[3 * v] = sq[16 * v];
-        q[3 * v + 1] = sq[16 * v + 1];
-        q[3 * v + 2] = sq[16 * v + 2];
-      }
+      // One pass per buffer pair, straight from the frontier: each code is
+      // copied and dequantized in the same step, each quad copied and split
+      // into its triangles (not a copy, then a second pass over the copy).
+      copyVertices(this._q, this._pos, st.q, vFrom, vTo, this._min, this._step);
       for (let i = 0; i < movedSorted.length; i++) {
         const v = movedSorted[i];
-        q[3 * v] = sq[16 * v];
-        q[3 * v + 1] = sq[16 * v + 1];
-        q[3 * v + 2] = sq[16 * v + 2];
+        copyVertices(this._q, this._pos, st.q, v, v + 1, this._min, this._step);
       }
-      this._dequantizeInto(pos, q, vFrom, vTo);
-      const [x0, y0, z0] = this._min;
-      const [sx, sy, sz] = this._step;
-      for (let i = 0; i < movedSorted.length; i++) {
-        const o = 3 * movedSorted[i];
-        pos[o] = x0 + q[o] * sx;
-        pos[o + 1] = y0 + q[o + 1] * sy;
-        pos[o + 2] = z0 + q[o + 2] * sz;
-      }
-      const quads = this._quads;
-      const sf = st.f;
-      quads.set(sf.subarray(4 * fFrom, 4 * fTo), 4 * fFrom);
-      this._writeTrisRange(fFrom, fTo);
+      copyQuads(this._quads, this._tris, st.f, fFrom, fTo);
       for (let i = 0; i < rwSorted.length; i++) {
-        const s4 = 4 * rwSorted[i];
-        quads[s4] = sf[s4];
-        quads[s4 + 1] = sf[s4 + 1];
-        quads[s4 + 2] = sf[s4 + 2];
-        quads[s4 + 3] = sf[s4 + 3];
-        this._writeTrisRange(rwSorted[i], rwSorted[i] + 1);
+        const s = rwSorted[i];
+        copyQuads(this._quads, this._tris, st.f, s, s + 1);
       }
       this._nPendMoved = 0;
       this._nPendRw = 0;
@@ -1303,6 +1281,46 @@ export class PqmDecoder {
       failed: this._failed !== null,
       error: this._failed,
     };
+  }
+}
+
+/**
+ * Codes of vertices `a .. b` from the frontier's vertex records (16 ints
+ * each, code first) into `q` (3 per vertex) and their f32 positions (spec
+ * §5: min + code · step, in f64, then rounded) into `pos`.
+ */
+function copyVertices(q, pos, sq, a, b, min, step) {
+  const x0 = min[0], y0 = min[1], z0 = min[2];
+  const sx = step[0], sy = step[1], sz = step[2];
+  for (let v = a; v < b; v++) {
+    const o = 3 * v;
+    const i = 16 * v;
+    const x = sq[i], y = sq[i + 1], z = sq[i + 2];
+    q[o] = x;
+    q[o + 1] = y;
+    q[o + 2] = z;
+    pos[o] = x0 + x * sx;
+    pos[o + 1] = y0 + y * sy;
+    pos[o + 2] = z0 + z * sz;
+  }
+}
+
+/** Quads of slots `a .. b` from the frontier's `sf` into `quads` and their triangles into `tris`. */
+function copyQuads(quads, tris, sf, a, b) {
+  for (let s = a; s < b; s++) {
+    const i = 4 * s;
+    const t = 6 * s;
+    const v0 = sf[i], v1 = sf[i + 1], v2 = sf[i + 2], v3 = sf[i + 3];
+    quads[i] = v0;
+    quads[i + 1] = v1;
+    quads[i + 2] = v2;
+    quads[i + 3] = v3;
+    tris[t] = v0;
+    tris[t + 1] = v1;
+    tris[t + 2] = v2;
+    tris[t + 3] = v0;
+    tris[t + 4] = v2;
+    tris[t + 5] = v3;
   }
 }
 
