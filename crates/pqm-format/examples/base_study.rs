@@ -41,20 +41,10 @@
 //! that also changes the records, as it needs the coarsener's base
 //! numbering changed.
 
-use pqm_format::varint::{put_s, put_u};
-use pqm_format::{decode_all, Limits};
+use pqm_format::varint::put_s;
 
 #[path = "common/models.rs"]
 mod models;
-
-fn zstd19(parts: &[&[u8]]) -> usize {
-    let mut payload = Vec::new();
-    for p in parts {
-        put_u(&mut payload, p.len() as u64);
-        payload.extend_from_slice(p);
-    }
-    zstd::bulk::compress(&payload, 19).map_or(usize::MAX, |c| c.len())
-}
 
 const MTF: usize = 32;
 
@@ -104,17 +94,9 @@ fn main() {
 }
 
 fn study(f: &str) -> Result<(), String> {
-    let bytes = std::fs::read(f).map_err(|e| e.to_string())?;
-    let dec = decode_all(&bytes, Limits::none()).map_err(|e| e.to_string())?;
-    let pm = dec.to_progressive_mesh().ok_or("nothing decoded")?;
-    let quant = dec.quantizer().ok_or("no quantizer")?;
-    let q: Vec<[i64; 3]> = pm
-        .base
-        .positions
-        .iter()
-        .map(|p| quant.quantize(*p).map(|c| c as i64))
-        .collect();
-    let quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
+    let models::Opened { dec, pm, state, .. } = models::open(f)?;
+    let q: Vec<[i64; 3]> = state.q.iter().map(|c| c.map(|x| x as i64)).collect();
+    let quads = state.quads;
     let nv = q.len();
     let today = dec.header().map_or(0, |h| h.base_compressed_len as usize);
     println!(
@@ -180,9 +162,9 @@ fn study(f: &str) -> Result<(), String> {
         }
         prevc = q[v];
     }
-    let s1 = zstd19(&[&sym, &esc, &pos]);
+    let s1 = models::zstd19(&[&sym, &esc, &pos]);
     let (a, b) = per(s1);
-    let c1 = zstd19(&[&sym, &esc]);
+    let c1 = models::zstd19(&[&sym, &esc]);
     println!(
         "  mtf + par(id)    {s1:7} B = {a:6.1} bits/base vertex = {b:5.2} bits/final vertex (conn {:.1}, pos {:.1} bits/base vertex)",
         c1 as f64 * 8.0 / nv as f64,
@@ -231,7 +213,7 @@ fn study(f: &str) -> Result<(), String> {
         }
     }
     let _ = order;
-    let s2 = zstd19(&[&sym, &esc, &pos2]);
+    let s2 = models::zstd19(&[&sym, &esc, &pos2]);
     let (a, b) = per(s2);
     println!(
         "  mtf + par(seen)  {s2:7} B = {a:6.1} bits/base vertex = {b:5.2} bits/final vertex (pos {:.1})",

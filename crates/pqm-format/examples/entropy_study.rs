@@ -91,7 +91,7 @@
 
 use pqm_format::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
 use pqm_format::varint::Reader;
-use pqm_format::{decode_all, write_to_vec, EncodeOptions, Limits};
+use pqm_format::{write_to_vec, EncodeOptions};
 use std::collections::{BTreeMap, HashMap, HashSet};
 
 const OP_NAMES: [&str; 4] = ["qvMerge", "qeMerge", "doublet", "smooth"];
@@ -464,10 +464,13 @@ fn main() {
 }
 
 fn study(f: &str) -> Result<(), String> {
-    let bytes = std::fs::read(f).map_err(|e| e.to_string())?;
-    let dec = decode_all(&bytes, Limits::none()).map_err(|e| e.to_string())?;
-    let pm = dec.to_progressive_mesh().ok_or("nothing decoded")?;
-    let quant = dec.quantizer().ok_or("no quantizer")?;
+    let models::Opened {
+        size,
+        dec,
+        pm,
+        quant,
+        state: mut st,
+    } = models::open(f)?;
     let bits = dec.header().map_or(14, |h| h.quant_bits);
     let opts = EncodeOptions {
         bits,
@@ -477,14 +480,6 @@ fn study(f: &str) -> Result<(), String> {
     let (out, rep) = write_to_vec(&pm, &opts).map_err(|e| e.to_string())?;
     let n = rep.refined_vertices.max(1) as f64;
 
-    let base_q: Vec<[u32; 3]> = pm
-        .base
-        .positions
-        .iter()
-        .map(|p| quant.quantize(*p))
-        .collect();
-    let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
-    let mut st = MeshState::new(quant.qmax(), base_q, base_quads);
     // The 2.0 coding this study measured (it parses forms 0-3 only; format
     // 3.0's edge-split form is what it led to).
     let coding = Coding {
@@ -632,7 +627,7 @@ fn study(f: &str) -> Result<(), String> {
     // ---- Output ----
     println!(
         "## {f}: {} bytes ({} re-encoded); {} records (forms g/s/l/f {}/{}/{}/{}), {} refined vertices; file {:.1} bits/final vertex",
-        bytes.len(),
+        size,
         out.len(),
         nrec,
         forms[0],

@@ -52,21 +52,11 @@
 //! model could still squeeze; format 3.0's edge-split form removed most of
 //! that.)
 
-use pqm_format::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS};
-use pqm_format::varint::{put_s, put_u, zigzag, Reader};
-use pqm_format::{decode_all, Limits};
+use pqm_format::codec::{self, Coding, Cursors, QRecord, CONN, OPS, POS, REFS};
+use pqm_format::varint::{put_s, Reader};
 
 #[path = "common/models.rs"]
 mod models;
-
-fn zstd19(parts: &[&[u8]]) -> usize {
-    let mut payload = Vec::new();
-    for p in parts {
-        put_u(&mut payload, p.len() as u64);
-        payload.extend_from_slice(p);
-    }
-    zstd::bulk::compress(&payload, 19).map_or(usize::MAX, |c| c.len())
-}
 
 /// MSB-first bit packer.
 #[derive(Default)]
@@ -148,18 +138,13 @@ fn main() {
 }
 
 fn study(f: &str) -> Result<(), String> {
-    let bytes = std::fs::read(f).map_err(|e| e.to_string())?;
-    let dec = decode_all(&bytes, Limits::none()).map_err(|e| e.to_string())?;
-    let pm = dec.to_progressive_mesh().ok_or("nothing decoded")?;
-    let quant = dec.quantizer().ok_or("no quantizer")?;
-    let base_q: Vec<[u32; 3]> = pm
-        .base
-        .positions
-        .iter()
-        .map(|p| quant.quantize(*p))
-        .collect();
-    let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
-    let mut st = MeshState::new(quant.qmax(), base_q, base_quads);
+    let models::Opened {
+        dec,
+        pm,
+        quant,
+        state: mut st,
+        ..
+    } = models::open(f)?;
     let coding = Coding::default();
     let refined = (pm.final_vertex_count() - pm.base.positions.len()).max(1) as f64;
 
@@ -182,9 +167,9 @@ fn study(f: &str) -> Result<(), String> {
             k += 1;
         }
         let p: [&[u8]; 5] = [&s[0], &s[1], &s[2], &s[3], &s[4]];
-        tot[0] += zstd19(&p);
+        tot[0] += models::zstd19(&p);
         for (i, &(t, _)) in streams.iter().enumerate() {
-            alone[i] += zstd19(&[p[t]]);
+            alone[i] += models::zstd19(&[p[t]]);
             bound[i] += if t == OPS {
                 entropy(s[t].iter().copied())
             } else {
@@ -197,13 +182,12 @@ fn study(f: &str) -> Result<(), String> {
         for (i, &z) in pos.iter().enumerate() {
             put_s(&mut ax[i % 3], pqm_format::varint::unzigzag(z));
         }
-        tot[1] += zstd19(&[p[0], p[1], p[2], p[3], &ax[0], &ax[1], &ax[2]]);
+        tot[1] += models::zstd19(&[p[0], p[1], p[2], p[3], &ax[0], &ax[1], &ax[2]]);
         let (t, raw, _) = tok_raw(&pos);
-        tot[2] += zstd19(&[p[0], p[1], p[2], p[3], &t, &raw]);
+        tot[2] += models::zstd19(&[p[0], p[1], p[2], p[3], &t, &raw]);
         let (rt, rraw, _) = tok_raw(&values(&s[REFS]));
-        tot[3] += zstd19(&[p[0], p[1], &rt, &rraw, p[3], p[4]]);
+        tot[3] += models::zstd19(&[p[0], p[1], &rt, &rraw, p[3], p[4]]);
     }
-    let _ = zigzag;
     let b = |x: f64| x * 8.0 / refined;
     println!(
         "{f}: {k} records, {refined:.0} refined vertices; the file's chunks {:.2} bits/refined vertex",

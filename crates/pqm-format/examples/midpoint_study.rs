@@ -36,18 +36,8 @@
 
 #![allow(clippy::needless_range_loop)] // per-axis loops over three arrays read best indexed
 
-use pqm_format::codec::{MeshState, QRecord};
-use pqm_format::varint::{put_s, put_u};
-use pqm_format::{decode_all, Limits};
-
-fn zstd19(parts: &[&[u8]]) -> usize {
-    let mut payload = Vec::new();
-    for p in parts {
-        put_u(&mut payload, p.len() as u64);
-        payload.extend_from_slice(p);
-    }
-    zstd::bulk::compress(&payload, 19).map_or(usize::MAX, |c| c.len())
-}
+use pqm_format::codec::QRecord;
+use pqm_format::varint::put_s;
 
 #[path = "common/models.rs"]
 mod models;
@@ -72,18 +62,13 @@ fn main() {
 }
 
 fn study(f: &str) -> Result<(), String> {
-    let bytes = std::fs::read(f).map_err(|e| e.to_string())?;
-    let dec = decode_all(&bytes, Limits::none()).map_err(|e| e.to_string())?;
-    let pm = dec.to_progressive_mesh().ok_or("nothing decoded")?;
-    let quant = dec.quantizer().ok_or("no quantizer")?;
-    let base_q: Vec<[u32; 3]> = pm
-        .base
-        .positions
-        .iter()
-        .map(|p| quant.quantize(*p))
-        .collect();
-    let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
-    let mut st = MeshState::new(quant.qmax(), base_q, base_quads);
+    let models::Opened {
+        dec,
+        pm,
+        quant,
+        state: mut st,
+        ..
+    } = models::open(f)?;
     let (mut n, mut b_today, mut b_mean, mut b_oracle) = (0usize, 0.0, 0.0, 0.0);
     let (mut exact_pair, mut exact_mean, mut exact_today) = (0usize, 0usize, 0usize);
     let mut ops = [[0usize; 2]; 4];
@@ -103,11 +88,11 @@ fn study(f: &str) -> Result<(), String> {
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (ri, rec) in pm.records.iter().enumerate() {
         if ends.contains(&ri) {
-            z_today += zstd19(&[&s_today]);
-            z_sel += zstd19(&[&s_sel, &s_res]);
-            z_mean += zstd19(&[&s_mean]);
-            z_snap += zstd19(&[&s_snap]);
-            z_blend += zstd19(&[&s_blend]);
+            z_today += models::zstd19(&[&s_today]);
+            z_sel += models::zstd19(&[&s_sel, &s_res]);
+            z_mean += models::zstd19(&[&s_mean]);
+            z_snap += models::zstd19(&[&s_snap]);
+            z_blend += models::zstd19(&[&s_blend]);
             s_snap.clear();
             s_blend.clear();
             s_today.clear();
@@ -250,11 +235,11 @@ fn study(f: &str) -> Result<(), String> {
         }
         st.apply(&r);
     }
-    z_today += zstd19(&[&s_today]);
-    z_sel += zstd19(&[&s_sel, &s_res]);
-    z_mean += zstd19(&[&s_mean]);
-    z_snap += zstd19(&[&s_snap]);
-    z_blend += zstd19(&[&s_blend]);
+    z_today += models::zstd19(&[&s_today]);
+    z_sel += models::zstd19(&[&s_sel, &s_res]);
+    z_mean += models::zstd19(&[&s_mean]);
+    z_snap += models::zstd19(&[&s_snap]);
+    z_blend += models::zstd19(&[&s_blend]);
     let nf = n.max(1) as f64;
     println!(
         "  zstd-19: snap to the pair mean nearest today's prediction {:.2}, half way there {:.2}",

@@ -137,7 +137,6 @@
 
 use pqm_format::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, REFS, SLOTS};
 use pqm_format::varint::Reader;
-use pqm_format::{decode_all, Limits};
 use std::collections::{BTreeMap, HashMap};
 
 /// qeMerge's op code (spec §7.3).
@@ -597,18 +596,12 @@ fn main() {
 }
 
 fn study(f: &str) -> Result<(), String> {
-    let bytes = std::fs::read(f).map_err(|e| e.to_string())?;
-    let dec = decode_all(&bytes, Limits::none()).map_err(|e| e.to_string())?;
-    let pm = dec.to_progressive_mesh().ok_or("nothing decoded")?;
-    let quant = dec.quantizer().ok_or("no quantizer")?;
-    let base_q: Vec<[u32; 3]> = pm
-        .base
-        .positions
-        .iter()
-        .map(|p| quant.quantize(*p))
-        .collect();
-    let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
-    let mut st = MeshState::new(quant.qmax(), base_q, base_quads);
+    let models::Opened {
+        pm,
+        quant,
+        state: mut st,
+        ..
+    } = models::open(f)?;
     let mut cur = Cursors::default();
     // The 2.0 coding this study measured (it parses forms 0-3 only; format
     // 3.0's edge-split form is what it led to).

@@ -106,3 +106,50 @@ pub fn study_files(name: &str, study: fn(&str) -> Result<(), String>) {
         std::process::exit(1);
     }
 }
+
+/// A `.pqm` file opened for a study: the decoder (header, chunk table),
+/// its records as a progressive mesh, the file's quantizer and the base
+/// level as the codec's state (records are re-encoded against it).
+pub struct Opened {
+    /// The file's length in bytes.
+    pub size: usize,
+    pub dec: pqm_format::Decoder,
+    pub pm: pqm_core::ProgressiveMesh,
+    pub quant: pqm_format::Quantizer,
+    pub state: pqm_format::codec::MeshState,
+}
+
+/// Decodes `f` whole (no limits) into an [`Opened`].
+pub fn open(f: &str) -> Result<Opened, String> {
+    let bytes = std::fs::read(f).map_err(|e| e.to_string())?;
+    let dec =
+        pqm_format::decode_all(&bytes, pqm_format::Limits::none()).map_err(|e| e.to_string())?;
+    let pm = dec.to_progressive_mesh().ok_or("nothing decoded")?;
+    let quant = dec.quantizer().ok_or("no quantizer")?;
+    let base_q: Vec<[u32; 3]> = pm
+        .base
+        .positions
+        .iter()
+        .map(|p| quant.quantize(*p))
+        .collect();
+    let base_quads: Vec<[u32; 4]> = pm.base.faces().map(|f| [f[0], f[1], f[2], f[3]]).collect();
+    let state = pqm_format::codec::MeshState::new(quant.qmax(), base_q, base_quads);
+    Ok(Opened {
+        size: bytes.len(),
+        dec,
+        pm,
+        quant,
+        state,
+    })
+}
+
+/// Bytes of `parts` as one chunk payload would hold them (each a varint
+/// length, then its bytes) after zstd-19, the writer's default level.
+pub fn zstd19(parts: &[&[u8]]) -> usize {
+    let mut payload = Vec::new();
+    for p in parts {
+        pqm_format::varint::put_u(&mut payload, p.len() as u64);
+        payload.extend_from_slice(p);
+    }
+    zstd::bulk::compress(&payload, 19).map_or(usize::MAX, |c| c.len())
+}
