@@ -1004,49 +1004,27 @@ const gCntR = new Int32Array(SCAN_NEW);
 function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
   const q = ctx.st.q;
   const qmax = ctx.qmax;
-  const ai = gNewA;
-  const ri = gNewR;
-  const aTo = aFrom + nA;
-  const rTo = rFrom + nR;
-  let sx = 0, sy = 0, sz = 0, n = 0;
-  // the first quad holding x (fallback): which array and the corner index
-  let firstArr = null;
-  let first = -1;
   if (ctx.v2) {
-    for (let t = aFrom; t < aTo; t++) {
-      const i = ai[t];
-      const o = i & ~3;
-      const c = i & 3;
-      const n1 = app[o + ((c + 1) & 3)];
-      const op = app[o + ((c + 2) & 3)];
-      const n3 = app[o + ((c + 3) & 3)];
-      if (first < 0) {
-        first = i;
-        firstArr = app;
-      }
-      if (n1 < x && op < x && n3 < x) {
-        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
-        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
-        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
-        n++;
-      }
-    }
-    for (let t = rFrom; t < rTo; t++) {
-      const i = ri[t];
-      const o = i & ~3;
-      const c = i & 3;
-      const n1 = rwNew[o + ((c + 1) & 3)];
-      const op = rwNew[o + ((c + 2) & 3)];
-      const n3 = rwNew[o + ((c + 3) & 3)];
-      if (first < 0) {
-        first = i;
-        firstArr = rwNew;
-      }
-      if (n1 < x && op < x && n3 < x) {
-        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
-        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
-        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
-        n++;
+    let sx = 0, sy = 0, sz = 0, n = 0;
+    // the appended corners, then the rewritten ones (one loop body for both)
+    for (let part = 0; part < 2; part++) {
+      const quads = part === 0 ? app : rwNew;
+      const idx = part === 0 ? gNewA : gNewR;
+      const from = part === 0 ? aFrom : rFrom;
+      const to = part === 0 ? aFrom + nA : rFrom + nR;
+      for (let t = from; t < to; t++) {
+        const i = idx[t];
+        const o = i & ~3;
+        const c = i & 3;
+        const n1 = quads[o + ((c + 1) & 3)];
+        const op = quads[o + ((c + 2) & 3)];
+        const n3 = quads[o + ((c + 3) & 3)];
+        if (n1 < x && op < x && n3 < x) {
+          sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+          sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+          sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+          n++;
+        }
       }
     }
     if (n > 0) {
@@ -1055,14 +1033,11 @@ function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
       ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
       return;
     }
-  } else if (nA > 0) {
-    first = ai[aFrom];
-    firstArr = app;
-  } else if (nR > 0) {
-    first = ri[rFrom];
-    firstArr = rwNew;
   }
-  predictFallback(ctx, x, V, firstArr, first);
+  // the first quad holding x (fallback): appended ones come first
+  if (nA > 0) predictFallback(ctx, x, V, app, gNewA[aFrom]);
+  else if (nR > 0) predictFallback(ctx, x, V, rwNew, gNewR[rFrom]);
+  else predictFallback(ctx, x, V, null, -1);
 }
 
 /**
