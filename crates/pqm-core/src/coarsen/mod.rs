@@ -375,6 +375,12 @@ fn face_edge(m: &Mesh, f: FaceId, i: u8) -> Option<HalfedgeId> {
     m.face_halfedges(f).nth(i as usize)
 }
 
+/// The qeMerge site across the `i`-th half-edge of live face `f` (`None`
+/// when the face is gone or the edge has no qeMerge site).
+fn qe_site_of(m: &Mesh, f: FaceId, i: u8) -> Option<ops::qe_merge::QeSite> {
+    face_edge(m, f, i).and_then(|h| ops::qe_merge::qe_site(m, h).ok())
+}
+
 /// The QEM placement a built patch still needs ([`Coarsener::place_patch`]):
 /// the merge groups and their feature constraints.
 #[derive(Clone, Copy, Debug)]
@@ -958,10 +964,7 @@ impl Coarsener {
     /// operator's.
     fn qe_degenerates(&self, f: FaceId, i: u8) -> bool {
         let m = &self.mesh;
-        let Some(h) = face_edge(m, f, i) else {
-            return false;
-        };
-        let Ok(site) = ops::qe_merge::qe_site(m, h) else {
+        let Some(site) = qe_site_of(m, f, i) else {
             return false;
         };
         let [a, _, _, d, _, _] = site.v;
@@ -1013,10 +1016,7 @@ impl Coarsener {
         const RING: u32 = 3;
         const EVEN: u32 = 4;
         let m = &self.mesh;
-        let Some(h) = face_edge(m, face, i) else {
-            return false;
-        };
-        let Ok(site) = ops::qe_merge::qe_site(m, h) else {
+        let Some(site) = qe_site_of(m, face, i) else {
             return false;
         };
         let [a, b, c, d, e, f] = site.v;
