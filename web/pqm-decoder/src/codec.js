@@ -1006,7 +1006,10 @@ function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
   const qmax = ctx.qmax;
   if (ctx.v2) {
     let sx = 0, sy = 0, sz = 0, n = 0;
-    // the appended corners, then the rewritten ones (one loop body for both)
+    // the appended corners, then the rewritten ones (one loop body for both).
+    // The same parallelogram sum as predictNew's, kept inline with local
+    // sums: through a shared helper adding into module-level sums this,
+    // the edge split's prediction, measured 2–5 % slower (same-run A/B).
     for (let part = 0; part < 2; part++) {
       const quads = part === 0 ? app : rwNew;
       const idx = part === 0 ? gNewA : gNewR;
