@@ -571,10 +571,10 @@ fn fill_neighbours(
 }
 
 /// `(valence after, ideal valence after)` of touched vertex `v` whose
-/// neighbours after are `nb[lo..hi]`; `None` when it merges away or keeps
-/// no edge.
+/// neighbours after are `nb[lo..hi]`; `None` when it keeps no edge (a
+/// vertex that merges away gets no neighbours from [`fill_neighbours`]).
 fn after_of(m: &Mesh, patch: &Patch, v: VertexId, lo: usize, hi: usize) -> Option<(usize, usize)> {
-    if hi == lo || patch.merged.iter().any(|g| g.0 == v) {
+    if hi == lo {
         return None;
     }
     let boundary = m.is_boundary_vertex(v)
@@ -1799,17 +1799,18 @@ impl Coarsener {
         // positions, kept while nothing moves: the check is pure, so a step
         // that passes at once is checked once, not three times)
         let mut after_check: Option<Result<(), Reject>> = None;
-        if guard_ok && RESCUE_ITERATIONS > 0 {
-            let verdict = guard.check(&self.mesh, &after_faces);
-            if verdict.is_err() {
-                let wide = self.relax_set(&patch, &inserted, true);
-                for (v, p) in self.relax(&wide, RESCUE_ITERATIONS) {
-                    if !relaxed.iter().any(|r| r.0 == v) {
-                        relaxed.push((v, p));
-                    }
+        if guard_ok
+            && RESCUE_ITERATIONS > 0
+            && after_check
+                .get_or_insert_with(|| guard.check(&self.mesh, &after_faces))
+                .is_err()
+        {
+            after_check = None;
+            let wide = self.relax_set(&patch, &inserted, true);
+            for (v, p) in self.relax(&wide, RESCUE_ITERATIONS) {
+                if !relaxed.iter().any(|r| r.0 == v) {
+                    relaxed.push((v, p));
                 }
-            } else {
-                after_check = Some(verdict);
             }
         }
         // Still failing, a step that adds no defect gets a wider try: relax
@@ -1817,15 +1818,12 @@ impl Coarsener {
         // [`WIDE_RESCUE_ITERATIONS`]) and check every face around those.
         let mut check_faces = after_faces.clone();
         let mut widened = false;
-        let still_failing = |c: &Coarsener, after_check: &mut Option<Result<(), Reject>>| {
-            let verdict = after_check
-                .take()
-                .unwrap_or_else(|| guard.check(&c.mesh, &after_faces));
-            let failing = verdict.is_err();
-            *after_check = Some(verdict);
-            failing
-        };
-        if guard_ok && wide_rescue && still_failing(self, &mut after_check) {
+        if guard_ok
+            && wide_rescue
+            && after_check
+                .get_or_insert_with(|| guard.check(&self.mesh, &after_faces))
+                .is_err()
+        {
             after_check = None;
             widened = true;
             let ring: Vec<VertexId> = {
