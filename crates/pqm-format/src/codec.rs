@@ -1269,21 +1269,18 @@ impl<'a> Prediction<'a> {
             return;
         }
         let (u1, u2, u3) = (quad[(k + 1) & 3], quad[(k + 2) & 3], quad[(k + 3) & 3]);
-        if self.r.moved.is_empty() && u1 < self.v0 && u2 < self.v0 && u3 < self.v0 {
+        let codes = if self.r.moved.is_empty() && u1 < self.v0 && u2 < self.v0 && u3 < self.v0 {
             // The usual case (a subset-placement file moves nothing): three
             // old codes, what `known` gives, without its `Option`s.
             let q = &self.st.q;
-            let (a, b, c) = (q[u1 as usize], q[u2 as usize], q[u3 as usize]);
-            self.sum[0] += a[0] as i64 + c[0] as i64 - b[0] as i64;
-            self.sum[1] += a[1] as i64 + c[1] as i64 - b[1] as i64;
-            self.sum[2] += a[2] as i64 + c[2] as i64 - b[2] as i64;
-            self.n += 1;
-            return;
-        }
-        let n1 = self.known(quad[(k + 1) & 3]);
-        let o = self.known(quad[(k + 2) & 3]);
-        let n3 = self.known(quad[(k + 3) & 3]);
-        if let (Some(a), Some(b), Some(c)) = (n1, o, n3) {
+            Some((q[u1 as usize], q[u2 as usize], q[u3 as usize]))
+        } else {
+            match (self.known(u1), self.known(u2), self.known(u3)) {
+                (Some(a), Some(b), Some(c)) => Some((a, b, c)),
+                _ => None,
+            }
+        };
+        if let Some((a, b, c)) = codes {
             self.sum[0] += a[0] as i64 + c[0] as i64 - b[0] as i64;
             self.sum[1] += a[1] as i64 + c[1] as i64 - b[1] as i64;
             self.sum[2] += a[2] as i64 + c[2] as i64 - b[2] as i64;
@@ -1576,16 +1573,11 @@ pub fn decode_record_into(
             st.slots_at_unsorted(m, &mut sc.slots)?;
             let n = sc.slots.len() as u64;
             let x = rd[CONN].u_max(2 * n - 1, "face-split index")?;
-            // The slot of rank `x / 2` in ascending order, by counting the
-            // smaller ones (a vertex is a corner of a quad at most once, so
-            // the slots are distinct): no sort of the 4–6 slots and no
-            // sort buffer to clear per record.
-            let rank = (x >> 1) as usize;
-            let slots = &sc.slots;
-            let s = *slots
-                .iter()
-                .find(|&&v| slots.iter().filter(|&&y| y < v).count() == rank)
-                .ok_or("face-split slots are not distinct")?;
+            // The slot of rank `x / 2` in ascending order (a vertex is a
+            // corner of a quad at most once, so the slots are distinct):
+            // a selection, linear in the star also for a hostile 255-face
+            // one, instead of sorting the 4–6 slots.
+            let s = *sc.slots.select_nth_unstable((x >> 1) as usize).1;
             let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
             r.rewritten.push((s, rewritten));
             r.appended.push(appended);
