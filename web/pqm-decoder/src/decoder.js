@@ -1080,14 +1080,7 @@ export class PqmDecoder {
     const q = this._quads;
     const t = this._tris;
     for (let s = a; s < b; s++) {
-      const v0 = q[4 * s];
-      const v2 = q[4 * s + 2];
-      t[6 * s] = v0;
-      t[6 * s + 1] = q[4 * s + 1];
-      t[6 * s + 2] = v2;
-      t[6 * s + 3] = v0;
-      t[6 * s + 4] = v2;
-      t[6 * s + 5] = q[4 * s + 3];
+      quadTriangles(t, s, q[4 * s], q[4 * s + 1], q[4 * s + 2], q[4 * s + 3]);
     }
   }
 
@@ -1309,19 +1302,24 @@ function copyVertices(q, pos, sq, a, b, min, step) {
 function copyQuads(quads, tris, sf, a, b) {
   for (let s = a; s < b; s++) {
     const i = 4 * s;
-    const t = 6 * s;
     const v0 = sf[i], v1 = sf[i + 1], v2 = sf[i + 2], v3 = sf[i + 3];
     quads[i] = v0;
     quads[i + 1] = v1;
     quads[i + 2] = v2;
     quads[i + 3] = v3;
-    tris[t] = v0;
-    tris[t + 1] = v1;
-    tris[t + 2] = v2;
-    tris[t + 3] = v0;
-    tris[t + 4] = v2;
-    tris[t + 5] = v3;
+    quadTriangles(tris, s, v0, v1, v2, v3);
   }
+}
+
+/** Slot `s`'s two triangles (v0 v1 v2) and (v0 v2 v3) into `tris` (6 per slot). */
+function quadTriangles(tris, s, v0, v1, v2, v3) {
+  const t = 6 * s;
+  tris[t] = v0;
+  tris[t + 1] = v1;
+  tris[t + 2] = v2;
+  tris[t + 3] = v0;
+  tris[t + 4] = v2;
+  tris[t + 5] = v3;
 }
 
 /**
