@@ -9,7 +9,8 @@
 //! ```
 //!
 //! with `α = 0.01`, `β = 100` (section 4 of the paper; every choice the paper
-//! leaves open is written down in `ARCHITECTURE.md`):
+//! leaves open is listed in `ARCHITECTURE.md` and argued, with its figures, in
+//! `docs/paper-choices.md`):
 //! * `V` — fraction of ideal-valence vertices among the vertices the step
 //!   touches, before and after (after counts the doublet removals the step
 //!   triggers);
@@ -235,7 +236,7 @@ pub struct CoarsenOptions {
 /// refuses inverted corners ([`SUBSET_MIN_JACOBIAN`]) and twisted ones,
 /// whose sign would not survive quantization ([`SUBSET_CORNER_MARGIN`]);
 /// fold-over, topology and feature rules are unchanged. `pqm encode` uses it by default (files
-/// about half the size, see ARCHITECTURE.md); `pqm coarsen` uses `Qem`.
+/// about half the size, see docs/paper-choices.md); `pqm coarsen` uses `Qem`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Placement {
