@@ -184,3 +184,40 @@ fn size_triggered_chunks_end_between_steps() {
     }
     assert_eq!(end, pm.records.len());
 }
+
+/// On a real mesh the default block layout (`ZstdBlocks::Auto`: a chunk's
+/// streams in blocks of their own where that pays) makes the record chunks
+/// smaller than one block per frame, and decodes to the same levels.
+#[test]
+fn auto_zstd_blocks_shrink_real_chunks() {
+    use pqm::format::ZstdBlocks;
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/spot_quadrangulated.obj");
+    let pm = coarsen(&read_quads(&path), 700);
+    let enc = |zstd_blocks| {
+        let opts = EncodeOptions {
+            zstd_blocks,
+            ..Default::default()
+        };
+        write_to_vec(&pm, &opts).unwrap()
+    };
+    let (single, rs) = enc(ZstdBlocks::Single);
+    let (auto, ra) = enc(ZstdBlocks::Auto);
+    let (cs, ca) = (rs.chunk_bytes, ra.chunk_bytes);
+    eprintln!(
+        "spot chunks: one block {cs} B, auto {ca} B ({:+.2} %); files {} → {} B",
+        100.0 * (ca as f64 / cs as f64 - 1.0),
+        single.len(),
+        auto.len()
+    );
+    assert!(ca as f64 <= 0.995 * cs as f64, "auto {ca} vs single {cs}");
+    assert!(auto.len() < single.len());
+    assert_eq!(rs.chunk_count, ra.chunk_count);
+    let mut a = decode_all(&single, Limits::default()).unwrap();
+    let mut b = decode_all(&auto, Limits::default()).unwrap();
+    for k in 0..=pm.records.len() {
+        a.set_level(Target::Level(k)).unwrap();
+        b.set_level(Target::Level(k)).unwrap();
+        assert_eq!(a.to_indexed_mesh(), b.to_indexed_mesh(), "level {k}");
+    }
+}

@@ -889,6 +889,57 @@ fn vertex_order_deltas_writes_a_3_0_file_with_the_same_full_level() {
         .code(2);
 }
 
+/// `--zstd-blocks`: `auto` (the default) is smaller than `single` on spot,
+/// every mode decodes to the same full level, and a bad value is a usage
+/// error.
+#[test]
+fn zstd_blocks_modes_decode_alike_and_auto_beats_one_block() {
+    let d = TempDir::new().unwrap();
+    let mut sizes = Vec::new();
+    let mut objs = Vec::new();
+    for mode in ["auto", "single", "per-part"] {
+        let (pqm_file, obj) = (
+            d.path().join(format!("{mode}.pqm")),
+            d.path().join(format!("{mode}.obj")),
+        );
+        let r = json_ok(&[
+            "encode",
+            s(&spot()),
+            "-o",
+            s(&pqm_file),
+            "--zstd-blocks",
+            mode,
+        ]);
+        sizes.push(r["files"][0]["bytes"].as_u64().unwrap());
+        json_ok(&["decode", s(&pqm_file), "-o", s(&obj)]);
+        objs.push(std::fs::read(&obj).unwrap());
+    }
+    assert!(
+        sizes[0] < sizes[1],
+        "auto {} bytes, single {}",
+        sizes[0],
+        sizes[1]
+    );
+    assert!(
+        sizes[0] <= sizes[2],
+        "auto {} bytes, per-part {}",
+        sizes[0],
+        sizes[2]
+    );
+    assert!(objs[0] == objs[1] && objs[0] == objs[2]);
+    pqm()
+        .args([
+            "encode",
+            s(&spot()),
+            "-o",
+            s(&d.path().join("x.pqm")),
+            "--zstd-blocks",
+            "many",
+        ])
+        .assert()
+        .code(2);
+}
+
 #[test]
 fn encode_without_vertex_order_is_smaller_and_the_same_mesh_up_to_renumbering() {
     let d = TempDir::new().unwrap();

@@ -55,7 +55,10 @@ pub mod varint;
 pub mod vorder;
 
 pub use decoder::{decode_all, quad_triangles, Change, Decoder, Event, Limits, Status, Target};
-pub use encoder::{write, write_to_vec, BitsPerVertex, EncodeOptions, EncodeReport, OpStats};
+pub use encoder::{
+    write, write_to_vec, BitsPerVertex, EncodeOptions, EncodeReport, OpStats, ZstdBlocks,
+    BLOCK_PENALTY_BYTES,
+};
 pub use error::{DecodeError, EncodeError, FormatError, Section};
 pub use layout::{ChunkInfo, Header};
 pub use quant::Quantizer;

@@ -196,7 +196,7 @@ pub fn add_edge_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
 pub fn all() -> Vec<Vector> {
     let make = |name, gen: GenOptions, opts: EncodeOptions| {
         let opts = EncodeOptions {
-            version_major: if name == "edge_split" || name == "box_vnbr" {
+            version_major: if name == "edge_split" || name == "box_vnbr" || name == "zstd_blocks" {
                 opts.version_major
             } else {
                 opts.version_major.min(2)
@@ -332,6 +332,22 @@ pub fn all() -> Vec<Vector> {
             },
             EncodeOptions {
                 chunk_records: Some(12),
+                ..EncodeOptions::default()
+            },
+        ),
+        // Every section's zstd frame in several blocks (the base: corners |
+        // codes; each chunk: ops | conn | refs | slots + pos), as
+        // `ZstdBlocks::Auto` writes where it pays on real meshes: decoders
+        // must read a frame of many blocks (spec §1).
+        make(
+            "zstd_blocks",
+            GenOptions {
+                base: BaseShape::Box { n: 3 },
+                ..GenOptions::new(11, 80)
+            },
+            EncodeOptions {
+                chunk_records: Some(20),
+                zstd_blocks: crate::ZstdBlocks::PerPart,
                 ..EncodeOptions::default()
             },
         ),

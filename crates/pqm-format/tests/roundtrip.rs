@@ -112,6 +112,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
         any::<bool>(),
         1u16..=3,
         any::<bool>(),
+        0usize..3,
     )
         .prop_map(
             |(
@@ -124,6 +125,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
                 face_split_form,
                 version_major,
                 edge_split_form,
+                blocks,
             )| {
                 EncodeOptions {
                     bits,
@@ -135,6 +137,8 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
                     face_split_form,
                     edge_split_form,
                     version_major,
+                    zstd_blocks: [ZstdBlocks::Single, ZstdBlocks::Auto, ZstdBlocks::PerPart]
+                        [blocks],
                     ..EncodeOptions::default()
                 }
             },
