@@ -889,32 +889,40 @@ impl Coarsener {
     /// before the full computation would ([`Coarsener::qv_over_cap`],
     /// [`Coarsener::qe_degenerates`], [`Coarsener::qe_classify`], the merge
     /// targets' cap test in [`Coarsener::cost`]) or replace it
-    /// ([`Coarsener::qe_generic_score`]): the result is the same either way
+    /// ([`Coarsener::qv_generic_score`], [`Coarsener::qe_generic_score`]):
+    /// the result is the same either way
     /// (a unit test compares the two).
     fn score_with(&self, cand: Cand, s: &mut ScoreScratch, shortcuts: bool) -> Option<f64> {
-        // Scoring builds the patch but leaves the (costlier) topology check
-        // to commit time: a candidate that fails it is dropped when popped
-        // and comes back only when its neighbourhood changes.
-        let fails = shortcuts
-            && match cand {
-                Cand::Qv(f, d) => self.qv_over_cap(f, d),
-                Cand::Qe(f, i, k) => {
-                    self.qe_degenerates(f, i)
-                        || (k == 0
-                            && match self.qe_classify(f, i, s, 0) {
-                                QeSiteClass::OverCap => true,
-                                QeSiteClass::Generic(site, deg) => {
-                                    if let Some(cost) = self.qe_generic_score(cand, site, deg, s) {
-                                        return cost;
-                                    }
-                                    false
-                                }
-                                QeSiteClass::NotGeneric => false,
-                            })
+        // Scoring leaves the (costlier) topology check to commit time: a
+        // candidate that fails it is dropped when popped and comes back only
+        // when its neighbourhood changes.
+        if shortcuts {
+            match cand {
+                Cand::Qv(f, d) => {
+                    if self.qv_over_cap(f, d) {
+                        return None;
+                    }
+                    if let Some(cost) = self.qv_generic_score(cand, f, d, s) {
+                        return cost;
+                    }
                 }
-            };
-        if fails {
-            return None;
+                Cand::Qe(f, i, k) => {
+                    if self.qe_degenerates(f, i) {
+                        return None;
+                    }
+                    if k == 0 {
+                        match self.qe_classify(f, i, s, 0) {
+                            QeSiteClass::OverCap => return None,
+                            QeSiteClass::Generic(site, deg) => {
+                                if let Some(cost) = self.qe_generic_score(cand, site, deg, s) {
+                                    return cost;
+                                }
+                            }
+                            QeSiteClass::NotGeneric => {}
+                        }
+                    }
+                }
+            }
         }
         let mut patch = std::mem::take(&mut s.patch);
         let cost = match self.build_topology(cand, &mut patch) {
@@ -1194,6 +1202,187 @@ impl Coarsener {
         matches!(self.qe_classify(face, i, s, slack), QeSiteClass::OverCap)
     }
 
+    /// [`Coarsener::score`] of the qvMerge of `f`'s diagonal `d` without
+    /// building its patch: `None` when it cannot tell (then score it in
+    /// full), else the score [`Coarsener::cost`] reaches.
+    ///
+    /// For interior diagonal vertices `a`, `c` (the survivor `keep`, the
+    /// other `gone`) the patch builds exactly when every face around `gone`
+    /// but `f` is a quad without `keep` (and feature rule 1 holds), and it
+    /// removes the faces around `gone`: those faces' vertices are the
+    /// touched ones. After the step `keep` has the neighbours `N(a) ∪
+    /// N(c)`, a common neighbour loses one edge, every other touched vertex
+    /// keeps its valence and ideal valence (see [`Coarsener::qv_over_cap`]).
+    /// The simulated doublet removals take the common neighbours left
+    /// interior at valence 2 (valence 3 before, neighbours `a`, `c`, `x`):
+    /// each has the neighbours `keep` and `x` after, so those two lose one
+    /// edge per such vertex. Any other vertex left interior at valence 2
+    /// (a doublet already there) is left to the full score.
+    fn qv_generic_score(
+        &self,
+        cand: Cand,
+        f: FaceId,
+        d: u8,
+        s: &mut ScoreScratch,
+    ) -> Option<Option<f64>> {
+        // classes in `s.vmark`; the count of edges a vertex loses to the
+        // doublets is kept above them, in units of `LOST`
+        const OF_A: u32 = 1;
+        const COMMON: u32 = 2;
+        const COUNTED: u32 = 4;
+        const LOST: u32 = 16;
+        let m = &self.mesh;
+        if !m.is_face_alive(f) {
+            return None;
+        }
+        let q = m.quad_vertices(f)?;
+        let (a, c) = (q[d as usize], q[d as usize + 2]);
+        if m.is_boundary_vertex(a) || m.is_boundary_vertex(c) {
+            return None;
+        }
+        let Ok(con) = self.features.check_group(&[a, c]) else {
+            return Some(None);
+        };
+        let (keep, gone) = if self.qv_keep_second(a, c, con) {
+            (c, a)
+        } else {
+            (a, c)
+        };
+        s.clear(m.vertex_capacity(), m.face_capacity());
+        let epoch = s.epoch;
+        let mut deg_a = 0;
+        for h in m.outgoing(a) {
+            s.vmark[m.to_vertex(h).idx()] = (epoch, OF_A);
+            deg_a += 1;
+        }
+        let (mut deg_c, mut common) = (0, 0);
+        for h in m.outgoing(c) {
+            let w = m.to_vertex(h);
+            let slot = &mut s.vmark[w.idx()];
+            if slot.0 == epoch && slot.1 & OF_A != 0 {
+                slot.1 |= COMMON;
+                common += 1;
+            }
+            deg_c += 1;
+        }
+        // the common neighbours the doublets take, and what they take
+        let mut n_doublets = 0;
+        for h in m.outgoing(c) {
+            let w = m.to_vertex(h);
+            let (e, class) = s.vmark[w.idx()];
+            if e != epoch || class & COMMON == 0 || m.is_boundary_vertex(w) {
+                continue;
+            }
+            let mut ring = [VertexId(0); 4];
+            let mut n = 0;
+            for hw in m.outgoing(w).take(4) {
+                ring[n] = m.to_vertex(hw);
+                n += 1;
+            }
+            if n != 3 {
+                continue;
+            }
+            n_doublets += 1;
+            for x in ring[..3].iter().copied().filter(|&x| x != a && x != c) {
+                let slot = &mut s.vmark[x.idx()];
+                if slot.0 != epoch {
+                    *slot = (epoch, 0);
+                }
+                slot.1 += LOST;
+            }
+        }
+        let val_keep = deg_a + deg_c - common;
+        let (mut ideal_a, mut dev_a, mut count_a) = (0usize, 0usize, 0usize);
+        let (mut ideal_b, mut dev_b, mut count_b) = (0usize, 0usize, 0usize);
+        let mut over_cap = false;
+        for h in m.outgoing(gone) {
+            // `gone` is interior: every outgoing half-edge has a face
+            let g = m.face(h)?;
+            if s.fmark[g.idx()] == epoch {
+                continue;
+            }
+            s.fmark[g.idx()] = epoch;
+            let Some(qg) = m.quad_vertices(g) else {
+                // the build fails on it (or, for `f`, a quad: never here)
+                return Some(None);
+            };
+            if g != f && qg.contains(&keep) {
+                return Some(None);
+            }
+            for v in qg {
+                let class = match s.vmark[v.idx()] {
+                    (e, class) if e == epoch => class,
+                    _ => 0,
+                };
+                if class & COUNTED != 0 {
+                    continue;
+                }
+                s.vmark[v.idx()] = (epoch, class | COUNTED);
+                let val_b = if v == a {
+                    deg_a
+                } else if v == c {
+                    deg_c
+                } else {
+                    m.valence(v)
+                };
+                let ideal_vb = m.ideal_valence(v);
+                dev_b = dev_b.max(val_b.abs_diff(ideal_vb));
+                let (val, lost) = if v == gone {
+                    // merged away
+                    count_b += 1;
+                    ideal_b += (val_b == ideal_vb) as usize;
+                    continue;
+                } else if v == keep {
+                    (val_keep, n_doublets)
+                } else if class & COMMON != 0 {
+                    (val_b - 1, (class / LOST) as usize)
+                } else {
+                    (val_b, (class / LOST) as usize)
+                };
+                let ideal = if v == keep { 4 } else { ideal_vb };
+                if ideal == 4 && val == 2 {
+                    if class & COMMON == 0 || v == keep {
+                        return None;
+                    }
+                    // taken by its doublet
+                    count_b += 1;
+                    ideal_b += (val_b == ideal_vb) as usize;
+                    continue;
+                }
+                let val_after = val.checked_sub(lost)?;
+                let merge_target = v == keep;
+                if val != val_b || merge_target {
+                    count_b += 1;
+                    ideal_b += (val_b == ideal_vb) as usize;
+                }
+                over_cap |= val_after > self.cap.max(val_b);
+                dev_a = dev_a.max(val_after.abs_diff(ideal));
+                if val_after != val_b || merge_target {
+                    count_a += 1;
+                    ideal_a += (val_after == ideal) as usize;
+                }
+            }
+        }
+        s.v_counts = (ideal_b, count_b, ideal_a, count_a);
+        if over_cap {
+            return Some(None);
+        }
+        let pos = if self.opts.placement == Placement::Subset {
+            m.position(keep)
+        } else {
+            self.place(&[a, c], con)
+        };
+        let after = |v: VertexId| if v == keep { pos } else { m.position(v) };
+        Some(Some(self.error_of(
+            cand,
+            s.v_counts,
+            dev_b,
+            dev_a,
+            Some(keep),
+            after,
+        )))
+    }
+
     /// [`Coarsener::score`] of the (non-crossing) qeMerge at a generic site
     /// that [`Coarsener::qe_classify`] just classified (its marks still in
     /// `s`), without building the patch: `None` when it cannot tell (then
@@ -1457,20 +1646,8 @@ impl Coarsener {
                     .ok_or(Reject::NotApplicable("face is not a quad"))?;
                 let (a, c) = (q[d as usize], q[d as usize + 2]);
                 let con = self.features.check_group(&[a, c])?;
-                // keep the pinned vertex's id, else the smaller id
-                let mut keep_second = match con {
-                    GroupConstraint::Pinned(v) => v == c,
-                    _ => c < a,
-                };
+                let keep_second = self.qv_keep_second(a, c, con);
                 let (pos, place) = if self.opts.placement == Placement::Subset {
-                    // keep whichever vertex the summed quadric likes better
-                    // (a pinned one always), at its own position
-                    if !matches!(con, GroupConstraint::Pinned(_)) {
-                        let mut q = self.quadrics[a.idx()];
-                        q += self.quadrics[c.idx()];
-                        let (pa, pc) = (self.mesh.position(a), self.mesh.position(c));
-                        keep_second = q.evaluate(pc) < q.evaluate(pa);
-                    }
                     (
                         self.mesh.position(if keep_second { c } else { a }),
                         Place::Done,
@@ -1521,6 +1698,23 @@ impl Coarsener {
                 Ok(place)
             }
         }
+    }
+
+    /// Whether a qvMerge of diagonal `(a, c)` under `con` keeps `c`'s id
+    /// (else `a`'s): the pinned vertex's, else the smaller id; under
+    /// [`Placement::Subset`] (not pinned) whichever vertex the summed
+    /// quadric likes better, since it stays at its own position.
+    fn qv_keep_second(&self, a: VertexId, c: VertexId, con: GroupConstraint) -> bool {
+        if let GroupConstraint::Pinned(v) = con {
+            return v == c;
+        }
+        if self.opts.placement == Placement::Subset {
+            let mut q = self.quadrics[a.idx()];
+            q += self.quadrics[c.idx()];
+            let (pa, pc) = (self.mesh.position(a), self.mesh.position(c));
+            return q.evaluate(pc) < q.evaluate(pa);
+        }
+        c < a
     }
 
     /// Puts the QEM positions that [`Coarsener::build_topology`] left out
@@ -2638,15 +2832,15 @@ mod tests {
     /// several stages of coarsening, every candidate of every face scores
     /// bit for bit the same with the shortcuts as without them (and the
     /// queued ones with the same terms of `V`) — and the shortcuts do fire,
-    /// the patch-free qeMerge score among them with a queued cost (else
-    /// the comparison would prove nothing), and
+    /// the patch-free qvMerge and qeMerge scores among them with queued
+    /// costs (else the comparison would prove nothing), and
     /// [`Coarsener::qe_over_cap`] loosened by one would drop candidates the
     /// full score queues (so the comparison would catch an off-by-one).
     #[test]
     fn scoring_shortcuts_change_no_score() {
         let closed = shapes::noisy(&shapes::torus(24, 12, 1.0, 0.35), 0.1, 3);
         let open = shapes::noisy(&shapes::grid(16, 12, 1.0, 0.75), 0.05, 5);
-        let mut fired = [0usize; 4];
+        let mut fired = [0usize; 5];
         let mut compared = 0usize;
         // candidates the loosened qeMerge cap test would have dropped wrongly
         let mut loose_wrong = 0usize;
@@ -2677,7 +2871,13 @@ mod tests {
                             // the valence shortcut one looser than exact
                             let mut loose = false;
                             match cand {
-                                Cand::Qv(f, d) => fired[0] += c.qv_over_cap(f, d) as usize,
+                                Cand::Qv(f, d) => {
+                                    fired[0] += c.qv_over_cap(f, d) as usize;
+                                    fired[4] += c
+                                        .qv_generic_score(cand, f, d, &mut s)
+                                        .is_some_and(|cost| cost.is_some())
+                                        as usize;
+                                }
                                 Cand::Qe(f, i, _) => {
                                     fired[1] += c.qe_degenerates(f, i) as usize;
                                     fired[2] += c.qe_over_cap(f, i, &mut s, 0) as usize;
