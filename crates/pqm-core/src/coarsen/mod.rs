@@ -398,7 +398,7 @@ enum Place {
     ),
 }
 
-/// What [`Coarsener::qe_classify`] found at a qeMerge site.
+/// What [`Coarsener::qe_classify_at`] found at a qeMerge site.
 #[derive(Clone, Copy, Debug)]
 enum QeSiteClass {
     /// Not a generic site: score it in full.
@@ -409,7 +409,7 @@ enum QeSiteClass {
     /// `[a, b, c, d, e, f]`.
     Generic(ops::qe_merge::QeSite, [usize; 6]),
 }
-/// Classes of [`Coarsener::qe_classify`]'s vertex lists in `ScoreScratch::vmark`:
+/// Classes of [`Coarsener::qe_classify_at`]'s vertex lists in `ScoreScratch::vmark`:
 /// the six site vertices; `Oa ∪ Od` (a re-fanned endpoint's other
 /// neighbours, one edge less after); `Rb ∪ Rf ∪ Rc ∪ Re` (valence kept);
 /// `Ea ∪ Ed` (the re-fans' opposite corners, one edge more).
@@ -887,7 +887,7 @@ impl Coarsener {
 
     /// [`Coarsener::score`], with or without the shortcuts that end it
     /// before the full computation would ([`Coarsener::qv_over_cap`],
-    /// [`Coarsener::qe_degenerates`], [`Coarsener::qe_classify`], the merge
+    /// [`Coarsener::qe_degenerates_at`], [`Coarsener::qe_classify_at`], the merge
     /// targets' cap test in [`Coarsener::cost`]) or replace it
     /// ([`Coarsener::qv_generic_score`], [`Coarsener::qe_generic_score`]):
     /// the result is the same either way
@@ -907,11 +907,13 @@ impl Coarsener {
                     }
                 }
                 Cand::Qe(f, i, k) => {
-                    if self.qe_degenerates(f, i) {
+                    // no site: the build fails
+                    let site = qe_site_of(&self.mesh, f, i)?;
+                    if self.qe_degenerates_at(site) {
                         return None;
                     }
                     if k == 0 {
-                        match self.qe_classify(f, i, s, 0) {
+                        match self.qe_classify_at(site, s, 0) {
                             QeSiteClass::OverCap => return None,
                             QeSiteClass::Generic(site, deg) => {
                                 if let Some(cost) = self.qe_generic_score(cand, site, deg, s) {
@@ -1013,11 +1015,8 @@ impl Coarsener {
     /// maps every face around the six vertices first. Only for scoring: a
     /// popped candidate is built in full, so its rejection reason is the
     /// operator's.
-    fn qe_degenerates(&self, f: FaceId, i: u8) -> bool {
+    fn qe_degenerates_at(&self, site: ops::qe_merge::QeSite) -> bool {
         let m = &self.mesh;
-        let Some(site) = qe_site_of(m, f, i) else {
-            return false;
-        };
         let [a, _, _, d, _, _] = site.v;
         [a, d].into_iter().any(|x| {
             !m.is_boundary_vertex(x)
@@ -1028,8 +1027,14 @@ impl Coarsener {
         })
     }
 
-    /// [`QeSiteClass::OverCap`] when the (non-crossing) qeMerge across
-    /// `face`'s edge `i` would certainly be scored `None` because a vertex
+    /// [`Coarsener::qe_degenerates_at`] of the site across `f`'s edge `i`.
+    #[cfg(test)]
+    fn qe_degenerates(&self, f: FaceId, i: u8) -> bool {
+        qe_site_of(&self.mesh, f, i).is_some_and(|site| self.qe_degenerates_at(site))
+    }
+
+    /// [`QeSiteClass::OverCap`] when the (non-crossing) qeMerge at `site`
+    /// would certainly be scored `None` because a vertex
     /// breaks the valence cap: the verdict [`Coarsener::cost`] reaches, from
     /// the rings of the six vertices and of the re-fanned ones alone,
     /// without building the patch (on the bunny, most built qeMerge patches
@@ -1064,7 +1069,12 @@ impl Coarsener {
     /// (over `cap.max(deg p)` exactly when `deg p ≥ cap`) is claimed only
     /// when none of its neighbours after (`N(p)` and `A`) can end interior at
     /// valence 2.
-    fn qe_classify(&self, face: FaceId, i: u8, s: &mut ScoreScratch, slack: usize) -> QeSiteClass {
+    fn qe_classify_at(
+        &self,
+        site: ops::qe_merge::QeSite,
+        s: &mut ScoreScratch,
+        slack: usize,
+    ) -> QeSiteClass {
         const MAX_RING: usize = 16;
         const SIX: u32 = QE_SIX;
         const ODD: u32 = QE_ODD;
@@ -1072,9 +1082,6 @@ impl Coarsener {
         const EVEN: u32 = QE_EVEN;
         use QeSiteClass::{NotGeneric, OverCap};
         let m = &self.mesh;
-        let Some(site) = qe_site_of(m, face, i) else {
-            return NotGeneric;
-        };
         let [a, b, c, d, e, f] = site.v;
         if site.v.iter().any(|&x| m.is_boundary_vertex(x)) {
             return NotGeneric;
@@ -1194,6 +1201,16 @@ impl Coarsener {
             }
         }
         QeSiteClass::Generic(site, deg)
+    }
+
+    /// [`Coarsener::qe_classify_at`] of the site across `face`'s edge `i`
+    /// (none: not generic).
+    #[cfg(test)]
+    fn qe_classify(&self, face: FaceId, i: u8, s: &mut ScoreScratch, slack: usize) -> QeSiteClass {
+        match qe_site_of(&self.mesh, face, i) {
+            Some(site) => self.qe_classify_at(site, s, slack),
+            None => QeSiteClass::NotGeneric,
+        }
     }
 
     /// Whether [`Coarsener::qe_classify`] claims the site over the cap.
@@ -1379,12 +1396,13 @@ impl Coarsener {
             dev_b,
             dev_a,
             Some(keep),
+            None,
             after,
         )))
     }
 
     /// [`Coarsener::score`] of the (non-crossing) qeMerge at a generic site
-    /// that [`Coarsener::qe_classify`] just classified (its marks still in
+    /// that [`Coarsener::qe_classify_at`] just classified (its marks still in
     /// `s`), without building the patch: `None` when it cannot tell (then
     /// score it in full), else the score [`Coarsener::cost`] reaches.
     ///
@@ -1394,7 +1412,7 @@ impl Coarsener {
     /// around it other than `q1`, `q2`: its quads, no face shared with the
     /// other fan), and it removes every face around the six, so the touched
     /// vertices are those faces' vertices, with the valences after that
-    /// [`Coarsener::qe_classify`] derives: `A`, `D` the sums minus 7, `Oa`,
+    /// [`Coarsener::qe_classify_at`] derives: `A`, `D` the sums minus 7, `Oa`,
     /// `Od` one less, `Ea`, `Ed` one more, every other one unchanged (with
     /// an unchanged ideal valence). Feature rule 1 and the placement are the
     /// ones of [`Coarsener::build_topology`], `D` and `A` the ones of
@@ -1496,9 +1514,15 @@ impl Coarsener {
                 m.position(v)
             }
         };
-        Some(Some(
-            self.error_of(cand, s.v_counts, dev_b, dev_a, None, after),
-        ))
+        Some(Some(self.error_of(
+            cand,
+            s.v_counts,
+            dev_b,
+            dev_a,
+            None,
+            Some(site),
+            after,
+        )))
     }
 
     /// [`Coarsener::score`] of a built patch.
@@ -1930,16 +1954,21 @@ impl Coarsener {
         self.place_patch(place, patch);
         let patch = &*patch;
         let keep = patch.merged.first().map(|g| g.1);
-        Some(self.error_of(cand, s.v_counts, dev_b, dev_a, keep, |v| {
-            patch.position_after(&self.mesh, v)
-        }))
+        Some(
+            self.error_of(cand, s.v_counts, dev_b, dev_a, keep, None, |v| {
+                patch.position_after(&self.mesh, v)
+            }),
+        )
     }
 
     /// `E` from the terms of `V` (`v_counts` as in [`ScoreScratch`], the
     /// worst valence deviations before and after) and the positions after
-    /// the step (`after`; `keep`: a qvMerge's surviving vertex). Shared by
-    /// [`Coarsener::cost`] and the patch-free [`Coarsener::qe_generic_score`],
-    /// so both reach the very same bits.
+    /// the step (`after`; `keep`: a qvMerge's surviving vertex; `site`: a
+    /// qeMerge's site when the caller has it, else it is looked up). Shared
+    /// by [`Coarsener::cost`] and the patch-free scores
+    /// ([`Coarsener::qv_generic_score`], [`Coarsener::qe_generic_score`]),
+    /// so all reach the very same bits.
+    #[allow(clippy::too_many_arguments)]
     fn error_of(
         &self,
         cand: Cand,
@@ -1947,6 +1976,7 @@ impl Coarsener {
         dev_b: usize,
         dev_a: usize,
         keep: Option<VertexId>,
+        site: Option<ops::qe_merge::QeSite>,
         after: impl Fn(VertexId) -> DVec3,
     ) -> f64 {
         let (ideal_b, count_b, ideal_a, count_a) = v_counts;
@@ -1988,10 +2018,11 @@ impl Coarsener {
                 let other = [q[(d as usize + 1) % 4], q[(d as usize + 3) % 4]];
                 (dist, [f, f], 1, [(keep, other[0]), (keep, other[1])], 2)
             }
-            Cand::Qe(face, i, _) => match face_edge(m, face, i)
-                .ok_or(Reject::NotApplicable("edge is deleted"))
-                .and_then(|h| ops::qe_merge::qe_site(m, h))
-            {
+            Cand::Qe(face, i, _) => match site.ok_or(()).or_else(|()| {
+                face_edge(m, face, i)
+                    .ok_or(Reject::NotApplicable("edge is deleted"))
+                    .and_then(|h| ops::qe_merge::qe_site(m, h))
+            }) {
                 Ok(site) => {
                     let [a, b, c, d, e, f] = site.v;
                     let mid = (p(a) + p(d)) * 0.5;
