@@ -2473,6 +2473,9 @@ impl Coarsener {
         let merged_into: Vec<VertexId> = patch.moved.iter().map(|m| m.0).collect();
         let local = all || self.opts.smoothing == Smoothing::Local;
         let mut set: Vec<VertexId> = Vec::new();
+        // each face's shape verdict, computed once: the inserted vertices
+        // share most of their faces
+        let mut verdicts: Vec<(FaceId, bool)> = Vec::new();
         for &v in inserted {
             if set.contains(&v)
                 || (merged_into.contains(&v) && !all)
@@ -2482,7 +2485,7 @@ impl Coarsener {
             {
                 continue;
             }
-            if local || self.badly_shaped_at(v) {
+            if local || self.badly_shaped_at(v, &mut verdicts) {
                 set.push(v);
             }
         }
@@ -2491,12 +2494,18 @@ impl Coarsener {
 
     /// True when a quad around `v` has a corner below [`RELAX_BELOW_JACOBIAN`]
     /// (a vertex left on a straight line by a re-fan or doublet removal).
-    fn badly_shaped_at(&self, v: VertexId) -> bool {
+    /// `verdicts` holds the faces already judged (whether badly shaped).
+    fn badly_shaped_at(&self, v: VertexId, verdicts: &mut Vec<(FaceId, bool)>) -> bool {
         let m = &self.mesh;
         m.vertex_faces(v).any(|f| {
-            m.quad_vertices(f).is_some_and(|q| {
+            if let Some(&(_, bad)) = verdicts.iter().find(|e| e.0 == f) {
+                return bad;
+            }
+            let bad = m.quad_vertices(f).is_some_and(|q| {
                 ops::quad_scaled_jacobian(q.map(|u| m.position(u))) < RELAX_BELOW_JACOBIAN
-            })
+            });
+            verdicts.push((f, bad));
+            bad
         })
     }
 
