@@ -399,6 +399,38 @@ enum Place {
     ),
 }
 
+/// What [`Coarsener::qe_classify_at`] found at a qeMerge site.
+#[derive(Clone, Copy, Debug)]
+enum QeSiteClass {
+    /// Not a generic site: score it in full.
+    NotGeneric,
+    /// Certainly scored `None` (a vertex breaks the valence cap).
+    OverCap,
+    /// A generic site not claimed over the cap, with the valences of
+    /// `[a, b, c, d, e, f]`.
+    Generic(ops::qe_merge::QeSite, [usize; 6]),
+}
+/// Classes of [`Coarsener::qe_classify_at`]'s vertex lists in `ScoreScratch::vmark`:
+/// the six site vertices; `Oa ∪ Od` (a re-fanned endpoint's other
+/// neighbours, one edge less after); `Rb ∪ Rf ∪ Rc ∪ Re` (valence kept);
+/// `Ea ∪ Ed` (the re-fans' opposite corners, one edge more).
+const QE_SIX: u32 = 1;
+const QE_ODD: u32 = 2;
+const QE_RING: u32 = 3;
+const QE_EVEN: u32 = 4;
+/// Flag on a class: the vertex was counted by [`Coarsener::qe_generic_score`].
+const QE_COUNTED: u32 = 8;
+
+/// Whether [`Placement::Subset`] can keep `keep` where it is under the merge
+/// group's constraint `con` (it never moves a vertex).
+fn subset_keeps(con: GroupConstraint, keep: VertexId) -> bool {
+    match con {
+        GroupConstraint::Free => true,
+        GroupConstraint::Pinned(v) => v == keep,
+        GroupConstraint::OnEdge(u, v) => u == keep || v == keep,
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Entry {
     cost: f64,
@@ -856,23 +888,44 @@ impl Coarsener {
 
     /// [`Coarsener::score`], with or without the shortcuts that end it
     /// before the full computation would ([`Coarsener::qv_over_cap`],
-    /// [`Coarsener::qe_degenerates`], [`Coarsener::qe_over_cap`], the merge
-    /// targets' cap test in
-    /// [`Coarsener::cost`]): the result is the same either way (a unit test
-    /// compares the two).
+    /// [`Coarsener::qe_degenerates_at`], [`Coarsener::qe_classify_at`], the merge
+    /// targets' cap test in [`Coarsener::cost`]) or replace it
+    /// ([`Coarsener::qv_generic_score`], [`Coarsener::qe_generic_score`]):
+    /// the result is the same either way
+    /// (a unit test compares the two).
     fn score_with(&self, cand: Cand, s: &mut ScoreScratch, shortcuts: bool) -> Option<f64> {
-        // Scoring builds the patch but leaves the (costlier) topology check
-        // to commit time: a candidate that fails it is dropped when popped
-        // and comes back only when its neighbourhood changes.
-        let fails = shortcuts
-            && match cand {
-                Cand::Qv(f, d) => self.qv_over_cap(f, d),
-                Cand::Qe(f, i, k) => {
-                    self.qe_degenerates(f, i) || (k == 0 && self.qe_over_cap(f, i, s, 0))
+        // Scoring leaves the (costlier) topology check to commit time: a
+        // candidate that fails it is dropped when popped and comes back only
+        // when its neighbourhood changes.
+        if shortcuts {
+            match cand {
+                Cand::Qv(f, d) => {
+                    if self.qv_over_cap(f, d) {
+                        return None;
+                    }
+                    if let Some(cost) = self.qv_generic_score(cand, f, d, s) {
+                        return cost;
+                    }
                 }
-            };
-        if fails {
-            return None;
+                Cand::Qe(f, i, k) => {
+                    // no site: the build fails
+                    let site = qe_site_of(&self.mesh, f, i)?;
+                    if self.qe_degenerates_at(site) {
+                        return None;
+                    }
+                    if k == 0 {
+                        match self.qe_classify_at(site, s, 0) {
+                            QeSiteClass::OverCap => return None,
+                            QeSiteClass::Generic(site, deg) => {
+                                if let Some(cost) = self.qe_generic_score(cand, site, deg, s) {
+                                    return cost;
+                                }
+                            }
+                            QeSiteClass::NotGeneric => {}
+                        }
+                    }
+                }
+            }
         }
         let mut patch = std::mem::take(&mut s.patch);
         let cost = match self.build_topology(cand, &mut patch) {
@@ -963,11 +1016,8 @@ impl Coarsener {
     /// maps every face around the six vertices first. Only for scoring: a
     /// popped candidate is built in full, so its rejection reason is the
     /// operator's.
-    fn qe_degenerates(&self, f: FaceId, i: u8) -> bool {
+    fn qe_degenerates_at(&self, site: ops::qe_merge::QeSite) -> bool {
         let m = &self.mesh;
-        let Some(site) = qe_site_of(m, f, i) else {
-            return false;
-        };
         let [a, _, _, d, _, _] = site.v;
         [a, d].into_iter().any(|x| {
             !m.is_boundary_vertex(x)
@@ -978,15 +1028,25 @@ impl Coarsener {
         })
     }
 
-    /// True when the (non-crossing) qeMerge across `f`'s edge `i` would
-    /// certainly be scored `None` because a vertex breaks the valence cap:
-    /// the verdict [`Coarsener::cost`] reaches, from the rings of the six
-    /// vertices and of the re-fanned ones alone, without building the patch
-    /// (on the bunny, most built qeMerge patches ended on the cap).
-    /// `slack` loosens the test (it claims `val + slack > cap`): only the
-    /// unit test uses it, to show that a test one looser than exact fails.
+    /// [`Coarsener::qe_degenerates_at`] of the site across `f`'s edge `i`.
+    #[cfg(test)]
+    fn qe_degenerates(&self, f: FaceId, i: u8) -> bool {
+        qe_site_of(&self.mesh, f, i).is_some_and(|site| self.qe_degenerates_at(site))
+    }
+
+    /// [`QeSiteClass::OverCap`] when the (non-crossing) qeMerge at `site`
+    /// would certainly be scored `None` because a vertex
+    /// breaks the valence cap: the verdict [`Coarsener::cost`] reaches, from
+    /// the rings of the six vertices and of the re-fanned ones alone,
+    /// without building the patch (on the bunny, most built qeMerge patches
+    /// ended on the cap). `slack` loosens the test (it claims `val + slack >
+    /// cap`): only the unit test uses it, to show that a test one looser
+    /// than exact fails. A generic site not claimed over the cap is
+    /// [`QeSiteClass::Generic`], with `s.vmark` holding, for this epoch, the
+    /// class of every vertex of the lists below ([`QE_SIX`], …) for
+    /// [`Coarsener::qe_generic_score`].
     ///
-    /// Only for a *generic* site, else `false` (score it in full): the six
+    /// Only for a *generic* site, else [`QeSiteClass::NotGeneric`]: the six
     /// vertices `[a, b, c, d, e, f]` interior, `a`, `d` of valence ≥ 4 and
     /// the others ≥ 3, the faces at `a` and `d` quads, and the vertex lists
     /// below pairwise disjoint (no vertex in two of them, nor twice in one):
@@ -1010,19 +1070,22 @@ impl Coarsener {
     /// (over `cap.max(deg p)` exactly when `deg p ≥ cap`) is claimed only
     /// when none of its neighbours after (`N(p)` and `A`) can end interior at
     /// valence 2.
-    fn qe_over_cap(&self, face: FaceId, i: u8, s: &mut ScoreScratch, slack: usize) -> bool {
+    fn qe_classify_at(
+        &self,
+        site: ops::qe_merge::QeSite,
+        s: &mut ScoreScratch,
+        slack: usize,
+    ) -> QeSiteClass {
         const MAX_RING: usize = 16;
-        const SIX: u32 = 1;
-        const ODD: u32 = 2;
-        const RING: u32 = 3;
-        const EVEN: u32 = 4;
+        const SIX: u32 = QE_SIX;
+        const ODD: u32 = QE_ODD;
+        const RING: u32 = QE_RING;
+        const EVEN: u32 = QE_EVEN;
+        use QeSiteClass::{NotGeneric, OverCap};
         let m = &self.mesh;
-        let Some(site) = qe_site_of(m, face, i) else {
-            return false;
-        };
         let [a, b, c, d, e, f] = site.v;
         if site.v.iter().any(|&x| m.is_boundary_vertex(x)) {
-            return false;
+            return NotGeneric;
         }
         s.clear(m.vertex_capacity(), m.face_capacity());
         let epoch = s.epoch;
@@ -1057,7 +1120,7 @@ impl Coarsener {
                     continue;
                 }
                 if deg[j] > MAX_RING || !mark(w, class) {
-                    return false;
+                    return NotGeneric;
                 }
                 if class == RING {
                     rings[side][n_ring[side]] = w;
@@ -1065,11 +1128,11 @@ impl Coarsener {
                 }
             }
             if seen != known[j].len() || deg[j] < 3 {
-                return false;
+                return NotGeneric;
             }
         }
         if deg[0] < 4 || deg[3] < 4 {
-            return false;
+            return NotGeneric;
         }
         // `Ea`, `Ed`: opposite corners of the faces each endpoint re-fans
         let mut even = [[VertexId(0); MAX_RING]; 2];
@@ -1079,7 +1142,7 @@ impl Coarsener {
                 let h1 = m.next(hx);
                 let h2 = m.next(h1);
                 if m.next(m.next(h2)) != hx {
-                    return false;
+                    return NotGeneric;
                 }
                 let (w, y) = (m.to_vertex(hx), m.to_vertex(h2));
                 if kx.contains(&w) || kx.contains(&y) {
@@ -1087,7 +1150,7 @@ impl Coarsener {
                 }
                 let opp = m.to_vertex(h1);
                 if !mark(opp, EVEN) {
-                    return false;
+                    return NotGeneric;
                 }
                 even[side][n_even[side]] = opp;
                 n_even[side] += 1;
@@ -1106,7 +1169,7 @@ impl Coarsener {
                 .filter(|&&w| interior_at_2(w, m.outgoing(w).take(3).count()))
                 .count();
             if val + slack > bound + lost {
-                return true;
+                return OverCap;
             }
         }
         // the re-fanned opposite corners: deg + 1 after
@@ -1134,11 +1197,333 @@ impl Coarsener {
                     !interior_at_2(w, after)
                 });
                 if safe {
-                    return true;
+                    return OverCap;
                 }
             }
         }
-        false
+        QeSiteClass::Generic(site, deg)
+    }
+
+    /// [`Coarsener::qe_classify_at`] of the site across `face`'s edge `i`
+    /// (none: not generic).
+    #[cfg(test)]
+    fn qe_classify(&self, face: FaceId, i: u8, s: &mut ScoreScratch, slack: usize) -> QeSiteClass {
+        match qe_site_of(&self.mesh, face, i) {
+            Some(site) => self.qe_classify_at(site, s, slack),
+            None => QeSiteClass::NotGeneric,
+        }
+    }
+
+    /// Whether [`Coarsener::qe_classify`] claims the site over the cap.
+    #[cfg(test)]
+    fn qe_over_cap(&self, face: FaceId, i: u8, s: &mut ScoreScratch, slack: usize) -> bool {
+        matches!(self.qe_classify(face, i, s, slack), QeSiteClass::OverCap)
+    }
+
+    /// [`Coarsener::score`] of the qvMerge of `f`'s diagonal `d` without
+    /// building its patch: `None` when it cannot tell (then score it in
+    /// full), else the score [`Coarsener::cost`] reaches.
+    ///
+    /// For interior diagonal vertices `a`, `c` (the survivor `keep`, the
+    /// other `gone`) the patch builds exactly when every face around `gone`
+    /// but `f` is a quad without `keep` (and feature rule 1 holds), and it
+    /// removes the faces around `gone`: those faces' vertices are the
+    /// touched ones. After the step `keep` has the neighbours `N(a) ∪
+    /// N(c)`, a common neighbour loses one edge, every other touched vertex
+    /// keeps its valence and ideal valence (see [`Coarsener::qv_over_cap`]).
+    /// The simulated doublet removals take the common neighbours left
+    /// interior at valence 2 (valence 3 before, neighbours `a`, `c`, `x`):
+    /// each has the neighbours `keep` and `x` after, so those two lose one
+    /// edge per such vertex. Any other vertex left interior at valence 2
+    /// (a doublet already there) is left to the full score.
+    fn qv_generic_score(
+        &self,
+        cand: Cand,
+        f: FaceId,
+        d: u8,
+        s: &mut ScoreScratch,
+    ) -> Option<Option<f64>> {
+        // classes in `s.vmark`; the count of edges a vertex loses to the
+        // doublets is kept above them, in units of `LOST`
+        const OF_A: u32 = 1;
+        const COMMON: u32 = 2;
+        const COUNTED: u32 = 4;
+        const LOST: u32 = 16;
+        let m = &self.mesh;
+        if !m.is_face_alive(f) {
+            return None;
+        }
+        let q = m.quad_vertices(f)?;
+        let (a, c) = (q[d as usize], q[d as usize + 2]);
+        if m.is_boundary_vertex(a) || m.is_boundary_vertex(c) {
+            return None;
+        }
+        let Ok(con) = self.features.check_group(&[a, c]) else {
+            return Some(None);
+        };
+        let (keep, gone) = if self.qv_keep_second(a, c, con) {
+            (c, a)
+        } else {
+            (a, c)
+        };
+        s.clear(m.vertex_capacity(), m.face_capacity());
+        let epoch = s.epoch;
+        let mut deg_a = 0;
+        for h in m.outgoing(a) {
+            s.vmark[m.to_vertex(h).idx()] = (epoch, OF_A);
+            deg_a += 1;
+        }
+        let (mut deg_c, mut common) = (0, 0);
+        for h in m.outgoing(c) {
+            let w = m.to_vertex(h);
+            let slot = &mut s.vmark[w.idx()];
+            if slot.0 == epoch && slot.1 & OF_A != 0 {
+                slot.1 |= COMMON;
+                common += 1;
+            }
+            deg_c += 1;
+        }
+        // the common neighbours the doublets take, and what they take
+        let mut n_doublets = 0;
+        for h in m.outgoing(c) {
+            let w = m.to_vertex(h);
+            let (e, class) = s.vmark[w.idx()];
+            if e != epoch || class & COMMON == 0 || m.is_boundary_vertex(w) {
+                continue;
+            }
+            let mut ring = [VertexId(0); 4];
+            let mut n = 0;
+            for hw in m.outgoing(w).take(4) {
+                ring[n] = m.to_vertex(hw);
+                n += 1;
+            }
+            if n != 3 {
+                continue;
+            }
+            n_doublets += 1;
+            for x in ring[..3].iter().copied().filter(|&x| x != a && x != c) {
+                let slot = &mut s.vmark[x.idx()];
+                if slot.0 != epoch {
+                    *slot = (epoch, 0);
+                }
+                slot.1 += LOST;
+            }
+        }
+        let val_keep = deg_a + deg_c - common;
+        let (mut ideal_a, mut dev_a, mut count_a) = (0usize, 0usize, 0usize);
+        let (mut ideal_b, mut dev_b, mut count_b) = (0usize, 0usize, 0usize);
+        let mut over_cap = false;
+        for h in m.outgoing(gone) {
+            // `gone` is interior: every outgoing half-edge has a face
+            let g = m.face(h)?;
+            if s.fmark[g.idx()] == epoch {
+                continue;
+            }
+            s.fmark[g.idx()] = epoch;
+            let Some(qg) = m.quad_vertices(g) else {
+                // the build fails on it (or, for `f`, a quad: never here)
+                return Some(None);
+            };
+            if g != f && qg.contains(&keep) {
+                return Some(None);
+            }
+            for v in qg {
+                let class = match s.vmark[v.idx()] {
+                    (e, class) if e == epoch => class,
+                    _ => 0,
+                };
+                if class & COUNTED != 0 {
+                    continue;
+                }
+                s.vmark[v.idx()] = (epoch, class | COUNTED);
+                let val_b = if v == a {
+                    deg_a
+                } else if v == c {
+                    deg_c
+                } else {
+                    m.valence(v)
+                };
+                let ideal_vb = m.ideal_valence(v);
+                dev_b = dev_b.max(val_b.abs_diff(ideal_vb));
+                let (val, lost) = if v == gone {
+                    // merged away
+                    count_b += 1;
+                    ideal_b += (val_b == ideal_vb) as usize;
+                    continue;
+                } else if v == keep {
+                    (val_keep, n_doublets)
+                } else if class & COMMON != 0 {
+                    (val_b - 1, (class / LOST) as usize)
+                } else {
+                    (val_b, (class / LOST) as usize)
+                };
+                let ideal = if v == keep { 4 } else { ideal_vb };
+                if ideal == 4 && val == 2 {
+                    if class & COMMON == 0 || v == keep {
+                        return None;
+                    }
+                    // taken by its doublet
+                    count_b += 1;
+                    ideal_b += (val_b == ideal_vb) as usize;
+                    continue;
+                }
+                let val_after = val.checked_sub(lost)?;
+                let merge_target = v == keep;
+                if val != val_b || merge_target {
+                    count_b += 1;
+                    ideal_b += (val_b == ideal_vb) as usize;
+                }
+                over_cap |= val_after > self.cap.max(val_b);
+                dev_a = dev_a.max(val_after.abs_diff(ideal));
+                if val_after != val_b || merge_target {
+                    count_a += 1;
+                    ideal_a += (val_after == ideal) as usize;
+                }
+            }
+        }
+        s.v_counts = (ideal_b, count_b, ideal_a, count_a);
+        if over_cap {
+            return Some(None);
+        }
+        let pos = if self.opts.placement == Placement::Subset {
+            m.position(keep)
+        } else {
+            self.place(&[a, c], con)
+        };
+        let after = |v: VertexId| if v == keep { pos } else { m.position(v) };
+        Some(Some(self.error_of(
+            cand,
+            s.v_counts,
+            dev_b,
+            dev_a,
+            Some(keep),
+            None,
+            after,
+        )))
+    }
+
+    /// [`Coarsener::score`] of the (non-crossing) qeMerge at a generic site
+    /// that [`Coarsener::qe_classify_at`] just classified (its marks still in
+    /// `s`), without building the patch: `None` when it cannot tell (then
+    /// score it in full), else the score [`Coarsener::cost`] reaches.
+    ///
+    /// On a generic site whose faces around the six vertices are all quads
+    /// the patch builds (the merges collapse `q1`, `q2` and the triangles
+    /// across `ab`, `af`, `dc`, `de`, and each endpoint re-fans the faces
+    /// around it other than `q1`, `q2`: its quads, no face shared with the
+    /// other fan), and it removes every face around the six, so the touched
+    /// vertices are those faces' vertices, with the valences after that
+    /// [`Coarsener::qe_classify_at`] derives: `A`, `D` the sums minus 7, `Oa`,
+    /// `Od` one less, `Ea`, `Ed` one more, every other one unchanged (with
+    /// an unchanged ideal valence). Feature rule 1 and the placement are the
+    /// ones of [`Coarsener::build_topology`], `D` and `A` the ones of
+    /// [`Coarsener::cost`] ([`Coarsener::error_of`]). A touched vertex left
+    /// interior at valence 2 would start the simulated doublet removals,
+    /// which need the neighbour lists: such a site (rare) is left to the
+    /// full score. Building the patch and counting the neighbours after of
+    /// each touched vertex was most of the cost of a qeMerge's scoring.
+    fn qe_generic_score(
+        &self,
+        cand: Cand,
+        site: ops::qe_merge::QeSite,
+        deg: [usize; 6],
+        s: &mut ScoreScratch,
+    ) -> Option<Option<f64>> {
+        let m = &self.mesh;
+        let [a, b, c, d, e, f] = site.v;
+        let (Ok(ca), Ok(cd)) = (
+            self.features.check_group(&[a, b, f]),
+            self.features.check_group(&[d, c, e]),
+        ) else {
+            return Some(None);
+        };
+        let subset = self.opts.placement == Placement::Subset;
+        if subset && (!subset_keeps(ca, a) || !subset_keeps(cd, d)) {
+            return Some(None);
+        }
+        let val_a = deg[0] + deg[1] + deg[5] - 7;
+        let val_d = deg[3] + deg[2] + deg[4] - 7;
+        let epoch = s.epoch;
+        let (mut ideal_a, mut dev_a, mut count_a) = (0usize, 0usize, 0usize);
+        let (mut ideal_b, mut dev_b, mut count_b) = (0usize, 0usize, 0usize);
+        let mut over_cap = false;
+        for x in site.v {
+            for h in m.outgoing(x) {
+                // the six are interior: every outgoing half-edge has a face
+                let g = m.face(h)?;
+                if s.fmark[g.idx()] == epoch {
+                    continue;
+                }
+                s.fmark[g.idx()] = epoch;
+                for v in m.quad_vertices(g)? {
+                    let slot = &mut s.vmark[v.idx()];
+                    let class = if slot.0 == epoch { slot.1 } else { 0 };
+                    if class & QE_COUNTED != 0 {
+                        continue;
+                    }
+                    *slot = (epoch, class | QE_COUNTED);
+                    let val_b = match site.v.iter().position(|&y| y == v) {
+                        Some(j) => deg[j],
+                        None => m.valence(v),
+                    };
+                    let ideal_vb = m.ideal_valence(v);
+                    // (valence, ideal valence) after, `None` when merged away
+                    let after = match class {
+                        QE_SIX if v == a => Some((val_a, 4)),
+                        QE_SIX if v == d => Some((val_d, 4)),
+                        QE_SIX => None,
+                        QE_ODD => Some((val_b - 1, ideal_vb)),
+                        QE_EVEN => Some((val_b + 1, ideal_vb)),
+                        _ => Some((val_b, ideal_vb)),
+                    };
+                    if after == Some((2, 4)) {
+                        return None;
+                    }
+                    let merge_target = v == a || v == d;
+                    dev_b = dev_b.max(val_b.abs_diff(ideal_vb));
+                    let Some((val, ideal)) = after else {
+                        count_b += 1;
+                        ideal_b += (val_b == ideal_vb) as usize;
+                        continue;
+                    };
+                    if val != val_b || merge_target {
+                        count_b += 1;
+                        ideal_b += (val_b == ideal_vb) as usize;
+                        count_a += 1;
+                        ideal_a += (val == ideal) as usize;
+                    }
+                    over_cap |= val > self.cap.max(val_b);
+                    dev_a = dev_a.max(val.abs_diff(ideal));
+                }
+            }
+        }
+        s.v_counts = (ideal_b, count_b, ideal_a, count_a);
+        if over_cap {
+            return Some(None);
+        }
+        let (pa, pd) = if subset {
+            (m.position(a), m.position(d))
+        } else {
+            (self.place(&[a, b, f], ca), self.place(&[d, c, e], cd))
+        };
+        let after = |v: VertexId| {
+            if v == a {
+                pa
+            } else if v == d {
+                pd
+            } else {
+                m.position(v)
+            }
+        };
+        Some(Some(self.error_of(
+            cand,
+            s.v_counts,
+            dev_b,
+            dev_a,
+            None,
+            Some(site),
+            after,
+        )))
     }
 
     /// [`Coarsener::score`] of a built patch.
@@ -1286,20 +1671,8 @@ impl Coarsener {
                     .ok_or(Reject::NotApplicable("face is not a quad"))?;
                 let (a, c) = (q[d as usize], q[d as usize + 2]);
                 let con = self.features.check_group(&[a, c])?;
-                // keep the pinned vertex's id, else the smaller id
-                let mut keep_second = match con {
-                    GroupConstraint::Pinned(v) => v == c,
-                    _ => c < a,
-                };
+                let keep_second = self.qv_keep_second(a, c, con);
                 let (pos, place) = if self.opts.placement == Placement::Subset {
-                    // keep whichever vertex the summed quadric likes better
-                    // (a pinned one always), at its own position
-                    if !matches!(con, GroupConstraint::Pinned(_)) {
-                        let mut q = self.quadrics[a.idx()];
-                        q += self.quadrics[c.idx()];
-                        let (pa, pc) = (self.mesh.position(a), self.mesh.position(c));
-                        keep_second = q.evaluate(pc) < q.evaluate(pa);
-                    }
                     (
                         self.mesh.position(if keep_second { c } else { a }),
                         Place::Done,
@@ -1324,30 +1697,24 @@ impl Coarsener {
                 let [a, b, c, d, e, f] = site.v;
                 let ca = self.features.check_group(&[a, b, f])?;
                 let cd = self.features.check_group(&[d, c, e])?;
-                let (pa, pd, place) =
-                    if self.opts.placement == Placement::Subset {
-                        // the shared edge's endpoints keep their ids, so they
-                        // keep their positions: a constraint elsewhere (a pinned
-                        // or feature-edge vertex among the merged ones) would
-                        // have to move them, which this placement never does
-                        for (con, keep) in [(ca, a), (cd, d)] {
-                            match con {
-                                GroupConstraint::Free => {}
-                                GroupConstraint::Pinned(v) if v == keep => {}
-                                GroupConstraint::OnEdge(u, v) if u == keep || v == keep => {}
-                                _ => return Err(Reject::Feature(
-                                    "subset placement cannot move a feature vertex onto the edge",
-                                )),
-                            }
-                        }
-                        (self.mesh.position(a), self.mesh.position(d), Place::Done)
-                    } else {
-                        (
-                            DVec3::ZERO,
-                            DVec3::ZERO,
-                            Place::Qe([a, b, f], ca, [d, c, e], cd),
-                        )
-                    };
+                let (pa, pd, place) = if self.opts.placement == Placement::Subset {
+                    // the shared edge's endpoints keep their ids, so they
+                    // keep their positions: a constraint elsewhere (a pinned
+                    // or feature-edge vertex among the merged ones) would
+                    // have to move them, which this placement never does
+                    if !subset_keeps(ca, a) || !subset_keeps(cd, d) {
+                        return Err(Reject::Feature(
+                            "subset placement cannot move a feature vertex onto the edge",
+                        ));
+                    }
+                    (self.mesh.position(a), self.mesh.position(d), Place::Done)
+                } else {
+                    (
+                        DVec3::ZERO,
+                        DVec3::ZERO,
+                        Place::Qe([a, b, f], ca, [d, c, e], cd),
+                    )
+                };
                 let cross = QE_VARIANTS
                     .get(k as usize)
                     .copied()
@@ -1356,6 +1723,23 @@ impl Coarsener {
                 Ok(place)
             }
         }
+    }
+
+    /// Whether a qvMerge of diagonal `(a, c)` under `con` keeps `c`'s id
+    /// (else `a`'s): the pinned vertex's, else the smaller id; under
+    /// [`Placement::Subset`] (not pinned) whichever vertex the summed
+    /// quadric likes better, since it stays at its own position.
+    fn qv_keep_second(&self, a: VertexId, c: VertexId, con: GroupConstraint) -> bool {
+        if let GroupConstraint::Pinned(v) = con {
+            return v == c;
+        }
+        if self.opts.placement == Placement::Subset {
+            let mut q = self.quadrics[a.idx()];
+            q += self.quadrics[c.idx()];
+            let (pa, pc) = (self.mesh.position(a), self.mesh.position(c));
+            return q.evaluate(pc) < q.evaluate(pa);
+        }
+        c < a
     }
 
     /// Puts the QEM positions that [`Coarsener::build_topology`] left out
@@ -1560,6 +1944,43 @@ impl Coarsener {
             }
         }
         s.v_counts = (ideal_b, count_b, ideal_a, count_a);
+        s.vmark = vmark;
+        s.fmark = fmark;
+        // over the cap: illegal whatever D and A are (about half of all
+        // scorings), so skip computing them
+        if over_cap {
+            return None;
+        }
+        // only now are the positions needed (`A` reads them)
+        self.place_patch(place, patch);
+        let patch = &*patch;
+        let keep = patch.merged.first().map(|g| g.1);
+        Some(
+            self.error_of(cand, s.v_counts, dev_b, dev_a, keep, None, |v| {
+                patch.position_after(&self.mesh, v)
+            }),
+        )
+    }
+
+    /// `E` from the terms of `V` (`v_counts` as in [`ScoreScratch`], the
+    /// worst valence deviations before and after) and the positions after
+    /// the step (`after`; `keep`: a qvMerge's surviving vertex; `site`: a
+    /// qeMerge's site when the caller has it, else it is looked up). Shared
+    /// by [`Coarsener::cost`] and the patch-free scores
+    /// ([`Coarsener::qv_generic_score`], [`Coarsener::qe_generic_score`]),
+    /// so all reach the very same bits.
+    #[allow(clippy::too_many_arguments)]
+    fn error_of(
+        &self,
+        cand: Cand,
+        v_counts: (usize, usize, usize, usize),
+        dev_b: usize,
+        dev_a: usize,
+        keep: Option<VertexId>,
+        site: Option<ops::qe_merge::QeSite>,
+        after: impl Fn(VertexId) -> DVec3,
+    ) -> f64 {
+        let (ideal_b, count_b, ideal_a, count_a) = v_counts;
         let v_b = if count_b == 0 {
             1.0
         } else {
@@ -1571,16 +1992,6 @@ impl Coarsener {
             ideal_a as f64 / count_a as f64
         }
         .max(V_FLOOR);
-        s.vmark = vmark;
-        s.fmark = fmark;
-        // over the cap: illegal whatever D and A are (about half of all
-        // scorings), so skip computing them
-        if over_cap {
-            return None;
-        }
-        // only now are the positions needed (`A` reads them)
-        self.place_patch(place, patch);
-        let patch = &*patch;
         let m = &self.mesh;
         // --- D: importance-weighted moved distance
         let imp = |vs: &[VertexId]| {
@@ -1603,15 +2014,16 @@ impl Coarsener {
             Cand::Qv(f, d) => {
                 let q = m.quad_vertices(f).unwrap_or([VertexId(0); 4]);
                 let (a, c) = (q[d as usize], q[d as usize + 2]);
-                let keep = patch.merged.first().map_or(a, |g| g.1);
+                let keep = keep.unwrap_or(a);
                 let dist = (p(a) - p(c)).length() * imp(&q);
                 let other = [q[(d as usize + 1) % 4], q[(d as usize + 3) % 4]];
                 (dist, [f, f], 1, [(keep, other[0]), (keep, other[1])], 2)
             }
-            Cand::Qe(face, i, _) => match face_edge(m, face, i)
-                .ok_or(Reject::NotApplicable("edge is deleted"))
-                .and_then(|h| ops::qe_merge::qe_site(m, h))
-            {
+            Cand::Qe(face, i, _) => match site.ok_or(()).or_else(|()| {
+                face_edge(m, face, i)
+                    .ok_or(Reject::NotApplicable("edge is deleted"))
+                    .and_then(|h| ops::qe_merge::qe_site(m, h))
+            }) {
                 Ok(site) => {
                     let [a, b, c, d, e, f] = site.v;
                     let mid = (p(a) + p(d)) * 0.5;
@@ -1639,7 +2051,7 @@ impl Coarsener {
                 a_b += 0.5 * (s1 + s2);
                 let mut s_after = 0.0;
                 for &(u, w) in collapsed {
-                    let dir = patch.position_after(m, w) - patch.position_after(m, u);
+                    let dir = after(w) - after(u);
                     s_after += alignment(dir, fld, n).unwrap_or(1.0);
                 }
                 a_a += s_after / collapsed.len().max(1) as f64;
@@ -1656,7 +2068,7 @@ impl Coarsener {
         if dev_a > dev_b {
             e += BETA * dev_a as f64;
         }
-        (!over_cap).then_some(e)
+        e
     }
 
     // ------------------------------------------------------------- commit
@@ -2062,6 +2474,9 @@ impl Coarsener {
         let merged_into: Vec<VertexId> = patch.moved.iter().map(|m| m.0).collect();
         let local = all || self.opts.smoothing == Smoothing::Local;
         let mut set: Vec<VertexId> = Vec::new();
+        // each face's shape verdict, computed once: the inserted vertices
+        // share most of their faces
+        let mut verdicts: Vec<(FaceId, bool)> = Vec::new();
         for &v in inserted {
             if set.contains(&v)
                 || (merged_into.contains(&v) && !all)
@@ -2071,7 +2486,7 @@ impl Coarsener {
             {
                 continue;
             }
-            if local || self.badly_shaped_at(v) {
+            if local || self.badly_shaped_at(v, &mut verdicts) {
                 set.push(v);
             }
         }
@@ -2080,12 +2495,18 @@ impl Coarsener {
 
     /// True when a quad around `v` has a corner below [`RELAX_BELOW_JACOBIAN`]
     /// (a vertex left on a straight line by a re-fan or doublet removal).
-    fn badly_shaped_at(&self, v: VertexId) -> bool {
+    /// `verdicts` holds the faces already judged (whether badly shaped).
+    fn badly_shaped_at(&self, v: VertexId, verdicts: &mut Vec<(FaceId, bool)>) -> bool {
         let m = &self.mesh;
         m.vertex_faces(v).any(|f| {
-            m.quad_vertices(f).is_some_and(|q| {
+            if let Some(&(_, bad)) = verdicts.iter().find(|e| e.0 == f) {
+                return bad;
+            }
+            let bad = m.quad_vertices(f).is_some_and(|q| {
                 ops::quad_scaled_jacobian(q.map(|u| m.position(u))) < RELAX_BELOW_JACOBIAN
-            })
+            });
+            verdicts.push((f, bad));
+            bad
         })
     }
 
@@ -2450,15 +2871,17 @@ mod tests {
     /// Scoring's shortcuts never change a score: on meshes with and
     /// without boundary, under both valence caps and both placements, at
     /// several stages of coarsening, every candidate of every face scores
-    /// bit for bit the same with the shortcuts as without them — and the
-    /// shortcuts do fire (else the comparison would prove nothing), and
+    /// bit for bit the same with the shortcuts as without them (and the
+    /// queued ones with the same terms of `V`) — and the shortcuts do fire,
+    /// the patch-free qvMerge and qeMerge scores among them with queued
+    /// costs (else the comparison would prove nothing), and
     /// [`Coarsener::qe_over_cap`] loosened by one would drop candidates the
     /// full score queues (so the comparison would catch an off-by-one).
     #[test]
     fn scoring_shortcuts_change_no_score() {
         let closed = shapes::noisy(&shapes::torus(24, 12, 1.0, 0.35), 0.1, 3);
         let open = shapes::noisy(&shapes::grid(16, 12, 1.0, 0.75), 0.05, 5);
-        let mut fired = [0usize; 3];
+        let mut fired = [0usize; 5];
         let mut compared = 0usize;
         // candidates the loosened qeMerge cap test would have dropped wrongly
         let mut loose_wrong = 0usize;
@@ -2489,20 +2912,39 @@ mod tests {
                             // the valence shortcut one looser than exact
                             let mut loose = false;
                             match cand {
-                                Cand::Qv(f, d) => fired[0] += c.qv_over_cap(f, d) as usize,
+                                Cand::Qv(f, d) => {
+                                    fired[0] += c.qv_over_cap(f, d) as usize;
+                                    fired[4] += c
+                                        .qv_generic_score(cand, f, d, &mut s)
+                                        .is_some_and(|cost| cost.is_some())
+                                        as usize;
+                                }
                                 Cand::Qe(f, i, _) => {
                                     fired[1] += c.qe_degenerates(f, i) as usize;
                                     fired[2] += c.qe_over_cap(f, i, &mut s, 0) as usize;
                                     loose = c.qe_over_cap(f, i, &mut s, 1);
+                                    if let QeSiteClass::Generic(site, deg) =
+                                        c.qe_classify(f, i, &mut s, 0)
+                                    {
+                                        fired[3] += c
+                                            .qe_generic_score(cand, site, deg, &mut s)
+                                            .is_some_and(|cost| cost.is_some())
+                                            as usize;
+                                    }
                                 }
                             }
                             let fast = c.score_with(cand, &mut s, true);
+                            let fast_counts = s.v_counts;
                             let full = c.score_with(cand, &mut s, false);
                             assert_eq!(
                                 fast.map(f64::to_bits),
                                 full.map(f64::to_bits),
                                 "{cand:?} scores differently with the shortcuts"
                             );
+                            // `defect_gain` reads the terms of `V` too
+                            if full.is_some() {
+                                assert_eq!(fast_counts, s.v_counts, "{cand:?}: V's terms differ");
+                            }
                             loose_wrong += (loose && full.is_some()) as usize;
                             compared += 1;
                         }

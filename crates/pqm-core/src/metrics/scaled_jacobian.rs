@@ -83,11 +83,23 @@ pub fn scaled_jacobian(mesh: &IndexedMesh) -> ScaledJacobianReport {
 /// counter-clockwise order (see the module documentation). Fewer than three
 /// corners score 0.
 pub fn polygon_scaled_jacobian(corners: &[DVec3]) -> f64 {
-    let n = corners.len();
+    // The coarsener's shape checks call this for quads millions of times:
+    // inlined with the corner count known, its loops unroll and the `% n`
+    // index arithmetic folds (the same operations in the same order, so
+    // the same bits).
+    match corners.len() {
+        4 => scaled_jacobian_of(corners, 4),
+        n => scaled_jacobian_of(corners, n),
+    }
+}
+
+/// [`polygon_scaled_jacobian`] of `corners`, whose length is `n`.
+#[inline(always)]
+fn scaled_jacobian_of(corners: &[DVec3], n: usize) -> f64 {
     if n < 3 || !corners.iter().all(|p| p.is_finite()) {
         return 0.0;
     }
-    let normal = newell_normal(corners);
+    let normal = newell_normal(corners, n);
     let scale: f64 = (0..n)
         .map(|i| (corners[(i + 1) % n] - corners[i]).length_squared())
         .sum();
@@ -125,8 +137,9 @@ pub fn polygon_scaled_jacobian(corners: &[DVec3]) -> f64 {
 
 /// Newell's normal of a polygon: twice its vector area, robust for non-planar
 /// and non-convex polygons.
-pub(crate) fn newell_normal(corners: &[DVec3]) -> DVec3 {
-    let n = corners.len();
+/// `n` is `corners.len()` (inlined, see [`polygon_scaled_jacobian`]).
+#[inline(always)]
+fn newell_normal(corners: &[DVec3], n: usize) -> DVec3 {
     let mut acc = DVec3::ZERO;
     for i in 0..n {
         let (a, b) = (corners[i], corners[(i + 1) % n]);
