@@ -2344,12 +2344,20 @@ fn encode_patch(
 
 /// Concatenates the five streams, each prefixed by its LEB128 length.
 pub fn join_streams(s: &[Vec<u8>; 5]) -> Vec<u8> {
+    join_streams_at(s).0
+}
+
+/// [`join_streams`], with where each stream (its length varint first)
+/// starts in the payload; entry 5 is the payload's length.
+pub fn join_streams_at(s: &[Vec<u8>; 5]) -> (Vec<u8>, [usize; 6]) {
     let mut out = Vec::with_capacity(s.iter().map(|x| x.len() + 5).sum());
-    for x in s {
+    let mut starts = [0; 6];
+    for (t, x) in s.iter().enumerate() {
         put_u(&mut out, x.len() as u64);
         out.extend_from_slice(x);
+        starts[t + 1] = out.len();
     }
-    out
+    (out, starts)
 }
 
 /// Splits a chunk payload into its five streams.

@@ -341,15 +341,6 @@ fn chunk_block_layouts(starts: &[usize; 6]) -> Vec<Vec<usize>> {
     out
 }
 
-fn compress(data: &[u8], opts: &EncodeOptions) -> Result<Vec<u8>, EncodeError> {
-    use zstd::zstd_safe::CParameter;
-    let mut c = zstd::bulk::Compressor::new(opts.zstd_level)?;
-    c.set_parameter(CParameter::WindowLog(opts.window_log))?;
-    c.set_parameter(CParameter::ContentSizeFlag(true))?;
-    c.set_parameter(CParameter::ChecksumFlag(false))?;
-    Ok(c.compress(data)?)
-}
-
 struct Chunk {
     info: ChunkInfo,
     bytes: Vec<u8>,
@@ -449,11 +440,10 @@ pub fn write(
     // the corner deltas and the code deltas in blocks of their own, if
     // that pays (see compress_best)
     let faces_len = codec::encode_base(&[], &base_quads).len();
-    let base_layouts = [Vec::new(), vec![faces_len]];
-    let base_layouts: Vec<Vec<usize>> = base_layouts
-        .into_iter()
-        .filter(|c| c.iter().all(|&x| x > 0 && x < base_payload.len()))
-        .collect();
+    let mut base_layouts = vec![Vec::new()];
+    if 0 < faces_len && faces_len < base_payload.len() {
+        base_layouts.push(vec![faces_len]);
+    }
     let base_layouts = select_layouts(base_layouts, opts.zstd_blocks);
     let base_bytes = compress_best(&base_payload, base_layouts, opts)?.frame;
     let mut state = MeshState::new(quant.qmax(), base_q, base_quads);
@@ -480,18 +470,8 @@ pub fn write(
                      k: usize,
                      report: &mut EncodeReport|
      -> Result<(), EncodeError> {
-        let payload = codec::join_streams(streams);
         // where each stream (with its length varint) starts in the payload
-        let mut starts = [0usize; 6];
-        for (t, s) in streams.iter().enumerate() {
-            let mut v = s.len() as u64;
-            let mut n = 1;
-            while v >= 0x80 {
-                v >>= 7;
-                n += 1;
-            }
-            starts[t + 1] = starts[t] + n + s.len();
-        }
+        let (payload, starts) = codec::join_streams_at(streams);
         let layouts = select_layouts(chunk_block_layouts(&starts), opts.zstd_blocks);
         let Framed {
             frame: bytes,
@@ -628,7 +608,7 @@ pub fn write(
             }
             payload
         };
-        let c = compress(&payload, opts)?;
+        let (c, _) = compress_parts(&payload, &[], opts)?;
         sections.extend_from_slice(if neighbours { &TAG_VNBR } else { &TAG_VORD });
         sections.extend_from_slice(&(c.len() as u32).to_le_bytes());
         sections.extend_from_slice(&(payload.len() as u32).to_le_bytes());
