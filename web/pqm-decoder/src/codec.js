@@ -1164,32 +1164,14 @@ function canonicalStar(st, m, sc) {
   if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
-    const v0 = f[s4];
-    const v1 = f[s4 + 1];
-    const v2 = f[s4 + 2];
-    const v3 = f[s4 + 3];
-    // the lists are exact: m is at one of the four corners
-    if (v0 === m) {
-      sK[i] = 0;
-      sN[i] = v1;
-      sO[i] = v2;
-      sP[i] = v3;
-    } else if (v1 === m) {
-      sK[i] = 1;
-      sN[i] = v2;
-      sO[i] = v3;
-      sP[i] = v0;
-    } else if (v2 === m) {
-      sK[i] = 2;
-      sN[i] = v3;
-      sO[i] = v0;
-      sP[i] = v1;
-    } else {
-      sK[i] = 3;
-      sN[i] = v0;
-      sO[i] = v1;
-      sP[i] = v2;
-    }
+    // the lists are exact: m is at one of the four corners; its index from
+    // comparisons as 0/1 values (no branch on where m is: it is anywhere,
+    // so such branches mispredict), then the three others by index
+    const k = ((f[s4 + 1] === m) | 0) + 2 * ((f[s4 + 2] === m) | 0) + 3 * ((f[s4 + 3] === m) | 0);
+    sK[i] = k;
+    sN[i] = f[s4 + ((k + 1) & 3)];
+    sO[i] = f[s4 + ((k + 2) & 3)];
+    sP[i] = f[s4 + ((k + 3) & 3)];
   }
   // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
   // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
