@@ -1276,9 +1276,6 @@ function canonicalStar(st, m, sc) {
 // split needs two stars at once).
 const starA = new StarScratch();
 const starB = new StarScratch();
-const sLink = new Int32Array(257);
-/** Per star face (index into S) of a split: 1 on side C, 0 on side A. */
-const sSide = new Uint8Array(256);
 
 /** Split form (spec §7.5). */
 function decodeSplit(ctx, sym) {
@@ -1298,10 +1295,8 @@ function decodeSplit(ctx, sym) {
   const sO = sc.O;
   const sP = sc.P;
   const sList = sc.list;
-  // Link.
-  for (let t = 0; t < K; t++) sLink[t] = sN[sList[t]];
-  let L = K;
-  if (sc.boundary) sLink[L++] = sP[sList[K - 1]];
+  // The link is N of the faces in walk order, then (boundary) P of the last.
+  const L = sc.boundary ? K + 1 : K;
 
   // 3. wings.
   const i = ctx.conn.u();
@@ -1309,38 +1304,46 @@ function decodeSplit(ctx, sym) {
   const e = ctx.conn.u();
   if (e > L - 2) throw `wing offset ${e} exceeds ${L - 2}`;
   const j = (i + 1 + e) % L;
-  const b = sLink[i];
-  const d = sLink[j];
+  const b = i < K ? sN[sList[i]] : sP[sList[K - 1]];
+  const d = j < K ? sN[sList[j]] : sP[sList[K - 1]];
   if (b === d) throw `wings ${i} and ${j} of vertex ${m} are the same vertex ${b}`;
 
-  // 4. sides: the side-C slots (the side means of step 6 only when a
-  // moves: each is a random read of a code, most records skip them).
-  let nC = 0;
+  // 4. sides, as ranges of walk positions: side A is i ≤ t < j
+  // (cyclically), side C the rest, so side C is [c1, c2) ∪ [c3, c4) — the
+  // loops below run over the ranges, with no per-face side test (where a
+  // side ends is data, so such tests mispredict). The side means of step
+  // 6 only when a moves (each is a random read of a code; most records
+  // skip them).
+  let c1, c2, c3, c4;
+  if (i < j) {
+    c1 = 0;
+    c2 = i;
+    c3 = j < K ? j : K;
+    c4 = K;
+  } else {
+    c1 = j;
+    c2 = i < K ? i : K;
+    c3 = K;
+    c4 = K;
+  }
+  const nC = c2 - c1 + (c4 - c3);
+  const nA = K - nC;
   const q = st.q;
   const moves = (sym & 0x40) !== 0;
-  let sax = 0, say = 0, saz = 0, nA = 0;
+  let sax = 0, say = 0, saz = 0;
   let scx = 0, scy = 0, scz = 0;
-  for (let t = 0; t < K; t++) {
-    const sideA = i < j ? i <= t && t < j : t >= i || t < j;
-    const idx = sList[t];
-    if (sideA) {
-      if (moves) {
-        const o = 16 * sO[idx];
+  if (moves) {
+    for (let t = 0; t < K; t++) {
+      const o = 16 * sO[sList[t]];
+      if ((t >= c1 && t < c2) || t >= c3) {
+        scx += q[o];
+        scy += q[o + 1];
+        scz += q[o + 2];
+      } else {
         sax += q[o];
         say += q[o + 1];
         saz += q[o + 2];
       }
-      nA++;
-      sSide[idx] = 0;
-    } else {
-      if (moves) {
-        const o = 16 * sO[idx];
-        scx += q[o];
-        scy += q[o + 1];
-        scz += q[o + 2];
-      }
-      nC++;
-      sSide[idx] = 1;
     }
   }
 
@@ -1386,15 +1389,17 @@ function decodeSplit(ctx, sym) {
     let sx = q[16 * b] + q[16 * d] - ax;
     let sy = q[16 * b + 1] + q[16 * d + 1] - ay;
     let sz = q[16 * b + 2] + q[16 * d + 2] - az;
-    for (let t = 0; t < K; t++) {
-      if (i < j ? i <= t && t < j : t >= i || t < j) continue; // side A
-      const idx = sList[t];
-      const n = 16 * sN[idx];
-      const p = 16 * sP[idx];
-      const o = 16 * sO[idx];
-      sx += q[n] + q[p] - q[o];
-      sy += q[n + 1] + q[p + 1] - q[o + 1];
-      sz += q[n + 2] + q[p + 2] - q[o + 2];
+    for (let part = 0; part < 2; part++) {
+      const to = part === 0 ? c2 : c4;
+      for (let t = part === 0 ? c1 : c3; t < to; t++) {
+        const idx = sList[t];
+        const n = 16 * sN[idx];
+        const p = 16 * sP[idx];
+        const o = 16 * sO[idx];
+        sx += q[n] + q[p] - q[o];
+        sy += q[n + 1] + q[p + 1] - q[o + 1];
+        sz += q[n + 2] + q[p + 2] - q[o + 2];
+      }
     }
     const n = nC + 1;
     px = clamp(floorDiv(sx, n), qmax);
@@ -1411,12 +1416,13 @@ function decodeSplit(ctx, sym) {
   readCode(ctx, px, py, pz, 'split vertex', m, ' (c)');
   appendVertex(ctx);
 
-  // 5. the explicit record — side-C slots by ascending slot (S is
-  // ascending), m → c — written straight into the frontier: one corner per
-  // slot (m's, known from the star), its log entry (the XOR is m ^ c at
-  // that corner), and the lists whole when m's is inline: m keeps its
-  // side-A slots, the new c takes the side-C ones (what rewriteSlot's
-  // per-slot remove and add would leave, without a scan of m's list each).
+  // 5. the explicit record — the side-C slots, m → c — written straight
+  // into the frontier: one corner per slot (m's, known from the star), its
+  // log entry (the XOR is m ^ c at that corner; a record's entries name
+  // distinct slots, so their order is free: walk order here), and the lists
+  // whole when m's is inline: m keeps its side-A slots, the new c takes the
+  // side-C ones (what rewriteSlot's per-slot remove and add would leave,
+  // without a scan of m's list each; the lists are unordered sets).
   const log = ctx.log;
   let n = log.nRw;
   if (5 * (n + nC) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + nC), 5 * n);
@@ -1426,35 +1432,38 @@ function decodeSplit(ctx, sym) {
   const sC = sc.C;
   const x = m ^ c;
   const whole = K <= INLINE;
-  const bm = (m << 4) + AT;
   const bc = (c << 4) + AT;
-  let nAk = 0;
   let nCk = 0;
-  for (let idx = 0; idx < K; idx++) {
-    const s = S[idx];
-    if (sSide[idx] === 0) {
-      if (whole) qs[bm + nAk] = s;
-      nAk++;
-      continue;
+  for (let part = 0; part < 2; part++) {
+    const to = part === 0 ? c2 : c4;
+    for (let t = part === 0 ? c1 : c3; t < to; t++) {
+      const idx = sList[t];
+      const s = S[idx];
+      const k = sC[idx];
+      const o = 5 * n++;
+      // x at corner k, 0 elsewhere, as masks (k is random: no branches)
+      r[o] = s;
+      r[o + 1] = x & -((k === 0) | 0);
+      r[o + 2] = x & -((k === 1) | 0);
+      r[o + 3] = x & -((k === 2) | 0);
+      r[o + 4] = x & -((k === 3) | 0);
+      fq[4 * s + k] = c;
+      if (whole) {
+        qs[bc + nCk] = s;
+      } else {
+        st.remove(m, s);
+        st.add(c, s);
+      }
+      nCk++;
     }
-    const k = sC[idx];
-    const o = 5 * n++;
-    r[o] = s;
-    r[o + 1] = k === 0 ? x : 0;
-    r[o + 2] = k === 1 ? x : 0;
-    r[o + 3] = k === 2 ? x : 0;
-    r[o + 4] = k === 3 ? x : 0;
-    fq[4 * s + k] = c;
-    if (whole) {
-      qs[bc + nCk] = s;
-    } else {
-      st.remove(m, s);
-      st.add(c, s);
-    }
-    nCk++;
   }
   log.nRw = n;
   if (whole) {
+    // side A: walk positions [0, c1) ∪ [c2, c3), around the side-C ranges
+    const bm = (m << 4) + AT;
+    let nAk = 0;
+    for (let t = 0; t < c1; t++) qs[bm + nAk++] = S[sList[t]];
+    for (let t = c2; t < c3; t++) qs[bm + nAk++] = S[sList[t]];
     qs[(m << 4) + LEN] = nAk;
     qs[(c << 4) + LEN] = nCk;
   }
