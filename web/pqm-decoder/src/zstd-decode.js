@@ -510,7 +510,12 @@ function fseWeights(d, p, end, t) {
   const read = (n) => {
     pos -= n;
     if (n === 0) return 0;
-    // bits [pos, pos + n) of the stream, zeros below its start
+    // bits [pos, pos + n) of the stream (n ≤ 6), zeros below its start
+    if (pos >= 0) {
+      const b = lo + (pos >> 3);
+      const v = (d[b] | (b + 1 < end ? d[b + 1] << 8 : 0)) >>> (pos & 7);
+      return v & ((1 << n) - 1);
+    }
     let v = 0;
     for (let k = 0; k < n; k++) {
       const bit = pos + n - 1 - k;
