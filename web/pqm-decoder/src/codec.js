@@ -1468,12 +1468,16 @@ function decodeSplit(ctx, sym) {
     qs[(c << 4) + LEN] = nCk;
   }
   // Q'[t] = B[(t + rot) mod 4] with B = (m, d, c, b)
+  // (indexed, not a branch per rotation: the rotation is data)
   const rot = (sym >> 4) & 3;
-  if (rot === 0) appendQuad(ctx, m, d, c, b);
-  else if (rot === 1) appendQuad(ctx, d, c, b, m);
-  else if (rot === 2) appendQuad(ctx, c, b, m, d);
-  else appendQuad(ctx, b, m, d, c);
+  const B = splitQuad;
+  B[0] = m;
+  B[1] = d;
+  B[2] = c;
+  B[3] = b;
+  appendQuad(ctx, B[rot], B[(rot + 1) & 3], B[(rot + 2) & 3], B[(rot + 3) & 3]);
 }
+const splitQuad = new Int32Array(4);
 
 /**
  * Face-split form (spec §7.9, version 2): vertex `m`, the `t`-th slot of
@@ -1526,17 +1530,21 @@ function decodeFaceSplit(ctx, sym) {
   // 5.–6. X' rewrites slot s, Y' is appended; rotations from symbol bits 4-7
   const rotX = (sym >> 4) & 3;
   const rotY = sym >> 6;
-  const fA = fsA;
-  const fB = fsB;
-  fA[0] = m; fA[1] = p; fA[2] = o; fA[3] = c;
-  fB[0] = m; fB[1] = c; fB[2] = o; fB[3] = qv;
-  const X = swap ? fB : fA;
-  const Y = swap ? fA : fB;
+  // fH: half A (m, p, o, c), half B (m, c, o, q), then the vertex that
+  // leaves slot s when X is A (q) or B (p)
+  const fH = fsH;
+  fH[0] = m; fH[1] = p; fH[2] = o; fH[3] = c;
+  fH[4] = m; fH[5] = c; fH[6] = o; fH[7] = qv;
+  fH[8] = qv; fH[9] = p;
+  // X is half `swap` (0: A, 1: B), Y the other, read by index (swap is
+  // data: a select between the halves would branch)
+  const X = 4 * swap;
+  const Y = 4 - X;
   // X keeps m and o and one of p / q, and takes c: exactly one vertex
   // leaves slot s (q for A, p for B) and c enters it — what rewriteSlot's
   // set comparison would find, without its 32 compares
-  rewriteSwap(ctx, s, X[rotX], X[(rotX + 1) & 3], X[(rotX + 2) & 3], X[(rotX + 3) & 3], swap ? p : qv, c);
-  appendQuad(ctx, Y[rotY], Y[(rotY + 1) & 3], Y[(rotY + 2) & 3], Y[(rotY + 3) & 3]);
+  rewriteSwap(ctx, s, fH[X + rotX], fH[X + ((rotX + 1) & 3)], fH[X + ((rotX + 2) & 3)], fH[X + ((rotX + 3) & 3)], fH[8 + swap], c);
+  appendQuad(ctx, fH[Y + rotY], fH[Y + ((rotY + 1) & 3)], fH[Y + ((rotY + 2) & 3)], fH[Y + ((rotY + 3) & 3)]);
 }
 
 /**
@@ -1566,8 +1574,7 @@ function rewriteSwap(ctx, slot, a, b, c, d, out, inV) {
   st.remove(out, slot);
   st.add(inV, slot);
 }
-const fsA = new Int32Array(4);
-const fsB = new Int32Array(4);
+const fsH = new Int32Array(10);
 
 /**
  * The 24 permutations of 0..3 in lexicographic order (spec §7.10 step 5):
