@@ -39,7 +39,20 @@ export class Reader {
   u() {
     const b = this.b;
     let p = this.p;
-    if (p < this.end) {
+    if (p + 2 < this.end) {
+      // Varints of 1 to 3 bytes (nearly all) without a branch on their
+      // length, which is data (vertex deltas, residuals) and mispredicts:
+      // c1 / c2 say whether the first / second byte continues.
+      const x = b[p];
+      const y = b[p + 1];
+      const z = b[p + 2];
+      if ((x & y & z & 0x80) === 0) {
+        const c1 = x >> 7;
+        const c2 = c1 & (y >> 7);
+        this.p = p + 1 + c1 + c2;
+        return (x & 0x7f) | (((y & 0x7f) << 7) & -c1) | (((z & 0x7f) << 14) & -c2);
+      }
+    } else if (p < this.end) {
       const x = b[p];
       if (x < 0x80) {
         this.p = p + 1;
