@@ -1303,7 +1303,9 @@ function decodeSplit(ctx, sym) {
   if (i > L - 1) throw `wing index ${i} exceeds ${L - 1}`;
   const e = ctx.conn.u();
   if (e > L - 2) throw `wing offset ${e} exceeds ${L - 2}`;
-  const j = (i + 1 + e) % L;
+  // (i + 1 + e) mod L, with i + 1 + e < 2L: a subtraction, not a division
+  let j = i + 1 + e;
+  j -= L & -((j >= L) | 0);
   const b = i < K ? sN[sList[i]] : sP[sList[K - 1]];
   const d = j < K ? sN[sList[j]] : sP[sList[K - 1]];
   if (b === d) throw `wings ${i} and ${j} of vertex ${m} are the same vertex ${b}`;
@@ -1500,9 +1502,10 @@ function decodeFaceSplit(ctx, sym) {
   if (K < 1) throw `vertex ${m} is in no face`;
   // 3. the split slot
   const x = ctx.conn.u();
-  const t = Math.floor(x / 2);
-  if (t >= K) throw `face index ${t} of vertex ${m} outside 0..${K}`;
-  const swap = x % 2;
+  if (x >= 2 * K) throw `face index ${Math.floor(x / 2)} of vertex ${m} outside 0..${K}`;
+  // x < 2K ≤ 510: shifts, not a float division and remainder
+  const t = x >> 1;
+  const swap = x & 1;
   const s = sS[t];
   const k = cornerIn(st.f, 4 * s, m);
   // 4. the halves A = (m, p, o, c) and B = (m, c, o, q)
