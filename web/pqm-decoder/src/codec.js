@@ -1404,9 +1404,13 @@ function decodeSplit(ctx, sym) {
       }
     }
     const n = nC + 1;
-    px = clamp(floorDiv(sx, n), qmax);
-    py = clamp(floorDiv(sy, n), qmax);
-    pz = clamp(floorDiv(sz, n), qmax);
+    // Math.floor(s / n) is exact here (floorDiv's correction never fires):
+    // n ≤ 256 and |s| ≤ 256 · 2^25, so the quotient's rounding error
+    // (< 2^-19) is below the 1/n a non-integer quotient keeps from the
+    // next integer — and it inlines, where floorDiv is a call
+    px = clamp(Math.floor(sx / n), qmax);
+    py = clamp(Math.floor(sy / n), qmax);
+    pz = clamp(Math.floor(sz / n), qmax);
   } else {
     // §7.6 (version 1; version 2 with side C empty): the appended quad
     // (m, d, c, b) rotated is the first quad holding c; its neighbours
@@ -1522,9 +1526,10 @@ function decodeFaceSplit(ctx, sym) {
   const m3 = 16 * m, p3 = 16 * p, o3 = 16 * o, q3 = 16 * qv;
   readCode(
     ctx,
-    clamp(floorDiv(2 * q[m3] + 2 * q[o3] - q[p3] - q[q3], 2), qmax),
-    clamp(floorDiv(2 * q[m3 + 1] + 2 * q[o3 + 1] - q[p3 + 1] - q[q3 + 1], 2), qmax),
-    clamp(floorDiv(2 * q[m3 + 2] + 2 * q[o3 + 2] - q[p3 + 2] - q[q3 + 2], 2), qmax),
+    // ⌊s / 2⌋ as s >> 1: codes are below 2^24, so s is an int32
+    clamp((2 * q[m3] + 2 * q[o3] - q[p3] - q[q3]) >> 1, qmax),
+    clamp((2 * q[m3 + 1] + 2 * q[o3 + 1] - q[p3 + 1] - q[q3 + 1]) >> 1, qmax),
+    clamp((2 * q[m3 + 2] + 2 * q[o3 + 2] - q[p3 + 2] - q[q3 + 2]) >> 1, qmax),
     'face-split vertex',
     m,
     ' (c)',
