@@ -1511,7 +1511,10 @@ function decodeFaceSplit(ctx, sym) {
   const t = x >> 1;
   const swap = x & 1;
   const s = sS[t];
-  const k = cornerIn(st.f, 4 * s, m);
+  // m's corner (the lists are exact: it is one of the four) from 0/1
+  // comparison values, no branch on where it sits (see canonicalStar)
+  const fs = st.f;
+  const k = ((fs[4 * s + 1] === m) | 0) + 2 * ((fs[4 * s + 2] === m) | 0) + 3 * ((fs[4 * s + 3] === m) | 0);
   // 4. the halves A = (m, p, o, c) and B = (m, c, o, q)
   const f = st.f;
   const s4 = 4 * s;
