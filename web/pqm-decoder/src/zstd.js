@@ -1,7 +1,7 @@
 /**
  * One Zstandard frame → exactly `expectedLen` bytes (spec §1), with this
  * package's own decoder (zstd-decode.js; it replaced the `fzstd` package,
- * which decoded these frames 2–2.5× slower).
+ * which decoded these frames about 2× slower).
  *
  * A compressed section is exactly one frame and nothing else (spec §1): it
  * starts with the frame magic (a skippable frame is refused), the frame ends
