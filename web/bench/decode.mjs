@@ -3,7 +3,7 @@
 // finest level: positions and triangle indices ready), on the biggest .pqm
 // available — bench/data/*.pqm (written by `bash bench/make-data.sh` or
 // tools/make-pqm, see README) or else the test files — with where the time
-// goes: zstd (fzstd, every frame), CRC-32 (every section), the records
+// goes: zstd (every frame), CRC-32 (every section), the records
 // (the rest of the push) and the move to the finest level.
 //
 //   node bench/decode.mjs [FILE.pqm ...] [--runs N] [--forward]

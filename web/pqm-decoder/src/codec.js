@@ -1164,32 +1164,14 @@ function canonicalStar(st, m, sc) {
   if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
-    const v0 = f[s4];
-    const v1 = f[s4 + 1];
-    const v2 = f[s4 + 2];
-    const v3 = f[s4 + 3];
-    // the lists are exact: m is at one of the four corners
-    if (v0 === m) {
-      sK[i] = 0;
-      sN[i] = v1;
-      sO[i] = v2;
-      sP[i] = v3;
-    } else if (v1 === m) {
-      sK[i] = 1;
-      sN[i] = v2;
-      sO[i] = v3;
-      sP[i] = v0;
-    } else if (v2 === m) {
-      sK[i] = 2;
-      sN[i] = v3;
-      sO[i] = v0;
-      sP[i] = v1;
-    } else {
-      sK[i] = 3;
-      sN[i] = v0;
-      sO[i] = v1;
-      sP[i] = v2;
-    }
+    // the lists are exact: m is at one of the four corners; its index from
+    // comparisons as 0/1 values (no branch on where m is: it is anywhere,
+    // so such branches mispredict), then the three others by index
+    const k = ((f[s4 + 1] === m) | 0) + 2 * ((f[s4 + 2] === m) | 0) + 3 * ((f[s4 + 3] === m) | 0);
+    sK[i] = k;
+    sN[i] = f[s4 + ((k + 1) & 3)];
+    sO[i] = f[s4 + ((k + 2) & 3)];
+    sP[i] = f[s4 + ((k + 3) & 3)];
   }
   // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
   // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
@@ -1294,9 +1276,6 @@ function canonicalStar(st, m, sc) {
 // split needs two stars at once).
 const starA = new StarScratch();
 const starB = new StarScratch();
-const sLink = new Int32Array(257);
-/** Per star face (index into S) of a split: 1 on side C, 0 on side A. */
-const sSide = new Uint8Array(256);
 
 /** Split form (spec §7.5). */
 function decodeSplit(ctx, sym) {
@@ -1316,49 +1295,57 @@ function decodeSplit(ctx, sym) {
   const sO = sc.O;
   const sP = sc.P;
   const sList = sc.list;
-  // Link.
-  for (let t = 0; t < K; t++) sLink[t] = sN[sList[t]];
-  let L = K;
-  if (sc.boundary) sLink[L++] = sP[sList[K - 1]];
+  // The link is N of the faces in walk order, then (boundary) P of the last.
+  const L = sc.boundary ? K + 1 : K;
 
   // 3. wings.
   const i = ctx.conn.u();
   if (i > L - 1) throw `wing index ${i} exceeds ${L - 1}`;
   const e = ctx.conn.u();
   if (e > L - 2) throw `wing offset ${e} exceeds ${L - 2}`;
-  const j = (i + 1 + e) % L;
-  const b = sLink[i];
-  const d = sLink[j];
+  // (i + 1 + e) mod L, with i + 1 + e < 2L: a subtraction, not a division
+  let j = i + 1 + e;
+  j -= L & -((j >= L) | 0);
+  const b = i < K ? sN[sList[i]] : sP[sList[K - 1]];
+  const d = j < K ? sN[sList[j]] : sP[sList[K - 1]];
   if (b === d) throw `wings ${i} and ${j} of vertex ${m} are the same vertex ${b}`;
 
-  // 4. sides: the side-C slots (the side means of step 6 only when a
-  // moves: each is a random read of a code, most records skip them).
-  let nC = 0;
+  // 4. sides, as ranges of walk positions: side A is i ≤ t < j
+  // (cyclically), side C the rest, so side C is [c1, c2) ∪ [c3, c4) — the
+  // loops below run over the ranges, with no per-face side test (where a
+  // side ends is data, so such tests mispredict). The side means of step
+  // 6 only when a moves (each is a random read of a code; most records
+  // skip them).
+  let c1, c2, c3, c4;
+  if (i < j) {
+    c1 = 0;
+    c2 = i;
+    c3 = j < K ? j : K;
+    c4 = K;
+  } else {
+    c1 = j;
+    c2 = i < K ? i : K;
+    c3 = K;
+    c4 = K;
+  }
+  const nC = c2 - c1 + (c4 - c3);
+  const nA = K - nC;
   const q = st.q;
   const moves = (sym & 0x40) !== 0;
-  let sax = 0, say = 0, saz = 0, nA = 0;
+  let sax = 0, say = 0, saz = 0;
   let scx = 0, scy = 0, scz = 0;
-  for (let t = 0; t < K; t++) {
-    const sideA = i < j ? i <= t && t < j : t >= i || t < j;
-    const idx = sList[t];
-    if (sideA) {
-      if (moves) {
-        const o = 16 * sO[idx];
+  if (moves) {
+    for (let t = 0; t < K; t++) {
+      const o = 16 * sO[sList[t]];
+      if ((t >= c1 && t < c2) || t >= c3) {
+        scx += q[o];
+        scy += q[o + 1];
+        scz += q[o + 2];
+      } else {
         sax += q[o];
         say += q[o + 1];
         saz += q[o + 2];
       }
-      nA++;
-      sSide[idx] = 0;
-    } else {
-      if (moves) {
-        const o = 16 * sO[idx];
-        scx += q[o];
-        scy += q[o + 1];
-        scz += q[o + 2];
-      }
-      nC++;
-      sSide[idx] = 1;
     }
   }
 
@@ -1404,20 +1391,26 @@ function decodeSplit(ctx, sym) {
     let sx = q[16 * b] + q[16 * d] - ax;
     let sy = q[16 * b + 1] + q[16 * d + 1] - ay;
     let sz = q[16 * b + 2] + q[16 * d + 2] - az;
-    for (let t = 0; t < K; t++) {
-      if (i < j ? i <= t && t < j : t >= i || t < j) continue; // side A
-      const idx = sList[t];
-      const n = 16 * sN[idx];
-      const p = 16 * sP[idx];
-      const o = 16 * sO[idx];
-      sx += q[n] + q[p] - q[o];
-      sy += q[n + 1] + q[p + 1] - q[o + 1];
-      sz += q[n + 2] + q[p + 2] - q[o + 2];
+    for (let part = 0; part < 2; part++) {
+      const to = part === 0 ? c2 : c4;
+      for (let t = part === 0 ? c1 : c3; t < to; t++) {
+        const idx = sList[t];
+        const n = 16 * sN[idx];
+        const p = 16 * sP[idx];
+        const o = 16 * sO[idx];
+        sx += q[n] + q[p] - q[o];
+        sy += q[n + 1] + q[p + 1] - q[o + 1];
+        sz += q[n + 2] + q[p + 2] - q[o + 2];
+      }
     }
     const n = nC + 1;
-    px = clamp(floorDiv(sx, n), qmax);
-    py = clamp(floorDiv(sy, n), qmax);
-    pz = clamp(floorDiv(sz, n), qmax);
+    // Math.floor(s / n) is exact here (floorDiv's correction never fires):
+    // n ≤ 256 and |s| ≤ 256 · 2^25, so the quotient's rounding error
+    // (< 2^-19) is below the 1/n a non-integer quotient keeps from the
+    // next integer — and it inlines, where floorDiv is a call
+    px = clamp(Math.floor(sx / n), qmax);
+    py = clamp(Math.floor(sy / n), qmax);
+    pz = clamp(Math.floor(sz / n), qmax);
   } else {
     // §7.6 (version 1; version 2 with side C empty): the appended quad
     // (m, d, c, b) rotated is the first quad holding c; its neighbours
@@ -1429,12 +1422,13 @@ function decodeSplit(ctx, sym) {
   readCode(ctx, px, py, pz, 'split vertex', m, ' (c)');
   appendVertex(ctx);
 
-  // 5. the explicit record — side-C slots by ascending slot (S is
-  // ascending), m → c — written straight into the frontier: one corner per
-  // slot (m's, known from the star), its log entry (the XOR is m ^ c at
-  // that corner), and the lists whole when m's is inline: m keeps its
-  // side-A slots, the new c takes the side-C ones (what rewriteSlot's
-  // per-slot remove and add would leave, without a scan of m's list each).
+  // 5. the explicit record — the side-C slots, m → c — written straight
+  // into the frontier: one corner per slot (m's, known from the star), its
+  // log entry (the XOR is m ^ c at that corner; a record's entries name
+  // distinct slots, so their order is free: walk order here), and the lists
+  // whole when m's is inline: m keeps its side-A slots, the new c takes the
+  // side-C ones (what rewriteSlot's per-slot remove and add would leave,
+  // without a scan of m's list each; the lists are unordered sets).
   const log = ctx.log;
   let n = log.nRw;
   if (5 * (n + nC) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + nC), 5 * n);
@@ -1444,45 +1438,52 @@ function decodeSplit(ctx, sym) {
   const sC = sc.C;
   const x = m ^ c;
   const whole = K <= INLINE;
-  const bm = (m << 4) + AT;
   const bc = (c << 4) + AT;
-  let nAk = 0;
   let nCk = 0;
-  for (let idx = 0; idx < K; idx++) {
-    const s = S[idx];
-    if (sSide[idx] === 0) {
-      if (whole) qs[bm + nAk] = s;
-      nAk++;
-      continue;
+  for (let part = 0; part < 2; part++) {
+    const to = part === 0 ? c2 : c4;
+    for (let t = part === 0 ? c1 : c3; t < to; t++) {
+      const idx = sList[t];
+      const s = S[idx];
+      const k = sC[idx];
+      const o = 5 * n++;
+      // x at corner k, 0 elsewhere, as masks (k is random: no branches)
+      r[o] = s;
+      r[o + 1] = x & -((k === 0) | 0);
+      r[o + 2] = x & -((k === 1) | 0);
+      r[o + 3] = x & -((k === 2) | 0);
+      r[o + 4] = x & -((k === 3) | 0);
+      fq[4 * s + k] = c;
+      if (whole) {
+        qs[bc + nCk] = s;
+      } else {
+        st.remove(m, s);
+        st.add(c, s);
+      }
+      nCk++;
     }
-    const k = sC[idx];
-    const o = 5 * n++;
-    r[o] = s;
-    r[o + 1] = k === 0 ? x : 0;
-    r[o + 2] = k === 1 ? x : 0;
-    r[o + 3] = k === 2 ? x : 0;
-    r[o + 4] = k === 3 ? x : 0;
-    fq[4 * s + k] = c;
-    if (whole) {
-      qs[bc + nCk] = s;
-    } else {
-      st.remove(m, s);
-      st.add(c, s);
-    }
-    nCk++;
   }
   log.nRw = n;
   if (whole) {
+    // side A: walk positions [0, c1) ∪ [c2, c3), around the side-C ranges
+    const bm = (m << 4) + AT;
+    let nAk = 0;
+    for (let t = 0; t < c1; t++) qs[bm + nAk++] = S[sList[t]];
+    for (let t = c2; t < c3; t++) qs[bm + nAk++] = S[sList[t]];
     qs[(m << 4) + LEN] = nAk;
     qs[(c << 4) + LEN] = nCk;
   }
   // Q'[t] = B[(t + rot) mod 4] with B = (m, d, c, b)
+  // (indexed, not a branch per rotation: the rotation is data)
   const rot = (sym >> 4) & 3;
-  if (rot === 0) appendQuad(ctx, m, d, c, b);
-  else if (rot === 1) appendQuad(ctx, d, c, b, m);
-  else if (rot === 2) appendQuad(ctx, c, b, m, d);
-  else appendQuad(ctx, b, m, d, c);
+  const B = splitQuad;
+  B[0] = m;
+  B[1] = d;
+  B[2] = c;
+  B[3] = b;
+  appendQuad(ctx, B[rot], B[(rot + 1) & 3], B[(rot + 2) & 3], B[(rot + 3) & 3]);
 }
+const splitQuad = new Int32Array(4);
 
 /**
  * Face-split form (spec §7.9, version 2): vertex `m`, the `t`-th slot of
@@ -1505,11 +1506,15 @@ function decodeFaceSplit(ctx, sym) {
   if (K < 1) throw `vertex ${m} is in no face`;
   // 3. the split slot
   const x = ctx.conn.u();
-  const t = Math.floor(x / 2);
-  if (t >= K) throw `face index ${t} of vertex ${m} outside 0..${K}`;
-  const swap = x % 2;
+  if (x >= 2 * K) throw `face index ${Math.floor(x / 2)} of vertex ${m} outside 0..${K}`;
+  // x < 2K ≤ 510: shifts, not a float division and remainder
+  const t = x >> 1;
+  const swap = x & 1;
   const s = sS[t];
-  const k = cornerIn(st.f, 4 * s, m);
+  // m's corner (the lists are exact: it is one of the four) from 0/1
+  // comparison values, no branch on where it sits (see canonicalStar)
+  const fs = st.f;
+  const k = ((fs[4 * s + 1] === m) | 0) + 2 * ((fs[4 * s + 2] === m) | 0) + 3 * ((fs[4 * s + 3] === m) | 0);
   // 4. the halves A = (m, p, o, c) and B = (m, c, o, q)
   const f = st.f;
   const s4 = 4 * s;
@@ -1524,9 +1529,10 @@ function decodeFaceSplit(ctx, sym) {
   const m3 = 16 * m, p3 = 16 * p, o3 = 16 * o, q3 = 16 * qv;
   readCode(
     ctx,
-    clamp(floorDiv(2 * q[m3] + 2 * q[o3] - q[p3] - q[q3], 2), qmax),
-    clamp(floorDiv(2 * q[m3 + 1] + 2 * q[o3 + 1] - q[p3 + 1] - q[q3 + 1], 2), qmax),
-    clamp(floorDiv(2 * q[m3 + 2] + 2 * q[o3 + 2] - q[p3 + 2] - q[q3 + 2], 2), qmax),
+    // ⌊s / 2⌋ as s >> 1: codes are below 2^24, so s is an int32
+    clamp((2 * q[m3] + 2 * q[o3] - q[p3] - q[q3]) >> 1, qmax),
+    clamp((2 * q[m3 + 1] + 2 * q[o3 + 1] - q[p3 + 1] - q[q3 + 1]) >> 1, qmax),
+    clamp((2 * q[m3 + 2] + 2 * q[o3 + 2] - q[p3 + 2] - q[q3 + 2]) >> 1, qmax),
     'face-split vertex',
     m,
     ' (c)',
@@ -1535,17 +1541,21 @@ function decodeFaceSplit(ctx, sym) {
   // 5.–6. X' rewrites slot s, Y' is appended; rotations from symbol bits 4-7
   const rotX = (sym >> 4) & 3;
   const rotY = sym >> 6;
-  const fA = fsA;
-  const fB = fsB;
-  fA[0] = m; fA[1] = p; fA[2] = o; fA[3] = c;
-  fB[0] = m; fB[1] = c; fB[2] = o; fB[3] = qv;
-  const X = swap ? fB : fA;
-  const Y = swap ? fA : fB;
+  // fH: half A (m, p, o, c), half B (m, c, o, q), then the vertex that
+  // leaves slot s when X is A (q) or B (p)
+  const fH = fsH;
+  fH[0] = m; fH[1] = p; fH[2] = o; fH[3] = c;
+  fH[4] = m; fH[5] = c; fH[6] = o; fH[7] = qv;
+  fH[8] = qv; fH[9] = p;
+  // X is half `swap` (0: A, 1: B), Y the other, read by index (swap is
+  // data: a select between the halves would branch)
+  const X = 4 * swap;
+  const Y = 4 - X;
   // X keeps m and o and one of p / q, and takes c: exactly one vertex
   // leaves slot s (q for A, p for B) and c enters it — what rewriteSlot's
   // set comparison would find, without its 32 compares
-  rewriteSwap(ctx, s, X[rotX], X[(rotX + 1) & 3], X[(rotX + 2) & 3], X[(rotX + 3) & 3], swap ? p : qv, c);
-  appendQuad(ctx, Y[rotY], Y[(rotY + 1) & 3], Y[(rotY + 2) & 3], Y[(rotY + 3) & 3]);
+  rewriteSwap(ctx, s, fH[X + rotX], fH[X + ((rotX + 1) & 3)], fH[X + ((rotX + 2) & 3)], fH[X + ((rotX + 3) & 3)], fH[8 + swap], c);
+  appendQuad(ctx, fH[Y + rotY], fH[Y + ((rotY + 1) & 3)], fH[Y + ((rotY + 2) & 3)], fH[Y + ((rotY + 3) & 3)]);
 }
 
 /**
@@ -1575,8 +1585,7 @@ function rewriteSwap(ctx, slot, a, b, c, d, out, inV) {
   st.remove(out, slot);
   st.add(inV, slot);
 }
-const fsA = new Int32Array(4);
-const fsB = new Int32Array(4);
+const fsH = new Int32Array(10);
 
 /**
  * The 24 permutations of 0..3 in lexicographic order (spec §7.10 step 5):

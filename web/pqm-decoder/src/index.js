@@ -1,6 +1,6 @@
 /**
  * `pqm-decoder`: a streaming decoder of `.pqm` progressive quad meshes,
- * written from `spec/pqm.md` (pure JavaScript; zstd by `fzstd`).
+ * written from `spec/pqm.md` (pure JavaScript, no dependencies: zstd by zstd-decode.js).
  *
  * ```js
  * import { PqmDecoder } from 'pqm-decoder';

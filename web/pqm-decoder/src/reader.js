@@ -35,10 +35,13 @@ export class Reader {
     return this.b[this.p++];
   }
 
-  /** An unsigned LEB128 varint (at most 10 bytes, at most 64 bits). */
+  /**
+   * An unsigned LEB128 varint (at most 10 bytes, at most 64 bits). Counts,
+   * indices and masks: nearly always one byte, which is tested first.
+   */
   u() {
     const b = this.b;
-    let p = this.p;
+    const p = this.p;
     if (p < this.end) {
       const x = b[p];
       if (x < 0x80) {
@@ -46,6 +49,36 @@ export class Reader {
         return x;
       }
     }
+    return this.uLong();
+  }
+
+  /**
+   * u() for the streams whose varints vary in length (vertex deltas,
+   * residuals: the signed ones, s()): 1 to 3 bytes without a branch on
+   * their length, which is data and would mispredict — c1 / c2 say whether
+   * the first / second byte continues.
+   */
+  u3() {
+    const b = this.b;
+    const p = this.p;
+    if (p + 2 < this.end) {
+      const x = b[p];
+      const y = b[p + 1];
+      const z = b[p + 2];
+      if ((x & y & z & 0x80) === 0) {
+        const c1 = x >> 7;
+        const c2 = c1 & (y >> 7);
+        this.p = p + 1 + c1 + c2;
+        return (x & 0x7f) | (((y & 0x7f) << 7) & -c1) | (((z & 0x7f) << 14) & -c2);
+      }
+    }
+    return this.uLong();
+  }
+
+  /** The general varint path (any length; errors). */
+  uLong() {
+    const b = this.b;
+    let p = this.p;
     // General path: 7 bits per byte; the 32-bit part with bit operations,
     // the rest with multiplications (exact up to 2^53).
     let v = 0;
@@ -67,7 +100,7 @@ export class Reader {
 
   /** A zigzag signed varint. */
   s() {
-    const u = this.u();
+    const u = this.u3();
     // (u >> 1) ^ -(u & 1), on doubles: u is at most 2^53.
     if (u < 0x80000000) return (u >>> 1) ^ -(u & 1);
     return u % 2 === 0 ? u / 2 : -(u + 1) / 2;
