@@ -19,8 +19,13 @@
 //! to it). Rules 2 and 3 are checked after the step as for any merge
 //! ([`super::features::FeatureState::check_after`]): the loop loses two
 //! edges and must keep three. Only boundary runs: on an interior sharp
-//! curve the same merge re-fans the quads on the curve's other side (a
-//! different, unmeasured case).
+//! curve the same merge re-fans the quads on the curve's other side; let
+//! through there too, it took fandisk from 453 to 279 faces at 70.1 %
+//! ideal (floor 81 %) and loki only 0.2 points further.
+//!
+//! Loki → 2,000 faces: boundary 328 → 74–80 vertices, ideal fraction
+//! 78.2 → 82.3 %, Scaled Jacobian median 0.793 → 0.842 (with the fix
+//! phases, [`super::fix_phase`]: 84.8 %, 0.858).
 //!
 //! Invariant: every group this allows is one [`FeatureState::check_group`]
 //! refuses only for having three feature vertices; everything else is its

@@ -2741,7 +2741,8 @@ impl Coarsener {
     /// Factor on [`Coarsener::deviation_limit`] for a step removing `gain`
     /// defects: [`FIX_DEVIATION_FACTOR`] for a step removing at least
     /// [`FIX_MIN_GAIN`], away from features, in the first phase (valence
-    /// cap [`FIRST_PHASE_MAX_VALENCE`]), under [`Placement::Qem`]; else 1.
+    /// cap [`FIRST_PHASE_MAX_VALENCE`]), under [`Placement::Qem`], outside
+    /// a fix phase ([`fix_phase`]); else 1.
     fn fix_deviation_factor(
         &self,
         gain: i64,
@@ -2749,6 +2750,7 @@ impl Coarsener {
         merged: &[(VertexId, VertexId)],
     ) -> f64 {
         let fix = gain >= FIX_MIN_GAIN
+            && !self.fix_only
             && self.limit_deviation
             && self.cap < MAX_VALENCE
             && self.opts.placement == Placement::Qem
