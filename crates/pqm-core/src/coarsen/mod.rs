@@ -48,7 +48,9 @@
 //! scored in parallel (rayon, per-thread scratch) and pushed in candidate
 //! order: the output does not depend on the thread count either.
 
+mod boundary;
 pub mod features;
+mod fix_phase;
 pub mod record;
 
 use crate::attributes::curvature::Curvature;
@@ -506,6 +508,11 @@ pub struct Coarsener {
     /// pruned after a commit when it holds more than this many times the
     /// live bound (see [`Coarsener::set_prune_slack`]).
     prune_slack: f64,
+    /// In a fix phase only defect-removing candidates are queued
+    /// ([`fix_phase`]).
+    fix_only: bool,
+    /// Fix phases started so far (of [`fix_phase::FIX_PHASES_AT`]).
+    fix_phases: usize,
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
@@ -690,6 +697,8 @@ impl Coarsener {
             input_faces,
             queue_peak: 0,
             prune_slack: DEFAULT_PRUNE_SLACK,
+            fix_only: false,
+            fix_phases: 0,
         }
     }
 
@@ -800,7 +809,11 @@ impl Coarsener {
     fn steps(&mut self, target: usize, commits: usize) -> bool {
         let mut since = 0;
         while self.mesh.face_count() > target {
+            self.start_fix_phase(target);
             let Some(e) = self.queue.pop() else {
+                if self.end_fix_phase() {
+                    continue;
+                }
                 if self.cap < MAX_VALENCE || self.limit_deviation {
                     // phase done: first allow valence MAX_VALENCE, then
                     // drop the surface-deviation limit; score everything
@@ -883,7 +896,9 @@ impl Coarsener {
     /// valence cap. Pure (reads the mesh only), so candidates can be scored
     /// in parallel.
     fn score(&self, cand: Cand, s: &mut ScoreScratch) -> Option<f64> {
-        self.score_with(cand, s, true)
+        let cost = self.score_with(cand, s, true)?;
+        // a fix phase queues only the steps that remove defects
+        (!self.fix_only || fix_phase::gain_of(s.v_counts) > 0).then_some(cost)
     }
 
     /// [`Coarsener::score`], with or without the shortcuts that end it
@@ -1432,8 +1447,8 @@ impl Coarsener {
         let m = &self.mesh;
         let [a, b, c, d, e, f] = site.v;
         let (Ok(ca), Ok(cd)) = (
-            self.features.check_group(&[a, b, f]),
-            self.features.check_group(&[d, c, e]),
+            self.qe_endpoint_group(a, b, f),
+            self.qe_endpoint_group(d, c, e),
         ) else {
             return Some(None);
         };
@@ -1695,8 +1710,8 @@ impl Coarsener {
                     .ok_or(Reject::NotApplicable("edge is deleted"))?;
                 let site = ops::qe_merge::qe_site(&self.mesh, h)?;
                 let [a, b, c, d, e, f] = site.v;
-                let ca = self.features.check_group(&[a, b, f])?;
-                let cd = self.features.check_group(&[d, c, e])?;
+                let ca = self.qe_endpoint_group(a, b, f)?;
+                let cd = self.qe_endpoint_group(d, c, e)?;
                 let (pa, pd, place) = if self.opts.placement == Placement::Subset {
                     // the shared edge's endpoints keep their ids, so they
                     // keep their positions: a constraint elsewhere (a pinned
@@ -2414,10 +2429,8 @@ impl Coarsener {
     fn defect_gain(&self, cand: Cand) -> i64 {
         SCRATCH.with(|s| {
             let s = &mut s.borrow_mut();
-            self.score(cand, s).map_or(-1, |_| {
-                let (ib, cb, ia, ca) = s.v_counts;
-                (cb as i64 - ib as i64) - (ca as i64 - ia as i64)
-            })
+            self.score(cand, s)
+                .map_or(-1, |_| fix_phase::gain_of(s.v_counts))
         })
     }
 
@@ -2728,7 +2741,8 @@ impl Coarsener {
     /// Factor on [`Coarsener::deviation_limit`] for a step removing `gain`
     /// defects: [`FIX_DEVIATION_FACTOR`] for a step removing at least
     /// [`FIX_MIN_GAIN`], away from features, in the first phase (valence
-    /// cap [`FIRST_PHASE_MAX_VALENCE`]), under [`Placement::Qem`]; else 1.
+    /// cap [`FIRST_PHASE_MAX_VALENCE`]), under [`Placement::Qem`], outside
+    /// a fix phase ([`fix_phase`]); else 1.
     fn fix_deviation_factor(
         &self,
         gain: i64,
@@ -2736,6 +2750,7 @@ impl Coarsener {
         merged: &[(VertexId, VertexId)],
     ) -> f64 {
         let fix = gain >= FIX_MIN_GAIN
+            && !self.fix_only
             && self.limit_deviation
             && self.cap < MAX_VALENCE
             && self.opts.placement == Placement::Qem
