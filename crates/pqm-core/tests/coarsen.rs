@@ -173,3 +173,57 @@ fn wide_rescue_moves_are_recorded_and_keep_levels_sound() {
             .unwrap_or_else(|e| panic!("level {k}: {e}"));
     }
 }
+
+/// A boundary loop gets shorter too: a run of three consecutive loop
+/// vertices may merge (docs/paper-choices.md, "Consecutive feature
+/// vertices"). Before, rule 1 let at most two feature vertices merge and a
+/// coarsened grid kept every boundary vertex (loki kept all 328). The loop
+/// survives, the grid's corners are not cut, the mesh stays quad-only and
+/// valid, and the records replay to the input, under both placements.
+#[test]
+fn boundary_loops_are_shortened() {
+    let src = grid(12, 10);
+    let boundary = |m: &Mesh| m.vertices().filter(|&v| m.is_boundary_vertex(v)).count();
+    // the grid's four corners: its vertices of valence 2
+    let corners = |m: &Mesh| -> Vec<glam::DVec3> {
+        m.vertices()
+            .filter(|&v| m.valence(v) == 2)
+            .map(|v| m.position(v))
+            .collect()
+    };
+    let input_corners = corners(&Mesh::from_indexed(&src).unwrap());
+    assert_eq!(input_corners.len(), 4);
+    for placement in [
+        pqm_core::coarsen::Placement::Qem,
+        pqm_core::coarsen::Placement::Subset,
+    ] {
+        let mesh = Mesh::from_indexed(&src).unwrap();
+        let before = boundary(&mesh);
+        let opts = CoarsenOptions {
+            target_faces: Some(30),
+            placement,
+            ..Default::default()
+        };
+        let mut c = Coarsener::with_defaults(mesh, 180.0, &[], opts).expect("features");
+        let curves = c.features().live_curves();
+        c.run(&mut |_| {});
+        let m = c.mesh();
+        m.validate().unwrap();
+        assert!(m.faces().all(|f| m.face_degree(f) == 4));
+        assert_eq!(c.features().live_curves(), curves);
+        let after = boundary(m);
+        assert!(
+            after < before,
+            "{placement:?}: boundary {before} -> {after} vertices"
+        );
+        for p in &input_corners {
+            assert!(
+                m.vertices().any(|v| m.position(v) == *p),
+                "{placement:?}: the grid's corner {p} was cut"
+            );
+        }
+        let pm = c.to_progressive();
+        pm.validate().unwrap();
+        assert_eq!(pm.level(pm.records.len()).face_count(), src.face_count());
+    }
+}

@@ -48,7 +48,6 @@
 //! scored in parallel (rayon, per-thread scratch) and pushed in candidate
 //! order: the output does not depend on the thread count either.
 
-mod boundary;
 pub mod features;
 mod fix_phase;
 pub mod record;
@@ -1273,7 +1272,7 @@ impl Coarsener {
         if m.is_boundary_vertex(a) || m.is_boundary_vertex(c) {
             return None;
         }
-        let Ok(con) = self.features.check_group(&[a, c]) else {
+        let Ok(con) = self.features.check_group(&self.mesh, &[a, c]) else {
             return Some(None);
         };
         let (keep, gone) = if self.qv_keep_second(a, c, con) {
@@ -1447,8 +1446,8 @@ impl Coarsener {
         let m = &self.mesh;
         let [a, b, c, d, e, f] = site.v;
         let (Ok(ca), Ok(cd)) = (
-            self.qe_endpoint_group(a, b, f),
-            self.qe_endpoint_group(d, c, e),
+            self.features.check_group(&self.mesh, &[a, b, f]),
+            self.features.check_group(&self.mesh, &[d, c, e]),
         ) else {
             return Some(None);
         };
@@ -1685,7 +1684,7 @@ impl Coarsener {
                     .quad_vertices(f)
                     .ok_or(Reject::NotApplicable("face is not a quad"))?;
                 let (a, c) = (q[d as usize], q[d as usize + 2]);
-                let con = self.features.check_group(&[a, c])?;
+                let con = self.features.check_group(&self.mesh, &[a, c])?;
                 let keep_second = self.qv_keep_second(a, c, con);
                 let (pos, place) = if self.opts.placement == Placement::Subset {
                     (
@@ -1710,8 +1709,8 @@ impl Coarsener {
                     .ok_or(Reject::NotApplicable("edge is deleted"))?;
                 let site = ops::qe_merge::qe_site(&self.mesh, h)?;
                 let [a, b, c, d, e, f] = site.v;
-                let ca = self.qe_endpoint_group(a, b, f)?;
-                let cd = self.qe_endpoint_group(d, c, e)?;
+                let ca = self.features.check_group(&self.mesh, &[a, b, f])?;
+                let cd = self.features.check_group(&self.mesh, &[d, c, e])?;
                 let (pa, pd, place) = if self.opts.placement == Placement::Subset {
                     // the shared edge's endpoints keep their ids, so they
                     // keep their positions: a constraint elsewhere (a pinned
@@ -2132,6 +2131,8 @@ impl Coarsener {
                     .with_corner_margin(&self.mesh, &region, SUBSET_CORNER_MARGIN)
             }
         };
+        // a face's fold-over reference stays on its side of a sharp crease
+        guard = guard.with_creases(self.features.crease_vertices_near(&self.mesh, &region));
         // a step that adds no defect is judged against a wider surface (see
         // [`WIDE_RESCUE_ITERATIONS`]): the ring of faces around `region`
         // joins the fold-over reference — also where the wide rescue moves

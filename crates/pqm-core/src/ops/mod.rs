@@ -176,9 +176,10 @@ pub fn check_patch(mesh: &Mesh, patch: &Patch) -> Result<(), Reject> {
 /// Shape test around a step: captures the normals and Scaled Jacobians of a
 /// region before the step, then checks the faces there afterwards — no face
 /// folds over (its normal turns by more than `acos(MIN_NORMAL_COSINE)` from
-/// the face that had its id, or from the region's average normal for a new
-/// id) and no quad gets a Scaled Jacobian below
-/// `min(MIN_NEW_QUAD_JACOBIAN, worst before)`.
+/// the captured faces around it, on its side of a sharp crease, else from
+/// the face that had its id, else from the region's average normal) and no
+/// quad gets a Scaled Jacobian below `min(MIN_NEW_QUAD_JACOBIAN, worst
+/// before)`.
 #[derive(Clone, Debug, Default)]
 pub struct GeometryGuard {
     before: Vec<(FaceId, DVec3)>,
@@ -190,6 +191,8 @@ pub struct GeometryGuard {
     /// Corner margin and least [`quad_twist`] a new quad may have (see
     /// [`GeometryGuard::with_corner_margin`]); `None`: not checked.
     twist: Option<(f64, f64)>,
+    /// See [`GeometryGuard::with_creases`].
+    creases: Vec<VertexId>,
 }
 
 /// How far a quad is from having a twisted corner: the least, over its
@@ -296,15 +299,49 @@ impl GeometryGuard {
         Some((weighted, quad))
     }
 
+    /// Vertices on sharp creases: a face's fold-over reference does not
+    /// reach across them (see [`GeometryGuard::local_normal`]).
+    pub fn with_creases(mut self, creases: Vec<VertexId>) -> Self {
+        self.creases = creases;
+        self
+    }
+
     /// Area-weighted normal of the captured faces that share a vertex with
-    /// `q`: the surface the new face replaces, wherever its id came from.
+    /// `q`: the surface the new face replaces, wherever its id came from —
+    /// linked through a vertex off the creases when `q` has one that a
+    /// captured face shares. The faces around a crease vertex lie on both
+    /// sides of the crease, so their mean is off either side by half the
+    /// crease's angle or more — by all of it where only the other side's
+    /// faces were captured — and a face that had not turned at all read as
+    /// folded over (on fandisk, e.g., a side-wall quad that had not moved,
+    /// linked only through its two crease vertices to the top faces a
+    /// curve-shortening merge captured: 0.005 against them).
     fn local_normal(&self, q: &[VertexId; 4]) -> Option<DVec3> {
+        let mut side = [VertexId(u32::MAX); 4];
+        let mut k = 0;
+        for &v in q {
+            if !self.creases.contains(&v) {
+                side[k] = v;
+                k += 1;
+            }
+        }
+        if k < 4 {
+            if let Some(n) = self.normal_around(&side[..k]) {
+                return Some(n);
+            }
+        }
+        self.normal_around(q)
+    }
+
+    /// Area-weighted normal of the captured faces that share a vertex of
+    /// `vs` (`None` when there is none, or they cancel).
+    fn normal_around(&self, vs: &[VertexId]) -> Option<DVec3> {
         // a wide step checks ≈ 100 faces against ≈ 100 captured ones: the
         // masks skip most of the captured faces without comparing ids
-        let qm = vertex_mask(q);
+        let qm = vertex_mask(vs);
         let mut n = DVec3::ZERO;
-        for (vs, w, m) in &self.local {
-            if m & qm != 0 && vs.iter().any(|v| q.contains(v)) {
+        for (fvs, w, m) in &self.local {
+            if m & qm != 0 && fvs.iter().any(|v| vs.contains(v)) {
                 n += *w;
             }
         }
