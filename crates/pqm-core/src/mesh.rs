@@ -559,6 +559,10 @@ impl Mesh {
         self.outgoing(v).filter_map(move |h| self.face(h))
     }
     /// Number of edges at `v`.
+    // The coarsener's scorers call this per touched vertex: without the
+    // hint LLVM stopped inlining it there once the `V` tally was shared
+    // (+0.6 % instructions on spot).
+    #[inline]
     pub fn valence(&self, v: VertexId) -> usize {
         self.outgoing(v).count()
     }
