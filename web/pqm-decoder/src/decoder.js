@@ -627,7 +627,20 @@ export class PqmDecoder {
       if (typeof e === 'string') throw invalid(section, e);
       throw e;
     }
-    decodeChunk(payload, i, info, this._frontier, this._log, this._header);
+    // Room for the file's final counts up front, as far as the delivered
+    // bytes can hold them (at most one vertex and one face per byte of the
+    // file received so far: memory still follows what was delivered, not
+    // what the header claims). A whole file is then one allocation per
+    // frontier array instead of ×4 steps, each a copy and fresh pages.
+    const st = this._frontier;
+    const h = this._header;
+    const got = this._consumed + this._queue.length;
+    const nv = Math.min(h.finalVertexCount, got);
+    const nf = Math.min(h.finalFaceCount, got);
+    st.reserve(nv, nf);
+    const log = this._log;
+    log.reserve(Math.min(h.recordCount + 1, got), nv - h.baseVertexCount, nf - h.baseFaceCount);
+    decodeChunk(payload, i, info, st, log, h);
     this._chunksReady = i + 1;
     if (this._forward) this._dropChunkLog();
   }
