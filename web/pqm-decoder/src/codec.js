@@ -301,6 +301,27 @@ export class RecordLog {
     }
     this.levels = n + 1;
   }
+
+  /**
+   * Room for `levels` levels and, unless one-way, `nNew` new vertices' codes
+   * and `nApp` appended quads (capacities: grown ×4 past them as usual).
+   */
+  reserve(levels, nNew, nApp) {
+    const n = this.levels;
+    const max = this.maxLevels;
+    if (levels > this.vAt.length) {
+      this.vAt = ensure(this.vAt, levels, n, max);
+      this.fAt = ensure(this.fAt, levels, n, max);
+    }
+    if (this.forward) return;
+    if (levels > this.movedAt.length) {
+      this.movedAt = ensure(this.movedAt, levels, n, max);
+      this.rwAt = ensure(this.rwAt, levels, n, max);
+    }
+    if (levels > this.ops.length) this.ops = ensure(this.ops, levels, this.nRecords, max);
+    if (3 * nNew > this.newCodes.length) this.newCodes = ensure(this.newCodes, 3 * nNew, 3 * this.nNew);
+    if (4 * nApp > this.app.length) this.app = ensure(this.app, 4 * nApp, 4 * this.nApp);
+  }
 }
 RecordLog.prototype.levels = 0;
 /** Levels of the file (record_count + 1): capacities never grow beyond. */

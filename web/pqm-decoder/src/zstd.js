@@ -139,3 +139,21 @@ export function decompressFrame(data, expectedLen) {
   decodeFrameInto(data, header.blocks, out, header.blockMax);
   return out;
 }
+
+/**
+ * decompressFrame into the first `expectedLen` bytes of `scratch` (a
+ * subarray of it: every byte is written, or it throws), for a payload read
+ * once and dropped (a chunk's), so that each chunk does not allocate a
+ * fresh, zeroed buffer. Returns the subarray; `scratch` must be at least
+ * `expectedLen` long.
+ * @param {Uint8Array} data
+ * @param {number} expectedLen
+ * @param {Uint8Array} scratch
+ * @returns {Uint8Array}
+ */
+export function decompressFrameInto(data, expectedLen, scratch) {
+  frameHeader(data, expectedLen);
+  const out = scratch.subarray(0, expectedLen);
+  decodeFrameInto(data, header.blocks, out, header.blockMax);
+  return out;
+}
