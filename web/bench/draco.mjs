@@ -21,7 +21,8 @@
 //   --runs after warm-up runs, so other processes on the machine count less).
 //   pqm: push the whole file into a new PqmDecoder (CRC, zstd, records) and
 //   go to the finest level (positions + triangle indices ready), faces =
-//   quads of the finest level. Draco: DecodeArrayToMesh, then the triangle
+//   quads of the finest level; also with `forwardOnly: true` (the one-way
+//   decoder of a streaming client). Draco: DecodeArrayToMesh, then the triangle
 //   indices and float positions copied out of the WASM heap (what three's
 //   DRACOLoader does); faces = triangles / 2, a quad-equivalent count (the
 //   same surface, the same triangles). Draco's triangles/s is twice that.
@@ -116,8 +117,8 @@ function dracoDecode(bytes) {
   return { positions, indices };
 }
 
-function pqmDecode(bytes) {
-  const d = new PqmDecoder();
+function pqmDecode(bytes, forwardOnly = false) {
+  const d = new PqmDecoder({ forwardOnly });
   d.push(bytes);
   d.setLevel({ level: d.deepestLevel });
   return d;
@@ -141,6 +142,9 @@ for (const file of files) {
   }
   const glb = 12 * V + 24 * F;
   const pqmMs = timeCpu(() => pqmDecode(bytes));
+  // the one-way decoder a streaming client uses (no way back to coarser
+  // levels, so no undo log): the same faces and positions
+  const fwdMs = timeCpu(() => pqmDecode(bytes, true));
   const drcMs = timeCpu(() => dracoDecode(drc));
   rows.push({
     mesh: path.basename(file, '.pqm'),
@@ -150,6 +154,7 @@ for (const file of files) {
     drcBpv: (8 * drc.length) / V,
     glbBpv: (8 * glb) / V,
     pqmMfs: F / pqmMs / 1000,
+    fwdMfs: F / fwdMs / 1000,
     drcMfs: dracoTris / 2 / drcMs / 1000, // quad-equivalent: triangles / 2
     dropped: 2 * F - dracoTris,
     pqmMs,
@@ -161,11 +166,11 @@ const f1 = (x) => x.toFixed(1);
 const f2 = (x) => x.toFixed(2);
 const header = [
   'mesh', 'V', 'quads', 'pqm b/v', 'Draco b/v', 'GLB b/v', 'size pqm/Draco',
-  'pqm Mf/s', 'Draco Mf/s', 'speed pqm/Draco', 'pqm ms', 'Draco ms',
+  'pqm Mf/s', 'pqm forward-only Mf/s', 'Draco Mf/s', 'speed pqm/Draco', 'pqm ms', 'Draco ms',
 ];
 const table = rows.map((r) => [
   r.mesh, String(r.V), String(r.F), f1(r.pqmBpv), f1(r.drcBpv), f1(r.glbBpv), f2(r.pqmBpv / r.drcBpv),
-  f2(r.pqmMfs), f2(r.drcMfs), f2(r.pqmMfs / r.drcMfs), f1(r.pqmMs), f1(r.drcMs),
+  f2(r.pqmMfs), f2(r.fwdMfs), f2(r.drcMfs), f2(r.pqmMfs / r.drcMfs), f1(r.pqmMs), f1(r.drcMs),
 ]);
 console.log(`node ${process.version}, CPU-time medians of ${runs} runs; Draco: draco3d ${require('draco3d/package.json').version} (WASM), qp 14, speed 3/3, edgebreaker`);
 console.log(`| ${header.join(' | ')} |`);
