@@ -720,7 +720,8 @@ fn closest_point_on_degenerate(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 
     best
 }
 
-fn segment_closest(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
+/// The point of segment `a–b` closest to `p` (`a` when the segment is a point).
+pub(crate) fn segment_closest(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
     let ab = b - a;
     let len2 = ab.length_squared();
     if len2 <= 0.0 {

@@ -11,6 +11,7 @@
 //! Feature corners (feature degree ≠ 2) never move; at most one may be in a
 //! merge group.
 
+use crate::bvh::segment_closest;
 use crate::features::FeatureCurves;
 use crate::mesh::{FaceId, Mesh, VertexId};
 use crate::ops::Reject;
@@ -196,7 +197,8 @@ impl FeatureState {
         };
         let p = |v: VertexId| mesh.position(v);
         let off = |v: VertexId| {
-            segment_distance(p(v), p(xo), p(m)).min(segment_distance(p(v), p(m), p(yo)))
+            let d = |a: VertexId, b: VertexId| (segment_closest(p(v), p(a), p(b)) - p(v)).length();
+            d(xo, m).min(d(m, yo))
         };
         // (a turn of about 30° at `x` or `y` is cut off by a quarter edge)
         let edge = 0.5 * ((p(x) - p(m)).length() + (p(y) - p(m)).length());
@@ -217,6 +219,11 @@ impl FeatureState {
     /// vertex counted — a changed order, its steps as legal as before.
     pub fn crease_vertices_near(&self, mesh: &Mesh, faces: &[FaceId]) -> Vec<VertexId> {
         let mut out = Vec::new();
+        // called for every step tried: a mesh without feature edges (a
+        // closed scan) skips the walk over the faces' two rings
+        if self.edges.is_empty() {
+            return out;
+        }
         for &f in faces {
             if !mesh.is_face_alive(f) {
                 continue;
@@ -350,15 +357,3 @@ pub enum GroupConstraint {
 /// its middle vertex passes within this (times the run's mean edge length)
 /// of the run's vertices ([`FeatureState::cuts_loop_corner`]).
 pub const RUN_CORNER_CUT: f64 = 0.25;
-
-/// Distance from `p` to the segment `a–b`.
-fn segment_distance(p: glam::DVec3, a: glam::DVec3, b: glam::DVec3) -> f64 {
-    let ab = b - a;
-    let len2 = ab.length_squared();
-    let t = if len2 > 0.0 {
-        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (a + ab * t - p).length()
-}

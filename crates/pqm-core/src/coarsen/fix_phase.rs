@@ -36,7 +36,7 @@
 //! is checked and logged as any other, so records, determinism (the queue
 //! is rebuilt from the faces in id order) and the checks are unchanged.
 
-use super::{Coarsener, FaceId};
+use super::Coarsener;
 
 /// Multiples of the face target at which a fix phase starts (each once,
 /// the first time the face count is at or below it).
@@ -83,13 +83,6 @@ impl Coarsener {
         self.fix_only = false;
         self.rescore_all();
         true
-    }
-
-    /// Empties the queue and scores every face's candidates.
-    fn rescore_all(&mut self) {
-        self.queue.clear();
-        let faces: Vec<FaceId> = self.mesh.faces().collect();
-        self.push_faces(&faces, &[]);
     }
 }
 

@@ -859,8 +859,7 @@ impl Coarsener {
         rayon::scope(|_| {
             let all: Vec<VertexId> = self.mesh.vertices().collect();
             self.remove_doublets_committed(&all);
-            let faces: Vec<FaceId> = self.mesh.faces().collect();
-            self.push_faces(&faces, &[]);
+            self.rescore_all();
         });
         let target = self.target_faces();
         // The loop runs on a thread of the rayon pool, so the scoring of each
@@ -910,8 +909,7 @@ impl Coarsener {
                     } else {
                         self.limit_deviation = false;
                     }
-                    let faces: Vec<FaceId> = self.mesh.faces().collect();
-                    self.push_faces(&faces, &[]);
+                    self.rescore_all();
                     continue;
                 }
                 self.report.stop = Some(StopReason::NothingLegal);
@@ -1612,6 +1610,14 @@ impl Coarsener {
             }
         }
         self.cost(cand, patch, place, s, shortcuts)
+    }
+
+    /// Empties the queue and queues every face's candidates, scored under
+    /// the current phase (valence cap, deviation limit, fix phase).
+    fn rescore_all(&mut self) {
+        self.queue.clear();
+        let faces: Vec<FaceId> = self.mesh.faces().collect();
+        self.push_faces(&faces, &[]);
     }
 
     /// Queues the candidates of `faces` (live ones): both qvMerge diagonals
