@@ -230,6 +230,16 @@ export function degree(st, v) {
 }
 
 /**
+ * The corner (0..3) of the quad at `f[s4 .. s4 + 4)` that holds vertex `v`,
+ * known to be one of its four (the slot lists are exact): from comparisons
+ * as 0/1 values, with no branch on where `v` sits — it is anywhere, so such
+ * branches mispredict on the hot paths (canonicalStar, the face split).
+ */
+export function cornerOf(f, s4, v) {
+  return ((f[s4 + 1] === v) | 0) + 2 * ((f[s4 + 2] === v) | 0) + 3 * ((f[s4 + 3] === v) | 0);
+}
+
+/**
  * The corner of the quad at `f[s4 .. s4 + 4)` that holds vertex `v` (0..3),
  * or −1.
  */
@@ -1185,10 +1195,8 @@ function canonicalStar(st, m, sc) {
   if (K < 1) throw `vertex ${m} is in no face`;
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
-    // the lists are exact: m is at one of the four corners; its index from
-    // comparisons as 0/1 values (no branch on where m is: it is anywhere,
-    // so such branches mispredict), then the three others by index
-    const k = ((f[s4 + 1] === m) | 0) + 2 * ((f[s4 + 2] === m) | 0) + 3 * ((f[s4 + 3] === m) | 0);
+    // m's corner, then the three others by index
+    const k = cornerOf(f, s4, m);
     sK[i] = k;
     sN[i] = f[s4 + ((k + 1) & 3)];
     sO[i] = f[s4 + ((k + 2) & 3)];
@@ -1532,12 +1540,9 @@ function decodeFaceSplit(ctx, sym) {
   const t = x >> 1;
   const swap = x & 1;
   const s = sS[t];
-  // m's corner (the lists are exact: it is one of the four) from 0/1
-  // comparison values, no branch on where it sits (see canonicalStar)
-  const fs = st.f;
-  const k = ((fs[4 * s + 1] === m) | 0) + 2 * ((fs[4 * s + 2] === m) | 0) + 3 * ((fs[4 * s + 3] === m) | 0);
-  // 4. the halves A = (m, p, o, c) and B = (m, c, o, q)
   const f = st.f;
+  const k = cornerOf(f, 4 * s, m);
+  // 4. the halves A = (m, p, o, c) and B = (m, c, o, q)
   const s4 = 4 * s;
   const p = f[s4 + ((k + 1) & 3)];
   const o = f[s4 + ((k + 2) & 3)];
