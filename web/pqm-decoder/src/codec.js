@@ -262,7 +262,11 @@ export function cornerIn(f, s4, v) {
  * (add / subtract, XOR): half the memory of storing both states, and
  * memory traffic is what the decoder waits on. `newCodes` holds the first
  * code of every vertex after the base ones and `app` the first quad of
- * every slot after the base ones.
+ * every slot after the base ones — for the first `nNew` / `nApp` of them:
+ * they are not written while records decode but built from the frontier
+ * when a move first needs them (PqmDecoder `_firstStates`): a move to the
+ * deepest level copies the frontier and needs neither, and that is the
+ * move a whole-file or streaming decode makes (bunny: 5.8 MB not written).
  */
 export class RecordLog {
   /**
@@ -289,6 +293,9 @@ export class RecordLog {
     this.nNew = 0;
     this.app = new Uint32Array(0);
     this.nApp = 0;
+    /** `moved` / `rw` entries when `newCodes` / `app` were last built. */
+    this.movedBuilt = 0;
+    this.rwBuilt = 0;
   }
 
   /** Appends the counts of a new level (after the base or a record). */
@@ -313,29 +320,37 @@ export class RecordLog {
   }
 
   /**
-   * Room for `levels` levels and, unless one-way, `nNew` new vertices' codes
-   * and `nApp` appended quads (capacities: grown ×4 past them as usual).
+   * Room for `levels` levels and for the rewritten-slot entries of `nApp`
+   * appended quads (the general log's whole `rw` holds every record's, the
+   * one-way log's only the chunk's: `nApp` counts what `rw` will hold);
+   * capacities grow past them as usual.
    */
-  reserve(levels, nNew, nApp) {
+  reserve(levels, nApp) {
     const n = this.levels;
     const max = this.maxLevels;
     if (levels > this.vAt.length) {
       this.vAt = ensure(this.vAt, levels, n, max);
       this.fAt = ensure(this.fAt, levels, n, max);
     }
+    // Rewritten slots: about two per appended quad in the encoder's files
+    // (1.9 on all four bench meshes), so room for RW_PER_APP per quad —
+    // one allocation instead of ×2 steps (bunny: 7.8 MB of entries, each
+    // step a copy into fresh pages); a file with more grows ×2 from there.
+    const nRw = Math.ceil(RW_PER_APP * nApp);
+    if (5 * nRw > this.rw.length) this.rw = ensure(this.rw, 5 * nRw, 5 * this.nRw);
     if (this.forward) return;
     if (levels > this.movedAt.length) {
       this.movedAt = ensure(this.movedAt, levels, n, max);
       this.rwAt = ensure(this.rwAt, levels, n, max);
     }
     if (levels > this.ops.length) this.ops = ensure(this.ops, levels, this.nRecords, max);
-    if (3 * nNew > this.newCodes.length) this.newCodes = ensure(this.newCodes, 3 * nNew, 3 * this.nNew);
-    if (4 * nApp > this.app.length) this.app = ensure(this.app, 4 * nApp, 4 * this.nApp);
   }
 }
 RecordLog.prototype.levels = 0;
 /** Levels of the file (record_count + 1): capacities never grow beyond. */
 RecordLog.prototype.maxLevels = Infinity;
+/** Rewritten-slot entries reserved per appended quad (RecordLog.reserve). */
+const RW_PER_APP = 2.5;
 
 /**
  * Decodes the base payload (spec §6) into a fresh frontier.
@@ -507,10 +522,11 @@ export function decodeChunk(payload, index, info, st, log, h) {
       throw `records reach ${st.nv} vertices and ${st.nf} faces, the chunk table says ${info.vertexCount} and ${info.faceCount}`;
     }
   } catch (e) {
-    // One-way decoding has no other copy of the deepest committed level:
-    // the frontier goes back to it (the general decoder's levels live in
-    // the log, so its frontier is simply dropped).
-    if (forward) rollBack(st, log, saved.nMoved, saved.nRw, nv0, nf0);
+    // The frontier goes back to the deepest committed level: one-way
+    // decoding has no other copy of it, and the general decoder builds its
+    // log's first states from it (RecordLog) and copies it for a move to
+    // the deepest level.
+    rollBack(st, log, saved.nMoved, saved.nRw, nv0, nf0);
     Object.assign(log, saved);
     if (typeof e !== 'string') throw e;
     if (t < 0) throw invalid(section, e);
@@ -647,7 +663,6 @@ export function rewriteSlot(ctx, slot, a, b, c, d) {
 /** Appends quad `a b c d` at the next slot. */
 export function appendQuad(ctx, a, b, c, d) {
   const st = ctx.st;
-  const log = ctx.log;
   const slot = st.nf;
   st.reserve(st.nv, slot + 1);
   const f = st.f;
@@ -656,29 +671,15 @@ export function appendQuad(ctx, a, b, c, d) {
   f[4 * slot + 2] = c;
   f[4 * slot + 3] = d;
   st.nf = slot + 1;
-  if (!log.forward) logAppended(log, st.maxF, a, b, c, d);
   st.add(a, slot);
   st.add(b, slot);
   st.add(c, slot);
   st.add(d, slot);
 }
 
-/** The general log's copy of an appended quad (the level move reads it). */
-function logAppended(log, maxF, a, b, c, d) {
-  const n = log.nApp;
-  if (4 * (n + 1) > log.app.length) log.app = ensure(log.app, 4 * (n + 1), 4 * n, 4 * maxF);
-  const ap = log.app;
-  ap[4 * n] = a;
-  ap[4 * n + 1] = b;
-  ap[4 * n + 2] = c;
-  ap[4 * n + 3] = d;
-  log.nApp = n + 1;
-}
-
-/** Appends a vertex with the code in ctx.cx/cy/cz (frontier and log). */
+/** Appends a vertex with the code in ctx.cx/cy/cz (to the frontier only: see RecordLog). */
 export function appendVertex(ctx) {
   const st = ctx.st;
-  const log = ctx.log;
   const v = st.nv;
   st.reserve(v + 1, st.nf);
   const q = st.q;
@@ -687,15 +688,6 @@ export function appendVertex(ctx) {
   q[16 * v + 2] = ctx.cz;
   q[16 * v + LEN] = 0;
   st.nv = v + 1;
-  if (log.forward) return;
-  const n = log.nNew;
-  if (3 * (n + 1) > log.newCodes.length) {
-    log.newCodes = ensure(log.newCodes, 3 * (n + 1), 3 * n, 3 * st.maxV);
-  }
-  log.newCodes[3 * n] = ctx.cx;
-  log.newCodes[3 * n + 1] = ctx.cy;
-  log.newCodes[3 * n + 2] = ctx.cz;
-  log.nNew = n + 1;
 }
 
 // General-form scratch, grown on demand (sizes are bounded by the streams).

@@ -643,7 +643,9 @@ export class PqmDecoder {
     const nf = Math.min(h.finalFaceCount, got);
     st.reserve(nv, nf);
     const log = this._log;
-    log.reserve(Math.min(h.recordCount + 1, got), nv - h.baseVertexCount, nf - h.baseFaceCount);
+    // (the one-way log's rw holds this chunk's entries only)
+    const nApp = this._forward ? Math.min(info.faceCount, nf) - st.nf : nf - h.baseFaceCount;
+    log.reserve(Math.min(h.recordCount + 1, got), nApp);
     decodeChunk(payload, i, info, st, log, h);
     this._chunksReady = i + 1;
     if (this._forward) this._dropChunkLog();
@@ -900,7 +902,51 @@ export class PqmDecoder {
     let rewritten = this._rwScratch;
     let nMoved = 0;
     let nRw = 0;
-    if (to > from) {
+    if (to > from && to === log.levels - 1 && this._failed === null) {
+      // To the deepest decoded level, which is the frontier (no chunk has
+      // failed half-applied): its codes and quads are copied as the
+      // forward-only move does, not rebuilt from the log's first states and
+      // changes; the log is only scanned for the ids the Change reports.
+      // Once every chunk is decoded the frontier never changes again, so
+      // the current level's quads are the frontier's own (no copy; a later
+      // coarsening copies them first, `_ownQuads`).
+      const st = this._frontier;
+      const final = this._chunksReady === this._chunks.length;
+      if (final) this._quads = st.f;
+      this._reserve(vTo, fTo);
+      const qq = this._q;
+      const quads = final ? null : this._quads;
+      const sq = st.q;
+      const sf = st.f;
+      for (let e = log.movedAt[from], end = log.movedAt[to]; e < end; e++) {
+        const v = M[4 * e];
+        if (v < vMin && vMark[v] !== epoch) {
+          vMark[v] = epoch;
+          if (nMoved === moved.length) moved = this._movedScratch = ensure(moved, nMoved + 1);
+          moved[nMoved++] = v;
+          qq[3 * v] = sq[16 * v];
+          qq[3 * v + 1] = sq[16 * v + 1];
+          qq[3 * v + 2] = sq[16 * v + 2];
+        }
+      }
+      for (let e = log.rwAt[from], end = log.rwAt[to]; e < end; e++) {
+        const s = R[5 * e];
+        if (s < fMin && fMark[s] !== epoch) {
+          fMark[s] = epoch;
+          if (nRw === rewritten.length) rewritten = this._rwScratch = ensure(rewritten, nRw + 1);
+          rewritten[nRw++] = s;
+          if (quads !== null) {
+            quads[4 * s] = sf[4 * s];
+            quads[4 * s + 1] = sf[4 * s + 1];
+            quads[4 * s + 2] = sf[4 * s + 2];
+            quads[4 * s + 3] = sf[4 * s + 3];
+          }
+        }
+      }
+      copyVertices(qq, this._pos, sq, vFrom, vTo, this._min, this._step);
+      copyQuads(quads, this._tris, sf, fFrom, fTo);
+    } else if (to > from) {
+      this._firstStates();
       this._reserve(vTo, fTo);
       const qq = this._q;
       const quads = this._quads;
@@ -935,7 +981,7 @@ export class PqmDecoder {
       this._dequantizeInto(this._pos, qq, vFrom, vTo);
       this._writeTrisRange(fFrom, fTo);
     } else if (to < from) {
-      const quads = this._quads;
+      const quads = this._ownQuads();
       // Undo in reverse record order; truncation is implicit (ids ≥ vTo /
       // slots ≥ fTo are never read), so entries of those are skipped.
       for (let e = log.movedAt[from] - 1, end = log.movedAt[to]; e >= end; e--) {
@@ -1072,6 +1118,75 @@ export class PqmDecoder {
       this._epoch = 0;
     }
     return ++this._epoch;
+  }
+
+  /**
+   * Builds the log's first states (`newCodes`, `app`: RecordLog) up to the
+   * frontier, the deepest decoded level: the codes and quads of what was
+   * appended since the last build, as the frontier has them, with every
+   * later change undone, newest first. Every entry naming such an id was
+   * logged after the id was appended (ids only grow), and so after the last
+   * build: only the entries since then are read. O(what was decoded since
+   * the last build).
+   */
+  _firstStates() {
+    const log = this._log;
+    const st = this._frontier;
+    const bv = log.vAt[0];
+    const bf = log.fAt[0];
+    const v0 = bv + log.nNew;
+    const f0 = bf + log.nApp;
+    const v1 = st.nv;
+    const f1 = st.nf;
+    if (v1 > v0) {
+      const C = (log.newCodes = ensure(log.newCodes, 3 * (v1 - bv), 3 * log.nNew, 3 * st.maxV));
+      const q = st.q;
+      for (let v = v0; v < v1; v++) {
+        const o = 3 * (v - bv);
+        C[o] = q[16 * v];
+        C[o + 1] = q[16 * v + 1];
+        C[o + 2] = q[16 * v + 2];
+      }
+      const M = log.moved;
+      for (let e = log.nMoved - 1; e >= log.movedBuilt; e--) {
+        const v = M[4 * e];
+        if (v < v0) continue;
+        const o = 3 * (v - bv);
+        C[o] -= M[4 * e + 1];
+        C[o + 1] -= M[4 * e + 2];
+        C[o + 2] -= M[4 * e + 3];
+      }
+    }
+    if (f1 > f0) {
+      const A = (log.app = ensure(log.app, 4 * (f1 - bf), 4 * log.nApp, 4 * st.maxF));
+      const f = st.f;
+      A.set(f.subarray(4 * f0, 4 * f1), 4 * (f0 - bf));
+      const R = log.rw;
+      for (let e = log.nRw - 1; e >= log.rwBuilt; e--) {
+        const s = R[5 * e];
+        if (s < f0) continue;
+        const o = 4 * (s - bf);
+        A[o] ^= R[5 * e + 1];
+        A[o + 1] ^= R[5 * e + 2];
+        A[o + 2] ^= R[5 * e + 3];
+        A[o + 3] ^= R[5 * e + 4];
+      }
+    }
+    log.nNew = v1 - bv;
+    log.nApp = f1 - bf;
+    log.movedBuilt = log.nMoved;
+    log.rwBuilt = log.nRw;
+  }
+
+  /**
+   * The current level's quads as a buffer of the decoder's own: when they
+   * are the frontier's (general decoder at the final level), a copy first,
+   * since the frontier must stay the finest level (VNBR reads it).
+   */
+  _ownQuads() {
+    const f = this._frontier;
+    if (f !== null && this._quads === f.f) this._quads = f.f.slice(0, 4 * this._nf);
+    return this._quads;
   }
 
   /** Grows the current-level buffers to hold `nv` vertices and `nf` faces. */
