@@ -1011,8 +1011,8 @@ function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
 // predictScan's corner buckets (see there), grown on demand, and their fill
 let gNewA = new Int32Array(256);
 let gNewR = new Int32Array(1024);
-const gCntA = new Int32Array(SCAN_NEW);
-const gCntR = new Int32Array(SCAN_NEW);
+const gCntA = new Int32Array(SCAN_NEW + 1);
+const gCntR = new Int32Array(SCAN_NEW + 1);
 
 /**
  * predictNew for records with few new vertices (at most SCAN_NEW: an edge
@@ -1087,8 +1087,8 @@ export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
     // appended one
     const na = 4 * nApp;
     const nr = 4 * nRw;
-    if (SCAN_NEW * na > gNewA.length) gNewA = new Int32Array(2 * SCAN_NEW * na);
-    if (SCAN_NEW * nr > gNewR.length) gNewR = new Int32Array(2 * SCAN_NEW * nr);
+    if ((SCAN_NEW + 1) * na > gNewA.length) gNewA = new Int32Array(2 * (SCAN_NEW + 1) * na);
+    if ((SCAN_NEW + 1) * nr > gNewR.length) gNewR = new Int32Array(2 * (SCAN_NEW + 1) * nr);
     const ai = gNewA;
     const ri = gNewR;
     const ca = gCntA;
@@ -1097,14 +1097,23 @@ export function finishRecord(ctx, V, NF, nNew, slots, nRw, rwNew, nApp, app) {
       ca[k] = 0;
       cr[k] = 0;
     }
-    // every corner is below V + nNew (corner codes resolve there)
+    ca[SCAN_NEW] = 0;
+    cr[SCAN_NEW] = 0;
+    // every corner is below V + nNew (corner codes resolve there); a
+    // corner of an old vertex (k < 0) goes to the unread bucket SCAN_NEW,
+    // by masks: which corners hold new vertices is data, so a branch on it
+    // mispredicts
     for (let i = 0; i < na; i++) {
       const k = app[i] - V;
-      if (k >= 0) ai[k * na + ca[k]++] = i;
+      const neg = k >> 31;
+      const b = (k & ~neg) | (SCAN_NEW & neg);
+      ai[b * na + ca[b]++] = i;
     }
     for (let i = 0; i < nr; i++) {
       const k = rwNew[i] - V;
-      if (k >= 0) ri[k * nr + cr[k]++] = i;
+      const neg = k >> 31;
+      const b = (k & ~neg) | (SCAN_NEW & neg);
+      ri[b * nr + cr[b]++] = i;
     }
     for (let k = 0; k < nNew; k++) {
       predictScan(ctx, V + k, V, app, k * na, ca[k], rwNew, k * nr, cr[k]);
