@@ -397,8 +397,13 @@ impl MeshState {
     fn unlink(&mut self, c: u32, v: u32) {
         let b = &mut self.inline[v as usize].0;
         let n = ((b[0] & !OVERFLOW) as usize).min(INLINE);
-        if let Some(i) = b[1..=n].iter().position(|&x| x == c) {
-            b[1 + i] = b[n];
+        // One vector compare of the block; bits 1..=n are the live corners
+        // (the count word and the stale entries past `n` are masked out).
+        let live = (2u32 << n) - 2;
+        let hit = eq_mask8(b, c) & live;
+        if hit != 0 {
+            let i = hit.trailing_zeros() as usize;
+            b[i] = b[n];
             b[0] -= 1;
             return;
         }
@@ -486,12 +491,13 @@ impl MeshState {
     #[inline]
     fn set_quad(&mut self, s: u32, quad: [u32; 4]) -> [u32; 4] {
         let old = std::mem::replace(&mut self.quads[s as usize], quad);
-        for k in 0..4 {
-            if old[k] != quad[k] {
-                let c = 4 * s + k as u32;
-                self.unlink(c, old[k]);
-                self.link(c, quad[k]);
-            }
+        let mut changed = !eq_mask4x4(&old, &quad) & 15;
+        while changed != 0 {
+            let k = changed.trailing_zeros() as usize;
+            changed &= changed - 1;
+            let c = 4 * s + k as u32;
+            self.unlink(c, old[k]);
+            self.link(c, quad[k]);
         }
         old
     }
@@ -1002,6 +1008,26 @@ fn eq_mask4(q: &[u32; 4], key: u32) -> u32 {
     #[cfg(not(target_arch = "x86_64"))]
     {
         (0..4).fold(0, |m, k| m | ((q[k] == key) as u32) << k)
+    }
+}
+
+/// Bit `k` set where `a[k] == b[k]` (one SSE2 compare on x86-64).
+#[inline(always)]
+fn eq_mask4x4(a: &[u32; 4], b: &[u32; 4]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the unaligned loads
+        // read the 16 bytes of `a` and of `b`.
+        unsafe {
+            let va = _mm_loadu_si128(a.as_ptr().cast::<__m128i>());
+            let vb = _mm_loadu_si128(b.as_ptr().cast::<__m128i>());
+            _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(va, vb))) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        (0..4).fold(0, |m, k| m | ((a[k] == b[k]) as u32) << k)
     }
 }
 
