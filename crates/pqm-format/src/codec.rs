@@ -1488,11 +1488,27 @@ impl<'a> Prediction<'a> {
             return;
         }
         let (u1, u2, u3) = (quad[(k + 1) & 3], quad[(k + 2) & 3], quad[(k + 3) & 3]);
-        let codes = if self.r.moved.is_empty() && u1 < self.v0 && u2 < self.v0 && u3 < self.v0 {
-            // The usual case (a subset-placement file moves nothing): three
-            // old codes, what `known` gives, without its `Option`s.
-            let q = &self.st.q;
-            Some((q[u1 as usize], q[u2 as usize], q[u3 as usize]))
+        let codes = if self.r.moved.is_empty() {
+            // The usual case (a subset-placement file moves nothing): what
+            // `known` gives without the moved-vertex search, and with one
+            // test for "all three known" (a vertex is known iff it is
+            // below `x`: `new_pos` holds `v0 .. x`).
+            let x = self.x;
+            if u1 >= x || u2 >= x || u3 >= x {
+                return;
+            }
+            let (q, v0, new) = (&self.st.q, self.v0, &self.r.new_pos);
+            let code = |u: u32| {
+                if u < v0 {
+                    q.get(u as usize).copied()
+                } else {
+                    new.get((u - v0) as usize).copied()
+                }
+            };
+            match (code(u1), code(u2), code(u3)) {
+                (Some(a), Some(b), Some(c)) => Some((a, b, c)),
+                _ => None,
+            }
         } else {
             match (self.known(u1), self.known(u2), self.known(u3)) {
                 (Some(a), Some(b), Some(c)) => Some((a, b, c)),
@@ -1507,13 +1523,21 @@ impl<'a> Prediction<'a> {
         }
     }
 
+    /// The prediction: the mean of the parallelograms, else (none had
+    /// three known corners, or version 1) the fallbacks, out of line.
+    #[inline(always)]
     fn finish(&self) -> [u32; 3] {
+        if self.n > 0 {
+            return floor_mean(self.sum, self.n, self.st.qmax);
+        }
+        self.finish_fallback()
+    }
+
+    /// [`Prediction::finish`] without a parallelogram.
+    #[inline(never)]
+    fn finish_fallback(&self) -> [u32; 3] {
         let (st, r, v0, x) = (self.st, self.r, self.v0, self.x);
         let qmax = st.qmax as i64;
-        let (sum, n) = (self.sum, self.n);
-        if n > 0 {
-            return floor_mean(sum, n, st.qmax);
-        }
         if let Some((face, k)) = self.first {
             let n1 = self.known(face[(k + 1) % 4]);
             let o = self.known(face[(k + 2) % 4]);
@@ -1543,16 +1567,26 @@ impl<'a> Prediction<'a> {
     }
 }
 
+/// `pred` plus the next three residuals of `rd`, which must stay on the
+/// grid (a negative sum is a huge `u64`: one test per axis).
+#[inline(always)]
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
     let mut out = [0u32; 3];
     for t in 0..3 {
         let v = (pred[t] as i64).saturating_add(rd.s()?);
-        if v < 0 || v > qmax as i64 {
-            return Err(format!("position code {v} outside the grid 0..={qmax}"));
+        if v as u64 > qmax as u64 {
+            return Err(off_grid(v, qmax));
         }
         out[t] = v as u32;
     }
     Ok(out)
+}
+
+/// The error of [`add_residual`] (cold: only bad input gets here).
+#[cold]
+#[inline(never)]
+fn off_grid(v: i64, qmax: u32) -> String {
+    format!("position code {v} outside the grid 0..={qmax}")
 }
 
 fn put_residual(out: &mut Vec<u8>, pred: [u32; 3], p: [u32; 3]) {
