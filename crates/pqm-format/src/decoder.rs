@@ -665,7 +665,7 @@ impl Decoder {
             }
             .into());
         }
-        let h = Header::parse(&b);
+        let h = Header::parse(b);
         let bad = |m: String| Err(DecodeError::invalid(Section::Header, m));
         if !(8..=24).contains(&h.quant_bits) {
             return bad(format!("quantization bits {} outside 8..=24", h.quant_bits));
