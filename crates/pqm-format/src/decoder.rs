@@ -1836,7 +1836,7 @@ pub fn decode_all(bytes: &[u8], limits: Limits) -> Result<Decoder, DecodeError> 
 
 #[cfg(test)]
 mod tests {
-    use super::{check_block_sizes, CopyPolicy, Decoder, Limits, Target};
+    use super::{check_block_sizes, sorted_distinct_below, CopyPolicy, Decoder, Limits, Target};
     use crate::{write_to_vec, EncodeOptions};
     use pqm_core::progressive::testgen;
     use proptest::prelude::*;
@@ -1878,6 +1878,70 @@ mod tests {
                 prop_assert_eq!(a.quads(), b.quads());
                 prop_assert_eq!(a.position_codes(), b.position_codes());
                 prop_assert_eq!(a.positions(), b.positions());
+            }
+        }
+    }
+
+    proptest! {
+        /// The bit-set path and the sort path of `sorted_distinct_below`
+        /// both give the distinct ids below the bound, ascending: few ids
+        /// or many, with repeats, over small and large bounds.
+        #[test]
+        fn distinct_below_equals_sort_dedup(
+            ids in proptest::collection::vec(0u32..5000, 0..3000),
+            bound in 0u32..6000,
+        ) {
+            let mut want: Vec<u32> = ids.iter().copied().filter(|&v| v < bound).collect();
+            want.sort_unstable();
+            want.dedup();
+            let mut got = ids.clone();
+            sorted_distinct_below(&mut got, bound);
+            prop_assert_eq!(got, want);
+        }
+    }
+
+    /// Streaming with a refinement to the deepest level after every chunk
+    /// (the level then shares the frontier's arrays, and the next chunk
+    /// must give it its own copy first) ends at the same mesh as a
+    /// whole-file decode, and a move back to level 0 gives the base mesh.
+    #[test]
+    fn refining_after_every_chunk_equals_decode_all() {
+        let mut pm = testgen::generate(7, 150);
+        crate::vectors::add_face_splits(&mut pm, 20, 7);
+        let opts = EncodeOptions {
+            chunk_records: Some(9),
+            ..EncodeOptions::default()
+        };
+        let bytes = write_to_vec(&pm, &opts).expect("encode").0;
+        let mut all = super::decode_all(&bytes, Limits::default()).unwrap();
+        let base_quads = all.quads().to_vec();
+        let base_codes = all.position_codes().to_vec();
+        all.set_level(Target::Level(usize::MAX)).unwrap();
+        for forward in [false, true] {
+            let mut d = if forward {
+                Decoder::forward_only(Limits::default())
+            } else {
+                Decoder::new(Limits::default())
+            };
+            for piece in bytes.chunks(37) {
+                d.push(piece).unwrap();
+                // A chunk that arrived does not change the current level.
+                if let Some((v, f)) = d.level_counts(d.level()) {
+                    assert_eq!(d.quads().len(), f as usize);
+                    assert_eq!(d.position_codes().len(), v as usize);
+                    assert_eq!(d.positions().len(), v as usize);
+                }
+                if d.deepest_level().is_some() {
+                    d.set_level(Target::Level(usize::MAX)).unwrap();
+                }
+            }
+            assert_eq!(d.quads(), all.quads());
+            assert_eq!(d.position_codes(), all.position_codes());
+            assert_eq!(d.positions(), all.positions());
+            if !forward {
+                d.set_level(Target::Level(0)).unwrap();
+                assert_eq!(d.quads(), &base_quads[..]);
+                assert_eq!(d.position_codes(), &base_codes[..]);
             }
         }
     }
