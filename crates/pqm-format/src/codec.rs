@@ -397,8 +397,13 @@ impl MeshState {
     fn unlink(&mut self, c: u32, v: u32) {
         let b = &mut self.inline[v as usize].0;
         let n = ((b[0] & !OVERFLOW) as usize).min(INLINE);
-        if let Some(i) = b[1..=n].iter().position(|&x| x == c) {
-            b[1 + i] = b[n];
+        // One vector compare of the block; bits 1..=n are the live corners
+        // (the count word and the stale entries past `n` are masked out).
+        let live = (2u32 << n) - 2;
+        let hit = eq_mask8(b, c) & live;
+        if hit != 0 {
+            let i = hit.trailing_zeros() as usize;
+            b[i] = b[n];
             b[0] -= 1;
             return;
         }
@@ -486,12 +491,13 @@ impl MeshState {
     #[inline]
     fn set_quad(&mut self, s: u32, quad: [u32; 4]) -> [u32; 4] {
         let old = std::mem::replace(&mut self.quads[s as usize], quad);
-        for k in 0..4 {
-            if old[k] != quad[k] {
-                let c = 4 * s + k as u32;
-                self.unlink(c, old[k]);
-                self.link(c, quad[k]);
-            }
+        let mut changed = !eq_mask4x4(&old, &quad) & 15;
+        while changed != 0 {
+            let k = changed.trailing_zeros() as usize;
+            changed &= changed - 1;
+            let c = 4 * s + k as u32;
+            self.unlink(c, old[k]);
+            self.link(c, quad[k]);
         }
         old
     }
@@ -729,13 +735,94 @@ impl MeshState {
     /// [`MeshState::star`] into `out`, reusing its buffers (the decoder's
     /// split-form and edge-split paths: no allocation per record).
     ///
+    /// The usual star — an interior vertex whose 2..=[`INLINE`] corners all
+    /// sit in its block, with distinct previous corners `pv` — straight
+    /// from the block, without sorting: the walk starts at the smallest
+    /// slot and follows `succ` (the face whose next corner `nx` is the
+    /// current face's `pv`), each step one branch-free compare of the seven
+    /// padded entries. When that walk closes a cycle over all `n` faces,
+    /// the `nx` of the faces are the `n` distinct `pv` values, so every
+    /// `succ` had exactly one candidate and [`MeshState::star_sorted`]'s
+    /// walk over the faces sorted by slot makes the same steps: same
+    /// result. Anything else (a boundary, a repeated link vertex, a broken
+    /// fan, an overflow list) is left to [`MeshState::star_sorted`].
+    /// Property tests `fast_star_equals_general` and the real-mesh levels
+    /// check both against [`MeshState::star_general`].
+    #[inline]
+    pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
+        let Some(Block(b)) = self.inline.get(m as usize) else {
+            return self.star_sorted(m, out);
+        };
+        // The overflow flag (bit 31) makes `n` too large too.
+        let n = b[0] as usize;
+        if !(2..=INLINE).contains(&n) {
+            return self.star_sorted(m, out);
+        }
+        // Padding `nx` and `pv` with NIL (never a vertex id) keeps the
+        // padding out of every match.
+        let mut fs = [0u32; 8];
+        let mut nx = [NIL; 8];
+        let mut pv = [NIL; 8];
+        for i in 0..n {
+            let c = b[1 + i];
+            let (f, k) = (c >> 2, (c & 3) as usize);
+            let q = &self.quads[f as usize];
+            (fs[i], nx[i], pv[i]) = (f, q[(k + 1) & 3], q[(k + 3) & 3]);
+        }
+        // Per face: the other faces with the same `pv` (must be none) and
+        // its `succ` candidates, as bit masks.
+        let mut succ = [0u32; 8];
+        let mut dup = 0u32;
+        let mut start = 0usize;
+        for a in 0..n {
+            let not_a = !(1u32 << a);
+            dup |= eq_mask8(&pv, pv[a]) & not_a;
+            succ[a] = eq_mask8(&nx, pv[a]) & not_a;
+            // The first of equal slots (none are equal: a quad holds `m`
+            // once), as the stable sort puts first.
+            if fs[a] < fs[start] {
+                start = a;
+            }
+        }
+        if dup != 0 {
+            return self.star_sorted(m, out);
+        }
+        let Star { faces, link } = out;
+        faces.clear();
+        link.clear();
+        faces.reserve(n);
+        link.reserve(n);
+        let (mut f, mut seen) = (start, 1u32 << start);
+        faces.push(fs[f]);
+        link.push(nx[f]);
+        for _ in 1..n {
+            let s = succ[f];
+            let g = s.trailing_zeros() as usize;
+            if s == 0 || seen & (1 << g) != 0 {
+                return self.star_sorted(m, out);
+            }
+            seen |= 1 << g;
+            faces.push(fs[g]);
+            link.push(nx[g]);
+            f = g;
+        }
+        if succ[f] != 0 && succ[f].trailing_zeros() as usize == start {
+            return Ok(());
+        }
+        self.star_sorted(m, out)
+    }
+
+    /// [`MeshState::star_into`] past its fast path.
+    ///
     /// Up to [`STAR_SMALL`] faces (every real mesh vertex) the faces live in
     /// three stack arrays (slot, next and previous vertex of `m`), sorted by
     /// slot, so that `succ` / `pred` are short scans of one `u32` array
     /// (no tuples, no closures over a slice of unknown length). Larger stars take
     /// [`MeshState::star_general`]; both give the same result on every
     /// input, manifold or not (property test `fast_star_equals_general`).
-    pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
+    #[cold]
+    #[inline(never)]
+    fn star_sorted(&self, m: u32, out: &mut Star) -> Result<(), String> {
         let mut fs = [0u32; STAR_SMALL];
         let mut nx = [NIL; STAR_SMALL];
         let mut pv = [NIL; STAR_SMALL];
@@ -873,6 +960,75 @@ fn first_other_in(keys: &[u32], key: u32, f: usize) -> Option<usize> {
     keys.iter()
         .enumerate()
         .position(|(g, &k)| k == key && g != f)
+}
+
+/// Bit `h` set where `v[h] == key` (the star's match masks): two SSE2
+/// compares (x86-64 baseline), where the scalar loop took ~30
+/// instructions per mask.
+#[inline(always)]
+fn eq_mask8(v: &[u32; 8], key: u32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; both unaligned loads
+        // read 16 bytes inside `v` (32 bytes).
+        unsafe {
+            let k = _mm_set1_epi32(key as i32);
+            let lo = _mm_loadu_si128(v.as_ptr().cast::<__m128i>());
+            let hi = _mm_loadu_si128(v.as_ptr().add(4).cast::<__m128i>());
+            let ml = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(lo, k)));
+            let mh = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(hi, k)));
+            (ml | (mh << 4)) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut mask = 0u32;
+        for (h, &x) in v.iter().enumerate() {
+            mask |= ((x == key) as u32) << h;
+        }
+        mask
+    }
+}
+
+/// Bit `k` set where `q[k] == key` (one SSE2 compare on x86-64).
+#[inline(always)]
+fn eq_mask4(q: &[u32; 4], key: u32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the unaligned load
+        // reads the 16 bytes of `q`.
+        unsafe {
+            let v = _mm_loadu_si128(q.as_ptr().cast::<__m128i>());
+            let e = _mm_cmpeq_epi32(v, _mm_set1_epi32(key as i32));
+            _mm_movemask_ps(_mm_castsi128_ps(e)) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        (0..4).fold(0, |m, k| m | ((q[k] == key) as u32) << k)
+    }
+}
+
+/// Bit `k` set where `a[k] == b[k]` (one SSE2 compare on x86-64).
+#[inline(always)]
+fn eq_mask4x4(a: &[u32; 4], b: &[u32; 4]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the unaligned loads
+        // read the 16 bytes of `a` and of `b`.
+        unsafe {
+            let va = _mm_loadu_si128(a.as_ptr().cast::<__m128i>());
+            let vb = _mm_loadu_si128(b.as_ptr().cast::<__m128i>());
+            _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(va, vb))) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        (0..4).fold(0, |m, k| m | ((a[k] == b[k]) as u32) << k)
+    }
 }
 
 /// Stars of at most this many faces are built on the stack by
@@ -1167,8 +1323,9 @@ fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16, nf: &NewFac
 /// the lists keep a hostile record with many new vertices linear.
 fn predict_scan(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16) -> [u32; 3] {
     let mut p = Prediction::new(st, r, v0, x, major);
-    // Two plain loops and four unrolled compares per quad (an iterator
-    // chain here was measured at 3× the instructions).
+    // Two plain loops and one vector compare per quad (an iterator chain
+    // here was measured at 3× the instructions, four compares and
+    // branches per quad at twice).
     for quad in &r.appended {
         p.add_quad(quad);
     }
@@ -1176,6 +1333,68 @@ fn predict_scan(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16) -> [u3
         p.add_quad(quad);
     }
     p.finish()
+}
+
+/// [`predict_scan`] of the split form's new vertex `c = V` (record `r`
+/// just built by [`build_split_into`], wings `b = l_i`, `d = l_j`, `m`'s
+/// code after the record `m_new`), without the scan: `c` is corner
+/// `k` of the appended quad (a rotation of `[m, d, c, b]`, so its
+/// parallelogram is `b + d − m_new`) and, where `m` was, of each rewritten
+/// quad, whose other corners are old vertices other than `m` (a quad holds
+/// each vertex once: every stored quad passed [`check_distinct`] or is a
+/// star face with `m` replaced), so unmoved. Same entries, same sum, same
+/// count, so the same value as the scan (the sum's order does not matter;
+/// version 1 reads the appended quad only).
+fn predict_split(
+    st: &MeshState,
+    r: &QRecord,
+    b: u32,
+    d: u32,
+    m_new: [u32; 3],
+    major: u16,
+) -> [u32; 3] {
+    let q = &st.q;
+    let (qb, qd) = (q[b as usize], q[d as usize]);
+    let mut sum = [0i64; 3];
+    for t in 0..3 {
+        sum[t] = qb[t] as i64 + qd[t] as i64 - m_new[t] as i64;
+    }
+    let mut n = 1i64;
+    if major >= 2 {
+        let c = q.len() as u32;
+        for (_, quad) in &r.rewritten {
+            let k =
+                (quad[1] == c) as usize + 2 * (quad[2] == c) as usize + 3 * (quad[3] == c) as usize;
+            let a = q[quad[(k + 1) & 3] as usize];
+            let o = q[quad[(k + 2) & 3] as usize];
+            let e = q[quad[(k + 3) & 3] as usize];
+            for t in 0..3 {
+                sum[t] += a[t] as i64 + e[t] as i64 - o[t] as i64;
+            }
+            n += 1;
+        }
+    }
+    floor_mean(sum, n, st.qmax)
+}
+
+/// `floor(sum / n)` per axis, clamped to the grid (spec §7.6's mean of
+/// `n > 0` parallelograms). `div_euclid` by a positive count, which for
+/// the usual 1, 2 or 4 parallelograms is an arithmetic shift (the same
+/// value; a 64-bit division costs tens of cycles).
+#[inline(always)]
+fn floor_mean(sum: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
+    let qmax = qmax as i64;
+    let floor = |s: i64| match n {
+        1 => s,
+        2 => s >> 1,
+        4 => s >> 2,
+        _ => s.div_euclid(n),
+    };
+    [
+        floor(sum[0]).clamp(0, qmax) as u32,
+        floor(sum[1]).clamp(0, qmax) as u32,
+        floor(sum[2]).clamp(0, qmax) as u32,
+    ]
 }
 
 /// The prediction of spec §7.6 for new vertex `x`, given the record quads
@@ -1248,18 +1467,18 @@ impl<'a> Prediction<'a> {
 
     /// Every corner of `quad` that is `x`, corners descending (the order
     /// of [`NewFaces`]).
-    #[inline]
+    #[inline(always)]
     fn add_quad(&mut self, quad: &[u32; 4]) {
-        let x = self.x;
-        for k in (0..4).rev() {
-            if quad[k] == x {
-                self.add(quad, k);
-            }
+        let mut mask = eq_mask4(quad, self.x);
+        while mask != 0 {
+            let k = 31 - mask.leading_zeros() as usize;
+            mask &= !(1 << k);
+            self.add(quad, k);
         }
     }
 
     /// One entry: `x` is corner `k` of `quad`.
-    #[inline]
+    #[inline(always)]
     fn add(&mut self, quad: &[u32; 4], k: usize) {
         if self.first.is_none() {
             self.first = Some((*quad, k));
@@ -1269,11 +1488,27 @@ impl<'a> Prediction<'a> {
             return;
         }
         let (u1, u2, u3) = (quad[(k + 1) & 3], quad[(k + 2) & 3], quad[(k + 3) & 3]);
-        let codes = if self.r.moved.is_empty() && u1 < self.v0 && u2 < self.v0 && u3 < self.v0 {
-            // The usual case (a subset-placement file moves nothing): three
-            // old codes, what `known` gives, without its `Option`s.
-            let q = &self.st.q;
-            Some((q[u1 as usize], q[u2 as usize], q[u3 as usize]))
+        let codes = if self.r.moved.is_empty() {
+            // The usual case (a subset-placement file moves nothing): what
+            // `known` gives without the moved-vertex search, and with one
+            // test for "all three known" (a vertex is known iff it is
+            // below `x`: `new_pos` holds `v0 .. x`).
+            let x = self.x;
+            if u1 >= x || u2 >= x || u3 >= x {
+                return;
+            }
+            let (q, v0, new) = (&self.st.q, self.v0, &self.r.new_pos);
+            let code = |u: u32| {
+                if u < v0 {
+                    q.get(u as usize).copied()
+                } else {
+                    new.get((u - v0) as usize).copied()
+                }
+            };
+            match (code(u1), code(u2), code(u3)) {
+                (Some(a), Some(b), Some(c)) => Some((a, b, c)),
+                _ => None,
+            }
         } else {
             match (self.known(u1), self.known(u2), self.known(u3)) {
                 (Some(a), Some(b), Some(c)) => Some((a, b, c)),
@@ -1288,27 +1523,21 @@ impl<'a> Prediction<'a> {
         }
     }
 
+    /// The prediction: the mean of the parallelograms, else (none had
+    /// three known corners, or version 1) the fallbacks, out of line.
+    #[inline(always)]
     fn finish(&self) -> [u32; 3] {
+        if self.n > 0 {
+            return floor_mean(self.sum, self.n, self.st.qmax);
+        }
+        self.finish_fallback()
+    }
+
+    /// [`Prediction::finish`] without a parallelogram.
+    #[inline(never)]
+    fn finish_fallback(&self) -> [u32; 3] {
         let (st, r, v0, x) = (self.st, self.r, self.v0, self.x);
         let qmax = st.qmax as i64;
-        let (sum, n) = (self.sum, self.n);
-        if n > 0 {
-            // The floor the spec asks for: `div_euclid` by a positive
-            // count, which for the usual 1, 2 or 4 parallelograms is an
-            // arithmetic shift (the same value; a 64-bit division costs
-            // tens of cycles).
-            let floor = |s: i64| match n {
-                1 => s,
-                2 => s >> 1,
-                4 => s >> 2,
-                _ => s.div_euclid(n),
-            };
-            return [
-                floor(sum[0]).clamp(0, qmax) as u32,
-                floor(sum[1]).clamp(0, qmax) as u32,
-                floor(sum[2]).clamp(0, qmax) as u32,
-            ];
-        }
         if let Some((face, k)) = self.first {
             let n1 = self.known(face[(k + 1) % 4]);
             let o = self.known(face[(k + 2) % 4]);
@@ -1338,16 +1567,26 @@ impl<'a> Prediction<'a> {
     }
 }
 
+/// `pred` plus the next three residuals of `rd`, which must stay on the
+/// grid (a negative sum is a huge `u64`: one test per axis).
+#[inline(always)]
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
     let mut out = [0u32; 3];
     for t in 0..3 {
         let v = (pred[t] as i64).saturating_add(rd.s()?);
-        if v < 0 || v > qmax as i64 {
-            return Err(format!("position code {v} outside the grid 0..={qmax}"));
+        if v as u64 > qmax as u64 {
+            return Err(off_grid(v, qmax));
         }
         out[t] = v as u32;
     }
     Ok(out)
+}
+
+/// The error of [`add_residual`] (cold: only bad input gets here).
+#[cold]
+#[inline(never)]
+fn off_grid(v: i64, qmax: u32) -> String {
+    format!("position code {v} outside the grid 0..={qmax}")
 }
 
 fn put_residual(out: &mut Vec<u8>, pred: [u32; 3], p: [u32; 3]) {
@@ -1549,10 +1788,11 @@ pub fn decode_record_into(
                 let p = add_residual(predict_a(st, m, star, i, j), &mut rd[POS], st.qmax)?;
                 r.moved.push((m, p));
             }
+            let m_new = r.moved.first().map_or(m_old, |mv| mv.1);
             let pred = if reflect_c {
-                reflect(st, m_old, r.moved.first().map_or(m_old, |mv| mv.1))
+                reflect(st, m_old, m_new)
             } else {
-                predict_scan(st, r, v0, v0, major)
+                predict_split(st, r, star.link[i], star.link[j], m_new, major)
             };
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
