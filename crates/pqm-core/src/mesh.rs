@@ -607,6 +607,15 @@ impl Mesh {
     /// degenerate).
     pub fn face_normal(&self, f: FaceId) -> DVec3 {
         let mut n = DVec3::ZERO;
+        if let Some(q) = self.quad_vertices(f) {
+            // the loop below for a quad, without gathering the corners
+            // into a list first (same order, same bits)
+            let p = q.map(|v| self.position(v));
+            for i in 0..4 {
+                n += p[i].cross(p[(i + 1) % 4]);
+            }
+            return n.normalize_or_zero();
+        }
         let vs: smallvec_lite::Small = self.face_vertices(f).collect();
         for i in 0..vs.len() {
             let a = self.position(vs[i]);

@@ -22,7 +22,7 @@
 //!   the slice, or a deleted vertex, does not move.
 
 use crate::features::FeatureCurves;
-use crate::mesh::{Mesh, VertexId};
+use crate::mesh::{FaceId, Mesh, VertexId};
 use glam::DVec3;
 
 /// `movable` for the smoothing functions: every live vertex except boundary
@@ -44,6 +44,67 @@ fn weight(importance: &[f64], v: VertexId) -> f64 {
     }
 }
 
+/// What face `f` adds to the smoothed position of each of its corners:
+/// `(c·a, a, n̂)` — its centroid times its importance `a` (the mean of its
+/// corners'), `a`, and its unit Newell normal, all from the positions read
+/// through `pos`; `None` for a face without corners. Written once for
+/// [`smoothed_position`] and [`smoothed_positions`], so both reach the same
+/// bits.
+#[inline]
+fn face_term(
+    mesh: &Mesh,
+    importance: &[f64],
+    f: FaceId,
+    pos: &impl Fn(VertexId) -> DVec3,
+) -> Option<(DVec3, f64, DVec3)> {
+    let (mut c, mut a, mut k) = (DVec3::ZERO, 0.0, 0usize);
+    // Newell normal from the current positions
+    let mut n = DVec3::ZERO;
+    if let Some(q) = mesh.quad_vertices(f) {
+        // a quad (the coarsener's every face): the loop below with its
+        // corners at hand, in the same order, so the same bits (the walk of
+        // the face loop cost as much as the arithmetic)
+        let p = q.map(pos);
+        let mut prev = p[3];
+        for i in 0..4 {
+            n += prev.cross(p[i]);
+            prev = p[i];
+            c += p[i];
+            a += weight(importance, q[i]);
+        }
+        k = 4;
+    } else {
+        let h0 = mesh.face_halfedge(f);
+        let mut prev = pos(mesh.from_vertex(h0));
+        for h in mesh.face_halfedges(f) {
+            let u = mesh.to_vertex(h);
+            let p = pos(u);
+            n += prev.cross(p);
+            prev = p;
+            c += p;
+            a += weight(importance, u);
+            k += 1;
+        }
+    }
+    if k == 0 {
+        return None;
+    }
+    let (c, a) = (c / k as f64, a / k as f64);
+    Some((c * a, a, n.normalize_or_zero()))
+}
+
+/// The smoothed point of `v` from the sums of its faces' [`face_term`]s.
+#[inline]
+fn smoothed_from(csum: DVec3, wsum: f64, nsum: DVec3, p: DVec3) -> Option<DVec3> {
+    let n = nsum.normalize_or_zero();
+    if wsum.is_nan() || wsum <= 0.0 || n == DVec3::ZERO {
+        return None;
+    }
+    let target = csum / wsum;
+    let moved = target - n * n.dot(target - p);
+    moved.is_finite().then_some(moved)
+}
+
 /// The smoothed position of `v` (see the module docs), reading positions
 /// through `pos`; `None` when `v` has no face or no usable normal.
 /// Allocation-free.
@@ -57,36 +118,84 @@ pub fn smoothed_position(
     let mut csum = DVec3::ZERO;
     let mut nsum = DVec3::ZERO;
     for f in mesh.vertex_faces(v) {
-        let (mut c, mut a, mut k) = (DVec3::ZERO, 0.0, 0usize);
-        // Newell normal from the current positions
-        let mut n = DVec3::ZERO;
-        let h0 = mesh.face_halfedge(f);
-        let mut prev = pos(mesh.from_vertex(h0));
-        for h in mesh.face_halfedges(f) {
-            let u = mesh.to_vertex(h);
-            let p = pos(u);
-            n += prev.cross(p);
-            prev = p;
-            c += p;
-            a += weight(importance, u);
-            k += 1;
+        if let Some((ca, a, n)) = face_term(mesh, importance, f, &pos) {
+            csum += ca;
+            wsum += a;
+            nsum += n;
         }
-        if k == 0 {
-            continue;
+    }
+    smoothed_from(csum, wsum, nsum, pos(v))
+}
+
+/// The faces around a list of vertices, each once, with each vertex's
+/// faces as indices into that list (in [`Mesh::vertex_faces`] order), for
+/// [`FaceStars::smoothed`]: a local relaxation smooths the same few dozen
+/// vertices for several iterations on an unchanged topology, and each face
+/// around them is around up to four of them.
+pub struct FaceStars {
+    faces: Vec<FaceId>,
+    star: Vec<u32>,
+    /// End of each listed vertex's indices in `star`.
+    ends: Vec<u32>,
+}
+
+impl FaceStars {
+    /// The stars of `vs` in `mesh` (valid while its topology is unchanged).
+    pub fn new(mesh: &Mesh, vs: &[VertexId]) -> FaceStars {
+        let mut faces: Vec<FaceId> = Vec::with_capacity(2 * vs.len() + 8);
+        let mut star = Vec::with_capacity(5 * vs.len());
+        let mut ends = Vec::with_capacity(vs.len());
+        for &v in vs {
+            for f in mesh.vertex_faces(v) {
+                let i = match faces.iter().position(|&g| g == f) {
+                    Some(i) => i,
+                    None => {
+                        faces.push(f);
+                        faces.len() - 1
+                    }
+                };
+                star.push(i as u32);
+            }
+            ends.push(star.len() as u32);
         }
-        let (c, a) = (c / k as f64, a / k as f64);
-        csum += c * a;
-        wsum += a;
-        nsum += n.normalize_or_zero();
+        FaceStars { faces, star, ends }
     }
-    let n = nsum.normalize_or_zero();
-    if wsum.is_nan() || wsum <= 0.0 || n == DVec3::ZERO {
-        return None;
+
+    /// [`smoothed_position`] of each vertex the stars were made for (same
+    /// list, same order) into `out`, from the mesh's positions: the same
+    /// values, with each face evaluated once (`terms` is working space).
+    pub fn smoothed(
+        &self,
+        mesh: &Mesh,
+        importance: &[f64],
+        vs: &[VertexId],
+        terms: &mut Vec<Option<(DVec3, f64, DVec3)>>,
+        out: &mut Vec<Option<DVec3>>,
+    ) {
+        let pos = |u: VertexId| mesh.position(u);
+        terms.clear();
+        terms.extend(
+            self.faces
+                .iter()
+                .map(|&f| face_term(mesh, importance, f, &pos)),
+        );
+        out.clear();
+        let mut lo = 0;
+        for (&v, &hi) in vs.iter().zip(&self.ends) {
+            let mut wsum = 0.0;
+            let mut csum = DVec3::ZERO;
+            let mut nsum = DVec3::ZERO;
+            for &i in &self.star[lo..hi as usize] {
+                if let Some((ca, a, n)) = terms[i as usize] {
+                    csum += ca;
+                    wsum += a;
+                    nsum += n;
+                }
+            }
+            lo = hi as usize;
+            out.push(smoothed_from(csum, wsum, nsum, pos(v)));
+        }
     }
-    let p = pos(v);
-    let target = csum / wsum;
-    let moved = target - n * n.dot(target - p);
-    moved.is_finite().then_some(moved)
 }
 
 /// Smooths the listed vertices for `iterations` Jacobi iterations without

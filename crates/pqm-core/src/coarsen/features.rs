@@ -224,15 +224,30 @@ impl FeatureState {
         if self.edges.is_empty() {
             return out;
         }
+        // the faces' vertices, then the faces around those, each once: the
+        // faces share most of their vertices, and walking every face of
+        // every vertex's star repeats each face up to sixteen times
+        let mut vs: Vec<VertexId> = Vec::with_capacity(2 * faces.len() + 4);
         for &f in faces {
             if !mesh.is_face_alive(f) {
                 continue;
             }
             for v in mesh.face_vertices(f) {
-                for g in mesh.vertex_faces(v) {
-                    out.extend(mesh.face_vertices(g).filter(|&u| self.is_feature(u)));
+                if !vs.contains(&v) {
+                    vs.push(v);
                 }
             }
+        }
+        let mut ring: Vec<FaceId> = Vec::with_capacity(2 * vs.len() + 4);
+        for &v in &vs {
+            for g in mesh.vertex_faces(v) {
+                if !ring.contains(&g) {
+                    ring.push(g);
+                }
+            }
+        }
+        for &g in &ring {
+            out.extend(mesh.face_vertices(g).filter(|&u| self.is_feature(u)));
         }
         out.sort_unstable();
         out.dedup();

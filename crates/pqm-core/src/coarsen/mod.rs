@@ -97,6 +97,20 @@ const PARALLEL_MIN_CANDIDATES: usize = 32;
 /// candidate and cost lists (which would otherwise add ≈ 100 bytes per
 /// input quad to the peak) without making the parallel batches small.
 const SCORE_CHUNK_FACES: usize = 8192;
+/// Lazy re-scoring after a commit (default of
+/// [`Coarsener::set_lazy_rescoring`]): the candidates of the changed
+/// neighbourhood that have an entry keep it, marked dirty by their faces'
+/// new stamps, and are scored again only when popped (queued again at the
+/// fresh cost, so popped at once if still the cheapest); only the created
+/// faces' candidates and those without an entry are scored at once.
+/// Off: a dirty entry waits at its old cost, and more than half of those
+/// re-scored eagerly come out *cheaper* (bunny: 607k cheaper, 469k
+/// dearer, 158k the same, 95k illegal), so the improvements it delays cost
+/// quality. Measured (session 9): bunny bench 0.85–0.88× the eager time
+/// (same run), but ideal fraction spot 86.9 → 84.6 %, loki 86.0 → 82.1 %
+/// (SJ median 0.865 → 0.847), makehuman 72.6 → 70.3 %, bunny 83.1 → 81.2
+/// %, fandisk 75.8 → 75.5 %: four quality-bar floors fail.
+pub const LAZY_RESCORING: bool = false;
 /// Default of [`Coarsener::set_prune_slack`].
 pub const DEFAULT_PRUNE_SLACK: f64 = 2.0;
 /// A queue buffer smaller than this (entries) grows without pruning first.
@@ -486,6 +500,21 @@ pub struct Coarsener {
     /// face states it was scored on — even after an id is recycled.
     stamp: Vec<u32>,
     next_stamp: u32,
+    /// Per face id: the stamp the face got when it was created (the
+    /// initial faces: their initial stamp). Under lazy re-scoring an entry
+    /// whose face stamps changed but whose faces were not re-created since
+    /// it was pushed (each stamp at or above its face's `born`) names the
+    /// same candidate on the same faces, scored on an older neighbourhood:
+    /// it is *dirty*, not dead (see [`Coarsener::valid`]).
+    born: Vec<u32>,
+    /// Per face id, which of its candidates have a valid entry in the queue
+    /// (lazy re-scoring only): bit `d` for `Qv(f, d)`, bit `2 + i` for
+    /// `Qe(f, i, 0)` pushed from this face. A candidate with an entry is
+    /// re-scored when popped; one without (it scored `None`, or was popped
+    /// and refused) is scored at once when its face's neighbourhood changes.
+    queued: Vec<u8>,
+    /// Lazy re-scoring ([`LAZY_RESCORING`], [`Coarsener::set_lazy_rescoring`]).
+    lazy: bool,
     /// Valence cap of the current phase: [`FIRST_PHASE_MAX_VALENCE`] until
     /// nothing is legal under it, then [`MAX_VALENCE`].
     cap: usize,
@@ -547,6 +576,47 @@ struct ScoreScratch {
     /// `(ideal before, counted before, ideal after, counted after)` of the
     /// last scoring (the terms of `V`), for [`Coarsener::defect_gain`].
     v_counts: (usize, usize, usize, usize),
+    /// [`QuadField`]s of recently scored quads, by face id modulo its
+    /// length ([`QUAD_FIELD_CACHE`] slots once used).
+    quad_fields: Vec<QuadField>,
+}
+
+/// Slots of [`ScoreScratch::quad_fields`] (≈ 180 bytes each, per scoring
+/// thread).
+const QUAD_FIELD_CACHE: usize = 1024;
+
+/// What `E`'s `A` term reads of a quad before the step — its unit normal,
+/// the 4-RoSy average of its corners' field in its plane, and the mean
+/// alignment of its two dual chords — with the corners and positions it
+/// was computed from. Those are all it depends on (the field is fixed per
+/// vertex id), so an entry whose corners and positions match the mesh's is
+/// exactly what a new computation would give. A face is scored again after
+/// every commit next to it, mostly with its corners left where they were:
+/// the normal, `rosy4_average` (an `atan2` and a `sin_cos`) and the two
+/// alignments were about a quarter of a scoring's instructions.
+#[derive(Clone, Copy)]
+struct QuadField {
+    face: u32,
+    q: [VertexId; 4],
+    p: [DVec3; 4],
+    normal: DVec3,
+    field: DVec3,
+    /// `(s1 + s2) / 2` of the two chords' alignments; `None` when either
+    /// has none.
+    chords: Option<f64>,
+}
+
+impl Default for QuadField {
+    fn default() -> Self {
+        QuadField {
+            face: u32::MAX,
+            q: [VertexId(u32::MAX); 4],
+            p: [DVec3::ZERO; 4],
+            normal: DVec3::ZERO,
+            field: DVec3::ZERO,
+            chords: None,
+        }
+    }
 }
 
 /// The paper's `V` term as it is tallied over the vertices a step touches:
@@ -766,6 +836,9 @@ impl Coarsener {
         let mesh_faces = mesh.face_capacity();
         Coarsener {
             stamp: (0..mesh_faces as u32).collect(),
+            born: Vec::new(),
+            queued: Vec::new(),
+            lazy: false,
             next_stamp: mesh_faces as u32,
             cap: FIRST_PHASE_MAX_VALENCE,
             limit_deviation: true,
@@ -837,6 +910,22 @@ impl Coarsener {
     /// trades time (each pruning is linear in the queue) for memory.
     pub fn set_prune_slack(&mut self, slack: f64) {
         self.prune_slack = slack.max(0.0);
+    }
+
+    /// Lazy (`true`) or eager re-scoring after each commit (default
+    /// [`LAZY_RESCORING`]); without effect while crossing re-fans are
+    /// queued ([`QE_CROSSING_REFANS`]). Eager is the paper's rule.
+    /// Call it before [`Coarsener::run`]: the faces' birth stamps are
+    /// taken from their current ones.
+    pub fn set_lazy_rescoring(&mut self, lazy: bool) {
+        self.lazy = lazy && !QE_CROSSING_REFANS;
+        if self.lazy {
+            self.born = self.stamp.clone();
+            self.queued = vec![0; self.stamp.len()];
+        } else {
+            self.born = Vec::new();
+            self.queued = Vec::new();
+        }
     }
 
     fn target_faces(&self) -> usize {
@@ -924,8 +1013,17 @@ impl Coarsener {
                 self.queue.shrink_to(self.queue.len() * 2);
             }
             if !self.fresh(&e) {
+                if self.lazy && self.valid(&e) {
+                    // dirty: score it on today's neighbourhood and queue it
+                    // again (popped at once if it is still the cheapest)
+                    self.unqueue(e.cand);
+                    if let Some(cost) = SCRATCH.with(|s| self.score(e.cand, &mut s.borrow_mut())) {
+                        self.push_scored(e.cand, cost);
+                    }
+                }
                 continue;
             }
+            self.unqueue(e.cand);
             if self.try_commit(e.cand) {
                 since += 1;
                 if since >= commits {
@@ -975,6 +1073,41 @@ impl Coarsener {
                 }
             }
         }
+    }
+
+    /// Whether the entry still names a candidate on the very faces it was
+    /// scored on (none re-created since): fresh, or dirty under lazy
+    /// re-scoring. Stamps are handed out in increasing order, so a stamp
+    /// at or above a face's `born` was taken after the face was created.
+    fn valid(&self, e: &Entry) -> bool {
+        let m = &self.mesh;
+        let alive = |f: FaceId, stamp: u32| m.is_face_alive(f) && stamp >= self.born[f.idx()];
+        match e.cand {
+            Cand::Qv(f, _) => alive(f, e.stamps.0),
+            Cand::Qe(f, i, _) => {
+                alive(f, e.stamps.0)
+                    && face_edge(m, f, i)
+                        .and_then(|h| m.face(m.twin(h)))
+                        .is_some_and(|g| alive(g, e.stamps.1))
+            }
+        }
+    }
+
+    /// The bit of [`Coarsener::queued`] that says `cand` has an entry.
+    fn queued_bit(cand: Cand) -> (FaceId, u8) {
+        match cand {
+            Cand::Qv(f, d) => (f, 1 << d),
+            Cand::Qe(f, i, _) => (f, 4 << i),
+        }
+    }
+
+    /// Notes that the valid entry of `cand` left the queue.
+    fn unqueue(&mut self, cand: Cand) {
+        if !self.lazy {
+            return;
+        }
+        let (f, bit) = Self::queued_bit(cand);
+        self.queued[f.idx()] &= !bit;
     }
 
     /// The candidate's cost, `None` when it cannot be built or breaks the
@@ -1477,7 +1610,14 @@ impl Coarsener {
             self.place(&[a, c], con)
         };
         let after = |v: VertexId| if v == keep { pos } else { m.position(v) };
-        Some(Some(self.error_of(cand, tally, Some(keep), None, after)))
+        Some(Some(self.error_of(
+            cand,
+            tally,
+            Some(keep),
+            None,
+            after,
+            &mut s.quad_fields,
+        )))
     }
 
     /// [`Coarsener::score`] of the (non-crossing) qeMerge at a generic site
@@ -1584,7 +1724,14 @@ impl Coarsener {
                 m.position(v)
             }
         };
-        Some(Some(self.error_of(cand, tally, None, Some(site), after)))
+        Some(Some(self.error_of(
+            cand,
+            tally,
+            None,
+            Some(site),
+            after,
+            &mut s.quad_fields,
+        )))
     }
 
     /// [`Coarsener::score`] of a built patch.
@@ -1616,6 +1763,7 @@ impl Coarsener {
     /// the current phase (valence cap, deviation limit, fix phase).
     fn rescore_all(&mut self) {
         self.queue.clear();
+        self.queued.iter_mut().for_each(|b| *b = 0);
         let faces: Vec<FaceId> = self.mesh.faces().collect();
         self.push_faces(&faces, &[]);
     }
@@ -1637,21 +1785,71 @@ impl Coarsener {
     fn push_faces(&mut self, faces: &[FaceId], batch: &[FaceId]) {
         let bulk = faces.len() > SCORE_CHUNK_FACES;
         for chunk in faces.chunks(SCORE_CHUNK_FACES) {
-            self.push_chunk(chunk, batch, bulk);
+            self.push_chunk(chunk, batch, bulk, None);
         }
     }
 
-    fn push_chunk(&mut self, faces: &[FaceId], batch: &[FaceId], exact: bool) {
+    /// Lazy re-scoring of a commit's `faces` (`created`: those the step
+    /// created): a created face's candidates are scored now (an edge
+    /// between two created faces once, from the smaller id; an edge to a
+    /// surviving face from the created one, whose old entry named the
+    /// face this one replaced), and so are a surviving face's candidates
+    /// that have no entry (an edge between two surviving faces of the
+    /// batch looked at from the smaller id); a candidate with an entry
+    /// keeps it, dirty, and is scored again when popped.
+    fn push_faces_lazy(&mut self, faces: &[FaceId], created: &[FaceId]) {
+        self.push_chunk(faces, faces, false, Some(created));
+    }
+
+    /// Whether the qeMerge across `f`'s half-edge `h` has an entry, from
+    /// `f` (edge index `i`) or from the face across `g`.
+    fn qe_queued(&self, f: FaceId, i: usize, h: HalfedgeId, g: FaceId) -> bool {
+        if self.queued[f.idx()] & (4 << i) != 0 {
+            return true;
+        }
+        let t = self.mesh.twin(h);
+        let j = self.mesh.face_halfedges(g).position(|x| x == t);
+        j.is_some_and(|j| self.queued[g.idx()] & (4 << j) != 0)
+    }
+
+    fn push_chunk(
+        &mut self,
+        faces: &[FaceId],
+        batch: &[FaceId],
+        exact: bool,
+        created: Option<&[FaceId]>,
+    ) {
         let mut cands: Vec<Cand> = Vec::with_capacity(faces.len() * 4);
         for &f in faces {
             if !self.mesh.is_face_alive(f) {
                 continue;
             }
-            cands.push(Cand::Qv(f, 0));
-            cands.push(Cand::Qv(f, 1));
+            // (eager: every face counts as created)
+            let f_new = match created {
+                None => true,
+                Some(c) => c.contains(&f),
+            };
+            let bits = if f_new { 0 } else { self.queued[f.idx()] };
+            if f_new || bits & 1 == 0 {
+                cands.push(Cand::Qv(f, 0));
+            }
+            if f_new || bits & 2 == 0 {
+                cands.push(Cand::Qv(f, 1));
+            }
             for (i, h) in self.mesh.face_halfedges(f).enumerate() {
                 if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
-                    if f < g || !batch.contains(&g) {
+                    let take = match created {
+                        None => f < g || !batch.contains(&g),
+                        Some(c) => match (f_new, c.contains(&g)) {
+                            (true, true) => f < g,
+                            (true, false) => true,
+                            (false, true) => false,
+                            (false, false) => {
+                                (f < g || !batch.contains(&g)) && !self.qe_queued(f, i, h, g)
+                            }
+                        },
+                    };
+                    if take {
                         let n = if QE_CROSSING_REFANS {
                             QE_VARIANTS.len()
                         } else {
@@ -1688,6 +1886,10 @@ impl Coarsener {
     }
 
     fn push_scored(&mut self, cand: Cand, cost: f64) {
+        if self.lazy {
+            let (f, bit) = Self::queued_bit(cand);
+            self.queued[f.idx()] |= bit;
+        }
         let stamps = match cand {
             Cand::Qv(f, _) => (self.stamp[f.idx()], 0),
             Cand::Qe(f, i, _) => {
@@ -1994,9 +2196,14 @@ impl Coarsener {
         self.place_patch(place, patch);
         let patch = &*patch;
         let keep = patch.merged.first().map(|g| g.1);
-        Some(self.error_of(cand, tally, keep, None, |v| {
-            patch.position_after(&self.mesh, v)
-        }))
+        Some(self.error_of(
+            cand,
+            tally,
+            keep,
+            None,
+            |v| patch.position_after(&self.mesh, v),
+            &mut s.quad_fields,
+        ))
     }
 
     /// `E` from the terms of `V` and the worst valence deviations before
@@ -2015,6 +2222,7 @@ impl Coarsener {
         keep: Option<VertexId>,
         site: Option<ops::qe_merge::QeSite>,
         after: impl Fn(VertexId) -> DVec3,
+        cache: &mut Vec<QuadField>,
     ) -> f64 {
         let VTally {
             ideal_b,
@@ -2085,14 +2293,14 @@ impl Coarsener {
         let mut a_b = 0.0;
         let mut a_a = 0.0;
         let mut n_a = 0;
+        if cache.is_empty() {
+            cache.resize(QUAD_FIELD_CACHE, QuadField::default());
+        }
         for &f in &quads[..n_quads] {
-            let n = m.face_normal(f);
-            let q = m.quad_vertices(f).unwrap_or([VertexId(0); 4]);
-            let fld = rosy4_average(n, q.iter().map(|&v| self.attrs.field[v.idx()]));
-            let chord1 = (p(q[2]) + p(q[3])) - (p(q[0]) + p(q[1]));
-            let chord2 = (p(q[3]) + p(q[0])) - (p(q[1]) + p(q[2]));
-            if let (Some(s1), Some(s2)) = (alignment(chord1, fld, n), alignment(chord2, fld, n)) {
-                a_b += 0.5 * (s1 + s2);
+            let qf = self.quad_field(f, cache);
+            let (n, fld) = (qf.normal, qf.field);
+            if let Some(ab) = qf.chords {
+                a_b += ab;
                 let mut s_after = 0.0;
                 for &(u, w) in collapsed {
                     let dir = after(w) - after(u);
@@ -2113,6 +2321,42 @@ impl Coarsener {
             e += BETA * dev_a as f64;
         }
         e
+    }
+
+    /// The [`QuadField`] of face `f` now: from `cache` when its slot holds
+    /// `f` with the same corners at the same positions, else computed (and
+    /// stored). A face that is not a quad is computed as the quad of four
+    /// `VertexId(0)` corners, as before the cache, and not stored.
+    fn quad_field(&self, f: FaceId, cache: &mut [QuadField]) -> QuadField {
+        let m = &self.mesh;
+        let quad = m.quad_vertices(f);
+        let q = quad.unwrap_or([VertexId(0); 4]);
+        let p = q.map(|v| m.position(v));
+        let slot = f.idx() % cache.len();
+        let hit = &cache[slot];
+        if quad.is_some() && hit.face == f.0 && hit.q == q && hit.p == p {
+            return *hit;
+        }
+        let n = m.face_normal(f);
+        let fld = rosy4_average(n, q.iter().map(|&v| self.attrs.field[v.idx()]));
+        let chord1 = (p[2] + p[3]) - (p[0] + p[1]);
+        let chord2 = (p[3] + p[0]) - (p[1] + p[2]);
+        let chords = match (alignment(chord1, fld, n), alignment(chord2, fld, n)) {
+            (Some(s1), Some(s2)) => Some(0.5 * (s1 + s2)),
+            _ => None,
+        };
+        let qf = QuadField {
+            face: f.0,
+            q,
+            p,
+            normal: n,
+            field: fld,
+            chords,
+        };
+        if quad.is_some() {
+            cache[slot] = qf;
+        }
+        qf
     }
 
     // ------------------------------------------------------------- commit
@@ -2445,11 +2689,43 @@ impl Coarsener {
         for &f in &check_faces {
             if f.idx() >= self.stamp.len() {
                 self.stamp.resize(f.idx() + 1, 0);
+                if self.lazy {
+                    self.born.resize(f.idx() + 1, 0);
+                    self.queued.resize(f.idx() + 1, 0);
+                }
             }
             self.stamp[f.idx()] = self.next_stamp;
             self.next_stamp = self.next_stamp.wrapping_add(1);
         }
-        self.push_faces(&check_faces, &check_faces);
+        if self.lazy {
+            // the faces the step created (a created id may be a recycled
+            // one): born now, with no entry yet; an entry of a surviving
+            // face across one of their edges named the face it replaced
+            let created: Vec<FaceId> = undo_stack
+                .iter()
+                .flat_map(|a| a.faces.iter().copied())
+                .filter(|&f| self.mesh.is_face_alive(f))
+                .collect();
+            for &f in &created {
+                self.born[f.idx()] = self.stamp[f.idx()];
+                self.queued[f.idx()] = 0;
+            }
+            for &f in &created {
+                for h in self.mesh.face_halfedges(f) {
+                    let t = self.mesh.twin(h);
+                    if let Some(g) = self.mesh.face(t) {
+                        if !created.contains(&g) {
+                            if let Some(j) = self.mesh.face_halfedges(g).position(|x| x == t) {
+                                self.queued[g.idx()] &= !(4u8 << j);
+                            }
+                        }
+                    }
+                }
+            }
+            self.push_faces_lazy(&check_faces, &created);
+        } else {
+            self.push_faces(&check_faces, &check_faces);
+        }
         self.prune_queue();
         true
     }
@@ -2503,7 +2779,11 @@ impl Coarsener {
     /// Removes every stale entry (in place: the buffer is kept).
     fn prune_stale(&mut self) {
         let mut q = std::mem::take(&mut self.queue);
-        q.retain(|e| self.fresh(e));
+        if self.lazy {
+            q.retain(|e| self.valid(e));
+        } else {
+            q.retain(|e| self.fresh(e));
+        }
         self.queue = q;
     }
 
@@ -2559,8 +2839,11 @@ impl Coarsener {
     /// Returns the old positions.
     fn relax(&mut self, vs: &[VertexId], iterations: u32) -> Vec<(VertexId, DVec3)> {
         let old: Vec<(VertexId, DVec3)> = vs.iter().map(|&v| (v, self.mesh.position(v))).collect();
+        // the topology stays as it is while the vertices move
+        let stars = crate::smoothing::FaceStars::new(&self.mesh, vs);
+        let (mut terms, mut out) = (Vec::new(), Vec::new());
         for _ in 0..iterations {
-            let new: Vec<DVec3> = vs.iter().map(|&v| self.smoothed(v)).collect();
+            let new = self.smoothed_all_of(vs, &stars, &mut terms, &mut out);
             for (&v, p) in vs.iter().zip(new) {
                 self.mesh.set_position(v, p);
             }
@@ -2581,6 +2864,9 @@ impl Coarsener {
         keep: &[FaceId],
     ) -> Vec<(VertexId, DVec3)> {
         let old: Vec<(VertexId, DVec3)> = vs.iter().map(|&v| (v, self.mesh.position(v))).collect();
+        // the topology stays as it is while the vertices move
+        let stars = crate::smoothing::FaceStars::new(&self.mesh, vs);
+        let (mut terms, mut out) = (Vec::new(), Vec::new());
         let sj = |m: &Mesh, f: FaceId| {
             m.quad_vertices(f)
                 .map(|q| ops::quad_scaled_jacobian(q.map(|u| m.position(u))))
@@ -2591,7 +2877,7 @@ impl Coarsener {
             .collect();
         for _ in 0..iterations {
             let prev: Vec<DVec3> = vs.iter().map(|&v| self.mesh.position(v)).collect();
-            let new: Vec<DVec3> = vs.iter().map(|&v| self.smoothed(v)).collect();
+            let new = self.smoothed_all_of(vs, &stars, &mut terms, &mut out);
             for (&v, p) in vs.iter().zip(new) {
                 self.mesh.set_position(v, p);
             }
@@ -2619,10 +2905,21 @@ impl Coarsener {
         old
     }
 
-    fn smoothed(&self, v: VertexId) -> DVec3 {
+    /// The smoothed position of each of `vs` (where it has none: where it
+    /// is), from `stars` (made for `vs`), reusing `terms` and `out`.
+    fn smoothed_all_of(
+        &self,
+        vs: &[VertexId],
+        stars: &crate::smoothing::FaceStars,
+        terms: &mut Vec<Option<(DVec3, f64, DVec3)>>,
+        out: &mut Vec<Option<DVec3>>,
+    ) -> Vec<DVec3> {
         let m = &self.mesh;
-        crate::smoothing::smoothed_position(m, &self.attrs.importance, v, |u| m.position(u))
-            .unwrap_or_else(|| m.position(v))
+        stars.smoothed(m, &self.attrs.importance, vs, terms, out);
+        vs.iter()
+            .zip(out.iter())
+            .map(|(&v, p)| p.unwrap_or_else(|| m.position(v)))
+            .collect()
     }
 
     fn restore_relaxed(&mut self, relaxed: &[(VertexId, DVec3)]) {

@@ -289,9 +289,17 @@ impl GeometryGuard {
             return None;
         }
         let vs: Vec<VertexId> = mesh.face_vertices(f).collect();
-        let p: Vec<DVec3> = vs.iter().map(|&v| mesh.position(v)).collect();
-        let n = newell_normal(&p);
-        let quad = <[DVec3; 4]>::try_from(p.as_slice()).ok();
+        // a quad's corners in an array (no second list per face)
+        let (n, quad) = match <[VertexId; 4]>::try_from(vs.as_slice()) {
+            Ok(q) => {
+                let p = q.map(|v| mesh.position(v));
+                (newell_normal(&p), Some(p))
+            }
+            Err(_) => {
+                let p: Vec<DVec3> = vs.iter().map(|&v| mesh.position(v)).collect();
+                (newell_normal(&p), None)
+            }
+        };
         let weighted = quad.map_or(n, |q| n * area4(&q));
         self.before.push((f, n));
         let mask = vertex_mask(&vs);
