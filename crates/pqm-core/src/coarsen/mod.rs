@@ -48,6 +48,8 @@
 //! scored in parallel (rayon, per-thread scratch) and pushed in candidate
 //! order: the output does not depend on the thread count either.
 
+#[doc(hidden)]
+pub mod diagnose;
 pub mod features;
 mod fix_phase;
 pub mod record;
@@ -485,6 +487,7 @@ fn cand_key(c: Cand) -> (u32, u32) {
 }
 
 /// The coarsener: owns the mesh while it coarsens, logs every step.
+#[derive(Clone)]
 pub struct Coarsener {
     mesh: Mesh,
     attrs: Attributes,
