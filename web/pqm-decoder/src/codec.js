@@ -440,8 +440,6 @@ class ChunkContext {
     this.py = 0;
     this.pz = 0;
     this.versionMajor = versionMajor;
-    /** (touchAhead's reads: kept so that they are not dead code) */
-    this.touch = 0;
     /** Version-2 rules (spec §7.3 form 3, §7.6 multi-parallelogram). */
     this.v2 = versionMajor >= 2;
     /** Version-3 rules (spec §7.3 form 4, edge split). */
@@ -1170,8 +1168,6 @@ class StarScratch {
     this.gen = 0;
     this.K = 0;
     this.boundary = false;
-    /** (canonicalStar's touch of the quads: kept so it is not dead code) */
-    this.touch = 0;
   }
 }
 
@@ -1198,11 +1194,6 @@ function canonicalStar(st, m, sc) {
   // dependent work between them.
   const K = st.sortedSlots(m, S);
   if (K < 1) throw `vertex ${m} is in no face`;
-  // touch every quad first, in a loop of a few instructions per quad, so
-  // that their cache misses (the first touches of scattered memory) are in
-  // flight together; the loop below then finds them in cache
-  let touch = 0;
-  for (let i = 0; i < K; i++) touch |= f[4 * S[i]];
   for (let i = 0; i < K; i++) {
     const s4 = 4 * S[i];
     // m's corner, then the three others by index
@@ -1212,11 +1203,6 @@ function canonicalStar(st, m, sc) {
     sO[i] = f[s4 + ((k + 2) & 3)];
     sP[i] = f[s4 + ((k + 3) & 3)];
   }
-  // the same for the codes of the link and opposite vertices, which the
-  // records read next (predictions): their misses overlap the walk
-  const q = st.q;
-  for (let i = 0; i < K; i++) touch |= q[16 * sN[i]] | q[16 * sO[i]];
-  sc.touch = touch;
   // succ(i): the smallest other slot g with n(g) = p(i); pred(i): the
   // smallest other g with p(g) = n(i). S is sorted, so "smallest" is the
   // first index found.
@@ -1316,75 +1302,6 @@ function canonicalStar(st, m, sc) {
   return K;
 }
 
-/**
- * Whether record symbol `sym` names its anchor with the next `refs` entry
- * and reads no other (split, face split, edge split): then the anchors of
- * the records ahead can be read before they run.
- */
-function oneRef(sym) {
-  const form = (sym >> 2) & 3;
-  return form === 1 || form === 3 || (form === 0 && sym >> 4 === 1);
-}
-
-/**
- * The zigzag varint at `b[p ..)` when it takes 1 to 3 bytes before `end`,
- * as (value · 4 + its length, within ±2^23); else NO_PEEK. A peek: no
- * cursor moves.
- */
-function peekS(b, p, end) {
-  if (p + 2 >= end) return NO_PEEK;
-  const x = b[p];
-  const y = b[p + 1];
-  const z = b[p + 2];
-  if ((x & y & z & 0x80) !== 0) return NO_PEEK;
-  const c1 = x >> 7;
-  const c2 = c1 & (y >> 7);
-  const u = (x & 0x7f) | (((y & 0x7f) << 7) & -c1) | (((z & 0x7f) << 14) & -c2);
-  return ((u >>> 1) ^ -(u & 1)) * 4 + 1 + c1 + c2;
-}
-const NO_PEEK = 1 << 30;
-
-/**
- * Called by a record that has just read its anchor (so the next `refs`
- * entry is the next record's anchor when that record is a one-ref form):
- * reads — only reads, the results are dropped — the quads of the next
- * record's anchor and the vertex record of the anchor after it. A record
- * waits on three dependent cache misses (its anchor's vertex record, then
- * its star's quads, then their vertices' codes); this starts the first two
- * one and two records early, so that they overlap this record's work
- * instead of following it. The anchors are checked against the vertex
- * count as a record would; a wrong guess (the mesh changes meanwhile)
- * costs a wasted read, never a wrong result.
- */
-function touchAhead(ctx) {
-  const ops = ctx.ops;
-  const op = ops.p;
-  if (op >= ops.end || !oneRef(ops.b[op])) return;
-  const refs = ctx.refs;
-  const rb = refs.b;
-  const d1 = peekS(rb, refs.p, refs.end);
-  if (d1 === NO_PEEK) return;
-  const st = ctx.st;
-  const nv = st.nv;
-  const m1 = ctx.vcur + (d1 >> 2);
-  if (m1 < 0 || m1 >= nv) return;
-  const q = st.q;
-  const f = st.f;
-  const b1 = m1 << 4;
-  let n = q[b1 + LEN];
-  if (n > INLINE) n = INLINE;
-  let touch = 0;
-  for (let i = 0; i < n; i++) touch |= f[4 * q[b1 + AT + i]];
-  if (op + 1 < ops.end && oneRef(ops.b[op + 1])) {
-    const d2 = peekS(rb, refs.p + (d1 & 3), refs.end);
-    if (d2 !== NO_PEEK) {
-      const m2 = m1 + (d2 >> 2);
-      if (m2 >= 0 && m2 < nv) touch |= q[(m2 << 4) + LEN];
-    }
-  }
-  ctx.touch = touch;
-}
-
 // Star scratch of the split, face-split and edge-split forms (the edge
 // split needs two stars at once).
 const starA = new StarScratch();
@@ -1399,7 +1316,6 @@ function decodeSplit(ctx, sym) {
     throw `a vertex split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
   }
   const m = vertexRef(ctx, V, 'split vertex');
-  touchAhead(ctx);
 
   // 2. canonical star of m.
   const sc = starA;
@@ -1612,7 +1528,6 @@ function decodeFaceSplit(ctx, sym) {
     throw `a face split needs a new vertex and face, the file's final counts are reached (${V}, ${NF})`;
   }
   const m = vertexRef(ctx, V, 'face-split vertex');
-  touchAhead(ctx);
   // 2. S ascending, no walk: only the slot list is sorted, and only the
   // split quad is read (the others' corners are not needed, and each quad
   // read is a first touch of scattered memory).
@@ -1764,7 +1679,6 @@ function decodeEdgeSplit(ctx) {
   }
   // 1.–3. the endpoints and their stars
   const A = vertexRef(ctx, V, 'edge-split anchor');
-  touchAhead(ctx);
   const conn = ctx.conn;
   const sa = starA;
   const KA = canonicalStar(st, A, sa);
@@ -2014,9 +1928,13 @@ function decodeEdgeSplit(ctx) {
       }
     }
     if (n > 0) {
-      ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
-      ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
-      ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+      // Math.floor(s / n) is exact here, as in the split form: n ≤ 512
+      // quads and |s| ≤ 512 · 2^25, so the quotient's rounding error is
+      // far below the 1/n a non-integer quotient keeps from the next
+      // integer (and it inlines, where floorDiv is a call)
+      ctx.px = clamp(Math.floor(sx / n), qmax);
+      ctx.py = clamp(Math.floor(sy / n), qmax);
+      ctx.pz = clamp(Math.floor(sz / n), qmax);
     } else {
       // the first appended quad (by slot) holding x
       let i = 0;
