@@ -127,8 +127,15 @@ test('pqm view streams a real mesh to its full level, draws it, and the slider c
 });
 
 test('over a slow link the page refines while the file streams', { timeout: 240_000 }, async (t) => {
-  // 80 kB at 48 KiB/s: about 1.6 s of streaming, many reads
-  const server = await startView(pqm, file, ['--throttle', '48']);
+  // The same mesh in small chunks (≈ 2 KiB of records each, about ten of
+  // them) at 16 KiB/s: about 1.3 s of streaming. With the default two
+  // chunks a loaded machine could deliver both in one read and show no
+  // intermediate level, which is not what this test is about.
+  const small = path.join(tmp.dir, 'spot-small-chunks.pqm');
+  runPqm(pqm, ['-q', 'encode', path.join(SHARED_MESHES, 'quad', 'spot_quadrangulated.obj'), '-o', small, '--chunk-bytes', '2048']);
+  const info = JSON.parse(runPqm(pqm, ['--json', 'info', small])); // this file's, not the shared one
+  assert.ok(info.chunks >= 6, `only ${info.chunks} chunks`);
+  const server = await startView(pqm, small, ['--throttle', '16']);
   t.after(server.stop);
   const { state } = await openViewer(t, server);
   const tl = state.timeline;

@@ -1641,15 +1641,26 @@ const PERM4 = (() => {
 const eSlot = new Int32Array(512);
 const eQuad = new Int32Array(4 * 512);
 const eFan = new Uint8Array(512);
-const eOrder = new Int32Array(512);
-const eKeys = new Float64Array(512);
 const eOfS0 = new Int32Array(256);
 const eRot = [new Int32Array(256), new Int32Array(256)];
 const eUid = new Int32Array(4);
-const eRw = new Int32Array(4 * 512);
-const eSlots = new Int32Array(512);
 const eApp = new Int32Array(16);
 const eC = new Int32Array(16);
+// Per entry: how many swaps it took (a sector face: X → u, a shared face
+// of both stars two such; a fan quad one, see there), and for one swap the
+// vertex that left (`eOut`) and the one that entered (`eIn`): such an
+// entry is applied as a swap, with one list removal and one addition and
+// no set comparison.
+const eSwaps = new Uint8Array(512);
+const eOut = new Int32Array(512);
+const eIn = new Int32Array(512);
+// Per new vertex k (V + k), the rewritten corners holding it, as indices
+// 4 e + corner into eQuad (at most K ≤ 255 sector faces and one fan quad
+// per endpoint): filled while step 8 writes them, so no pass over every
+// corner of the record looks for them.
+const E_BUCKET = 512;
+const eNewR = new Int32Array(4 * E_BUCKET);
+const eCntR = new Int32Array(4);
 
 /**
  * Edge-split form (spec §7.10, version 3): the inverse of a qeMerge, named
@@ -1729,6 +1740,10 @@ function decodeEdgeSplit(ctx) {
   // from ρ), X1's faces that are not in X0's star follow.
   const f = st.f;
   let nE = 0;
+  eCntR[0] = 0;
+  eCntR[1] = 0;
+  eCntR[2] = 0;
+  eCntR[3] = 0;
   for (let x = 0; x < 2; x++) {
     const sc = x === 0 ? s0 : s1;
     const K = sc.K;
@@ -1751,6 +1766,7 @@ function decodeEdgeSplit(ctx) {
         e = nE++;
         eOfS0[idx] = e;
         eSlot[e] = slot;
+        eSwaps[e] = 0;
         eFan[e] = fan ? 1 : 0;
         const s4 = 4 * slot;
         const e4 = 4 * e;
@@ -1780,6 +1796,7 @@ function decodeEdgeSplit(ctx) {
         } else {
           e = nE++;
           eSlot[e] = slot;
+          eSwaps[e] = 0;
           eFan[e] = fan ? 1 : 0;
           const s4 = 4 * slot;
           const e4 = 4 * e;
@@ -1791,7 +1808,14 @@ function decodeEdgeSplit(ctx) {
       }
       if (!fan) {
         // sector: X (at corner C[idx]) becomes u1 or u2
-        eQuad[4 * e + sc.C[idx]] = i <= n1 ? u1 : u2;
+        const u = i <= n1 ? u1 : u2;
+        const ci = 4 * e + sc.C[idx];
+        eQuad[ci] = u;
+        const k = u - V;
+        eNewR[k * E_BUCKET + eCntR[k]++] = ci;
+        eOut[e] = X;
+        eIn[e] = u;
+        eSwaps[e]++;
         continue;
       }
       // fan quad j = i − n1 − 1: G_j = (X, P_2j+1, P_2j+2, P_2j+3), the last
@@ -1809,6 +1833,21 @@ function decodeEdgeSplit(ctx) {
       eQuad[e4 + ((5 - t) & 3)] = g1;
       eQuad[e4 + ((6 - t) & 3)] = g2;
       eQuad[e4 + ((7 - t) & 3)] = g3;
+      // the last one holds u2 (g3); its other corners are old vertices
+      if (j === m - 1) {
+        const k = u2 - V;
+        eNewR[k * E_BUCKET + eCntR[k]++] = e4 + ((7 - t) & 3);
+      }
+      // a fan quad is built from link entries: they may repeat a vertex
+      // (a sector quad is an old quad with X, or X0 and X1, replaced by
+      // new vertices, distinct by construction)
+      checkDistinct(eQuad, e4, 'rewritten slot', slot);
+      // and it is a swap too: h_j = (X, N, O, P) with P = N of the next
+      // face (the walk's succ), so G_j keeps X, O and P, N leaves and g3
+      // enters (when g3 is N itself, the swap leaves the lists as they are)
+      eOut[e] = sc.N[idx];
+      eIn[e] = g3;
+      eSwaps[e] = 1;
     }
     // corner quad T_X = (X, u1, P_0, P_1), P_0 / P_1 = N / O of the first fan face
     const h0 = list[(rho + n1 + 1) % K];
@@ -1834,39 +1873,89 @@ function decodeEdgeSplit(ctx) {
     for (let k = 0; k < 4; k++) eApp[o + k] = eC[4 * i + ((k + t) & 3)];
   }
 
-  // 9. rewritten slots ascending (a slot is listed once: X0's faces are
-  // distinct, X1's faces in X0's star share its entry)
-  const order = eOrder;
-  if (nE <= 32) {
-    for (let i = 0; i < nE; i++) {
-      const s = eSlot[i];
-      let u = i;
-      while (u > 0 && eSlot[order[u - 1]] > s) {
-        order[u] = order[u - 1];
-        u--;
-      }
-      order[u] = i;
-    }
-  } else {
-    // slot · 512 + entry (< 2^35): exact in doubles, sorted as numbers
-    const keys = eKeys.subarray(0, nE);
-    for (let i = 0; i < nE; i++) keys[i] = eSlot[i] * 512 + i;
-    keys.sort();
-    for (let i = 0; i < nE; i++) order[i] = keys[i] % 512;
-  }
-  for (let i = 0; i < nE; i++) {
-    const e = order[i];
-    eSlots[i] = eSlot[e];
-    const e4 = 4 * e;
-    const o = 4 * i;
-    eRw[o] = eQuad[e4];
-    eRw[o + 1] = eQuad[e4 + 1];
-    eRw[o + 2] = eQuad[e4 + 2];
-    eRw[o + 3] = eQuad[e4 + 3];
-    checkDistinct(eRw, o, 'rewritten slot', eSlot[e]);
-  }
-  for (let i = 0; i < 4; i++) checkDistinct(eApp, 4 * i, 'appended quad', i);
+  // The appended quads are distinct by construction: C_0, C_1 hold X0, X1
+  // and two distinct new vertices, T_X an old quad's X, N, O with a new
+  // vertex. The rewritten ones were checked above (fan quads) or are.
 
-  // 10. positions of V .. V+3 against §7.6, then apply
-  finishRecord(ctx, V, NF, 4, eSlots, nE, eRw, 4, eApp);
+  // 9.–10. positions of V .. V+3 against §7.6 (version 2: the floored mean
+  // of the parallelograms of every quad holding the vertex whose three
+  // other corners are known), then the apply. The sums do not depend on
+  // the quads' order, and every new vertex is in an appended quad, so the
+  // fallback's first quad (appended ones first, by slot) is always an
+  // appended one: the rewritten slots need no sorting (their log entries
+  // name distinct slots, in any order, and the lists are sets).
+  st.reserve(V + 4, NF);
+  const q = st.q;
+  const qmax = ctx.qmax;
+  for (let k = 0; k < 4; k++) {
+    const x = V + k;
+    let sx = 0, sy = 0, sz = 0, n = 0;
+    // appended corners: eC's quads hold the new vertex eUid[a] at a fixed
+    // corner (C_0: u2(X0) at 1, u1(X1) at 2; C_1: u2(X1) at 2, u1(X0) at
+    // 3; T_X: u1(X) at 1), and a rotation keeps a corner's neighbours
+    for (let a = 0; a < 4; a++) {
+      if (eUid[a] !== x) continue;
+      for (let h = 0; h < 2; h++) {
+        const at = E_APP_AT[2 * a + h];
+        if (at < 0) continue;
+        const o = at & ~3;
+        const c = at & 3;
+        const n1 = eC[o + ((c + 1) & 3)];
+        const op = eC[o + ((c + 2) & 3)];
+        const n3 = eC[o + ((c + 3) & 3)];
+        if (n1 < x && op < x && n3 < x) {
+          sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+          sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+          sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+          n++;
+        }
+      }
+    }
+    const from = k * E_BUCKET;
+    const to = from + eCntR[k];
+    for (let t = from; t < to; t++) {
+      const i = eNewR[t];
+      const o = i & ~3;
+      const c = i & 3;
+      const n1 = eQuad[o + ((c + 1) & 3)];
+      const op = eQuad[o + ((c + 2) & 3)];
+      const n3 = eQuad[o + ((c + 3) & 3)];
+      if (n1 < x && op < x && n3 < x) {
+        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
+        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
+        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+        n++;
+      }
+    }
+    if (n > 0) {
+      // Math.floor(s / n) is exact here, as in the split form: n ≤ 512
+      // quads and |s| ≤ 512 · 2^25, so the quotient's rounding error is
+      // far below the 1/n a non-integer quotient keeps from the next
+      // integer (and it inlines, where floorDiv is a call)
+      ctx.px = clamp(Math.floor(sx / n), qmax);
+      ctx.py = clamp(Math.floor(sy / n), qmax);
+      ctx.pz = clamp(Math.floor(sz / n), qmax);
+    } else {
+      // the first appended quad (by slot) holding x
+      let i = 0;
+      while (eApp[i] !== x) i++;
+      predictFallback(ctx, x, V, eApp, i);
+    }
+    readCode(ctx, ctx.px, ctx.py, ctx.pz, 'new vertex', x, '');
+    appendVertex(ctx);
+  }
+  for (let e = 0; e < nE; e++) {
+    const e4 = 4 * e;
+    if (eSwaps[e] === 1) {
+      rewriteSwap(ctx, eSlot[e], eQuad[e4], eQuad[e4 + 1], eQuad[e4 + 2], eQuad[e4 + 3], eOut[e], eIn[e]);
+    } else {
+      rewriteSlot(ctx, eSlot[e], eQuad[e4], eQuad[e4 + 1], eQuad[e4 + 2], eQuad[e4 + 3]);
+    }
+  }
+  for (let i = 0; i < 4; i++) appendQuad(ctx, eApp[4 * i], eApp[4 * i + 1], eApp[4 * i + 2], eApp[4 * i + 3]);
 }
+/**
+ * Where eC (C_0, C_1, T_X0, T_X1 unrotated, 4 corners each) holds new
+ * vertex eUid[a]: corner indices 4 i + j, two per a (−1: none).
+ */
+const E_APP_AT = Int32Array.of(7, 9, 1, -1, 2, 13, 6, -1);

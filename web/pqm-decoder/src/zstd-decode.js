@@ -591,6 +591,9 @@ function hufTail(d, s, acc, n, i, out, o, oEnd) {
  * e) → out[0 .. total): the first three decode ⌈total / 4⌉ symbols each.
  * One loop decodes all four, two symbols per stream and refill, while
  * every stream has 3 bytes and 2 symbols left; hufTail finishes each.
+ * (Refilling by a computed byte count instead of two tests of the bit
+ * count: every frame of bunny, loki in isolation 0.94–0.95× the time,
+ * same-run medians of 60.)
  */
 function huf4(d, s, e, out, total) {
   if (s + 6 > e) throw 'zstd: truncated Huffman jump table';
@@ -629,51 +632,27 @@ function huf4(d, s, e, out, total) {
     if (q < k) k = q;
     if (k <= 0) break;
     for (; k > 0; k--) {
+      // refill without a branch on the bit count (data: it mispredicts):
+      // x = ⌊(31 − n) / 8⌋ ≤ 3 whole bytes from the 3 below i (the safe
+      // count above leaves them in the stream), to 24 ≤ n ≤ 31 bits —
+      // enough for two symbols of at most 11 bits
       let x;
-      if (n1 < 22) {
-        if (n1 < 16) {
-          a1 = (a1 << 16) | (d[i1 - 1] << 8) | d[i1 - 2];
-          i1 -= 2;
-          n1 += 16;
-        }
-        if (n1 < 22) {
-          a1 = (a1 << 8) | d[--i1];
-          n1 += 8;
-        }
-      }
-      if (n2 < 22) {
-        if (n2 < 16) {
-          a2 = (a2 << 16) | (d[i2 - 1] << 8) | d[i2 - 2];
-          i2 -= 2;
-          n2 += 16;
-        }
-        if (n2 < 22) {
-          a2 = (a2 << 8) | d[--i2];
-          n2 += 8;
-        }
-      }
-      if (n3 < 22) {
-        if (n3 < 16) {
-          a3 = (a3 << 16) | (d[i3 - 1] << 8) | d[i3 - 2];
-          i3 -= 2;
-          n3 += 16;
-        }
-        if (n3 < 22) {
-          a3 = (a3 << 8) | d[--i3];
-          n3 += 8;
-        }
-      }
-      if (n4 < 22) {
-        if (n4 < 16) {
-          a4 = (a4 << 16) | (d[i4 - 1] << 8) | d[i4 - 2];
-          i4 -= 2;
-          n4 += 16;
-        }
-        if (n4 < 22) {
-          a4 = (a4 << 8) | d[--i4];
-          n4 += 8;
-        }
-      }
+      x = (31 - n1) >> 3;
+      a1 = (a1 << (8 * x)) | (((d[i1 - 1] << 16) | (d[i1 - 2] << 8) | d[i1 - 3]) >>> (24 - 8 * x));
+      i1 -= x;
+      n1 += 8 * x;
+      x = (31 - n2) >> 3;
+      a2 = (a2 << (8 * x)) | (((d[i2 - 1] << 16) | (d[i2 - 2] << 8) | d[i2 - 3]) >>> (24 - 8 * x));
+      i2 -= x;
+      n2 += 8 * x;
+      x = (31 - n3) >> 3;
+      a3 = (a3 << (8 * x)) | (((d[i3 - 1] << 16) | (d[i3 - 2] << 8) | d[i3 - 3]) >>> (24 - 8 * x));
+      i3 -= x;
+      n3 += 8 * x;
+      x = (31 - n4) >> 3;
+      a4 = (a4 << (8 * x)) | (((d[i4 - 1] << 16) | (d[i4 - 2] << 8) | d[i4 - 3]) >>> (24 - 8 * x));
+      i4 -= x;
+      n4 += 8 * x;
       x = t[(a1 >>> (n1 - mb)) & mask];
       out[o1] = x;
       n1 -= x >> 8;

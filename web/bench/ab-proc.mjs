@@ -1,0 +1,80 @@
+// A/B decode speed of two pqm-decoder source trees in *separate processes*,
+// alternating A, B, A, B, … for --rounds rounds: each process loads one
+// tree, warms up (at least 3 runs and 300 ms of CPU) and reports the median
+// and minimum CPU time (process.cpuUsage) of --runs whole-file decodes to
+// the finest level. In one process (bench/ab.mjs) both trees share one heap
+// and one JIT, so one tree's garbage, page reuse and deopts land on the
+// other's runs; here they do not, and the load drift is shared by the
+// alternation. Prints per file the median over rounds of the per-process
+// medians and the minimum of the minima, as million faces/s, and B / A.
+//
+//   node bench/ab-proc.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--rounds R] [--forward | --forward-both]
+import { execFileSync } from 'node:child_process';
+import { existsSync, readFileSync, statSync } from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath, pathToFileURL } from 'node:url';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const args = process.argv.slice(2);
+if (args[0] === '--child') {
+  // child: --child SRC_DIR FILE RUNS FORWARD
+  const [, dir, file, runsArg, fwd] = args;
+  const { PqmDecoder } = await import(pathToFileURL(path.join(dir, 'index.js')).href);
+  const bytes = new Uint8Array(readFileSync(file));
+  const cpuMs = (c) => (c.user + c.system) / 1000;
+  let faces = 0;
+  const run = () => {
+    const c0 = process.cpuUsage();
+    const d = new PqmDecoder(fwd === '1' ? { forwardOnly: true } : {});
+    d.push(bytes);
+    d.setLevel({ level: d.deepestLevel });
+    faces = d.faceCount;
+    return cpuMs(process.cpuUsage(c0));
+  };
+  for (let w = 0, c0 = process.cpuUsage(); w < 3 || (w < 50 && cpuMs(process.cpuUsage(c0)) < 300); w++) run();
+  const t = [];
+  for (let r = 0; r < Number(runsArg); r++) t.push(run());
+  t.sort((a, b) => a - b);
+  console.log(JSON.stringify({ faces, median: t[t.length >> 1], min: t[0] }));
+  process.exit(0);
+}
+const take = (flag, dflt) => {
+  const at = args.indexOf(flag);
+  return at >= 0 ? Number(args.splice(at, 2)[1]) : dflt;
+};
+const runs = take('--runs', 11);
+const rounds = take('--rounds', 6);
+const bothAt = args.indexOf('--forward-both');
+const forwardBoth = bothAt >= 0 && args.splice(bothAt, 1).length > 0;
+const forwardAt = args.indexOf('--forward');
+const forward = forwardBoth || (forwardAt >= 0 && args.splice(forwardAt, 1).length > 0);
+const dirs = [];
+while (args.length && existsSync(args[0]) && statSync(args[0]).isDirectory()) dirs.push(path.resolve(args.shift()));
+if (dirs.length === 0 || args.length === 0) {
+  console.error('usage: node bench/ab-proc.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--rounds R] [--forward | --forward-both]');
+  process.exit(2);
+}
+if (dirs.length === 1) dirs.push(path.join(here, '../pqm-decoder/src'));
+const self = fileURLToPath(import.meta.url);
+const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
+for (const file of args) {
+  const med = [[], []];
+  const min = [[], []];
+  let faces = 0;
+  for (let r = 0; r < rounds; r++) {
+    for (let k = 0; k < 2; k++) {
+      const fwd = forward && (k === 1 || forwardBoth) ? '1' : '0';
+      const out = JSON.parse(execFileSync(process.execPath, [self, '--child', dirs[k], file, String(runs), fwd], { encoding: 'utf8' }));
+      faces = out.faces;
+      med[k].push(out.median);
+      min[k].push(out.min);
+    }
+  }
+  const [a, b] = med.map(median);
+  const [ma, mb] = min.map((x) => Math.min(...x));
+  const mfs = (ms) => (faces / ms / 1e3).toFixed(2);
+  console.log(
+    `${path.basename(file)}: ${faces} faces; A ${mfs(a)} M faces/s, B ${mfs(b)} M faces/s, B / A ${(b / a).toFixed(3)} ` +
+      `(median of ${rounds} process medians of ${runs}); minima A ${mfs(ma)}, B ${mfs(mb)}, B / A ${(mb / ma).toFixed(3)}`,
+  );
+}
