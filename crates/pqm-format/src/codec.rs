@@ -1335,6 +1335,210 @@ fn predict_scan(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16) -> [u3
     p.finish()
 }
 
+/// Most new vertices [`OnePass`] predicts (an edge split's four).
+const ONE_PASS_NEW: usize = 4;
+
+/// Room for quads with two or more new corners in [`OnePass`] (an edge
+/// split has two appended quads and the rare face of both endpoints); a
+/// record with more takes the per-vertex scans.
+const ONE_PASS_DEFERRED: usize = 12;
+
+/// The predictions of spec §7.6 for the (at most [`ONE_PASS_NEW`]) new
+/// vertices of a record that moves nothing (version 2 or later), gathered
+/// in one pass over the record's quads instead of one [`predict_scan`] per
+/// new vertex — with the same values.
+///
+/// Why the same: a quad contributes its parallelogram to new vertex `x`
+/// when `x` is one of its corners and the other three are known, i.e.
+/// below `x` (nothing moves, and what is known while `x` is decoded are
+/// the old vertices and the new ones before it). A quad holds a vertex at
+/// most once (every record quad passes [`check_distinct`]), so a quad with
+/// new corners contributes to exactly one of them, the largest: at once
+/// when that is its only new corner (the other three are old:
+/// [`OnePass::add_single`]), else once the smaller new corners are decoded
+/// (kept aside until then). The sums are integers, so their order does not
+/// matter, and the counts are the same; a vertex left without a
+/// parallelogram takes [`predict_scan`] itself (its fallbacks read the
+/// first entry in record order). Callers must feed every record quad
+/// exactly once.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct OnePass {
+    sum: [[i64; 3]; ONE_PASS_NEW],
+    cnt: [i64; ONE_PASS_NEW],
+    /// (quad, corner of its largest new vertex, that vertex's index).
+    later: [([u32; 4], u8, u8); ONE_PASS_DEFERRED],
+    n_later: usize,
+    /// More quads to defer than there is room for: use the scans.
+    overflow: bool,
+}
+
+impl OnePass {
+    /// Empty sums.
+    #[inline]
+    pub(crate) fn clear(&mut self) {
+        self.sum = [[0; 3]; ONE_PASS_NEW];
+        self.cnt = [0; ONE_PASS_NEW];
+        self.n_later = 0;
+        self.overflow = false;
+    }
+
+    /// The parallelogram `a + e − o` of new vertex `t` (index from `v0`)
+    /// whose neighbours in its quad are the old vertices `a`, `e` and whose
+    /// opposite corner is the old vertex `o`.
+    #[inline(always)]
+    pub(crate) fn add_single(&mut self, q: &[[u32; 3]], t: usize, a: u32, o: u32, e: u32) {
+        let (a, o, e) = (q[a as usize], q[o as usize], q[e as usize]);
+        let s = &mut self.sum[t & (ONE_PASS_NEW - 1)];
+        for c in 0..3 {
+            s[c] += a[c] as i64 + e[c] as i64 - o[c] as i64;
+        }
+        self.cnt[t & (ONE_PASS_NEW - 1)] += 1;
+    }
+
+    /// Any record quad, new vertices `v0 .. v0 + nn` (`nn <=`
+    /// [`ONE_PASS_NEW`]).
+    #[inline(always)]
+    pub(crate) fn add_quad(&mut self, q: &[[u32; 3]], quad: &[u32; 4], v0: u32, nn: u32) {
+        let d = quad.map(|u| u.wrapping_sub(v0));
+        let mask = (d[0] < nn) as u32
+            | ((d[1] < nn) as u32) << 1
+            | ((d[2] < nn) as u32) << 2
+            | ((d[3] < nn) as u32) << 3;
+        if mask == 0 {
+            return;
+        }
+        // A corner past the new vertices (no decoded record has one) is
+        // never known: the quad contributes to none of them.
+        let lim = v0.saturating_add(nn);
+        if quad.iter().any(|&u| u >= lim) {
+            return;
+        }
+        if mask & (mask - 1) == 0 {
+            let k = mask.trailing_zeros() as usize;
+            let (a, o, e) = (quad[(k + 1) & 3], quad[(k + 2) & 3], quad[(k + 3) & 3]);
+            self.add_single(q, d[k] as usize, a, o, e);
+            return;
+        }
+        self.defer(quad, v0, mask);
+    }
+
+    /// A quad with new corners `mask` (two or more), kept for its largest.
+    #[inline(never)]
+    fn defer(&mut self, quad: &[u32; 4], v0: u32, mask: u32) {
+        if self.n_later == ONE_PASS_DEFERRED {
+            self.overflow = true;
+            return;
+        }
+        let d = quad.map(|u| u.wrapping_sub(v0));
+        let mut k = mask.trailing_zeros() as usize;
+        let mut rest = mask & (mask - 1);
+        while rest != 0 {
+            let j = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if d[j] > d[k] {
+                k = j;
+            }
+        }
+        self.later[self.n_later] = (*quad, k as u8, d[k] as u8);
+        self.n_later += 1;
+    }
+
+    /// Reads the codes of the `n_new` new vertices of `r` (all its quads
+    /// fed) into `r.new_pos`, in order, each its prediction plus the next
+    /// residual of `pos`.
+    pub(crate) fn finish(
+        &mut self,
+        st: &MeshState,
+        r: &mut QRecord,
+        n_new: usize,
+        major: u16,
+        pos: &mut Reader,
+    ) -> Result<(), String> {
+        let v0 = st.q.len() as u32;
+        if self.overflow || n_new > ONE_PASS_NEW || major < 2 || !r.moved.is_empty() {
+            return scan_new_positions(st, r, n_new, major, pos);
+        }
+        let q = &st.q;
+        for t in 0..n_new {
+            for &(quad, k, lt) in &self.later[..self.n_later] {
+                if lt as usize != t {
+                    continue;
+                }
+                let k = k as usize;
+                // The other new corners are below `v0 + t`: decoded.
+                let code = |u: u32| {
+                    if u < v0 {
+                        q[u as usize]
+                    } else {
+                        r.new_pos[(u - v0) as usize]
+                    }
+                };
+                let (a, o, e) = (
+                    code(quad[(k + 1) & 3]),
+                    code(quad[(k + 2) & 3]),
+                    code(quad[(k + 3) & 3]),
+                );
+                for c in 0..3 {
+                    self.sum[t][c] += a[c] as i64 + e[c] as i64 - o[c] as i64;
+                }
+                self.cnt[t] += 1;
+            }
+            let pred = if self.cnt[t] > 0 {
+                floor_mean(self.sum[t], self.cnt[t], st.qmax)
+            } else {
+                predict_scan(st, r, v0, v0 + t as u32, major)
+            };
+            let p = add_residual(pred, pos, st.qmax)?;
+            r.new_pos.push(p);
+        }
+        Ok(())
+    }
+}
+
+/// One [`predict_scan`] per new vertex of `r`, each followed by its
+/// residual from `pos`, into `r.new_pos`.
+#[cold]
+#[inline(never)]
+fn scan_new_positions(
+    st: &MeshState,
+    r: &mut QRecord,
+    n_new: usize,
+    major: u16,
+    pos: &mut Reader,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    for t in 0..n_new {
+        let pred = predict_scan(st, r, v0, v0 + t as u32, major);
+        let p = add_residual(pred, pos, st.qmax)?;
+        r.new_pos.push(p);
+    }
+    Ok(())
+}
+
+/// The codes of the `n_new` new vertices of `r` (quads complete) by one
+/// [`OnePass`] over its quads: the same values as [`predict_scan`] each.
+fn decode_new_positions(
+    st: &MeshState,
+    r: &mut QRecord,
+    n_new: usize,
+    major: u16,
+    pos: &mut Reader,
+    op: &mut OnePass,
+) -> Result<(), String> {
+    if n_new > ONE_PASS_NEW || major < 2 || !r.moved.is_empty() {
+        return scan_new_positions(st, r, n_new, major, pos);
+    }
+    op.clear();
+    let (v0, nn) = (st.q.len() as u32, n_new as u32);
+    for quad in &r.appended {
+        op.add_quad(&st.q, quad, v0, nn);
+    }
+    for (_, quad) in &r.rewritten {
+        op.add_quad(&st.q, quad, v0, nn);
+    }
+    op.finish(st, r, n_new, major, pos)
+}
+
 /// [`predict_scan`] of the split form's new vertex `c = V` (record `r`
 /// just built by [`build_split_into`], wings `b = l_i`, `d = l_j`, `m`'s
 /// code after the record `m_new`), without the scan: `c` is corner
@@ -1666,6 +1870,8 @@ pub struct DecodeScratch {
     edge: crate::edge_split::Scratch,
     /// Fan rotations of the current edge-split record.
     rots: Vec<u8>,
+    /// Predictions of the current record's new vertices.
+    one_pass: OnePass,
 }
 
 impl DecodeScratch {
@@ -1821,9 +2027,7 @@ pub fn decode_record_into(
             let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
             r.rewritten.push((s, rewritten));
             r.appended.push(appended);
-            let pred = predict_scan(st, r, v0, v0, major);
-            let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-            r.new_pos.push(p);
+            decode_new_positions(st, r, 1, major, &mut rd[POS], &mut sc.one_pass)?;
         }
     }
     Ok(())
@@ -1873,15 +2077,8 @@ fn decode_edge_split(
             .push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
     }
     crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
-    // Four scans of the record (its 4 appended quads and the stars' faces),
-    // one per new vertex: fewer instructions than building the lists
-    // first, and linear in the record for any input.
-    for t in 0..4 {
-        let pred = predict_scan(st, r, v0, v0 + t, major);
-        let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-        r.new_pos.push(p);
-    }
-    Ok(())
+    // `build` gathered the four predictions while it made the quads.
+    sc.edge.pred.finish(st, r, 4, major, &mut rd[POS])
 }
 
 /// Decodes the body of a general-form (`local` false, spec §7.4) or
@@ -1907,6 +2104,7 @@ fn decode_patch(
         slots,
         extra,
         nf,
+        one_pass,
         ..
     } = sc;
     let v0 = st.q.len() as u32;
@@ -2063,6 +2261,9 @@ fn decode_patch(
     // quads; the lists are built only for the others (at most `SCAN_NEW`
     // scans per record, so a hostile record stays linear).
     const SCAN_NEW: usize = 8;
+    if n_new <= ONE_PASS_NEW && r.moved.is_empty() {
+        return decode_new_positions(st, r, n_new, major, &mut rd[POS], one_pass);
+    }
     let mut built = false;
     for t in 0..n_new {
         let x = v0 + t as u32;
