@@ -1194,6 +1194,32 @@ fn build_face_split(st: &MeshState, m: u32, s: u32, swap: bool, sym: u8) -> ([u3
     )
 }
 
+/// [`predict_scan`] of a face split's new vertex `c` (version 2 and later,
+/// the only ones with the form), without the scan. [`build_face_split`]
+/// cuts slot `s`, `[m, p, o, q]` from `m`, into `[m, p, o, c]` and
+/// `[m, c, o, q]` (swapped and rotated by the symbol: rotations keep the
+/// cyclic order, so not the parallelograms). `c` is once in each, its
+/// other corners are old (known), and its parallelograms are `m + o − p`
+/// and `o + m − q`: the mean of the two is `floor((2m + 2o − p − q) / 2)`,
+/// what the scan computes from the same two entries.
+fn predict_face_split(st: &MeshState, m: u32, s: u32) -> [u32; 3] {
+    let f = st.quads[s as usize];
+    // The corner `build_face_split` takes as `m` (same fallback).
+    let k = f.iter().position(|&x| x == m).unwrap_or(0);
+    let q = &st.q;
+    let (pm, pp, po, pq) = (
+        q[f[k] as usize],
+        q[f[(k + 1) & 3] as usize],
+        q[f[(k + 2) & 3] as usize],
+        q[f[(k + 3) & 3] as usize],
+    );
+    let mut sum = [0i64; 3];
+    for t in 0..3 {
+        sum[t] = 2 * (pm[t] as i64 + po[t] as i64) - pp[t] as i64 - pq[t] as i64;
+    }
+    floor_mean(sum, 2, st.qmax)
+}
+
 /// Prediction of the split vertex `a` (spec §7.5): `m`'s old code plus a
 /// quarter of the difference between the mean far corners (the corner
 /// opposite `m`) of the faces that keep `m` and of the faces that go to `c`.
@@ -2027,7 +2053,9 @@ pub fn decode_record_into(
             let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
             r.rewritten.push((s, rewritten));
             r.appended.push(appended);
-            decode_new_positions(st, r, 1, major, &mut rd[POS], &mut sc.one_pass)?;
+            let pred = predict_face_split(st, m, s);
+            let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+            r.new_pos.push(p);
         }
     }
     Ok(())
