@@ -787,29 +787,32 @@ impl MeshState {
         if dup != 0 {
             return self.star_sorted(m, out);
         }
-        let Star { faces, link } = out;
-        faces.clear();
-        link.clear();
-        faces.reserve(n);
-        link.reserve(n);
+        // The walk into stack arrays, copied out whole (a fixed 32-byte
+        // copy each, then truncated: no per-element push).
+        let (mut of, mut ol) = ([0u32; 8], [0u32; 8]);
         let (mut f, mut seen) = (start, 1u32 << start);
-        faces.push(fs[f]);
-        link.push(nx[f]);
-        for _ in 1..n {
+        (of[0], ol[0]) = (fs[f], nx[f]);
+        for i in 1..n {
             let s = succ[f];
             let g = s.trailing_zeros() as usize;
             if s == 0 || seen & (1 << g) != 0 {
                 return self.star_sorted(m, out);
             }
             seen |= 1 << g;
-            faces.push(fs[g]);
-            link.push(nx[g]);
+            (of[i], ol[i]) = (fs[g], nx[g]);
             f = g;
         }
-        if succ[f] != 0 && succ[f].trailing_zeros() as usize == start {
-            return Ok(());
+        if succ[f] == 0 || succ[f].trailing_zeros() as usize != start {
+            return self.star_sorted(m, out);
         }
-        self.star_sorted(m, out)
+        let Star { faces, link } = out;
+        faces.clear();
+        faces.extend_from_slice(&of);
+        faces.truncate(n);
+        link.clear();
+        link.extend_from_slice(&ol);
+        link.truncate(n);
+        Ok(())
     }
 
     /// [`MeshState::star_into`] past its fast path.
