@@ -123,9 +123,10 @@ pub const NIL: u32 = u32::MAX;
 /// `[n, c_1 … c_7]` holding up to [`INLINE`] of its corners; the rest (a
 /// vertex in more than 7 faces, a few per cent on real meshes) are a doubly
 /// linked list (`ov_head`: first corner per vertex, `ov_links`:
-/// `[next, prev]` per corner, both grown only as far as the ids they
-/// hold), flagged by [`OVERFLOW`] in `n`. At most 32 bytes per vertex and
-/// 32 per slot, as the single lists before (`Limits::estimate` unchanged). Reading a
+/// `[next, prev]` per corner, both [`Paged`]: only the pages of 64 ids
+/// that hold an entry are allocated), flagged by [`OVERFLOW`] in `n`. At
+/// most 32 bytes per vertex and 32 per slot, and 1/64 of that for the page
+/// tables (within `Limits::estimate`). Reading a
 /// star is then one cache miss for the block and independent misses for
 /// the quads, where one linked list per vertex made every face a dependent
 /// miss (the decoder's largest cost, issue 4); a rewrite is a scan of one
@@ -146,24 +147,53 @@ pub struct MeshState {
     inline: Vec<Block>,
     /// First overflow corner per vertex ([`NIL`]: none), valid where the
     /// block has the flag.
-    ov_head: Vec<u32>,
+    ov_head: Paged<u32>,
     /// `[next, prev]` per overflow corner ([`NIL`] ends a list).
-    ov_links: Vec<[u32; 2]>,
-    /// Vertex and corner counts the overflow lists may grow to (the
-    /// reserved finest level): they grow geometrically but never past
-    /// these, so they stay within `Limits::estimate`.
-    caps: (usize, usize),
+    ov_links: Paged<[u32; 2]>,
 }
 
-/// Grows `v` to `len` entries of `fill`, doubling its capacity but not
-/// past `cap` (nor below `len`).
-fn grow<T: Clone>(v: &mut Vec<T>, len: usize, cap: usize, fill: T) {
-    if v.len() < len {
-        let want = len.max(2 * v.len()).min(cap.max(len));
-        if v.capacity() < want {
-            v.reserve_exact(want - v.len());
+/// Entries per page of a [`Paged`] array.
+const PAGE: usize = 64;
+
+/// An array by index (vertex or corner id) whose entries are mostly never
+/// written: pages of [`PAGE`] entries are allocated on their first write,
+/// and unwritten entries read as `fill`. The overflow lists of
+/// [`MeshState`] are indexed by corner id but hold few corners (on the
+/// bunny ~800 of 836k): as one array grown to the largest id written (the
+/// previous form) they were 6.7 MB filled, copied as they doubled and
+/// faulted in, for a few kilobytes of entries.
+#[derive(Clone, Debug)]
+struct Paged<T: Copy> {
+    pages: Vec<Option<Box<[T; PAGE]>>>,
+    fill: T,
+}
+
+impl<T: Copy> Paged<T> {
+    fn new(fill: T) -> Self {
+        Paged {
+            pages: Vec::new(),
+            fill,
         }
-        v.resize(len, fill);
+    }
+
+    /// Entry `i` (`fill` if never written).
+    #[inline]
+    fn get(&self, i: u32) -> T {
+        match self.pages.get(i as usize / PAGE) {
+            Some(Some(p)) => p[i as usize % PAGE],
+            _ => self.fill,
+        }
+    }
+
+    /// Entry `i`, for writing (its page allocated if new).
+    #[inline]
+    fn at(&mut self, i: u32) -> &mut T {
+        let (pi, k) = (i as usize / PAGE, i as usize % PAGE);
+        if self.pages.len() <= pi {
+            self.pages.resize(pi + 1, None);
+        }
+        let fill = self.fill;
+        &mut self.pages[pi].get_or_insert_with(|| Box::new([fill; PAGE]))[k]
     }
 }
 
@@ -228,7 +258,7 @@ impl Iterator for CornerIter<'_> {
             return None;
         }
         let c = self.ov;
-        self.ov = self.st.ov_links.get(c as usize).map_or(NIL, |l| l[0]);
+        self.ov = self.st.ov_links.get(c)[0];
         Some(c)
     }
 }
@@ -325,9 +355,8 @@ impl MeshState {
         let mut st = MeshState {
             qmax,
             inline: vec![Block::default(); q.len()],
-            ov_head: Vec::new(),
-            ov_links: Vec::new(),
-            caps: (q.len(), 4 * quads.len()),
+            ov_head: Paged::new(NIL),
+            ov_links: Paged::new([NIL; 2]),
             q,
             quads,
         };
@@ -344,7 +373,6 @@ impl MeshState {
         self.q.reserve(nv);
         self.inline.reserve(nv);
         self.quads.reserve(nf);
-        self.caps = (self.q.len() + nv, 4 * (self.quads.len() + nf));
     }
 
     /// Adds corner `c` to vertex `v`: into its block, or at the front of
@@ -380,14 +408,12 @@ impl MeshState {
         }
         if b[0] & OVERFLOW == 0 {
             b[0] |= OVERFLOW;
-            grow(&mut self.ov_head, v as usize + 1, self.caps.0, NIL);
-            self.ov_head[v as usize] = NIL;
+            *self.ov_head.at(v) = NIL;
         }
-        grow(&mut self.ov_links, c as usize + 1, self.caps.1, [NIL; 2]);
-        let h = std::mem::replace(&mut self.ov_head[v as usize], c);
-        self.ov_links[c as usize] = [h, NIL];
+        let h = std::mem::replace(self.ov_head.at(v), c);
+        *self.ov_links.at(c) = [h, NIL];
         if h != NIL {
-            self.ov_links[h as usize][1] = c;
+            self.ov_links.at(h)[1] = c;
         }
     }
 
@@ -416,19 +442,22 @@ impl MeshState {
     #[cold]
     #[inline(never)]
     fn unlink_overflow(&mut self, c: u32, v: u32) {
-        let Some(&[nx, pv]) = self.ov_links.get(c as usize) else {
+        let [nx, pv] = self.ov_links.get(c);
+        // Not in the list (no previous corner, not the head): nothing to
+        // remove (a consistent state never asks for it).
+        if pv == NIL && self.ov_head.get(v) != c {
             return;
-        };
+        }
         if pv != NIL {
-            self.ov_links[pv as usize][0] = nx;
+            self.ov_links.at(pv)[0] = nx;
         } else {
-            self.ov_head[v as usize] = nx;
+            *self.ov_head.at(v) = nx;
             if nx == NIL {
                 self.inline[v as usize].0[0] &= !OVERFLOW;
             }
         }
         if nx != NIL {
-            self.ov_links[nx as usize][1] = pv;
+            self.ov_links.at(nx)[1] = pv;
         }
     }
 
@@ -488,7 +517,9 @@ impl MeshState {
     }
 
     /// Sets slot `s` to `quad`, moving the changed corners between lists.
-    #[inline]
+    /// (Always inlined: out of line, its call cost ~10 % of a record's
+    /// apply.)
+    #[inline(always)]
     fn set_quad(&mut self, s: u32, quad: [u32; 4]) -> [u32; 4] {
         let old = std::mem::replace(&mut self.quads[s as usize], quad);
         let mut changed = !eq_mask4x4(&old, &quad) & 15;
@@ -509,7 +540,7 @@ impl MeshState {
             Some(Block(b)) => {
                 let n = (b[0] & !OVERFLOW) as usize;
                 let ov = if b[0] & OVERFLOW != 0 {
-                    self.ov_head.get(v as usize).copied().unwrap_or(NIL)
+                    self.ov_head.get(v)
                 } else {
                     NIL
                 };
