@@ -1564,6 +1564,18 @@ impl OnePass {
         self.defer(quad, v0, mask);
     }
 
+    /// A quad whose largest new corner is `quad[k]`, new vertex `t`, with
+    /// other new corners (all below it): kept until they are decoded.
+    #[inline]
+    pub(crate) fn defer_at(&mut self, quad: &[u32; 4], k: usize, t: usize) {
+        if self.n_later == ONE_PASS_DEFERRED {
+            self.overflow = true;
+            return;
+        }
+        self.later[self.n_later] = (*quad, k as u8, t as u8);
+        self.n_later += 1;
+    }
+
     /// A quad with new corners `mask` (two or more), kept for its largest.
     #[inline(never)]
     fn defer(&mut self, quad: &[u32; 4], v0: u32, mask: u32) {

@@ -249,16 +249,29 @@ pub fn build(
             }
             qd
         } else {
+            // A face of both endpoints: two new corners, its parallelogram
+            // goes to the larger once the smaller is decoded.
             let mut qd = st.quads[slot as usize];
+            let (mut kt, mut best, mut found) = ((0usize, 0usize), 0u8, 0);
             for t in std::iter::once(tag).chain(twin) {
                 let (xv, id) = (ends[(t >> 1) as usize], u(t as usize));
-                for c in qd.iter_mut() {
-                    if *c == xv {
-                        *c = id;
+                for k in 0..4 {
+                    if qd[k] == xv {
+                        qd[k] = id;
+                        if found == 0 || pv[t as usize] > best {
+                            (kt, best) = ((k, pv[t as usize] as usize), pv[t as usize]);
+                        }
+                        found += 1;
                     }
                 }
             }
-            pred.add_quad(q, &qd, v0, 4);
+            if found == 2 {
+                pred.defer_at(&qd, kt.0, kt.1);
+            } else {
+                // Not one corner per endpoint (a state no decoder
+                // reaches): the general rule.
+                pred.add_quad(q, &qd, v0, 4);
+            }
             qd
         };
         check_distinct(&q, || format!("edge split: rewritten slot {slot}"))?;
@@ -267,13 +280,24 @@ pub fn build(
     }
     let [x0, x1] = ends;
     let canon = [[x0, u(1), u(2), x1], [x0, x1, u(3), u(0)], tri[0], tri[1]];
+    // Their parallelograms, from the canonical corners (a rotation keeps
+    // each corner's neighbours): `C_0` and `C_1` hold two new vertices
+    // each (the larger takes the quad), `T_x` one, `U_{2x}` after `X`.
+    let later = |a: usize, b: usize| if pv[a] > pv[b] { (1, a) } else { (0, b) };
+    let (d0, t0) = later(1, 2);
+    pred.defer_at(&canon[0], 2 - d0, pv[t0] as usize);
+    let (d1, t1) = later(3, 0);
+    pred.defer_at(&canon[1], 3 - d1, pv[t1] as usize);
+    for x in 0..2 {
+        let [xv, _, l, o] = tri[x];
+        pred.add_single(&st.q, pv[2 * x] as usize, l, o, xv);
+    }
     // Placed in a stack array, then copied in one go (a `resize` of the
     // list cost more than the placement).
     let mut app = [[0u32; 4]; 4];
     for (i, q) in canon.into_iter().enumerate() {
         let q = rotl(q, (ra >> (2 * i)) & 3);
         check_distinct(&q, || format!("edge split: appended quad {i}"))?;
-        pred.add_quad(&st.q, &q, v0, 4);
         app[pf[i] as usize] = q;
     }
     out.appended.clear();
