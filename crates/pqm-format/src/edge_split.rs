@@ -255,9 +255,9 @@ pub fn build(
             let (mut kt, mut best, mut found) = ((0usize, 0usize), 0u8, 0);
             for t in std::iter::once(tag).chain(twin) {
                 let (xv, id) = (ends[(t >> 1) as usize], u(t as usize));
-                for k in 0..4 {
-                    if qd[k] == xv {
-                        qd[k] = id;
+                for (k, c) in qd.iter_mut().enumerate() {
+                    if *c == xv {
+                        *c = id;
                         if found == 0 || pv[t as usize] > best {
                             (kt, best) = ((k, pv[t as usize] as usize), pv[t as usize]);
                         }
