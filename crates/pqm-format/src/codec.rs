@@ -123,9 +123,10 @@ pub const NIL: u32 = u32::MAX;
 /// `[n, c_1 … c_7]` holding up to [`INLINE`] of its corners; the rest (a
 /// vertex in more than 7 faces, a few per cent on real meshes) are a doubly
 /// linked list (`ov_head`: first corner per vertex, `ov_links`:
-/// `[next, prev]` per corner, both grown only as far as the ids they
-/// hold), flagged by [`OVERFLOW`] in `n`. At most 32 bytes per vertex and
-/// 32 per slot, as the single lists before (`Limits::estimate` unchanged). Reading a
+/// `[next, prev]` per corner, both [`Paged`]: only the pages of 64 ids
+/// that hold an entry are allocated), flagged by [`OVERFLOW`] in `n`. At
+/// most 32 bytes per vertex and 32 per slot, and 1/64 of that for the page
+/// tables (within `Limits::estimate`). Reading a
 /// star is then one cache miss for the block and independent misses for
 /// the quads, where one linked list per vertex made every face a dependent
 /// miss (the decoder's largest cost, issue 4); a rewrite is a scan of one
@@ -146,24 +147,53 @@ pub struct MeshState {
     inline: Vec<Block>,
     /// First overflow corner per vertex ([`NIL`]: none), valid where the
     /// block has the flag.
-    ov_head: Vec<u32>,
+    ov_head: Paged<u32>,
     /// `[next, prev]` per overflow corner ([`NIL`] ends a list).
-    ov_links: Vec<[u32; 2]>,
-    /// Vertex and corner counts the overflow lists may grow to (the
-    /// reserved finest level): they grow geometrically but never past
-    /// these, so they stay within `Limits::estimate`.
-    caps: (usize, usize),
+    ov_links: Paged<[u32; 2]>,
 }
 
-/// Grows `v` to `len` entries of `fill`, doubling its capacity but not
-/// past `cap` (nor below `len`).
-fn grow<T: Clone>(v: &mut Vec<T>, len: usize, cap: usize, fill: T) {
-    if v.len() < len {
-        let want = len.max(2 * v.len()).min(cap.max(len));
-        if v.capacity() < want {
-            v.reserve_exact(want - v.len());
+/// Entries per page of a [`Paged`] array.
+const PAGE: usize = 64;
+
+/// An array by index (vertex or corner id) whose entries are mostly never
+/// written: pages of [`PAGE`] entries are allocated on their first write,
+/// and unwritten entries read as `fill`. The overflow lists of
+/// [`MeshState`] are indexed by corner id but hold few corners (on the
+/// bunny ~800 of 836k): as one array grown to the largest id written (the
+/// previous form) they were 6.7 MB filled, copied as they doubled and
+/// faulted in, for a few kilobytes of entries.
+#[derive(Clone, Debug)]
+struct Paged<T: Copy> {
+    pages: Vec<Option<Box<[T; PAGE]>>>,
+    fill: T,
+}
+
+impl<T: Copy> Paged<T> {
+    fn new(fill: T) -> Self {
+        Paged {
+            pages: Vec::new(),
+            fill,
         }
-        v.resize(len, fill);
+    }
+
+    /// Entry `i` (`fill` if never written).
+    #[inline]
+    fn get(&self, i: u32) -> T {
+        match self.pages.get(i as usize / PAGE) {
+            Some(Some(p)) => p[i as usize % PAGE],
+            _ => self.fill,
+        }
+    }
+
+    /// Entry `i`, for writing (its page allocated if new).
+    #[inline]
+    fn at(&mut self, i: u32) -> &mut T {
+        let (pi, k) = (i as usize / PAGE, i as usize % PAGE);
+        if self.pages.len() <= pi {
+            self.pages.resize(pi + 1, None);
+        }
+        let fill = self.fill;
+        &mut self.pages[pi].get_or_insert_with(|| Box::new([fill; PAGE]))[k]
     }
 }
 
@@ -228,7 +258,7 @@ impl Iterator for CornerIter<'_> {
             return None;
         }
         let c = self.ov;
-        self.ov = self.st.ov_links.get(c as usize).map_or(NIL, |l| l[0]);
+        self.ov = self.st.ov_links.get(c)[0];
         Some(c)
     }
 }
@@ -325,9 +355,8 @@ impl MeshState {
         let mut st = MeshState {
             qmax,
             inline: vec![Block::default(); q.len()],
-            ov_head: Vec::new(),
-            ov_links: Vec::new(),
-            caps: (q.len(), 4 * quads.len()),
+            ov_head: Paged::new(NIL),
+            ov_links: Paged::new([NIL; 2]),
             q,
             quads,
         };
@@ -344,7 +373,6 @@ impl MeshState {
         self.q.reserve(nv);
         self.inline.reserve(nv);
         self.quads.reserve(nf);
-        self.caps = (self.q.len() + nv, 4 * (self.quads.len() + nf));
     }
 
     /// Adds corner `c` to vertex `v`: into its block, or at the front of
@@ -380,14 +408,12 @@ impl MeshState {
         }
         if b[0] & OVERFLOW == 0 {
             b[0] |= OVERFLOW;
-            grow(&mut self.ov_head, v as usize + 1, self.caps.0, NIL);
-            self.ov_head[v as usize] = NIL;
+            *self.ov_head.at(v) = NIL;
         }
-        grow(&mut self.ov_links, c as usize + 1, self.caps.1, [NIL; 2]);
-        let h = std::mem::replace(&mut self.ov_head[v as usize], c);
-        self.ov_links[c as usize] = [h, NIL];
+        let h = std::mem::replace(self.ov_head.at(v), c);
+        *self.ov_links.at(c) = [h, NIL];
         if h != NIL {
-            self.ov_links[h as usize][1] = c;
+            self.ov_links.at(h)[1] = c;
         }
     }
 
@@ -416,19 +442,22 @@ impl MeshState {
     #[cold]
     #[inline(never)]
     fn unlink_overflow(&mut self, c: u32, v: u32) {
-        let Some(&[nx, pv]) = self.ov_links.get(c as usize) else {
+        let [nx, pv] = self.ov_links.get(c);
+        // Not in the list (no previous corner, not the head): nothing to
+        // remove (a consistent state never asks for it).
+        if pv == NIL && self.ov_head.get(v) != c {
             return;
-        };
+        }
         if pv != NIL {
-            self.ov_links[pv as usize][0] = nx;
+            self.ov_links.at(pv)[0] = nx;
         } else {
-            self.ov_head[v as usize] = nx;
+            *self.ov_head.at(v) = nx;
             if nx == NIL {
                 self.inline[v as usize].0[0] &= !OVERFLOW;
             }
         }
         if nx != NIL {
-            self.ov_links[nx as usize][1] = pv;
+            self.ov_links.at(nx)[1] = pv;
         }
     }
 
@@ -488,7 +517,9 @@ impl MeshState {
     }
 
     /// Sets slot `s` to `quad`, moving the changed corners between lists.
-    #[inline]
+    /// (Always inlined: out of line, its call cost ~10 % of a record's
+    /// apply.)
+    #[inline(always)]
     fn set_quad(&mut self, s: u32, quad: [u32; 4]) -> [u32; 4] {
         let old = std::mem::replace(&mut self.quads[s as usize], quad);
         let mut changed = !eq_mask4x4(&old, &quad) & 15;
@@ -509,7 +540,7 @@ impl MeshState {
             Some(Block(b)) => {
                 let n = (b[0] & !OVERFLOW) as usize;
                 let ov = if b[0] & OVERFLOW != 0 {
-                    self.ov_head.get(v as usize).copied().unwrap_or(NIL)
+                    self.ov_head.get(v)
                 } else {
                     NIL
                 };
@@ -574,6 +605,68 @@ impl MeshState {
                 self.link(4 * s + k as u32, v);
             }
         }
+    }
+
+    /// [`MeshState::apply_logged`] with the compact log the decoder keeps:
+    /// `(vertex, new ^ old code)` per moved vertex and `(slot, new ^ old
+    /// quad)` per rewritten slot, bitwise exclusive or. A level holds the
+    /// old value where a record is applied and the new one where it is
+    /// undone, so one delta does both ways (`x ^= delta`), in 16 and 20
+    /// bytes where the pair took 28 and 36: on the bunny the general
+    /// decoder's logs were most of its extra memory over a forward-only
+    /// one, and its extra page faults most of its extra time.
+    pub fn apply_delta_logged(
+        &mut self,
+        r: &QRecord,
+        moved: &mut MoveDeltas,
+        rw: &mut RewriteDeltas,
+    ) {
+        for &p in &r.new_pos {
+            self.q.push(p);
+            self.inline.push(Block::default());
+        }
+        for &(v, p) in &r.moved {
+            let old = std::mem::replace(&mut self.q[v as usize], p);
+            moved.push((v, xor3(p, old)));
+        }
+        for &(s, quad) in &r.rewritten {
+            let old = self.set_quad(s, quad);
+            rw.push((s, xor4(quad, old)));
+        }
+        for &quad in &r.appended {
+            let s = self.quads.len() as u32;
+            self.quads.push(quad);
+            for (k, &v) in quad.iter().enumerate() {
+                self.link(4 * s + k as u32, v);
+            }
+        }
+    }
+
+    /// [`MeshState::undo`] of a record applied by
+    /// [`MeshState::apply_delta_logged`] with these log entries.
+    pub fn undo_deltas(
+        &mut self,
+        v_before: usize,
+        f_before: usize,
+        moved: &[MoveDelta],
+        rw: &[RewriteDelta],
+    ) {
+        for s in (f_before..self.quads.len()).rev() {
+            let quad = self.quads[s];
+            for (k, &v) in quad.iter().enumerate() {
+                self.unlink(4 * s as u32 + k as u32, v);
+            }
+        }
+        self.quads.truncate(f_before);
+        for &(s, d) in rw.iter().rev() {
+            self.set_quad(s, xor4(self.quads[s as usize], d));
+        }
+        for &(v, d) in moved.iter().rev() {
+            let q = &mut self.q[v as usize];
+            *q = xor3(*q, d);
+        }
+        self.q.truncate(v_before);
+        self.inline.truncate(v_before);
     }
 
     /// Undoes one applied record: removes the slots from `f_before` on and
@@ -787,29 +880,32 @@ impl MeshState {
         if dup != 0 {
             return self.star_sorted(m, out);
         }
-        let Star { faces, link } = out;
-        faces.clear();
-        link.clear();
-        faces.reserve(n);
-        link.reserve(n);
+        // The walk into stack arrays, copied out whole (a fixed 32-byte
+        // copy each, then truncated: no per-element push).
+        let (mut of, mut ol) = ([0u32; 8], [0u32; 8]);
         let (mut f, mut seen) = (start, 1u32 << start);
-        faces.push(fs[f]);
-        link.push(nx[f]);
-        for _ in 1..n {
+        (of[0], ol[0]) = (fs[f], nx[f]);
+        for i in 1..n {
             let s = succ[f];
             let g = s.trailing_zeros() as usize;
             if s == 0 || seen & (1 << g) != 0 {
                 return self.star_sorted(m, out);
             }
             seen |= 1 << g;
-            faces.push(fs[g]);
-            link.push(nx[g]);
+            (of[i], ol[i]) = (fs[g], nx[g]);
             f = g;
         }
-        if succ[f] != 0 && succ[f].trailing_zeros() as usize == start {
-            return Ok(());
+        if succ[f] == 0 || succ[f].trailing_zeros() as usize != start {
+            return self.star_sorted(m, out);
         }
-        self.star_sorted(m, out)
+        let Star { faces, link } = out;
+        faces.clear();
+        faces.extend_from_slice(&of);
+        faces.truncate(n);
+        link.clear();
+        link.extend_from_slice(&ol);
+        link.truncate(n);
+        Ok(())
     }
 
     /// [`MeshState::star_into`] past its fast path.
@@ -1102,6 +1198,26 @@ pub type Rewrite3 = (u32, [u32; 4], [u32; 4]);
 pub type Moves = Vec<Move>;
 /// Undo log of rewritten slots.
 pub type Rewrites3 = Vec<Rewrite3>;
+/// A moved vertex in the compact log: `(vertex, new ^ old code)`.
+pub type MoveDelta = (u32, [u32; 3]);
+/// A rewritten slot in the compact log: `(slot, new ^ old quad)`.
+pub type RewriteDelta = (u32, [u32; 4]);
+/// Compact log of moved vertices ([`MeshState::apply_delta_logged`]).
+pub type MoveDeltas = Vec<MoveDelta>;
+/// Compact log of rewritten slots ([`MeshState::apply_delta_logged`]).
+pub type RewriteDeltas = Vec<RewriteDelta>;
+
+/// `a ^ b` per axis.
+#[inline(always)]
+pub fn xor3(a: [u32; 3], b: [u32; 3]) -> [u32; 3] {
+    [a[0] ^ b[0], a[1] ^ b[1], a[2] ^ b[2]]
+}
+
+/// `a ^ b` per corner.
+#[inline(always)]
+pub fn xor4(a: [u32; 4], b: [u32; 4]) -> [u32; 4] {
+    [a[0] ^ b[0], a[1] ^ b[1], a[2] ^ b[2], a[3] ^ b[3]]
+}
 
 /// The explicit connectivity of a split (spec §7.5): rewritten slots of the
 /// `c` side (sorted) and the appended quad.
@@ -1192,6 +1308,32 @@ fn build_face_split(st: &MeshState, m: u32, s: u32, swap: bool, sym: u8) -> ([u3
         [0, 1, 2, 3].map(|i| x[(i + rx) % 4]),
         [0, 1, 2, 3].map(|i| y[(i + ry) % 4]),
     )
+}
+
+/// [`predict_scan`] of a face split's new vertex `c` (version 2 and later,
+/// the only ones with the form), without the scan. [`build_face_split`]
+/// cuts slot `s`, `[m, p, o, q]` from `m`, into `[m, p, o, c]` and
+/// `[m, c, o, q]` (swapped and rotated by the symbol: rotations keep the
+/// cyclic order, so not the parallelograms). `c` is once in each, its
+/// other corners are old (known), and its parallelograms are `m + o − p`
+/// and `o + m − q`: the mean of the two is `floor((2m + 2o − p − q) / 2)`,
+/// what the scan computes from the same two entries.
+fn predict_face_split(st: &MeshState, m: u32, s: u32) -> [u32; 3] {
+    let f = st.quads[s as usize];
+    // The corner `build_face_split` takes as `m` (same fallback).
+    let k = f.iter().position(|&x| x == m).unwrap_or(0);
+    let q = &st.q;
+    let (pm, pp, po, pq) = (
+        q[f[k] as usize],
+        q[f[(k + 1) & 3] as usize],
+        q[f[(k + 2) & 3] as usize],
+        q[f[(k + 3) & 3] as usize],
+    );
+    let mut sum = [0i64; 3];
+    for t in 0..3 {
+        sum[t] = 2 * (pm[t] as i64 + po[t] as i64) - pp[t] as i64 - pq[t] as i64;
+    }
+    floor_mean(sum, 2, st.qmax)
 }
 
 /// Prediction of the split vertex `a` (spec §7.5): `m`'s old code plus a
@@ -1333,6 +1475,222 @@ fn predict_scan(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16) -> [u3
         p.add_quad(quad);
     }
     p.finish()
+}
+
+/// Most new vertices [`OnePass`] predicts (an edge split's four).
+const ONE_PASS_NEW: usize = 4;
+
+/// Room for quads with two or more new corners in [`OnePass`] (an edge
+/// split has two appended quads and the rare face of both endpoints); a
+/// record with more takes the per-vertex scans.
+const ONE_PASS_DEFERRED: usize = 12;
+
+/// The predictions of spec §7.6 for the (at most [`ONE_PASS_NEW`]) new
+/// vertices of a record that moves nothing (version 2 or later), gathered
+/// in one pass over the record's quads instead of one [`predict_scan`] per
+/// new vertex — with the same values.
+///
+/// Why the same: a quad contributes its parallelogram to new vertex `x`
+/// when `x` is one of its corners and the other three are known, i.e.
+/// below `x` (nothing moves, and what is known while `x` is decoded are
+/// the old vertices and the new ones before it). A quad holds a vertex at
+/// most once (every record quad passes [`check_distinct`]), so a quad with
+/// new corners contributes to exactly one of them, the largest: at once
+/// when that is its only new corner (the other three are old:
+/// [`OnePass::add_single`]), else once the smaller new corners are decoded
+/// (kept aside until then). The sums are integers, so their order does not
+/// matter, and the counts are the same; a vertex left without a
+/// parallelogram takes [`predict_scan`] itself (its fallbacks read the
+/// first entry in record order). Callers must feed every record quad
+/// exactly once.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct OnePass {
+    sum: [[i64; 3]; ONE_PASS_NEW],
+    cnt: [i64; ONE_PASS_NEW],
+    /// (quad, corner of its largest new vertex, that vertex's index).
+    later: [([u32; 4], u8, u8); ONE_PASS_DEFERRED],
+    n_later: usize,
+    /// More quads to defer than there is room for: use the scans.
+    overflow: bool,
+}
+
+impl OnePass {
+    /// Empty sums.
+    #[inline]
+    pub(crate) fn clear(&mut self) {
+        self.sum = [[0; 3]; ONE_PASS_NEW];
+        self.cnt = [0; ONE_PASS_NEW];
+        self.n_later = 0;
+        self.overflow = false;
+    }
+
+    /// The parallelogram `a + e − o` of new vertex `t` (index from `v0`)
+    /// whose neighbours in its quad are the old vertices `a`, `e` and whose
+    /// opposite corner is the old vertex `o`.
+    #[inline(always)]
+    pub(crate) fn add_single(&mut self, q: &[[u32; 3]], t: usize, a: u32, o: u32, e: u32) {
+        let (a, o, e) = (q[a as usize], q[o as usize], q[e as usize]);
+        let s = &mut self.sum[t & (ONE_PASS_NEW - 1)];
+        for c in 0..3 {
+            s[c] += a[c] as i64 + e[c] as i64 - o[c] as i64;
+        }
+        self.cnt[t & (ONE_PASS_NEW - 1)] += 1;
+    }
+
+    /// Any record quad, new vertices `v0 .. v0 + nn` (`nn <=`
+    /// [`ONE_PASS_NEW`]).
+    #[inline(always)]
+    pub(crate) fn add_quad(&mut self, q: &[[u32; 3]], quad: &[u32; 4], v0: u32, nn: u32) {
+        let d = quad.map(|u| u.wrapping_sub(v0));
+        let mask = (d[0] < nn) as u32
+            | ((d[1] < nn) as u32) << 1
+            | ((d[2] < nn) as u32) << 2
+            | ((d[3] < nn) as u32) << 3;
+        if mask == 0 {
+            return;
+        }
+        // A corner past the new vertices (no decoded record has one) is
+        // never known: the quad contributes to none of them.
+        let lim = v0.saturating_add(nn);
+        if quad.iter().any(|&u| u >= lim) {
+            return;
+        }
+        if mask & (mask - 1) == 0 {
+            let k = mask.trailing_zeros() as usize;
+            let (a, o, e) = (quad[(k + 1) & 3], quad[(k + 2) & 3], quad[(k + 3) & 3]);
+            self.add_single(q, d[k] as usize, a, o, e);
+            return;
+        }
+        self.defer(quad, v0, mask);
+    }
+
+    /// A quad whose largest new corner is `quad[k]`, new vertex `t`, with
+    /// other new corners (all below it): kept until they are decoded.
+    #[inline]
+    pub(crate) fn defer_at(&mut self, quad: &[u32; 4], k: usize, t: usize) {
+        if self.n_later == ONE_PASS_DEFERRED {
+            self.overflow = true;
+            return;
+        }
+        self.later[self.n_later] = (*quad, k as u8, t as u8);
+        self.n_later += 1;
+    }
+
+    /// A quad with new corners `mask` (two or more), kept for its largest.
+    #[inline(never)]
+    fn defer(&mut self, quad: &[u32; 4], v0: u32, mask: u32) {
+        if self.n_later == ONE_PASS_DEFERRED {
+            self.overflow = true;
+            return;
+        }
+        let d = quad.map(|u| u.wrapping_sub(v0));
+        let mut k = mask.trailing_zeros() as usize;
+        let mut rest = mask & (mask - 1);
+        while rest != 0 {
+            let j = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if d[j] > d[k] {
+                k = j;
+            }
+        }
+        self.later[self.n_later] = (*quad, k as u8, d[k] as u8);
+        self.n_later += 1;
+    }
+
+    /// Reads the codes of the `n_new` new vertices of `r` (all its quads
+    /// fed) into `r.new_pos`, in order, each its prediction plus the next
+    /// residual of `pos`.
+    pub(crate) fn finish(
+        &mut self,
+        st: &MeshState,
+        r: &mut QRecord,
+        n_new: usize,
+        major: u16,
+        pos: &mut Reader,
+    ) -> Result<(), String> {
+        let v0 = st.q.len() as u32;
+        if self.overflow || n_new > ONE_PASS_NEW || major < 2 || !r.moved.is_empty() {
+            return scan_new_positions(st, r, n_new, major, pos);
+        }
+        let q = &st.q;
+        for t in 0..n_new {
+            for &(quad, k, lt) in &self.later[..self.n_later] {
+                if lt as usize != t {
+                    continue;
+                }
+                let k = k as usize;
+                // The other new corners are below `v0 + t`: decoded.
+                let code = |u: u32| {
+                    if u < v0 {
+                        q[u as usize]
+                    } else {
+                        r.new_pos[(u - v0) as usize]
+                    }
+                };
+                let (a, o, e) = (
+                    code(quad[(k + 1) & 3]),
+                    code(quad[(k + 2) & 3]),
+                    code(quad[(k + 3) & 3]),
+                );
+                for c in 0..3 {
+                    self.sum[t][c] += a[c] as i64 + e[c] as i64 - o[c] as i64;
+                }
+                self.cnt[t] += 1;
+            }
+            let pred = if self.cnt[t] > 0 {
+                floor_mean(self.sum[t], self.cnt[t], st.qmax)
+            } else {
+                predict_scan(st, r, v0, v0 + t as u32, major)
+            };
+            let p = add_residual(pred, pos, st.qmax)?;
+            r.new_pos.push(p);
+        }
+        Ok(())
+    }
+}
+
+/// One [`predict_scan`] per new vertex of `r`, each followed by its
+/// residual from `pos`, into `r.new_pos`.
+#[cold]
+#[inline(never)]
+fn scan_new_positions(
+    st: &MeshState,
+    r: &mut QRecord,
+    n_new: usize,
+    major: u16,
+    pos: &mut Reader,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    for t in 0..n_new {
+        let pred = predict_scan(st, r, v0, v0 + t as u32, major);
+        let p = add_residual(pred, pos, st.qmax)?;
+        r.new_pos.push(p);
+    }
+    Ok(())
+}
+
+/// The codes of the `n_new` new vertices of `r` (quads complete) by one
+/// [`OnePass`] over its quads: the same values as [`predict_scan`] each.
+fn decode_new_positions(
+    st: &MeshState,
+    r: &mut QRecord,
+    n_new: usize,
+    major: u16,
+    pos: &mut Reader,
+    op: &mut OnePass,
+) -> Result<(), String> {
+    if n_new > ONE_PASS_NEW || major < 2 || !r.moved.is_empty() {
+        return scan_new_positions(st, r, n_new, major, pos);
+    }
+    op.clear();
+    let (v0, nn) = (st.q.len() as u32, n_new as u32);
+    for quad in &r.appended {
+        op.add_quad(&st.q, quad, v0, nn);
+    }
+    for (_, quad) in &r.rewritten {
+        op.add_quad(&st.q, quad, v0, nn);
+    }
+    op.finish(st, r, n_new, major, pos)
 }
 
 /// [`predict_scan`] of the split form's new vertex `c = V` (record `r`
@@ -1666,6 +2024,8 @@ pub struct DecodeScratch {
     edge: crate::edge_split::Scratch,
     /// Fan rotations of the current edge-split record.
     rots: Vec<u8>,
+    /// Predictions of the current record's new vertices.
+    one_pass: OnePass,
 }
 
 impl DecodeScratch {
@@ -1821,7 +2181,7 @@ pub fn decode_record_into(
             let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
             r.rewritten.push((s, rewritten));
             r.appended.push(appended);
-            let pred = predict_scan(st, r, v0, v0, major);
+            let pred = predict_face_split(st, m, s);
             let p = add_residual(pred, &mut rd[POS], st.qmax)?;
             r.new_pos.push(p);
         }
@@ -1873,15 +2233,8 @@ fn decode_edge_split(
             .push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
     }
     crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
-    // Four scans of the record (its 4 appended quads and the stars' faces),
-    // one per new vertex: fewer instructions than building the lists
-    // first, and linear in the record for any input.
-    for t in 0..4 {
-        let pred = predict_scan(st, r, v0, v0 + t, major);
-        let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-        r.new_pos.push(p);
-    }
-    Ok(())
+    // `build` gathered the four predictions while it made the quads.
+    sc.edge.pred.finish(st, r, 4, major, &mut rd[POS])
 }
 
 /// Decodes the body of a general-form (`local` false, spec §7.4) or
@@ -1907,6 +2260,7 @@ fn decode_patch(
         slots,
         extra,
         nf,
+        one_pass,
         ..
     } = sc;
     let v0 = st.q.len() as u32;
@@ -2063,6 +2417,9 @@ fn decode_patch(
     // quads; the lists are built only for the others (at most `SCAN_NEW`
     // scans per record, so a hostile record stays linear).
     const SCAN_NEW: usize = 8;
+    if n_new <= ONE_PASS_NEW && r.moved.is_empty() {
+        return decode_new_positions(st, r, n_new, major, &mut rd[POS], one_pass);
+    }
     let mut built = false;
     for t in 0..n_new {
         let x = v0 + t as u32;

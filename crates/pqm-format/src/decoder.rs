@@ -252,9 +252,12 @@ struct Records {
     v_at: Vec<u32>,
     f_at: Vec<u32>,
     moved_at: Vec<usize>,
-    moved: Vec<(u32, [u32; 3], [u32; 3])>,
+    /// `(vertex, new ^ old code)` per moved vertex, record by record (see
+    /// [`MeshState::apply_delta_logged`]: one delta moves either way).
+    moved: Vec<codec::MoveDelta>,
     rw_at: Vec<usize>,
-    rw: Vec<(u32, [u32; 4], [u32; 4])>,
+    /// `(slot, new ^ old quad)` per rewritten slot.
+    rw: Vec<codec::RewriteDelta>,
     /// Codes of vertices `base_v..`, and quads of slots `base_f..`.
     new_pos: Vec<[u32; 3]>,
     appended: Vec<[u32; 4]>,
@@ -1013,7 +1016,7 @@ impl Decoder {
         );
         if result.is_err() {
             for k in (k0..r.op.len()).rev() {
-                st.undo(
+                st.undo_deltas(
                     r.v_at[k] as usize,
                     r.f_at[k] as usize,
                     &r.moved[r.moved_at[k]..r.moved_at[k + 1]],
@@ -1069,7 +1072,7 @@ impl Decoder {
                 record: first_record + t,
                 message,
             })?;
-            st.apply_logged(rec, &mut r.moved, &mut r.rw);
+            st.apply_delta_logged(rec, &mut r.moved, &mut r.rw);
             r.op.push(rec.op);
             // The explicit new vertices and quads serve only a replay onto
             // the current level; a forward-only decoder copies the frontier
@@ -1370,12 +1373,12 @@ impl Decoder {
             // Forward-only: the dropped logs' ids, kept per chunk.
             moved.append(&mut self.pending_moved);
             rewritten.append(&mut self.pending_rw);
-            for &(v, _, _) in &r.moved[r.moved_at[from]..r.moved_at[to]] {
+            for &(v, _) in &r.moved[r.moved_at[from]..r.moved_at[to]] {
                 if v < v_from {
                     moved.push(v);
                 }
             }
-            for &(s, _, _) in &r.rw[r.rw_at[from]..r.rw_at[to]] {
+            for &(s, _) in &r.rw[r.rw_at[from]..r.rw_at[to]] {
                 if s < f_from {
                     rewritten.push(s);
                 }
@@ -1397,15 +1400,19 @@ impl Decoder {
                 // (ids below `v_from` / `f_from`): collecting the others
                 // only to drop them below cost a sort of every rewrite of a
                 // long refinement.
-                for &(v, p, _) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
+                // The level holds each entry's old value: the delta gives
+                // the new one.
+                for &(v, d) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
+                    let p = codec::xor3(self.q[v as usize], d);
                     self.q[v as usize] = p;
                     self.pos[v as usize] = f32_of(p);
                     if v < v_from {
                         moved.push(v);
                     }
                 }
-                for &(s, q, _) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
-                    self.quads[s as usize] = q;
+                for &(s, d) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
+                    let q = &mut self.quads[s as usize];
+                    *q = codec::xor4(*q, d);
                     if s < f_from {
                         rewritten.push(s);
                     }
@@ -1419,15 +1426,19 @@ impl Decoder {
                 self.q.truncate(r.v_at[k] as usize);
                 self.pos.truncate(r.v_at[k] as usize);
                 self.quads.truncate(r.f_at[k] as usize);
-                for &(v, _, o) in r.moved[r.moved_at[k]..r.moved_at[k + 1]].iter().rev() {
+                // The level holds each entry's new value: the delta gives
+                // the old one.
+                for &(v, d) in r.moved[r.moved_at[k]..r.moved_at[k + 1]].iter().rev() {
+                    let o = codec::xor3(self.q[v as usize], d);
                     self.q[v as usize] = o;
                     self.pos[v as usize] = f32_of(o);
                     if v < v_to {
                         moved.push(v);
                     }
                 }
-                for &(s, _, o) in r.rw[r.rw_at[k]..r.rw_at[k + 1]].iter().rev() {
-                    self.quads[s as usize] = o;
+                for &(s, d) in r.rw[r.rw_at[k]..r.rw_at[k + 1]].iter().rev() {
+                    let q = &mut self.quads[s as usize];
+                    *q = codec::xor4(*q, d);
                     if s < f_to {
                         rewritten.push(s);
                     }
@@ -1621,43 +1632,55 @@ impl Decoder {
         let r = &self.recs;
         let (bv, bf) = (*r.v_at.first()? as usize, *r.f_at.first()? as usize);
         let dq = |c: [u32; 3]| quant.dequantize_vec(c);
-        // Level 0 contents: undo every decoded record from the frontier.
+        // Level 0 contents: undo every decoded record from the frontier
+        // (the logs hold deltas: only the base's ids are kept here).
         let st = self.frontier.as_ref()?;
         let mut q = st.q[..bv].to_vec();
         let mut quads = st.quads[..bf].to_vec();
         for k in (0..r.op.len()).rev() {
-            for &(v, _, o) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
+            for &(v, d) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
                 if (v as usize) < bv {
-                    q[v as usize] = o;
+                    q[v as usize] = codec::xor3(q[v as usize], d);
                 }
             }
-            for &(s, _, o) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
+            for &(s, d) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
                 if (s as usize) < bf {
-                    quads[s as usize] = o;
+                    quads[s as usize] = codec::xor4(quads[s as usize], d);
                 }
             }
         }
-        let base = IndexedMesh::from_faces(q.into_iter().map(dq).collect(), quads.iter());
-        let records = (0..r.op.len())
-            .map(|k| SplitRecord {
+        let base = IndexedMesh::from_faces(q.iter().map(|&c| dq(c)).collect(), quads.iter());
+        // The records' explicit new codes and quads: a replay from level 0.
+        let mut records = Vec::with_capacity(r.op.len());
+        for k in 0..r.op.len() {
+            let new_pos = &r.new_pos[(r.v_at[k] as usize - bv)..(r.v_at[k + 1] as usize - bv)];
+            let appended = &r.appended[(r.f_at[k] as usize - bf)..(r.f_at[k + 1] as usize - bf)];
+            q.extend_from_slice(new_pos);
+            let moved = r.moved[r.moved_at[k]..r.moved_at[k + 1]]
+                .iter()
+                .map(|&(v, d)| {
+                    let p = codec::xor3(q[v as usize], d);
+                    q[v as usize] = p;
+                    (v, dq(p))
+                })
+                .collect();
+            let rewritten = r.rw[r.rw_at[k]..r.rw_at[k + 1]]
+                .iter()
+                .map(|&(s, d)| {
+                    let n = codec::xor4(quads[s as usize], d);
+                    quads[s as usize] = n;
+                    (s, n)
+                })
+                .collect();
+            quads.extend_from_slice(appended);
+            records.push(SplitRecord {
                 op: r.op[k],
-                new_vertices: r.new_pos[(r.v_at[k] as usize - bv)..(r.v_at[k + 1] as usize - bv)]
-                    .iter()
-                    .map(|&c| dq(c))
-                    .collect(),
-                moved: r.moved[r.moved_at[k]..r.moved_at[k + 1]]
-                    .iter()
-                    .map(|&(v, p, _)| (v, dq(p)))
-                    .collect(),
-                rewritten: r.rw[r.rw_at[k]..r.rw_at[k + 1]]
-                    .iter()
-                    .map(|&(s, q, _)| (s, q))
-                    .collect(),
-                appended_faces: r.appended
-                    [(r.f_at[k] as usize - bf)..(r.f_at[k + 1] as usize - bf)]
-                    .to_vec(),
-            })
-            .collect();
+                new_vertices: new_pos.iter().map(|&c| dq(c)).collect(),
+                moved,
+                rewritten,
+                appended_faces: appended.to_vec(),
+            });
+        }
         let base_error = self.header.as_ref().map_or(0.0, |h| h.base_error as f64);
         let mut level_error = vec![base_error; r.op.len() + 1];
         for (c, &l) in self.chunk_levels.iter().enumerate() {

@@ -8,7 +8,7 @@
 //! equals the record exactly — so whatever the derivation guesses, a file
 //! never holds a form-4 record that decodes to something else.
 
-use crate::codec::{check_distinct, rotl, MeshState, QRecord, Star};
+use crate::codec::{check_distinct, rotl, MeshState, OnePass, QRecord, Star};
 
 /// The 24 permutations of `0..4` in lexicographic order (spec §7.10 step 5:
 /// permutation number `t` is `PERMS[t]`).
@@ -78,6 +78,9 @@ pub struct Scratch {
     entries: Vec<u64>,
     /// Fan quads, rotated, `X0`'s then `X1`'s.
     fan: Vec<[u32; 4]>,
+    /// The predictions of the four new vertices (spec §7.6), gathered by
+    /// [`build`] from the quads it makes (the decoder reads them).
+    pub(crate) pred: OnePass,
 }
 
 /// The star of anchor `a` into `sc.stars[0]`; an error when §7.5 rejects
@@ -151,9 +154,15 @@ pub fn build(
         stars,
         entries,
         fan,
+        pred,
     } = sc;
     entries.clear();
     fan.clear();
+    // Every quad of the record is fed to `pred` once, as it is made: a
+    // sector face (old corners and one new one where X was) and the last
+    // fan quad by their known corners, the rest whole.
+    pred.clear();
+    let q = &st.q;
     let mut tri = [[0u32; 4]; 2];
     let mut rot_i = 0usize;
     for x in 0..2 {
@@ -200,7 +209,9 @@ pub fn build(
                 o = o2;
                 q
             } else {
-                [xv, o, lam(n1 + 1 + m), u(2 * x + 1)]
+                let l = lam(n1 + 1 + m);
+                pred.add_single(q, pv[2 * x + 1] as usize, xv, o, l);
+                [xv, o, l, u(2 * x + 1)]
             };
             let t = *rots.get(rot_i).ok_or("edge split: too few fan rotations")?;
             rot_i += 1;
@@ -224,17 +235,44 @@ pub fn build(
                 ));
             }
             fan[(tag - 4) as usize]
+        } else if twin.is_none() {
+            // One new corner, where X was (a quad holds X once; were it
+            // twice, `check_distinct` below rejects the record).
+            let mut qd = st.quads[slot as usize];
+            let xv = ends[(tag >> 1) as usize];
+            for k in 0..4 {
+                if qd[k] == xv {
+                    qd[k] = u(tag as usize);
+                    let (a, o, e) = (qd[(k + 1) & 3], qd[(k + 2) & 3], qd[(k + 3) & 3]);
+                    pred.add_single(q, pv[tag as usize] as usize, a, o, e);
+                }
+            }
+            qd
         } else {
-            let mut q = st.quads[slot as usize];
+            // A face of both endpoints: two new corners, its parallelogram
+            // goes to the larger once the smaller is decoded.
+            let mut qd = st.quads[slot as usize];
+            let (mut kt, mut best, mut found) = ((0usize, 0usize), 0u8, 0);
             for t in std::iter::once(tag).chain(twin) {
                 let (xv, id) = (ends[(t >> 1) as usize], u(t as usize));
-                for c in q.iter_mut() {
+                for (k, c) in qd.iter_mut().enumerate() {
                     if *c == xv {
                         *c = id;
+                        if found == 0 || pv[t as usize] > best {
+                            (kt, best) = ((k, pv[t as usize] as usize), pv[t as usize]);
+                        }
+                        found += 1;
                     }
                 }
             }
-            q
+            if found == 2 {
+                pred.defer_at(&qd, kt.0, kt.1);
+            } else {
+                // Not one corner per endpoint (a state no decoder
+                // reaches): the general rule.
+                pred.add_quad(q, &qd, v0, 4);
+            }
+            qd
         };
         check_distinct(&q, || format!("edge split: rewritten slot {slot}"))?;
         out.rewritten.push((slot, q));
@@ -242,6 +280,18 @@ pub fn build(
     }
     let [x0, x1] = ends;
     let canon = [[x0, u(1), u(2), x1], [x0, x1, u(3), u(0)], tri[0], tri[1]];
+    // Their parallelograms, from the canonical corners (a rotation keeps
+    // each corner's neighbours): `C_0` and `C_1` hold two new vertices
+    // each (the larger takes the quad), `T_x` one, `U_{2x}` after `X`.
+    let later = |a: usize, b: usize| if pv[a] > pv[b] { (1, a) } else { (0, b) };
+    let (d0, t0) = later(1, 2);
+    pred.defer_at(&canon[0], 2 - d0, pv[t0] as usize);
+    let (d1, t1) = later(3, 0);
+    pred.defer_at(&canon[1], 3 - d1, pv[t1] as usize);
+    for x in 0..2 {
+        let [xv, _, l, o] = tri[x];
+        pred.add_single(&st.q, pv[2 * x] as usize, l, o, xv);
+    }
     // Placed in a stack array, then copied in one go (a `resize` of the
     // list cost more than the placement).
     let mut app = [[0u32; 4]; 4];
