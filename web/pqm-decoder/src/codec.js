@@ -256,8 +256,10 @@ export function cornerIn(f, s4, v) {
  * `k` has `vAt[k]` vertices and `fAt[k]` faces; record `k` (from level `k`
  * to `k + 1`) moved the entries `movedAt[k] .. movedAt[k+1]` of `moved`
  * (stride 4: vertex, code change xyz = new − old) and rewrote the entries
- * `rwAt[k] .. rwAt[k+1]` of `rw` (stride 5: slot, new XOR old of each
- * corner). Entries are applied in record order when refining and in
+ * `rwAt[k] .. rwAt[k+1]` of `rw` (stride 2: corner index 4 · slot + c,
+ * new XOR old of that corner — one entry per corner that changes, so the
+ * split's one-corner rewrites take 8 bytes instead of a whole quad's 20;
+ * a slot may have several entries in one record). Entries are applied in record order when refining and in
  * reverse when coarsening, so a change and its inverse are the same data
  * (add / subtract, XOR): half the memory of storing both states, and
  * memory traffic is what the decoder waits on. `newCodes` holds the first
@@ -332,12 +334,13 @@ export class RecordLog {
       this.vAt = ensure(this.vAt, levels, n, max);
       this.fAt = ensure(this.fAt, levels, n, max);
     }
-    // Rewritten slots: about two per appended quad in the encoder's files
-    // (1.9 on all four bench meshes), so room for RW_PER_APP per quad —
-    // one allocation instead of ×2 steps (bunny: 7.8 MB of entries, each
-    // step a copy into fresh pages); a file with more grows ×2 from there.
+    // Rewritten corners: about 3.3 per appended quad in the encoder's files
+    // (loki and bunny; 1.9 rewritten slots, most of them with one changed
+    // corner), so room for RW_PER_APP per quad — one allocation instead of
+    // ×2 steps (bunny: 5.4 MB of entries, each step a copy into fresh
+    // pages); a file with more grows ×2 from there.
     const nRw = Math.ceil(RW_PER_APP * nApp);
-    if (5 * nRw > this.rw.length) this.rw = ensure(this.rw, 5 * nRw, 5 * this.nRw);
+    if (2 * nRw > this.rw.length) this.rw = ensure(this.rw, 2 * nRw, 2 * this.nRw);
     if (this.forward) return;
     if (levels > this.movedAt.length) {
       this.movedAt = ensure(this.movedAt, levels, n, max);
@@ -349,8 +352,8 @@ export class RecordLog {
 RecordLog.prototype.levels = 0;
 /** Levels of the file (record_count + 1): capacities never grow beyond. */
 RecordLog.prototype.maxLevels = Infinity;
-/** Rewritten-slot entries reserved per appended quad (RecordLog.reserve). */
-const RW_PER_APP = 2.5;
+/** Rewritten-corner entries reserved per appended quad (RecordLog.reserve). */
+const RW_PER_APP = 3.5;
 
 /**
  * Decodes the base payload (spec §6) into a fresh frontier.
@@ -546,11 +549,7 @@ function rollBack(st, log, nMoved, nRw, nv, nf) {
   const M = log.moved;
   const R = log.rw;
   for (let e = log.nRw - 1; e >= nRw; e--) {
-    const s4 = 4 * R[5 * e];
-    f[s4] ^= R[5 * e + 1];
-    f[s4 + 1] ^= R[5 * e + 2];
-    f[s4 + 2] ^= R[5 * e + 3];
-    f[s4 + 3] ^= R[5 * e + 4];
+    f[R[2 * e]] ^= R[2 * e + 1];
   }
   for (let e = log.nMoved - 1; e >= nMoved; e--) {
     const o = 16 * M[4 * e];
@@ -627,22 +626,42 @@ export function logMove(ctx, v) {
   q[16 * v + 2] = ctx.cz;
 }
 
+/**
+ * Logs the corners of the quad at `f[s4 .. s4 + 4)` that change, by their
+ * new XOR old values `x0 .. x3`: one entry (corner index, XOR) per changed
+ * corner, so a split's rewrite (one corner: m → c) is 8 bytes, not a whole
+ * quad's 20 — the general log is written once and read rarely, and its
+ * fresh pages are what it costs. Written without branches on which
+ * corners change (data): all four at the cursor, which moves past the
+ * nonzero ones only.
+ */
+function logQuad(log, s4, x0, x1, x2, x3) {
+  const n = log.nRw;
+  if (2 * (n + 4) > log.rw.length) log.rw = ensure(log.rw, 2 * (n + 4), 2 * n);
+  const r = log.rw;
+  let o = 2 * n;
+  r[o] = s4;
+  r[o + 1] = x0;
+  o += 2 & -((x0 !== 0) | 0);
+  r[o] = s4 + 1;
+  r[o + 1] = x1;
+  o += 2 & -((x1 !== 0) | 0);
+  r[o] = s4 + 2;
+  r[o + 1] = x2;
+  o += 2 & -((x2 !== 0) | 0);
+  r[o] = s4 + 3;
+  r[o + 1] = x3;
+  o += 2 & -((x3 !== 0) | 0);
+  log.nRw = o >> 1;
+}
+
 /** Logs that `slot` becomes quad `a b c d`, updating quads and adjacency. */
 export function rewriteSlot(ctx, slot, a, b, c, d) {
   const st = ctx.st;
   const log = ctx.log;
   const f = st.f;
-  const n = log.nRw;
-  if (5 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + 1), 5 * n);
-  const r = log.rw;
-  const o = 5 * n;
   const s4 = 4 * slot;
-  r[o] = slot;
-  r[o + 1] = a ^ f[s4];
-  r[o + 2] = b ^ f[s4 + 1];
-  r[o + 3] = c ^ f[s4 + 2];
-  r[o + 4] = d ^ f[s4 + 3];
-  log.nRw = n + 1;
+  logQuad(log, s4, a ^ f[s4], b ^ f[s4 + 1], c ^ f[s4 + 2], d ^ f[s4 + 3]);
   const o0 = f[s4], o1 = f[s4 + 1], o2 = f[s4 + 2], o3 = f[s4 + 3];
   f[s4] = a;
   f[s4 + 1] = b;
@@ -1461,7 +1480,7 @@ function decodeSplit(ctx, sym) {
   // without a scan of m's list each; the lists are unordered sets).
   const log = ctx.log;
   let n = log.nRw;
-  if (5 * (n + nC) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + nC), 5 * n);
+  if (2 * (n + nC) > log.rw.length) log.rw = ensure(log.rw, 2 * (n + nC), 2 * n);
   const r = log.rw;
   const fq = st.f;
   const qs = st.q; // appendVertex may have grown it
@@ -1476,13 +1495,10 @@ function decodeSplit(ctx, sym) {
       const idx = sList[t];
       const s = S[idx];
       const k = sC[idx];
-      const o = 5 * n++;
-      // x at corner k, 0 elsewhere, as masks (k is random: no branches)
-      r[o] = s;
-      r[o + 1] = x & -((k === 0) | 0);
-      r[o + 2] = x & -((k === 1) | 0);
-      r[o + 3] = x & -((k === 2) | 0);
-      r[o + 4] = x & -((k === 3) | 0);
+      const o = 2 * n++;
+      // one corner changes: m → c at corner k
+      r[o] = 4 * s + k;
+      r[o + 1] = x;
       fq[4 * s + k] = c;
       if (whole) {
         qs[bc + nCk] = s;
@@ -1594,17 +1610,8 @@ function rewriteSwap(ctx, slot, a, b, c, d, out, inV) {
   const st = ctx.st;
   const log = ctx.log;
   const f = st.f;
-  const n = log.nRw;
-  if (5 * (n + 1) > log.rw.length) log.rw = ensure(log.rw, 5 * (n + 1), 5 * n);
-  const r = log.rw;
-  const o = 5 * n;
   const s4 = 4 * slot;
-  r[o] = slot;
-  r[o + 1] = a ^ f[s4];
-  r[o + 2] = b ^ f[s4 + 1];
-  r[o + 3] = c ^ f[s4 + 2];
-  r[o + 4] = d ^ f[s4 + 3];
-  log.nRw = n + 1;
+  logQuad(log, s4, a ^ f[s4], b ^ f[s4 + 1], c ^ f[s4 + 2], d ^ f[s4 + 3]);
   f[s4] = a;
   f[s4 + 1] = b;
   f[s4 + 2] = c;

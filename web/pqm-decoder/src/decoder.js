@@ -681,7 +681,7 @@ export class PqmDecoder {
     let rw = this._pendRw;
     n = this._nPendRw;
     for (let e = 0; e < log.nRw; e++) {
-      const s = R[5 * e];
+      const s = R[2 * e] >> 2;
       if (s < fl && fMark[s] !== epoch) {
         fMark[s] = epoch;
         if (n === rw.length) rw = this._pendRw = ensure(rw, n + 1);
@@ -930,7 +930,7 @@ export class PqmDecoder {
         }
       }
       for (let e = log.rwAt[from], end = log.rwAt[to]; e < end; e++) {
-        const s = R[5 * e];
+        const s = R[2 * e] >> 2;
         if (s < fMin && fMark[s] !== epoch) {
           fMark[s] = epoch;
           if (nRw === rewritten.length) rewritten = this._rwScratch = ensure(rewritten, nRw + 1);
@@ -967,11 +967,9 @@ export class PqmDecoder {
         }
       }
       for (let e = log.rwAt[from], end = log.rwAt[to]; e < end; e++) {
-        const s = R[5 * e];
-        quads[4 * s] ^= R[5 * e + 1];
-        quads[4 * s + 1] ^= R[5 * e + 2];
-        quads[4 * s + 2] ^= R[5 * e + 3];
-        quads[4 * s + 3] ^= R[5 * e + 4];
+        const c = R[2 * e];
+        const s = c >> 2;
+        quads[c] ^= R[2 * e + 1];
         if (s < fMin && fMark[s] !== epoch) {
           fMark[s] = epoch;
           if (nRw === rewritten.length) rewritten = this._rwScratch = ensure(rewritten, nRw + 1);
@@ -997,12 +995,10 @@ export class PqmDecoder {
         }
       }
       for (let e = log.rwAt[from] - 1, end = log.rwAt[to]; e >= end; e--) {
-        const s = R[5 * e];
+        const c = R[2 * e];
+        const s = c >> 2;
         if (s >= fTo) continue;
-        quads[4 * s] ^= R[5 * e + 1];
-        quads[4 * s + 1] ^= R[5 * e + 2];
-        quads[4 * s + 2] ^= R[5 * e + 3];
-        quads[4 * s + 3] ^= R[5 * e + 4];
+        quads[c] ^= R[2 * e + 1];
         if (fMark[s] !== epoch) {
           fMark[s] = epoch;
           if (nRw === rewritten.length) rewritten = this._rwScratch = ensure(rewritten, nRw + 1);
@@ -1163,13 +1159,9 @@ export class PqmDecoder {
       A.set(f.subarray(4 * f0, 4 * f1), 4 * (f0 - bf));
       const R = log.rw;
       for (let e = log.nRw - 1; e >= log.rwBuilt; e--) {
-        const s = R[5 * e];
-        if (s < f0) continue;
-        const o = 4 * (s - bf);
-        A[o] ^= R[5 * e + 1];
-        A[o + 1] ^= R[5 * e + 2];
-        A[o + 2] ^= R[5 * e + 3];
-        A[o + 3] ^= R[5 * e + 4];
+        const c = R[2 * e];
+        if (c < 4 * f0) continue;
+        A[c - 4 * bf] ^= R[2 * e + 1];
       }
     }
     log.nNew = v1 - bv;
