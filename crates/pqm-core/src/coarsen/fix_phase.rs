@@ -69,6 +69,7 @@ impl Coarsener {
             due = true;
         }
         if due {
+            self.chord_phase(target);
             self.fix_only = true;
             self.rescore_all();
         }
