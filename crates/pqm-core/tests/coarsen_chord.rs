@@ -80,16 +80,24 @@ fn collapse_and_replay(src: &IndexedMesh, picks: &[(usize, u8)]) -> usize {
 fn torus_ring_collapses_and_replays() {
     // every chord of a torus grid is a closed ring: removing one leaves a
     // regular torus one ring thinner
-    let src = torus(12, 8);
+    let src = torus(64, 48);
     let n = src.face_count();
     let mesh = Mesh::from_indexed(&src).unwrap();
     let mut c = Coarsener::with_defaults(mesh, 180.0, &[], CoarsenOptions::default()).unwrap();
     let f = c.mesh().faces().next().unwrap();
     assert!(c.collapse_chord(f, 0));
     let m = c.mesh();
-    assert!(m.face_count() == n - 12 || m.face_count() == n - 8);
+    assert!(m.face_count() == n - 64 || m.face_count() == n - 48);
     assert!(m.vertices().all(|v| m.valence(v) == 4));
     assert_eq!(collapse_and_replay(&src, &[(0, 0), (5, 1), (17, 0)]), 3);
+}
+
+#[test]
+fn sphere_ring_collapse_replays() {
+    // a cube-sphere's chords are rings of 4n quads crossing the cube's
+    // corners' neighbourhoods: collapsed whole, the valence-3 corners stay
+    let src = quad_sphere(24);
+    assert!(collapse_and_replay(&src, &[(0, 0), (100, 1), (2000, 0)]) >= 2);
 }
 
 proptest! {
@@ -101,8 +109,10 @@ proptest! {
         picks in proptest::collection::vec((0usize..400, 0u8..4), 1..5),
     ) {
         let src = match shape {
-            0 => torus(size + 4, size),
-            1 => quad_sphere(size),
+            // (fine enough that a ring's collapse stays within the 0.7 %
+            // surface-deviation limit, so most picks commit)
+            0 => torus(8 * size, 6 * size),
+            1 => quad_sphere(3 * size + 10),
             // open chords only: every collapse is refused, nothing changes
             _ => grid(size, size + 2),
         };
