@@ -119,3 +119,115 @@ proptest! {
         collapse_and_replay(&src, &picks);
     }
 }
+
+/// A torus grid (`n` around, `m` across) whose rows 0 and 1 are close
+/// together (the strip between them is the chord to collapse), with two
+/// hexagons re-split so that across that strip a valence-5 vertex faces a
+/// valence-3 one twice: `A = (k−1, 1)` (5) over `Q = (k−1, 0)` (3) and
+/// `B = (k, 1)` (3) over `R = (k, 0)` (5). The re-splits also leave a
+/// 5 and a 3 on the far side of each hexagon (`D`, `E` above, `U`, `T`
+/// below): eight defects, four of which the chord collapse cancels.
+fn torus_with_defect_pairs(n: u32, m: u32, k: u32) -> IndexedMesh {
+    let tau = std::f64::consts::TAU;
+    let gap = 0.02;
+    // minor angle of each row: row 1 just above row 0, the others even
+    let row = |j: u32| -> f64 {
+        match j {
+            0 => 0.0,
+            1 => gap,
+            _ => gap + (j - 1) as f64 / (m - 1) as f64 * (tau - gap),
+        }
+    };
+    let pos = |u: f64, v: f64| {
+        let r = 3.0 + v.cos();
+        glam::DVec3::new(r * u.cos(), r * u.sin(), v.sin())
+    };
+    let id = |i: u32, j: u32| (j % m) * n + (i % n);
+    let mut p = Vec::new();
+    for j in 0..m {
+        for i in 0..n {
+            let u = i as f64 / n as f64 * tau;
+            let mut v = row(j);
+            // keep the re-split quads convex: B dips toward row 0, T away
+            if (i, j) == (k, 1) {
+                v = 0.6 * gap;
+            }
+            if (i, j) == (k - 1, m - 1) {
+                v -= 0.3 * (tau - gap) / (m - 1) as f64;
+            }
+            p.push(pos(u, v));
+        }
+    }
+    let (a, b, c) = (id(k - 1, 1), id(k, 1), id(k + 1, 1));
+    let (d, e, f) = (id(k + 1, 2), id(k, 2), id(k - 1, 2));
+    let (pp, q, r) = (id(k - 2, 0), id(k - 1, 0), id(k, 0));
+    let (s, t, u) = (id(k, m - 1), id(k - 1, m - 1), id(k - 2, m - 1));
+    let up = [[a, b, e, f], [b, c, d, e]];
+    let down = [[u, t, q, pp], [t, s, r, q]];
+    let mut faces = Vec::new();
+    for j in 0..m {
+        for i in 0..n {
+            let quad = [id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)];
+            if !up.contains(&quad) && !down.contains(&quad) {
+                faces.push(quad);
+            }
+        }
+    }
+    // the hexagons a-b-c-d-e-f and u-t-s-r-q-p, split along a–d and u–r
+    faces.extend([[a, b, c, d], [a, d, e, f], [u, t, s, r], [u, r, q, pp]]);
+    IndexedMesh::from_faces(p, faces)
+}
+
+#[test]
+fn chord_collapse_cancels_defect_pairs_no_local_step_does() {
+    let (n, m, k) = (24, 16, 6);
+    let src = torus_with_defect_pairs(n, m, k);
+    let mesh = Mesh::from_indexed(&src).unwrap();
+    mesh.validate().unwrap();
+    let defects = |m: &Mesh| {
+        m.vertices()
+            .filter(|&v| m.valence(v) != m.ideal_valence(v))
+            .count()
+    };
+    assert_eq!(defects(&mesh), 8);
+    let mut c = Coarsener::with_defaults(mesh, 180.0, &[], CoarsenOptions::default()).unwrap();
+    // no qvMerge or qeMerge around the four vertices of the pairs removes
+    // a defect and is committed: the strip quad between the pairs has a
+    // 3–3 diagonal whose qvMerge would remove all four, but it moves its
+    // vertices across the strip's long side, off the surface; the other
+    // steps move the defects or add some
+    for v in [(k - 1, 1), (k, 1), (k - 1, 0), (k, 0)] {
+        let v = pqm_core::VertexId(v.1 * n + v.0);
+        for probe in c.probe_around(v) {
+            assert!(
+                probe.gain <= 0 || probe.verdict != "committed",
+                "a local step removes a defect: {probe:?}"
+            );
+        }
+    }
+    // the strip between rows 0 and 1: entered across the rung (0,0)–(0,1)
+    // of the quad (0,0)-(1,0)-(1,1)-(0,1) (its 4th edge, (0,1) → (0,0),
+    // runs across the strip)
+    let f = c
+        .mesh()
+        .faces()
+        .find(|&f| c.mesh().face_vertices(f).next() == Some(pqm_core::VertexId(0)))
+        .unwrap();
+    let corner = c
+        .mesh()
+        .face_halfedges(f)
+        .position(|h| {
+            let m = c.mesh();
+            (m.from_vertex(h), m.to_vertex(h)) == (pqm_core::VertexId(n), pqm_core::VertexId(0))
+        })
+        .unwrap() as u8;
+    let ok = c.collapse_chord(f, corner);
+    assert!(ok, "{:?}", c.report_so_far());
+    assert_eq!(c.mesh().face_count(), src.face_count() - n as usize);
+    assert_eq!(defects(c.mesh()), 4);
+    c.mesh().validate().unwrap();
+    // and it replays
+    let pm = c.to_progressive();
+    let (pos, faces) = pm.level_quads(pm.records.len());
+    assert_eq!(canon(&pos, &faces), canon(&src.positions, &quads(&src)));
+}

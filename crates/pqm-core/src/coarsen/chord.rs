@@ -42,7 +42,7 @@
 //! surface deviation and error bound; otherwise the mesh is put back
 //! exactly.
 
-use super::{Coarsener, GroupConstraint, ALPHA, V_FLOOR};
+use super::{Coarsener, GroupConstraint, Placement, ALPHA, V_FLOOR};
 use crate::mesh::{FaceId, HalfedgeId, Mesh, VertexId};
 use crate::ops::{Patch, Reject};
 use crate::progressive::OpKind;
@@ -282,7 +282,7 @@ impl Coarsener {
     /// Whether this mesh gets chord phases (decided on the input): at
     /// least [`CHORD_MIN_IDEAL`] of its vertices ideal and at least
     /// [`CHORD_MIN_CREASE`] of its interior edges on sharp feature curves —
-    /// a CAD-like block layout.
+    /// a CAD-like block layout — under [`Placement::Qem`].
     pub(super) fn chords_wanted(&self) -> bool {
         let m = &self.mesh;
         let n = m.vertex_count().max(1);
@@ -301,7 +301,10 @@ impl Coarsener {
                 .features
                 .is_feature_edge(m.from_vertex(h), m.to_vertex(h)) as usize;
         }
-        ideal as f64 / n as f64 >= CHORD_MIN_IDEAL
+        // (a collapse places its merged vertices by QEM: never under
+        // `Placement::Subset`, whose levels keep input positions)
+        self.opts.placement == Placement::Qem
+            && ideal as f64 / n as f64 >= CHORD_MIN_IDEAL
             && crease as f64 >= CHORD_MIN_CREASE * interior.max(1) as f64
     }
 
