@@ -549,6 +549,9 @@ pub struct Coarsener {
     fix_phases: usize,
     /// Whether chord phases run on this mesh ([`chord::CHORD_MIN_IDEAL`]).
     chords_on: bool,
+    /// Face count at or below which the next chord phase runs
+    /// ([`chord::CHORD_PHASE_EVERY`]).
+    chord_next: usize,
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
@@ -868,6 +871,7 @@ impl Coarsener {
             fix_only: false,
             fix_phases: 0,
             chords_on: false,
+            chord_next: usize::MAX,
         }
     }
 
@@ -958,7 +962,7 @@ impl Coarsener {
             let all: Vec<VertexId> = self.mesh.vertices().collect();
             self.remove_doublets_committed(&all);
             self.chords_on = self.chords_wanted();
-            self.chord_phase(self.target_faces());
+            self.maybe_chord_phase(self.target_faces());
             self.rescore_all();
         });
         let target = self.target_faces();
