@@ -90,10 +90,11 @@ fn check(name: &str, bars: Bars) {
         report.stop
     );
     println!(
-        "  {name}: qv {} qe {} doublets {} (wide rescues {}); peak queue {} entries ({:.1} per input quad); rejections {:?}; of them defect-removing {:?}",
+        "  {name}: qv {} qe {} doublets {} chords {} (wide rescues {}); peak queue {} entries ({:.1} per input quad); rejections {:?}; of them defect-removing {:?}",
         report.qv_merges,
         report.qe_merges,
         report.doublets,
+        c.chord_collapses(),
         report.wide_rescues,
         report.peak_queue,
         report.peak_queue as f64 / input.face_count() as f64,
