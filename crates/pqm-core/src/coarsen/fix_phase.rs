@@ -58,6 +58,7 @@ impl Coarsener {
         if self.fix_only || target == 0 {
             return;
         }
+        self.maybe_chord_phase(target);
         let faces = self.mesh.face_count() as f64;
         let mut due = false;
         while let Some(&at) = FIX_PHASES_AT.get(self.fix_phases) {

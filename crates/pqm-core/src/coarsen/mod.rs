@@ -48,6 +48,7 @@
 //! scored in parallel (rayon, per-thread scratch) and pushed in candidate
 //! order: the output does not depend on the thread count either.
 
+mod chord;
 #[doc(hidden)]
 pub mod diagnose;
 pub mod features;
@@ -544,6 +545,16 @@ pub struct Coarsener {
     fix_only: bool,
     /// Fix phases started so far (of [`fix_phase::FIX_PHASES_AT`]).
     fix_phases: usize,
+    /// Whether chord phases run on this mesh ([`chord::CHORD_MIN_IDEAL`]).
+    chords_on: bool,
+    /// Chord collapses committed ([`Coarsener::chord_collapses`]; kept
+    /// out of [`CoarsenReport`] so that its text, and the result hashes
+    /// of `examples/coarsen_identity.rs`, stay as they were for meshes
+    /// without chord phases).
+    chords_done: usize,
+    /// Face count at or below which the next chord phase runs
+    /// ([`chord::CHORD_PHASE_EVERY`]).
+    chord_next: usize,
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
@@ -862,6 +873,9 @@ impl Coarsener {
             prune_slack: DEFAULT_PRUNE_SLACK,
             fix_only: false,
             fix_phases: 0,
+            chords_on: false,
+            chords_done: 0,
+            chord_next: usize::MAX,
         }
     }
 
@@ -951,6 +965,8 @@ impl Coarsener {
         rayon::scope(|_| {
             let all: Vec<VertexId> = self.mesh.vertices().collect();
             self.remove_doublets_committed(&all);
+            self.chords_on = self.chords_wanted();
+            self.maybe_chord_phase(self.target_faces());
             self.rescore_all();
         });
         let target = self.target_faces();
@@ -2378,6 +2394,26 @@ impl Coarsener {
                 return false;
             }
         };
+        let op = match cand {
+            Cand::Qv(..) => OpKind::QvMerge,
+            Cand::Qe(..) => OpKind::QeMerge,
+        };
+        let ok = self.commit_patch(op, patch, gain);
+        if ok {
+            match op {
+                OpKind::QvMerge => self.report.qv_merges += 1,
+                _ => self.report.qe_merges += 1,
+            }
+        }
+        ok
+    }
+
+    /// Checks and commits a built patch as one step logged as `op` (its
+    /// doublet removals, relaxation, every guard and limit of
+    /// [`Coarsener::try_commit`]), or puts the mesh back exactly. `gain`:
+    /// the defects it removes, as scored. Shared by the queue's candidates
+    /// and [`chord`] collapses.
+    fn commit_patch(&mut self, op: OpKind, patch: Patch, gain: i64) -> bool {
         if ops::check_patch(&self.mesh, &patch).is_err() {
             *self
                 .report
@@ -2387,10 +2423,6 @@ impl Coarsener {
             self.count_refused_fix(gain, "topology");
             return false;
         }
-        let op = match cand {
-            Cand::Qv(..) => OpKind::QvMerge,
-            Cand::Qe(..) => OpKind::QeMerge,
-        };
         // region whose shape is checked: removed faces and faces around
         // every vertex that moves
         let mut region: Vec<FaceId> = patch.remove.clone();
@@ -2681,10 +2713,6 @@ impl Coarsener {
         }
         for log in &step_logs {
             self.logs.push(log);
-        }
-        match op {
-            OpKind::QvMerge => self.report.qv_merges += 1,
-            _ => self.report.qe_merges += 1,
         }
         self.report.wide_rescues += widened as usize;
         // re-score the neighbourhood: new generations first (so every entry
