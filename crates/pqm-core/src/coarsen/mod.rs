@@ -1589,9 +1589,14 @@ impl Coarsener {
                         continue;
                     }
                     *slot = (epoch, class | QE_COUNTED);
-                    let val_b = match site.v.iter().position(|&y| y == v) {
-                        Some(j) => deg[j],
-                        None => m.valence(v),
+                    // (only the six are of class `QE_SIX`)
+                    let val_b = match class {
+                        QE_SIX => site
+                            .v
+                            .iter()
+                            .position(|&y| y == v)
+                            .map_or_else(|| m.valence(v), |j| deg[j]),
+                        _ => m.valence(v),
                     };
                     let ideal_vb = m.ideal_valence(v);
                     // (valence, ideal valence) after, `None` when merged away
