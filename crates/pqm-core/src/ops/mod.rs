@@ -352,14 +352,20 @@ impl GeometryGuard {
 
     /// Area-weighted normal of the captured faces that share a vertex of
     /// `vs` (`None` when there is none, or they cancel).
+    // inlined into `local_normal`, where `vs` is a quad's four corners or
+    // fewer (out of line, the id compares were twice the instructions)
+    #[inline(always)]
     fn normal_around(&self, vs: &[VertexId]) -> Option<DVec3> {
         // a wide step checks ≈ 100 faces against ≈ 100 captured ones: the
         // masks skip most of the captured faces without comparing ids
         let qm = vertex_mask(vs);
         let mut n = DVec3::ZERO;
         for &(lo, hi, ref w, m) in &self.local {
+            if m & qm == 0 {
+                continue;
+            }
             let fvs = &self.local_vs[lo as usize..hi as usize];
-            if m & qm != 0 && fvs.iter().any(|v| vs.contains(v)) {
+            if fvs.iter().any(|v| vs.contains(v)) {
                 n += *w;
             }
         }
