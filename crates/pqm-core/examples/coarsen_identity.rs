@@ -56,10 +56,6 @@ fn run(name: &str, mut im: IndexedMesh, target: usize, smoothing: Smoothing) {
     {
         c.set_prune_slack(slack);
     }
-    // `PQM_LAZY=0|1`: eager or lazy re-scoring (default: the coarsener's)
-    if let Ok(lazy) = std::env::var("PQM_LAZY") {
-        c.set_lazy_rescoring(lazy != "0");
-    }
     let mut report = c.run(&mut |_| {});
     let peak_queue = std::mem::take(&mut report.peak_queue);
     let coarsest = c.mesh().to_indexed().0;

@@ -17,23 +17,17 @@ fn coarsen_with_slack(
     src: &IndexedMesh,
     opts: &CoarsenOptions,
     slack: f64,
-    lazy: bool,
 ) -> (ProgressiveMesh, IndexedMesh, CoarsenReport) {
     let mesh = Mesh::from_indexed(src).expect("valid quad mesh");
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts.clone()).expect("features");
     c.set_prune_slack(slack);
-    c.set_lazy_rescoring(lazy);
     let report = c.run(&mut |_| {});
     let coarsest = c.mesh().to_indexed().0;
     (c.into_progressive(), coarsest, report)
 }
 
 fn assert_schedule_invariant(src: &IndexedMesh, opts: CoarsenOptions) {
-    assert_schedule_invariant_with(src, opts, false);
-}
-
-fn assert_schedule_invariant_with(src: &IndexedMesh, opts: CoarsenOptions, lazy: bool) {
-    let (pm0, mesh0, r0) = coarsen_with_slack(src, &opts, 0.0, lazy);
+    let (pm0, mesh0, r0) = coarsen_with_slack(src, &opts, 0.0);
     assert!(
         !pm0.records.is_empty() && r0.rejected > 0,
         "the comparison needs committed and rejected steps ({} records, {} rejected)",
@@ -42,7 +36,7 @@ fn assert_schedule_invariant_with(src: &IndexedMesh, opts: CoarsenOptions, lazy:
     );
     let mut peaks = vec![r0.peak_queue];
     for slack in [2.0, 1e9] {
-        let (pm, mesh, r) = coarsen_with_slack(src, &opts, slack, lazy);
+        let (pm, mesh, r) = coarsen_with_slack(src, &opts, slack);
         peaks.push(r.peak_queue);
         let strip = |r: &CoarsenReport| CoarsenReport {
             peak_queue: 0,
@@ -54,10 +48,9 @@ fn assert_schedule_invariant_with(src: &IndexedMesh, opts: CoarsenOptions, lazy:
         assert!(pm == pm0, "progressive mesh differs at slack {slack}");
     }
     // the schedules really differ: pruning after every commit keeps the
-    // queue smallest (under lazy re-scoring dirty entries stay, and the
-    // peak is the first filling whatever the schedule)
+    // queue smallest
     assert!(
-        lazy || peaks[0] < peaks[2],
+        peaks[0] < peaks[2],
         "pruning after every commit should keep the queue smaller: {peaks:?}"
     );
 }
@@ -89,41 +82,4 @@ fn noisy_torus_is_the_same_under_any_pruning_schedule() {
             },
         );
     }
-}
-
-/// Lazy re-scoring (an option, off by default) keeps dirty entries in the
-/// queue, and pruning must keep them too: the same invariance, and its
-/// records replay to the input.
-#[test]
-fn lazy_rescoring_is_the_same_under_any_pruning_schedule_and_replays() {
-    let src = shapes::noisy(&shapes::bumpy_torus(48, 20, 2.0, 0.6, 0.4, 5), 0.004, 9);
-    let opts = CoarsenOptions {
-        target_faces: Some(120),
-        ..Default::default()
-    };
-    assert_schedule_invariant_with(&src, opts.clone(), true);
-    let (pm, coarsest, _) = coarsen_with_slack(&src, &opts, 2.0, true);
-    let (eager, _, _) = coarsen_with_slack(&src, &opts, 2.0, false);
-    // it takes another path than the eager default
-    assert!(pm != eager, "lazy re-scoring changed nothing");
-    pm.validate().unwrap();
-    assert_eq!(pm.level(0).face_count(), coarsest.face_count());
-    // the finest level is the input: the same faces on the same positions
-    // (bit for bit), up to vertex numbering and each face's first corner
-    let canon = |m: &IndexedMesh| {
-        let mut fs: Vec<Vec<[u64; 3]>> = m
-            .faces()
-            .map(|f| {
-                let ks: Vec<[u64; 3]> = f
-                    .iter()
-                    .map(|&v| m.positions[v as usize].to_array().map(f64::to_bits))
-                    .collect();
-                let k = (0..ks.len()).min_by_key(|&i| ks[i]).unwrap_or(0);
-                (0..ks.len()).map(|i| ks[(k + i) % ks.len()]).collect()
-            })
-            .collect();
-        fs.sort();
-        fs
-    };
-    assert!(canon(&pm.level(pm.records.len())) == canon(&src));
 }

@@ -226,3 +226,47 @@ proptest! {
         prop_assert_eq!(canon(&back), canon(&src));
     }
 }
+
+/// What `valence` and `is_boundary_vertex` must say, from a walk of the
+/// half-edge records (the mesh answers both from a per-vertex byte it
+/// updates where rings change).
+fn assert_vertex_info_walks(m: &Mesh) {
+    for i in 0..m.vertex_capacity() as u32 {
+        let v = VertexId(i);
+        let walked = m.outgoing(v).count();
+        let boundary = m.outgoing(v).any(|h| m.is_boundary_halfedge(h));
+        assert_eq!(m.valence(v), walked, "valence of vertex {v}");
+        assert_eq!(
+            m.is_boundary_vertex(v),
+            boundary,
+            "boundary flag of vertex {v}"
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// Random vertex removals on an open grid and their undos (which bring
+    /// dead vertices back): after each, every vertex id's valence and
+    /// boundary flag equal a walk of its ring (interior, boundary and
+    /// deleted vertices alike).
+    #[test]
+    fn valence_and_boundary_flags_follow_patches(picks in prop::collection::vec((0u32..49, 0usize..8), 1..16)) {
+        let mut m = Mesh::from_indexed(&grid(6, 6)).unwrap();
+        assert_vertex_info_walks(&m);
+        let mut undo = Vec::new();
+        for (v, r) in picks {
+            let v = VertexId(v);
+            if !m.is_vertex_alive(v) { continue; }
+            if let Some(step) = remove_star(&mut m, v, r % 2) {
+                assert_vertex_info_walks(&m);
+                undo.push(step);
+            }
+        }
+        while let Some((faces, old, dead)) = undo.pop() {
+            m.replace_patch_reviving(&faces, &old, &dead).unwrap();
+            assert_vertex_info_walks(&m);
+        }
+        m.validate().unwrap();
+    }
+}

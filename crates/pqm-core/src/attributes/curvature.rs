@@ -42,6 +42,7 @@
 
 use crate::mesh::{Mesh, VertexId};
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Options of [`Curvature::compute`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -227,54 +228,70 @@ impl Curvature {
             sym_add(&mut face_t[f2.idx()], &et, 0.5);
         }
 
-        // Per vertex: gather the rings with stamp marks (no hashing).
+        // Per vertex: gather the rings with stamp marks (no hashing). Each
+        // vertex reads only the per-face sums above, so blocks of vertex ids
+        // run in parallel (rayon), each with its own marks, and every
+        // vertex gets the very value the sequential loop gave (on the
+        // bunny this loop was most of the setup before coarsening).
         let mut out = vec![PrincipalCurvature::default(); mesh.vertex_capacity()];
-        let mut face_mark = vec![u32::MAX; mesh.face_capacity()];
-        let mut vert_mark = vec![u32::MAX; mesh.vertex_capacity()];
-        let mut frontier: Vec<VertexId> = Vec::new();
-        let mut next: Vec<VertexId> = Vec::new();
-        for v in mesh.vertices() {
-            let stamp = v.0;
-            let mut normal = DVec3::ZERO;
-            for f in mesh.vertex_faces(v) {
-                normal += face_n[f.idx()];
-            }
-            let normal = normal.normalize_or_zero();
-            if normal == DVec3::ZERO {
-                continue;
-            }
-            let mut t = [0.0; 6];
-            let mut area = 0.0;
-            frontier.clear();
-            frontier.push(v);
-            vert_mark[v.idx()] = stamp;
-            for _ in 0..rings {
-                next.clear();
-                for &u in &frontier {
-                    for f in mesh.vertex_faces(u) {
-                        if face_mark[f.idx()] == stamp {
-                            continue;
-                        }
-                        face_mark[f.idx()] = stamp;
-                        sym_add(&mut t, &face_t[f.idx()], 1.0);
-                        area += face_area[f.idx()];
-                        for w in mesh.face_vertices(f) {
-                            if vert_mark[w.idx()] != stamp {
-                                vert_mark[w.idx()] = stamp;
-                                next.push(w);
+        let block = out
+            .len()
+            .div_ceil(4 * rayon::current_num_threads())
+            .max(4096);
+        out.par_chunks_mut(block)
+            .enumerate()
+            .for_each(|(b, chunk)| {
+                let mut face_mark = vec![u32::MAX; mesh.face_capacity()];
+                let mut vert_mark = vec![u32::MAX; mesh.vertex_capacity()];
+                let mut frontier: Vec<VertexId> = Vec::new();
+                let mut next: Vec<VertexId> = Vec::new();
+                for (k, slot) in chunk.iter_mut().enumerate() {
+                    let v = VertexId((b * block + k) as u32);
+                    if !mesh.is_vertex_alive(v) {
+                        continue;
+                    }
+                    let stamp = v.0;
+                    let mut normal = DVec3::ZERO;
+                    for f in mesh.vertex_faces(v) {
+                        normal += face_n[f.idx()];
+                    }
+                    let normal = normal.normalize_or_zero();
+                    if normal == DVec3::ZERO {
+                        continue;
+                    }
+                    let mut t = [0.0; 6];
+                    let mut area = 0.0;
+                    frontier.clear();
+                    frontier.push(v);
+                    vert_mark[v.idx()] = stamp;
+                    for _ in 0..rings {
+                        next.clear();
+                        for &u in &frontier {
+                            for f in mesh.vertex_faces(u) {
+                                if face_mark[f.idx()] == stamp {
+                                    continue;
+                                }
+                                face_mark[f.idx()] = stamp;
+                                sym_add(&mut t, &face_t[f.idx()], 1.0);
+                                area += face_area[f.idx()];
+                                for w in mesh.face_vertices(f) {
+                                    if vert_mark[w.idx()] != stamp {
+                                        vert_mark[w.idx()] = stamp;
+                                        next.push(w);
+                                    }
+                                }
                             }
                         }
+                        std::mem::swap(&mut frontier, &mut next);
                     }
+                    if area > 0.0 {
+                        for x in t.iter_mut() {
+                            *x /= area;
+                        }
+                    }
+                    *slot = principal_from_tensor(&t, normal, eps);
                 }
-                std::mem::swap(&mut frontier, &mut next);
-            }
-            if area > 0.0 {
-                for x in t.iter_mut() {
-                    *x /= area;
-                }
-            }
-            out[v.idx()] = principal_from_tensor(&t, normal, eps);
-        }
+            });
         Curvature { vertices: out }
     }
 

@@ -238,16 +238,14 @@ impl FeatureState {
                 }
             }
         }
-        let mut ring: Vec<FaceId> = Vec::with_capacity(2 * vs.len() + 4);
+        // the feature vertices of the faces around those, with repeats (a
+        // face around two of them is read twice): the sort below removes
+        // them, and feature vertices are few, where checking each face
+        // against a list of the faces seen cost up to ≈ 80 compares a face
         for &v in &vs {
             for g in mesh.vertex_faces(v) {
-                if !ring.contains(&g) {
-                    ring.push(g);
-                }
+                out.extend(mesh.face_vertices(g).filter(|&u| self.is_feature(u)));
             }
-        }
-        for &g in &ring {
-            out.extend(mesh.face_vertices(g).filter(|&u| self.is_feature(u)));
         }
         out.sort_unstable();
         out.dedup();

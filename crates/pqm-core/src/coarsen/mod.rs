@@ -100,20 +100,6 @@ const PARALLEL_MIN_CANDIDATES: usize = 32;
 /// candidate and cost lists (which would otherwise add ≈ 100 bytes per
 /// input quad to the peak) without making the parallel batches small.
 const SCORE_CHUNK_FACES: usize = 8192;
-/// Lazy re-scoring after a commit (default of
-/// [`Coarsener::set_lazy_rescoring`]): the candidates of the changed
-/// neighbourhood that have an entry keep it, marked dirty by their faces'
-/// new stamps, and are scored again only when popped (queued again at the
-/// fresh cost, so popped at once if still the cheapest); only the created
-/// faces' candidates and those without an entry are scored at once.
-/// Off: a dirty entry waits at its old cost, and more than half of those
-/// re-scored eagerly come out *cheaper* (bunny: 607k cheaper, 469k
-/// dearer, 158k the same, 95k illegal), so the improvements it delays cost
-/// quality. Measured (session 9): bunny bench 0.85–0.88× the eager time
-/// (same run), but ideal fraction spot 86.9 → 84.6 %, loki 86.0 → 82.1 %
-/// (SJ median 0.865 → 0.847), makehuman 72.6 → 70.3 %, bunny 83.1 → 81.2
-/// %, fandisk 75.8 → 75.5 %: four quality-bar floors fail.
-pub const LAZY_RESCORING: bool = false;
 /// Default of [`Coarsener::set_prune_slack`].
 pub const DEFAULT_PRUNE_SLACK: f64 = 2.0;
 /// A queue buffer smaller than this (entries) grows without pruning first.
@@ -504,21 +490,6 @@ pub struct Coarsener {
     /// face states it was scored on — even after an id is recycled.
     stamp: Vec<u32>,
     next_stamp: u32,
-    /// Per face id: the stamp the face got when it was created (the
-    /// initial faces: their initial stamp). Under lazy re-scoring an entry
-    /// whose face stamps changed but whose faces were not re-created since
-    /// it was pushed (each stamp at or above its face's `born`) names the
-    /// same candidate on the same faces, scored on an older neighbourhood:
-    /// it is *dirty*, not dead (see [`Coarsener::valid`]).
-    born: Vec<u32>,
-    /// Per face id, which of its candidates have a valid entry in the queue
-    /// (lazy re-scoring only): bit `d` for `Qv(f, d)`, bit `2 + i` for
-    /// `Qe(f, i, 0)` pushed from this face. A candidate with an entry is
-    /// re-scored when popped; one without (it scored `None`, or was popped
-    /// and refused) is scored at once when its face's neighbourhood changes.
-    queued: Vec<u8>,
-    /// Lazy re-scoring ([`LAZY_RESCORING`], [`Coarsener::set_lazy_rescoring`]).
-    lazy: bool,
     /// Valence cap of the current phase: [`FIRST_PHASE_MAX_VALENCE`] until
     /// nothing is legal under it, then [`MAX_VALENCE`].
     cap: usize,
@@ -850,9 +821,6 @@ impl Coarsener {
         let mesh_faces = mesh.face_capacity();
         Coarsener {
             stamp: (0..mesh_faces as u32).collect(),
-            born: Vec::new(),
-            queued: Vec::new(),
-            lazy: false,
             next_stamp: mesh_faces as u32,
             cap: FIRST_PHASE_MAX_VALENCE,
             limit_deviation: true,
@@ -927,22 +895,6 @@ impl Coarsener {
     /// trades time (each pruning is linear in the queue) for memory.
     pub fn set_prune_slack(&mut self, slack: f64) {
         self.prune_slack = slack.max(0.0);
-    }
-
-    /// Lazy (`true`) or eager re-scoring after each commit (default
-    /// [`LAZY_RESCORING`]); without effect while crossing re-fans are
-    /// queued ([`QE_CROSSING_REFANS`]). Eager is the paper's rule.
-    /// Call it before [`Coarsener::run`]: the faces' birth stamps are
-    /// taken from their current ones.
-    pub fn set_lazy_rescoring(&mut self, lazy: bool) {
-        self.lazy = lazy && !QE_CROSSING_REFANS;
-        if self.lazy {
-            self.born = self.stamp.clone();
-            self.queued = vec![0; self.stamp.len()];
-        } else {
-            self.born = Vec::new();
-            self.queued = Vec::new();
-        }
     }
 
     fn target_faces(&self) -> usize {
@@ -1032,17 +984,8 @@ impl Coarsener {
                 self.queue.shrink_to(self.queue.len() * 2);
             }
             if !self.fresh(&e) {
-                if self.lazy && self.valid(&e) {
-                    // dirty: score it on today's neighbourhood and queue it
-                    // again (popped at once if it is still the cheapest)
-                    self.unqueue(e.cand);
-                    if let Some(cost) = SCRATCH.with(|s| self.score(e.cand, &mut s.borrow_mut())) {
-                        self.push_scored(e.cand, cost);
-                    }
-                }
                 continue;
             }
-            self.unqueue(e.cand);
             if self.try_commit(e.cand) {
                 since += 1;
                 if since >= commits {
@@ -1092,41 +1035,6 @@ impl Coarsener {
                 }
             }
         }
-    }
-
-    /// Whether the entry still names a candidate on the very faces it was
-    /// scored on (none re-created since): fresh, or dirty under lazy
-    /// re-scoring. Stamps are handed out in increasing order, so a stamp
-    /// at or above a face's `born` was taken after the face was created.
-    fn valid(&self, e: &Entry) -> bool {
-        let m = &self.mesh;
-        let alive = |f: FaceId, stamp: u32| m.is_face_alive(f) && stamp >= self.born[f.idx()];
-        match e.cand {
-            Cand::Qv(f, _) => alive(f, e.stamps.0),
-            Cand::Qe(f, i, _) => {
-                alive(f, e.stamps.0)
-                    && face_edge(m, f, i)
-                        .and_then(|h| m.face(m.twin(h)))
-                        .is_some_and(|g| alive(g, e.stamps.1))
-            }
-        }
-    }
-
-    /// The bit of [`Coarsener::queued`] that says `cand` has an entry.
-    fn queued_bit(cand: Cand) -> (FaceId, u8) {
-        match cand {
-            Cand::Qv(f, d) => (f, 1 << d),
-            Cand::Qe(f, i, _) => (f, 4 << i),
-        }
-    }
-
-    /// Notes that the valid entry of `cand` left the queue.
-    fn unqueue(&mut self, cand: Cand) {
-        if !self.lazy {
-            return;
-        }
-        let (f, bit) = Self::queued_bit(cand);
-        self.queued[f.idx()] &= !bit;
     }
 
     /// The candidate's cost, `None` when it cannot be built or breaks the
@@ -1254,7 +1162,7 @@ impl Coarsener {
         let lost = ring[..n]
             .iter()
             .filter(|&&(w, common)| {
-                !m.is_boundary_vertex(w) && m.outgoing(w).take(4).count() == 2 + common as usize
+                !m.is_boundary_vertex(w) && m.valence(w).min(4) == 2 + common as usize
             })
             .count();
         n - lost > bound
@@ -1273,7 +1181,7 @@ impl Coarsener {
         let [a, _, _, d, _, _] = site.v;
         [a, d].into_iter().any(|x| {
             !m.is_boundary_vertex(x)
-                && m.outgoing(x).take(4).count() == 3
+                && m.valence(x).min(4) == 3
                 && m.vertex_faces(x)
                     .filter(|&g| g != site.q1 && g != site.q2)
                     .all(|g| m.face_degree(g) <= 4)
@@ -1418,7 +1326,7 @@ impl Coarsener {
             }
             let lost = rings[side][..n_ring[side]]
                 .iter()
-                .filter(|&&w| interior_at_2(w, m.outgoing(w).take(3).count()))
+                .filter(|&&w| interior_at_2(w, m.valence(w).min(3)))
                 .count();
             if val + slack > bound + lost {
                 return OverCap;
@@ -1440,7 +1348,7 @@ impl Coarsener {
                     continue;
                 }
                 let safe = m.vertex_ring(p).all(|w| {
-                    let dw = m.outgoing(w).take(4).count();
+                    let dw = m.valence(w).min(4);
                     let after = match class_of(w) {
                         ODD => dw - 1,
                         EVEN => dw + 1,
@@ -1697,9 +1605,14 @@ impl Coarsener {
                         continue;
                     }
                     *slot = (epoch, class | QE_COUNTED);
-                    let val_b = match site.v.iter().position(|&y| y == v) {
-                        Some(j) => deg[j],
-                        None => m.valence(v),
+                    // (only the six are of class `QE_SIX`)
+                    let val_b = match class {
+                        QE_SIX => site
+                            .v
+                            .iter()
+                            .position(|&y| y == v)
+                            .map_or_else(|| m.valence(v), |j| deg[j]),
+                        _ => m.valence(v),
                     };
                     let ideal_vb = m.ideal_valence(v);
                     // (valence, ideal valence) after, `None` when merged away
@@ -1782,7 +1695,6 @@ impl Coarsener {
     /// the current phase (valence cap, deviation limit, fix phase).
     fn rescore_all(&mut self) {
         self.queue.clear();
-        self.queued.iter_mut().for_each(|b| *b = 0);
         let faces: Vec<FaceId> = self.mesh.faces().collect();
         self.push_faces(&faces, &[]);
     }
@@ -1804,71 +1716,21 @@ impl Coarsener {
     fn push_faces(&mut self, faces: &[FaceId], batch: &[FaceId]) {
         let bulk = faces.len() > SCORE_CHUNK_FACES;
         for chunk in faces.chunks(SCORE_CHUNK_FACES) {
-            self.push_chunk(chunk, batch, bulk, None);
+            self.push_chunk(chunk, batch, bulk);
         }
     }
 
-    /// Lazy re-scoring of a commit's `faces` (`created`: those the step
-    /// created): a created face's candidates are scored now (an edge
-    /// between two created faces once, from the smaller id; an edge to a
-    /// surviving face from the created one, whose old entry named the
-    /// face this one replaced), and so are a surviving face's candidates
-    /// that have no entry (an edge between two surviving faces of the
-    /// batch looked at from the smaller id); a candidate with an entry
-    /// keeps it, dirty, and is scored again when popped.
-    fn push_faces_lazy(&mut self, faces: &[FaceId], created: &[FaceId]) {
-        self.push_chunk(faces, faces, false, Some(created));
-    }
-
-    /// Whether the qeMerge across `f`'s half-edge `h` has an entry, from
-    /// `f` (edge index `i`) or from the face across `g`.
-    fn qe_queued(&self, f: FaceId, i: usize, h: HalfedgeId, g: FaceId) -> bool {
-        if self.queued[f.idx()] & (4 << i) != 0 {
-            return true;
-        }
-        let t = self.mesh.twin(h);
-        let j = self.mesh.face_halfedges(g).position(|x| x == t);
-        j.is_some_and(|j| self.queued[g.idx()] & (4 << j) != 0)
-    }
-
-    fn push_chunk(
-        &mut self,
-        faces: &[FaceId],
-        batch: &[FaceId],
-        exact: bool,
-        created: Option<&[FaceId]>,
-    ) {
+    fn push_chunk(&mut self, faces: &[FaceId], batch: &[FaceId], exact: bool) {
         let mut cands: Vec<Cand> = Vec::with_capacity(faces.len() * 4);
         for &f in faces {
             if !self.mesh.is_face_alive(f) {
                 continue;
             }
-            // (eager: every face counts as created)
-            let f_new = match created {
-                None => true,
-                Some(c) => c.contains(&f),
-            };
-            let bits = if f_new { 0 } else { self.queued[f.idx()] };
-            if f_new || bits & 1 == 0 {
-                cands.push(Cand::Qv(f, 0));
-            }
-            if f_new || bits & 2 == 0 {
-                cands.push(Cand::Qv(f, 1));
-            }
+            cands.push(Cand::Qv(f, 0));
+            cands.push(Cand::Qv(f, 1));
             for (i, h) in self.mesh.face_halfedges(f).enumerate() {
                 if let Some(g) = self.mesh.face(self.mesh.twin(h)) {
-                    let take = match created {
-                        None => f < g || !batch.contains(&g),
-                        Some(c) => match (f_new, c.contains(&g)) {
-                            (true, true) => f < g,
-                            (true, false) => true,
-                            (false, true) => false,
-                            (false, false) => {
-                                (f < g || !batch.contains(&g)) && !self.qe_queued(f, i, h, g)
-                            }
-                        },
-                    };
-                    if take {
+                    if f < g || !batch.contains(&g) {
                         let n = if QE_CROSSING_REFANS {
                             QE_VARIANTS.len()
                         } else {
@@ -1905,10 +1767,6 @@ impl Coarsener {
     }
 
     fn push_scored(&mut self, cand: Cand, cost: f64) {
-        if self.lazy {
-            let (f, bit) = Self::queued_bit(cand);
-            self.queued[f.idx()] |= bit;
-        }
         let stamps = match cand {
             Cand::Qv(f, _) => (self.stamp[f.idx()], 0),
             Cand::Qe(f, i, _) => {
@@ -2720,43 +2578,11 @@ impl Coarsener {
         for &f in &check_faces {
             if f.idx() >= self.stamp.len() {
                 self.stamp.resize(f.idx() + 1, 0);
-                if self.lazy {
-                    self.born.resize(f.idx() + 1, 0);
-                    self.queued.resize(f.idx() + 1, 0);
-                }
             }
             self.stamp[f.idx()] = self.next_stamp;
             self.next_stamp = self.next_stamp.wrapping_add(1);
         }
-        if self.lazy {
-            // the faces the step created (a created id may be a recycled
-            // one): born now, with no entry yet; an entry of a surviving
-            // face across one of their edges named the face it replaced
-            let created: Vec<FaceId> = undo_stack
-                .iter()
-                .flat_map(|a| a.faces.iter().copied())
-                .filter(|&f| self.mesh.is_face_alive(f))
-                .collect();
-            for &f in &created {
-                self.born[f.idx()] = self.stamp[f.idx()];
-                self.queued[f.idx()] = 0;
-            }
-            for &f in &created {
-                for h in self.mesh.face_halfedges(f) {
-                    let t = self.mesh.twin(h);
-                    if let Some(g) = self.mesh.face(t) {
-                        if !created.contains(&g) {
-                            if let Some(j) = self.mesh.face_halfedges(g).position(|x| x == t) {
-                                self.queued[g.idx()] &= !(4u8 << j);
-                            }
-                        }
-                    }
-                }
-            }
-            self.push_faces_lazy(&check_faces, &created);
-        } else {
-            self.push_faces(&check_faces, &check_faces);
-        }
+        self.push_faces(&check_faces, &check_faces);
         self.prune_queue();
         true
     }
@@ -2810,11 +2636,7 @@ impl Coarsener {
     /// Removes every stale entry (in place: the buffer is kept).
     fn prune_stale(&mut self) {
         let mut q = std::mem::take(&mut self.queue);
-        if self.lazy {
-            q.retain(|e| self.valid(e));
-        } else {
-            q.retain(|e| self.fresh(e));
-        }
+        q.retain(|e| self.fresh(e));
         self.queue = q;
     }
 

@@ -59,9 +59,7 @@ pub fn find_doublets(mesh: &Mesh, candidates: &[VertexId]) -> Vec<VertexId> {
     let mut out: Vec<VertexId> = candidates
         .iter()
         .copied()
-        .filter(|&v| {
-            mesh.is_vertex_alive(v) && !mesh.is_boundary_vertex(v) && mesh.outgoing(v).count() == 2
-        })
+        .filter(|&v| mesh.is_vertex_alive(v) && !mesh.is_boundary_vertex(v) && mesh.valence(v) == 2)
         .collect();
     out.sort_unstable();
     out.dedup();
