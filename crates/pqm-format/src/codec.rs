@@ -587,10 +587,7 @@ impl MeshState {
     /// `(slot, new quad, old quad)` per rewritten slot to `rw`, in record
     /// order — the undo log, without allocating per record.
     pub fn apply_logged(&mut self, r: &QRecord, moved: &mut Moves, rw: &mut Rewrites3) {
-        for &p in &r.new_pos {
-            self.q.push(p);
-            self.inline.push(Block::default());
-        }
+        self.push_new_vertices(r);
         for &(v, p) in &r.moved {
             moved.push((v, p, std::mem::replace(&mut self.q[v as usize], p)));
         }
@@ -598,6 +595,24 @@ impl MeshState {
             let old = self.set_quad(s, quad);
             rw.push((s, quad, old));
         }
+        self.append_quads(r);
+    }
+
+    /// The first step of applying a record: its new vertices, with empty
+    /// corner blocks (their corners come with the rewritten and appended
+    /// quads).
+    #[inline(always)]
+    fn push_new_vertices(&mut self, r: &QRecord) {
+        for &p in &r.new_pos {
+            self.q.push(p);
+            self.inline.push(Block::default());
+        }
+    }
+
+    /// The last step of applying a record: its appended quads, at the next
+    /// slots.
+    #[inline(always)]
+    fn append_quads(&mut self, r: &QRecord) {
         for &quad in &r.appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
@@ -621,10 +636,7 @@ impl MeshState {
         moved: &mut MoveDeltas,
         rw: &mut RewriteDeltas,
     ) {
-        for &p in &r.new_pos {
-            self.q.push(p);
-            self.inline.push(Block::default());
-        }
+        self.push_new_vertices(r);
         for &(v, p) in &r.moved {
             let old = std::mem::replace(&mut self.q[v as usize], p);
             moved.push((v, xor3(p, old)));
@@ -633,13 +645,7 @@ impl MeshState {
             let old = self.set_quad(s, quad);
             rw.push((s, xor4(quad, old)));
         }
-        for &quad in &r.appended {
-            let s = self.quads.len() as u32;
-            self.quads.push(quad);
-            for (k, &v) in quad.iter().enumerate() {
-                self.link(4 * s + k as u32, v);
-            }
-        }
+        self.append_quads(r);
     }
 
     /// [`MeshState::undo`] of a record applied by
