@@ -381,6 +381,34 @@ fn coarsen_reaches_the_target_and_keeps_a_valid_quad_mesh() {
     assert!(v["time_s"].as_f64().unwrap() >= 0.0);
 }
 
+/// Chord collapses run on block-structured CAD input (fandisk) and are
+/// reported as their own operator, in JSON and in the text summary; an
+/// organic mesh (spot) never gets them (the gate in `coarsen::chord`).
+#[test]
+fn coarsen_reports_chord_collapses_on_cad_input_only() {
+    let d = TempDir::new().unwrap();
+    let out = d.path().join("fandisk_250.obj");
+    let fandisk = shared("quad/fandisk_quads.off");
+    let v = json_ok(&["coarsen", s(&fandisk), "-o", s(&out), "--faces", "250"]);
+    assert!(
+        v["operators"]["chord_collapses"].as_u64().unwrap() > 0,
+        "{v}"
+    );
+    let (im, _) = load_valid(&out);
+    assert!(im.is_quad_only() && im.face_count() <= 250);
+    let text = pqm()
+        .args(["coarsen", s(&fandisk), "-o", s(&out), "--faces", "250"])
+        .output()
+        .unwrap();
+    assert!(text.status.success());
+    let summary =
+        String::from_utf8_lossy(&text.stdout).into_owned() + &String::from_utf8_lossy(&text.stderr);
+    assert!(summary.contains("chord collapses"), "{summary}");
+    let spot_out = d.path().join("spot_700.obj");
+    let v = json_ok(&["coarsen", s(&spot()), "-o", s(&spot_out), "--faces", "700"]);
+    assert_eq!(v["operators"]["chord_collapses"], 0, "{v}");
+}
+
 #[test]
 fn coarsen_splits_non_quad_input_and_says_so() {
     let d = TempDir::new().unwrap();

@@ -60,15 +60,20 @@ pub struct Operators {
     pub qv_merges: usize,
     pub qe_merges: usize,
     pub doublets: usize,
+    /// Whole quad strips removed at once (CAD-like inputs only; each is
+    /// one record, not counted in `qv_merges`).
+    pub chord_collapses: usize,
     pub rejected: usize,
 }
 
-impl From<&CoarsenReport> for Operators {
-    fn from(r: &CoarsenReport) -> Self {
+impl Operators {
+    /// The counts of a finished run: `r` is what `c.run` returned.
+    pub fn of(r: &CoarsenReport, c: &Coarsener) -> Self {
         Operators {
             qv_merges: r.qv_merges,
             qe_merges: r.qe_merges,
             doublets: r.doublets,
+            chord_collapses: c.chord_collapses(),
             rejected: r.rejected,
         }
     }
@@ -170,7 +175,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         stop_reason: stop_sentence(&r, out.face_count(), target),
         time_s,
         error: r.error,
-        operators: Operators::from(&r),
+        operators: Operators::of(&r, &p.coarsener),
         input_stats: mesh_stats(&p.input, None),
         output_stats: mesh_stats(&out, None),
     };
@@ -180,7 +185,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     ctx.emit(&report, || {
         format!(
             "{} -> {}: {} -> {} faces in {:.2} s; {}\n\
-             steps: {} qvMerge, {} qeMerge, {} doublet removals ({} candidates rejected); \
+             steps: {} qvMerge, {} qeMerge, {} doublet removals{} ({} candidates rejected); \
              error bound {:.3e} of the bbox diagonal\n\n\
              input ({}{})\n{}\noutput\n{}",
             report.input,
@@ -192,6 +197,10 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             r.qv_merges,
             r.qe_merges,
             r.doublets,
+            match p.coarsener.chord_collapses() {
+                0 => String::new(),
+                n => format!(", {n} chord collapses"),
+            },
             r.rejected,
             r.error,
             report.input,

@@ -260,6 +260,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let r = run_with_bar(&mut p.coarsener, target, &label, ctx);
+    let operators = Operators::of(&r, &p.coarsener);
     let pm = p.coarsener.into_progressive();
     let eopts = EncodeOptions {
         bits: args.bits,
@@ -292,7 +293,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         placement,
         stop: stop_code(&r),
         error: r.error,
-        operators: Operators::from(&r),
+        operators,
         encode_time_s: t0.elapsed().as_secs_f64(),
     })
 }
