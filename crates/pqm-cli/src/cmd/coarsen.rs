@@ -12,7 +12,10 @@ use std::time::Instant;
 /// Coarsen a quad mesh with qCoarsen to a face count, ratio or error bound.
 ///
 /// qvMerge, qeMerge and doublet removal run from one priority queue (the
-/// qCoarsen paper's error), and the coarse quad mesh is written.
+/// qCoarsen paper's error), and the coarse quad mesh is written. On
+/// block-structured CAD meshes (nearly all vertices of valence 4 and many
+/// sharp edges, e.g. fandisk) whole quad strips are also collapsed at once
+/// ("chord collapses"), which keeps the layout of the singular vertices.
 ///
 /// The result stays quad-only and valid, with the same topology (components,
 /// boundary loops, genus) and every feature curve kept. Non-quad input is
