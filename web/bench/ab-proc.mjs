@@ -10,11 +10,11 @@
 //
 //   node bench/ab-proc.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--rounds R] [--forward | --forward-both]
 import { execFileSync } from 'node:child_process';
-import { existsSync, readFileSync, statSync } from 'node:fs';
+import { readFileSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath, pathToFileURL } from 'node:url';
+import { abArgs } from './ab-args.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
 const args = process.argv.slice(2);
 if (args[0] === '--child') {
   // child: --child SRC_DIR FILE RUNS FORWARD
@@ -44,17 +44,7 @@ const take = (flag, dflt) => {
 };
 const runs = take('--runs', 11);
 const rounds = take('--rounds', 6);
-const bothAt = args.indexOf('--forward-both');
-const forwardBoth = bothAt >= 0 && args.splice(bothAt, 1).length > 0;
-const forwardAt = args.indexOf('--forward');
-const forward = forwardBoth || (forwardAt >= 0 && args.splice(forwardAt, 1).length > 0);
-const dirs = [];
-while (args.length && existsSync(args[0]) && statSync(args[0]).isDirectory()) dirs.push(path.resolve(args.shift()));
-if (dirs.length === 0 || args.length === 0) {
-  console.error('usage: node bench/ab-proc.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--rounds R] [--forward | --forward-both]');
-  process.exit(2);
-}
-if (dirs.length === 1) dirs.push(path.join(here, '../pqm-decoder/src'));
+const { forward, forwardBoth, dirs } = abArgs(args, 'node bench/ab-proc.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--rounds R] [--forward | --forward-both]');
 const self = fileURLToPath(import.meta.url);
 const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
 for (const file of args) {

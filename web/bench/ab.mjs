@@ -16,27 +16,17 @@
 // e.g. a mesh as a 2.0 file for an old tree and as a 3.0 file for this one;
 // with --forward B's decoder is one-way (`forwardOnly: true`), with
 // --forward-both both are.
-import { readFileSync, existsSync, statSync } from 'node:fs';
+import { readFileSync } from 'node:fs';
 import path from 'node:path';
-import { fileURLToPath, pathToFileURL } from 'node:url';
+import { pathToFileURL } from 'node:url';
+import { abArgs } from './ab-args.mjs';
 
-const here = path.dirname(fileURLToPath(import.meta.url));
 const args = process.argv.slice(2);
 const runsAt = args.indexOf('--runs');
 const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
 // --forward: B decodes with `forwardOnly: true` (A stays the general decoder);
 // --forward-both: both do (an old forward-only decoder against this one)
-const bothAt = args.indexOf('--forward-both');
-const forwardBoth = bothAt >= 0 && args.splice(bothAt, 1).length > 0;
-const forwardAt = args.indexOf('--forward');
-const forward = forwardBoth || (forwardAt >= 0 && args.splice(forwardAt, 1).length > 0);
-const dirs = [];
-while (args.length && existsSync(args[0]) && statSync(args[0]).isDirectory()) dirs.push(path.resolve(args.shift()));
-if (dirs.length === 0 || args.length === 0) {
-  console.error('usage: node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--pairs] [--forward]');
-  process.exit(2);
-}
-if (dirs.length === 1) dirs.push(path.join(here, '../pqm-decoder/src'));
+const { forward, forwardBoth, dirs } = abArgs(args, 'node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--pairs] [--forward]');
 const trees = await Promise.all(dirs.map((d) => import(pathToFileURL(path.join(d, 'index.js')).href)));
 const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
 
