@@ -13,7 +13,7 @@ import { execFileSync } from 'node:child_process';
 import { readFileSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath, pathToFileURL } from 'node:url';
-import { abArgs } from './ab-args.mjs';
+import { abArgs, median, takeNumber, timeDecode, warmUp } from './ab-common.mjs';
 
 const args = process.argv.slice(2);
 if (args[0] === '--child') {
@@ -21,32 +21,23 @@ if (args[0] === '--child') {
   const [, dir, file, runsArg, fwd] = args;
   const { PqmDecoder } = await import(pathToFileURL(path.join(dir, 'index.js')).href);
   const bytes = new Uint8Array(readFileSync(file));
-  const cpuMs = (c) => (c.user + c.system) / 1000;
   let faces = 0;
   const run = () => {
-    const c0 = process.cpuUsage();
-    const d = new PqmDecoder(fwd === '1' ? { forwardOnly: true } : {});
-    d.push(bytes);
-    d.setLevel({ level: d.deepestLevel });
-    faces = d.faceCount;
-    return cpuMs(process.cpuUsage(c0));
+    const r = timeDecode(PqmDecoder, bytes, fwd === '1');
+    faces = r.faces;
+    return r.ms;
   };
-  for (let w = 0, c0 = process.cpuUsage(); w < 3 || (w < 50 && cpuMs(process.cpuUsage(c0)) < 300); w++) run();
+  warmUp(run);
   const t = [];
   for (let r = 0; r < Number(runsArg); r++) t.push(run());
   t.sort((a, b) => a - b);
   console.log(JSON.stringify({ faces, median: t[t.length >> 1], min: t[0] }));
   process.exit(0);
 }
-const take = (flag, dflt) => {
-  const at = args.indexOf(flag);
-  return at >= 0 ? Number(args.splice(at, 2)[1]) : dflt;
-};
-const runs = take('--runs', 11);
-const rounds = take('--rounds', 6);
+const runs = takeNumber(args, '--runs', 11);
+const rounds = takeNumber(args, '--rounds', 6);
 const { forward, forwardBoth, dirs } = abArgs(args, 'node bench/ab-proc.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--rounds R] [--forward | --forward-both]');
 const self = fileURLToPath(import.meta.url);
-const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
 for (const file of args) {
   const med = [[], []];
   const min = [[], []];

@@ -19,16 +19,14 @@
 import { readFileSync } from 'node:fs';
 import path from 'node:path';
 import { pathToFileURL } from 'node:url';
-import { abArgs } from './ab-args.mjs';
+import { abArgs, median, takeNumber, timeDecode, warmUp } from './ab-common.mjs';
 
 const args = process.argv.slice(2);
-const runsAt = args.indexOf('--runs');
-const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
+const runs = takeNumber(args, '--runs', 7);
 // --forward: B decodes with `forwardOnly: true` (A stays the general decoder);
 // --forward-both: both do (an old forward-only decoder against this one)
-const { forward, forwardBoth, dirs } = abArgs(args, 'node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--pairs] [--forward]');
+const { forward, forwardBoth, dirs } = abArgs(args, 'node bench/ab.mjs OLD_SRC_DIR [NEW_SRC_DIR] FILE.pqm ... [--runs N] [--pairs] [--forward | --forward-both]');
 const trees = await Promise.all(dirs.map((d) => import(pathToFileURL(path.join(d, 'index.js')).href)));
-const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
 
 // --pairs: the files come in pairs, A's file then B's (e.g. the same mesh
 // as a 2.0 file for an old tree and a 3.0 file for the new one)
@@ -39,24 +37,18 @@ if (pairs && args.length % 2 !== 0) {
   process.exit(2);
 }
 const jobs = pairs ? args.filter((_, i) => i % 2 === 0).map((f, i) => [f, args[2 * i + 1]]) : args.map((f) => [f, f]);
-const cpuMs = (c) => (c.user + c.system) / 1000;
 
 for (const files of jobs) {
   const bytes = files.map((f) => new Uint8Array(readFileSync(f)));
   const t = [[], []];
   const faces = [0, 0];
   const run = (k) => {
-    const c0 = process.cpuUsage();
-    const d = new trees[k].PqmDecoder((k === 1 || forwardBoth) && forward ? { forwardOnly: true } : {});
-    d.push(bytes[k]);
-    d.setLevel({ level: d.deepestLevel });
-    faces[k] = d.faceCount;
-    return cpuMs(process.cpuUsage(c0));
+    const r = timeDecode(trees[k].PqmDecoder, bytes[k], forward && (k === 1 || forwardBoth));
+    faces[k] = r.faces;
+    return r.ms;
   };
-  // warm-up: each tree for at least 3 runs and 300 ms of CPU (JIT tiers)
-  for (let k = 0; k < 2; k++) {
-    for (let w = 0, c0 = process.cpuUsage(); w < 3 || (w < 50 && cpuMs(process.cpuUsage(c0)) < 300); w++) run(k);
-  }
+  // warm-up: each tree on its own
+  for (let k = 0; k < 2; k++) warmUp(() => run(k));
   for (let r = 0; r < runs; r++) for (let k = 0; k < 2; k++) t[k].push(run(k));
   const [a, b] = t.map(median);
   const [ma, mb] = t.map((x) => Math.min(...x));

@@ -1049,9 +1049,10 @@ function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
   if (ctx.v2) {
     let sx = 0, sy = 0, sz = 0, n = 0;
     // the appended corners, then the rewritten ones (one loop body for both).
-    // The same parallelogram sum as predictNew's, kept inline with local
-    // sums: through a shared helper adding into module-level sums this,
-    // the edge split's prediction, measured 2–5 % slower (same-run A/B).
+    // The same parallelogram sum as predictNew's and decodeEdgeSplit's,
+    // kept inline with local sums: through a shared helper adding into
+    // module-level sums this, then also the edge split's prediction,
+    // measured 2–5 % slower (same-run A/B).
     for (let part = 0; part < 2; part++) {
       const quads = part === 0 ? app : rwNew;
       const idx = part === 0 ? gNewA : gNewR;
@@ -1675,7 +1676,8 @@ const eCntR = new Int32Array(4);
  * first) the first-sector length and the fan length, the orders of the new
  * vertices and appended quads and the rotations. Every field is read first
  * (steps 1–7), then the record is built in scratch (step 8) while the old
- * quads stay in the frontier, then applied like a general-form record.
+ * quads stay in the frontier, then its new vertices are read against §7.6
+ * from its own corner buckets and it is applied (steps 9–10).
  */
 function decodeEdgeSplit(ctx) {
   const st = ctx.st;
@@ -1882,7 +1884,8 @@ function decodeEdgeSplit(ctx) {
 
   // The appended quads are distinct by construction: C_0, C_1 hold X0, X1
   // and two distinct new vertices, T_X an old quad's X, N, O with a new
-  // vertex. The rewritten ones were checked above (fan quads) or are.
+  // vertex. Of the rewritten ones the fan quads were checked above, the
+  // sector quads are distinct by construction.
 
   // 9.–10. positions of V .. V+3 against §7.6 (version 2: the floored mean
   // of the parallelograms of every quad holding the vertex whose three
@@ -1890,7 +1893,9 @@ function decodeEdgeSplit(ctx) {
   // the quads' order, and every new vertex is in an appended quad, so the
   // fallback's first quad (appended ones first, by slot) is always an
   // appended one: the rewritten slots need no sorting (their log entries
-  // name distinct slots, in any order, and the lists are sets).
+  // name distinct slots, in any order, and the lists are sets). The sums
+  // are predictScan's, written out here over this record's own buckets
+  // (eC through E_APP_AT, eNewR) rather than filling predictScan's.
   st.reserve(V + 4, NF);
   const q = st.q;
   const qmax = ctx.qmax;

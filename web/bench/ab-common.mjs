@@ -1,0 +1,56 @@
+// What both A/B scripts share (`ab.mjs` in one process, `ab-proc.mjs` in
+// separate ones), so that their figures are measured the same way: the
+// arguments — `--runs N`, `--forward` (B one-way), `--forward-both` (both
+// one-way), then one or two source directories (A, and B = this
+// checkout's pqm-decoder/src by default) before the files — and the timed
+// decode with its warm-up.
+import { existsSync, statSync } from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+
+/** Removes `flag N` from `args` and returns N as a number (`dflt` when the flag is absent). */
+export function takeNumber(args, flag, dflt) {
+  const at = args.indexOf(flag);
+  return at >= 0 ? Number(args.splice(at, 2)[1]) : dflt;
+}
+
+/** Removes the shared flags and directories from `args` (the files stay); exits with `usage` when either part is missing. */
+export function abArgs(args, usage) {
+  const bothAt = args.indexOf('--forward-both');
+  const forwardBoth = bothAt >= 0 && args.splice(bothAt, 1).length > 0;
+  const forwardAt = args.indexOf('--forward');
+  const forward = forwardBoth || (forwardAt >= 0 && args.splice(forwardAt, 1).length > 0);
+  const dirs = [];
+  while (args.length && existsSync(args[0]) && statSync(args[0]).isDirectory()) dirs.push(path.resolve(args.shift()));
+  if (dirs.length === 0 || args.length === 0) {
+    console.error(`usage: ${usage}`);
+    process.exit(2);
+  }
+  if (dirs.length === 1) dirs.push(path.join(here, '../pqm-decoder/src'));
+  return { forward, forwardBoth, dirs };
+}
+
+export const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
+
+const cpuMs = (c) => (c.user + c.system) / 1000;
+
+/**
+ * One timed run: push the whole file into a new decoder and go to the
+ * finest level. CPU time (process.cpuUsage), not wall time: other
+ * processes on a shared machine count less.
+ */
+export function timeDecode(PqmDecoder, bytes, forwardOnly) {
+  const c0 = process.cpuUsage();
+  const d = new PqmDecoder(forwardOnly ? { forwardOnly: true } : {});
+  d.push(bytes);
+  d.setLevel({ level: d.deepestLevel });
+  const ms = cpuMs(process.cpuUsage(c0));
+  return { ms, faces: d.faceCount };
+}
+
+/** Warm-up (JIT tiers): `run` at least 3 times and for 300 ms of CPU, at most 50 times. */
+export function warmUp(run) {
+  for (let w = 0, c0 = process.cpuUsage(); w < 3 || (w < 50 && cpuMs(process.cpuUsage(c0)) < 300); w++) run();
+}
