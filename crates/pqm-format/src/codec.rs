@@ -1570,7 +1570,9 @@ impl OnePass {
 
     /// Reads the codes of the `n_new` new vertices of `r` (all its quads
     /// fed) into `r.new_pos`, in order, each its prediction plus the next
-    /// residual of `pos`.
+    /// residual of `pos`. The caller ensures what [`OnePass`] needs:
+    /// `n_new <=` [`ONE_PASS_NEW`], version 2 or later, nothing moved (an
+    /// edge split always; `decode_patch` tests it).
     pub(crate) fn finish(
         &mut self,
         st: &MeshState,
@@ -1579,11 +1581,10 @@ impl OnePass {
         major: u16,
         pos: &mut Reader,
     ) -> Result<(), String> {
-        let v0 = st.q.len() as u32;
-        if self.overflow || n_new > ONE_PASS_NEW || major < 2 || !r.moved.is_empty() {
+        if self.overflow {
             return scan_new_positions(st, r, n_new, major, pos);
         }
-        let q = &st.q;
+        let (v0, q) = (st.q.len() as u32, &st.q);
         for t in 0..n_new {
             for &(quad, k, lt) in &self.later[..self.n_later] {
                 if lt as usize != t {
@@ -1641,7 +1642,8 @@ fn scan_new_positions(
 }
 
 /// The codes of the `n_new` new vertices of `r` (quads complete) by one
-/// [`OnePass`] over its quads: the same values as [`predict_scan`] each.
+/// [`OnePass`] over its quads: the same values as [`predict_scan`] each
+/// (preconditions as [`OnePass::finish`]).
 fn decode_new_positions(
     st: &MeshState,
     r: &mut QRecord,
@@ -1650,9 +1652,6 @@ fn decode_new_positions(
     pos: &mut Reader,
     op: &mut OnePass,
 ) -> Result<(), String> {
-    if n_new > ONE_PASS_NEW || major < 2 || !r.moved.is_empty() {
-        return scan_new_positions(st, r, n_new, major, pos);
-    }
     op.clear();
     let (v0, nn) = (st.q.len() as u32, n_new as u32);
     for quad in &r.appended {
@@ -2388,7 +2387,7 @@ fn decode_patch(
     // quads; the lists are built only for the others (at most `SCAN_NEW`
     // scans per record, so a hostile record stays linear).
     const SCAN_NEW: usize = 8;
-    if n_new <= ONE_PASS_NEW && r.moved.is_empty() {
+    if n_new <= ONE_PASS_NEW && major >= 2 && r.moved.is_empty() {
         return decode_new_positions(st, r, n_new, major, &mut rd[POS], one_pass);
     }
     let mut built = false;
