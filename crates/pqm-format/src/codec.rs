@@ -575,27 +575,19 @@ impl MeshState {
     /// slots, in record order (the undo log).
     pub fn apply(&mut self, r: &QRecord) -> (Vec<[u32; 3]>, Vec<[u32; 4]>) {
         let (mut moved, mut rw) = (Vec::new(), Vec::new());
-        self.apply_logged(r, &mut moved, &mut rw);
+        self.apply_delta_logged(r, &mut moved, &mut rw);
+        // Old = new ^ (new ^ old), entry by entry in record order.
         (
-            moved.into_iter().map(|m| m.2).collect(),
-            rw.into_iter().map(|w| w.2).collect(),
+            moved
+                .iter()
+                .zip(&r.moved)
+                .map(|(&(_, d), &(_, p))| xor3(p, d))
+                .collect(),
+            rw.iter()
+                .zip(&r.rewritten)
+                .map(|(&(_, d), &(_, q))| xor4(q, d))
+                .collect(),
         )
-    }
-
-    /// Applies `r` (already checked against this state), appending
-    /// `(vertex, new code, old code)` per moved vertex to `moved` and
-    /// `(slot, new quad, old quad)` per rewritten slot to `rw`, in record
-    /// order — the undo log, without allocating per record.
-    pub fn apply_logged(&mut self, r: &QRecord, moved: &mut Moves, rw: &mut Rewrites3) {
-        self.push_new_vertices(r);
-        for &(v, p) in &r.moved {
-            moved.push((v, p, std::mem::replace(&mut self.q[v as usize], p)));
-        }
-        for &(s, quad) in &r.rewritten {
-            let old = self.set_quad(s, quad);
-            rw.push((s, quad, old));
-        }
-        self.append_quads(r);
     }
 
     /// The first step of applying a record: its new vertices, with empty
@@ -622,9 +614,10 @@ impl MeshState {
         }
     }
 
-    /// [`MeshState::apply_logged`] with the compact log the decoder keeps:
+    /// Applies `r` (already checked against this state), appending the
+    /// compact undo log the decoder keeps, without allocating per record:
     /// `(vertex, new ^ old code)` per moved vertex and `(slot, new ^ old
-    /// quad)` per rewritten slot, bitwise exclusive or. A level holds the
+    /// quad)` per rewritten slot, in record order, bitwise exclusive or. A level holds the
     /// old value where a record is applied and the new one where it is
     /// undone, so one delta does both ways (`x ^= delta`), in 16 and 20
     /// bytes where the pair took 28 and 36: on the bunny the general
@@ -648,8 +641,10 @@ impl MeshState {
         self.append_quads(r);
     }
 
-    /// [`MeshState::undo`] of a record applied by
-    /// [`MeshState::apply_delta_logged`] with these log entries.
+    /// Undoes one record applied by [`MeshState::apply_delta_logged`] with
+    /// these log entries: removes the slots from `f_before` on and the
+    /// vertices from `v_before` on, and restores the old quads of `rw` and
+    /// the old codes of `moved`. Records must be undone in reverse order.
     pub fn undo_deltas(
         &mut self,
         v_before: usize,
@@ -670,28 +665,6 @@ impl MeshState {
         for &(v, d) in moved.iter().rev() {
             let q = &mut self.q[v as usize];
             *q = xor3(*q, d);
-        }
-        self.q.truncate(v_before);
-        self.inline.truncate(v_before);
-    }
-
-    /// Undoes one applied record: removes the slots from `f_before` on and
-    /// the vertices from `v_before` on, and restores the old quads of `rw`
-    /// and the old codes of `moved` (entries as [`MeshState::apply_logged`]
-    /// logged them). Records must be undone in reverse order.
-    pub fn undo(&mut self, v_before: usize, f_before: usize, moved: &[Move], rw: &[Rewrite3]) {
-        for s in (f_before..self.quads.len()).rev() {
-            let quad = self.quads[s];
-            for (k, &v) in quad.iter().enumerate() {
-                self.unlink(4 * s as u32 + k as u32, v);
-            }
-        }
-        self.quads.truncate(f_before);
-        for &(s, _, old) in rw.iter().rev() {
-            self.set_quad(s, old);
-        }
-        for &(v, _, old) in moved.iter().rev() {
-            self.q[v as usize] = old;
         }
         self.q.truncate(v_before);
         self.inline.truncate(v_before);
@@ -1196,14 +1169,6 @@ fn fan_walk(
 /// Rewritten slots with their new quads.
 type Rewrites = Vec<(u32, [u32; 4])>;
 
-/// A moved vertex in the undo log: `(vertex, new code, old code)`.
-pub type Move = (u32, [u32; 3], [u32; 3]);
-/// A rewritten slot in the undo log: `(slot, new quad, old quad)`.
-pub type Rewrite3 = (u32, [u32; 4], [u32; 4]);
-/// Undo log of moved vertices.
-pub type Moves = Vec<Move>;
-/// Undo log of rewritten slots.
-pub type Rewrites3 = Vec<Rewrite3>;
 /// A moved vertex in the compact log: `(vertex, new ^ old code)`.
 pub type MoveDelta = (u32, [u32; 3]);
 /// A rewritten slot in the compact log: `(slot, new ^ old quad)`.
@@ -1605,7 +1570,9 @@ impl OnePass {
 
     /// Reads the codes of the `n_new` new vertices of `r` (all its quads
     /// fed) into `r.new_pos`, in order, each its prediction plus the next
-    /// residual of `pos`.
+    /// residual of `pos`. The caller ensures what [`OnePass`] needs:
+    /// `n_new <=` [`ONE_PASS_NEW`], version 2 or later, nothing moved (an
+    /// edge split always; `decode_patch` tests it).
     pub(crate) fn finish(
         &mut self,
         st: &MeshState,
@@ -1614,11 +1581,10 @@ impl OnePass {
         major: u16,
         pos: &mut Reader,
     ) -> Result<(), String> {
-        let v0 = st.q.len() as u32;
-        if self.overflow || n_new > ONE_PASS_NEW || major < 2 || !r.moved.is_empty() {
+        if self.overflow {
             return scan_new_positions(st, r, n_new, major, pos);
         }
-        let q = &st.q;
+        let (v0, q) = (st.q.len() as u32, &st.q);
         for t in 0..n_new {
             for &(quad, k, lt) in &self.later[..self.n_later] {
                 if lt as usize != t {
@@ -1676,7 +1642,8 @@ fn scan_new_positions(
 }
 
 /// The codes of the `n_new` new vertices of `r` (quads complete) by one
-/// [`OnePass`] over its quads: the same values as [`predict_scan`] each.
+/// [`OnePass`] over its quads: the same values as [`predict_scan`] each
+/// (preconditions as [`OnePass::finish`]).
 fn decode_new_positions(
     st: &MeshState,
     r: &mut QRecord,
@@ -1685,9 +1652,6 @@ fn decode_new_positions(
     pos: &mut Reader,
     op: &mut OnePass,
 ) -> Result<(), String> {
-    if n_new > ONE_PASS_NEW || major < 2 || !r.moved.is_empty() {
-        return scan_new_positions(st, r, n_new, major, pos);
-    }
     op.clear();
     let (v0, nn) = (st.q.len() as u32, n_new as u32);
     for quad in &r.appended {
@@ -2423,7 +2387,7 @@ fn decode_patch(
     // quads; the lists are built only for the others (at most `SCAN_NEW`
     // scans per record, so a hostile record stays linear).
     const SCAN_NEW: usize = 8;
-    if n_new <= ONE_PASS_NEW && r.moved.is_empty() {
+    if n_new <= ONE_PASS_NEW && major >= 2 && r.moved.is_empty() {
         return decode_new_positions(st, r, n_new, major, &mut rd[POS], one_pass);
     }
     let mut built = false;
@@ -3215,10 +3179,10 @@ mod tests {
                     };
                     let (v0, f0) = (st.q.len(), st.quads.len());
                     let (mut mv, mut rw) = (Vec::new(), Vec::new());
-                    st.apply_logged(&r, &mut mv, &mut rw);
+                    st.apply_delta_logged(&r, &mut mv, &mut rw);
                     check_corners(&st)?;
                     if pick % 2 == 0 {
-                        st.undo(v0, f0, &mv, &rw);
+                        st.undo_deltas(v0, f0, &mv, &rw);
                     }
                 } else {
                     // Rewrite one slot, logged, and undo it half the time.
@@ -3232,10 +3196,10 @@ mod tests {
                     };
                     let (v0, f0) = (st.q.len(), st.quads.len());
                     let (mut mv, mut rw) = (Vec::new(), Vec::new());
-                    st.apply_logged(&r, &mut mv, &mut rw);
+                    st.apply_delta_logged(&r, &mut mv, &mut rw);
                     check_corners(&st)?;
                     if kind == 1 {
-                        st.undo(v0, f0, &mv, &rw);
+                        st.undo_deltas(v0, f0, &mv, &rw);
                     }
                 }
                 check_corners(&st)?;

@@ -252,21 +252,22 @@ pub fn build(
             // A face of both endpoints: two new corners, its parallelogram
             // goes to the larger once the smaller is decoded.
             let mut qd = st.quads[slot as usize];
-            let (mut kt, mut best, mut found) = ((0usize, 0usize), 0u8, 0);
+            // The corner and index of the larger new vertex so far.
+            let (mut kb, mut best, mut found) = (0usize, 0u8, 0);
             for t in std::iter::once(tag).chain(twin) {
                 let (xv, id) = (ends[(t >> 1) as usize], u(t as usize));
                 for (k, c) in qd.iter_mut().enumerate() {
                     if *c == xv {
                         *c = id;
                         if found == 0 || pv[t as usize] > best {
-                            (kt, best) = ((k, pv[t as usize] as usize), pv[t as usize]);
+                            (kb, best) = (k, pv[t as usize]);
                         }
                         found += 1;
                     }
                 }
             }
             if found == 2 {
-                pred.defer_at(&qd, kt.0, kt.1);
+                pred.defer_at(&qd, kb, best as usize);
             } else {
                 // Not one corner per endpoint (a state no decoder
                 // reaches): the general rule.
