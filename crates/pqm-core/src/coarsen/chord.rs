@@ -102,12 +102,13 @@ pub fn trace(m: &Mesh, h0: HalfedgeId, max_len: usize) -> Result<Vec<HalfedgeId>
     Ok(path)
 }
 
-/// Quads a chord collapse deletes (a quad met twice counts once).
-fn strip_len(m: &Mesh, enter: &[HalfedgeId]) -> usize {
+/// The quads a chord collapse deletes, in face-id order (a quad met twice
+/// once).
+fn strip_of(m: &Mesh, enter: &[HalfedgeId]) -> Vec<FaceId> {
     let mut quads: Vec<FaceId> = enter.iter().filter_map(|&h| m.face(h)).collect();
     quads.sort_unstable();
     quads.dedup();
-    quads.len()
+    quads
 }
 
 /// A scored chord collapse.
@@ -204,9 +205,7 @@ impl Coarsener {
             }
             patch.moved.push((keep, self.place(class, con)));
         }
-        let mut strip: Vec<FaceId> = enter.iter().filter_map(|&h| m.face(h)).collect();
-        strip.sort_unstable();
-        strip.dedup();
+        let strip = strip_of(m, enter);
         let mut rewritten: Vec<FaceId> = Vec::new();
         for &(g, _) in &patch.merged {
             for f in m.vertex_faces(g) {
@@ -338,7 +337,8 @@ impl Coarsener {
             let faces = self.mesh.face_count();
             let mut scored: Vec<Scored> = Vec::new();
             for enter in self.chords() {
-                if faces < target + strip_len(&self.mesh, &enter) {
+                let strip = strip_of(&self.mesh, &enter);
+                if faces < target + strip.len() {
                     continue;
                 }
                 let Ok(patch) = self.chord_patch(&enter) else {
@@ -355,12 +355,7 @@ impl Coarsener {
                 let Some(i0) = m.face_halfedges(f0).position(|x| x == enter[0]) else {
                     continue;
                 };
-                let key = enter
-                    .iter()
-                    .filter_map(|&h| m.face(h))
-                    .map(|f| f.0)
-                    .min()
-                    .unwrap_or(u32::MAX);
+                let key = strip.first().map_or(u32::MAX, |f| f.0);
                 scored.push(Scored {
                     cost,
                     gain,

@@ -121,9 +121,7 @@ impl Coarsener {
     /// at a time, with the state after each.
     #[doc(hidden)]
     pub fn run_traced(&mut self) -> Vec<TraceRow> {
-        let all: Vec<VertexId> = self.mesh.vertices().collect();
-        self.remove_doublets_committed(&all);
-        self.rescore_all();
+        self.begin();
         let target = self.target_faces();
         let mut rows = Vec::new();
         loop {

@@ -913,14 +913,7 @@ impl Coarsener {
     /// Coarsens until a stop condition holds. `progress(faces)` is called
     /// now and then with the current face count.
     pub fn run(&mut self, progress: &mut dyn FnMut(usize)) -> CoarsenReport {
-        // Doublets in the input go first: every later step assumes none.
-        rayon::scope(|_| {
-            let all: Vec<VertexId> = self.mesh.vertices().collect();
-            self.remove_doublets_committed(&all);
-            self.chords_on = self.chords_wanted();
-            self.maybe_chord_phase(self.target_faces());
-            self.rescore_all();
-        });
+        rayon::scope(|_| self.begin());
         let target = self.target_faces();
         // The loop runs on a thread of the rayon pool, so the scoring of each
         // re-scored neighbourhood (a few hundred candidates) is split with
@@ -947,6 +940,19 @@ impl Coarsener {
         progress(self.mesh.face_count());
         self.report.error = self.error;
         self.report.clone()
+    }
+
+    /// The start of a run, before the first step: the input's doublets
+    /// removed (every later step assumes none), whether chord phases run
+    /// decided and the first one run, every candidate scored. Shared by
+    /// [`Coarsener::run`] and [`Coarsener::run_traced`], so that the
+    /// traced run is the run.
+    fn begin(&mut self) {
+        let all: Vec<VertexId> = self.mesh.vertices().collect();
+        self.remove_doublets_committed(&all);
+        self.chords_on = self.chords_wanted();
+        self.maybe_chord_phase(self.target_faces());
+        self.rescore_all();
     }
 
     /// Pops and tries candidates until the face target is reached or
