@@ -573,7 +573,7 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
         },
     );
     assert_eq!(&vnbr[8..12], &[3, 0, 1, 0]);
-    assert!(&bytes[8..12] == [3, 0, 1, 0] || &bytes[8..12] == [3, 0, 0, 0]);
+    assert!(bytes[8..12] == [3, 0, 1, 0] || bytes[8..12] == [3, 0, 0, 0]);
     assert!(bytes.len() <= vnbr.len());
     let v2 = encode(
         &pm,
