@@ -7,7 +7,9 @@
 //!
 //! `cargo run --release -p pqm-format --example vertex_order -- FILE.pqm...`
 
-use pqm_format::{decode_all, vectors, vorder, write_to_vec, EncodeOptions, Limits};
+use pqm_format::{
+    decode_all, vectors, vorder, write_to_vec, EncodeOptions, Limits, VertexOrderCode,
+};
 
 fn main() {
     let files: Vec<String> = std::env::args().skip(1).collect();
@@ -32,7 +34,11 @@ fn main() {
             for deltas in [true, false] {
                 let opts = EncodeOptions {
                     bits,
-                    vertex_order_deltas: deltas,
+                    vertex_order_code: if deltas {
+                        VertexOrderCode::Deltas
+                    } else {
+                        VertexOrderCode::Neighbours
+                    },
                     ..EncodeOptions::default()
                 };
                 let (out, r) = write_to_vec(&pm, &opts).map_err(|e| e.to_string())?;

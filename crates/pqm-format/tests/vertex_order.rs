@@ -17,7 +17,7 @@ fn encode(pm: &ProgressiveMesh, opts: &EncodeOptions) -> Vec<u8> {
 
 fn deltas() -> EncodeOptions {
     EncodeOptions {
-        vertex_order_deltas: true,
+        vertex_order_code: VertexOrderCode::Deltas,
         ..EncodeOptions::default()
     }
 }

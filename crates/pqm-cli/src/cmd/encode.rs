@@ -62,13 +62,16 @@ pub struct Args {
     /// Leave out the vertex-order section: the full level then has the
     /// decoder's vertex order instead of the input's (as Draco and gltfpack
     /// also reorder). Saves 3–15 bits per vertex (format 3.1's `VNBR`
-    /// section, which codes the input order against the mesh); keep the
+    /// section, which codes the input order against the mesh, or 3.0's
+    /// `VORD` deltas where those come out smaller); keep the
     /// default when something else refers to the input's vertex indices.
     #[arg(long, help_heading = "File")]
     pub no_vertex_order: bool,
-    /// Write the vertex order as format 3.0's `VORD` section (deltas,
-    /// 4.7–22 bits per vertex) instead of 3.1's `VNBR`, for readers that
-    /// predate 3.1 (they skip `VNBR` and keep the decoder's order).
+    /// Always write the vertex order as format 3.0's `VORD` section (deltas,
+    /// 4.7–22 bits per vertex), for readers that predate 3.1 (they skip
+    /// `VNBR` and keep the decoder's order). By default `pqm` writes
+    /// whichever of `VNBR` and `VORD` is smaller (`VNBR` on nearly every
+    /// mesh).
     #[arg(long, help_heading = "File", conflicts_with = "no_vertex_order")]
     pub vertex_order_deltas: bool,
     /// How each section's zstd frame is cut into blocks: `auto` gives a
@@ -266,7 +269,11 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         bits: args.bits,
         chunk_bytes: args.chunk_bytes as usize,
         vertex_order: !args.no_vertex_order,
-        vertex_order_deltas: args.vertex_order_deltas,
+        vertex_order_code: if args.vertex_order_deltas {
+            pqm_format::VertexOrderCode::Deltas
+        } else {
+            pqm_format::VertexOrderCode::Smaller
+        },
         zstd_blocks: args.zstd_blocks.into(),
         ..Default::default()
     };
