@@ -150,6 +150,72 @@ impl Coarsener {
     }
 }
 
+impl Coarsener {
+    /// The start of [`Coarsener::run`] (doublets, chord phase, scoring) —
+    /// for step-by-step diagnosis with [`Coarsener::steps_until`].
+    #[doc(hidden)]
+    pub fn begin_run(&mut self) {
+        self.begin();
+    }
+
+    /// Runs the steps of [`Coarsener::run`] (no final smoothing) until the
+    /// face count is at most `faces` or the run ends; `false` when it ended.
+    #[doc(hidden)]
+    pub fn steps_until(&mut self, faces: usize) -> bool {
+        let target = self.target_faces();
+        while self.mesh.face_count() > faces {
+            if !self.steps(target, 1) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Starts the fix phase or chord phase due now, as the next step of
+    /// [`Coarsener::steps_until`] would.
+    #[doc(hidden)]
+    pub fn phases_due(&mut self) {
+        let target = self.target_faces();
+        self.start_fix_phase(target);
+    }
+
+    /// Non-ideal vertices.
+    #[doc(hidden)]
+    pub fn defect_count(&self) -> usize {
+        let m = &self.mesh;
+        m.vertices()
+            .filter(|&v| m.valence(v) != m.ideal_valence(v))
+            .count()
+    }
+
+    /// Candidate `k` of face `f` (0, 1: the qvMerge diagonals; `2 + 3i +
+    /// variant`: the qeMerge across edge `i`) scored now: `(E, gain)`.
+    #[doc(hidden)]
+    pub fn score_candidate(&self, f: crate::mesh::FaceId, k: u8) -> Option<(f64, i64)> {
+        let c = if k < 2 {
+            Cand::Qv(f, k)
+        } else {
+            Cand::Qe(f, (k - 2) / 3, (k - 2) % 3)
+        };
+        SCRATCH.with(|s| {
+            let s = &mut s.borrow_mut();
+            let cost = self.score_with(c, s, false)?;
+            Some((cost, fix_phase::gain_of(s.v_counts)))
+        })
+    }
+
+    /// Tries candidate `k` of face `f` (see [`Coarsener::score_candidate`]).
+    #[doc(hidden)]
+    pub fn try_candidate(&mut self, f: crate::mesh::FaceId, k: u8) -> bool {
+        let c = if k < 2 {
+            Cand::Qv(f, k)
+        } else {
+            Cand::Qe(f, (k - 2) / 3, (k - 2) % 3)
+        };
+        self.try_commit(c)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::{CoarsenOptions, Smoothing};
