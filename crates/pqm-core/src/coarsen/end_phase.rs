@@ -29,6 +29,7 @@
 //! deterministic code, alternatives in a fixed order, ties by that order).
 
 use super::{Coarsener, Entry};
+use rayon::prelude::*;
 
 /// The end phase starts when the face count is at most this multiple of
 /// the target.
@@ -49,16 +50,77 @@ enum Alt {
     Chord((crate::mesh::FaceId, u8), i64),
 }
 
+/// Where a played-out alternative ends.
+#[derive(Clone, Copy, Debug)]
+struct Outcome {
+    reached: bool,
+    defects: usize,
+    vertices: usize,
+}
+
+impl Outcome {
+    /// Reaching the target first, then the higher ideal-vertex fraction
+    /// (compared exactly); a tie is not better.
+    fn better_than(&self, o: &Outcome) -> bool {
+        if self.reached != o.reached {
+            return self.reached;
+        }
+        (self.defects as u128) * (o.vertices as u128)
+            < (o.defects as u128) * (self.vertices as u128)
+    }
+}
+
 impl Coarsener {
+    /// Steps committed by the end phase so far (chord collapses among
+    /// them are also counted by [`Coarsener::chord_collapses`]).
+    pub fn end_phase_steps(&self) -> usize {
+        self.end_steps
+    }
+
+    /// Turns the end phase off (or on again) — for tests and diagnosis,
+    /// and for the copies that play alternatives out.
+    #[doc(hidden)]
+    pub fn set_end_phase(&mut self, on: bool) {
+        self.end_phase = on;
+    }
+
+    /// The ordinary run from here to the target (or until nothing is
+    /// legal), no final smoothing (it moves no valence): where it ends.
+    fn play_out(&mut self, target: usize) -> Outcome {
+        while self.steps(target, usize::MAX) {}
+        let m = &self.mesh;
+        Outcome {
+            reached: m.face_count() <= target,
+            defects: m
+                .vertices()
+                .filter(|&v| m.valence(v) != m.ideal_valence(v))
+                .count(),
+            vertices: m.vertex_count(),
+        }
+    }
+
     /// Whether the next step is an end-phase step.
     pub(super) fn in_end_phase(&self, target: usize) -> bool {
         let faces = self.mesh.face_count();
         self.chords_on
-            && !self.rollout
+            && self.end_phase
             && target > 0
             && faces > target
             && faces <= target + END_PHASE_MAX_FACES
             && faces as f64 <= END_PHASE_AT * target as f64
+    }
+
+    /// A copy that plays the ordinary run, without the step logs (they
+    /// only grow, and the copy is thrown away: so it costs the current
+    /// mesh, not the whole history).
+    fn copy_for_rollout(&mut self) -> Coarsener {
+        let logs = std::mem::take(&mut self.logs);
+        let errors = std::mem::take(&mut self.errors);
+        let mut copy = self.clone();
+        self.logs = logs;
+        self.errors = errors;
+        copy.end_phase = false;
+        copy
     }
 
     fn apply_alt(&mut self, alt: Alt) -> bool {
@@ -85,52 +147,51 @@ impl Coarsener {
         if popped.is_empty() {
             return None;
         }
-        // back in the queue: the copies play the ordinary run, which
-        // needs them (an entry a commit made stale is skipped as usual)
+        // which of them would commit now, each tried on a copy: a refused
+        // one is dropped, as the ordinary run drops it, and its refusal
+        // counted; the original is not touched (an undo may renumber
+        // half-edges, and the step chosen below must commit on the
+        // original exactly as it did on its copy)
+        let mut legal: Vec<Entry> = Vec::with_capacity(popped.len());
         for &e in &popped {
+            let mut copy = self.copy_for_rollout();
+            if copy.apply_alt(Alt::Step(e)) {
+                legal.push(e);
+            } else {
+                self.report.rejections = copy.report.rejections;
+                self.report.refused_fixes = copy.report.refused_fixes;
+            }
+        }
+        // the legal ones back in the queue: the copies play the ordinary
+        // run, which needs them (an entry a commit made stale is skipped
+        // as usual)
+        for &e in &legal {
             self.queue.push(e);
         }
-        let mut alts: Vec<Alt> = popped.iter().map(|&e| Alt::Step(e)).collect();
+        let mut alts: Vec<Alt> = legal.iter().map(|&e| Alt::Step(e)).collect();
         alts.extend(
             self.chord_candidates(target)
                 .into_iter()
                 .map(|c| Alt::Chord(c.start, c.gain)),
         );
-        // (reached the target, non-ideal vertices, vertices) of the best
-        let mut best: Option<(usize, bool, usize, usize)> = None;
-        for (i, &alt) in alts.iter().enumerate() {
-            let mut copy = self.clone();
-            copy.rollout = true;
-            if !copy.apply_alt(alt) {
-                if let Alt::Step(e) = alt {
-                    // refused: as in the ordinary run, the entry is
-                    // dropped and the refusal counted (the later copies
-                    // start from there, as the ordinary run would)
-                    self.queue
-                        .retain(|x| !(x.cand == e.cand && x.stamps == e.stamps));
-                    let ok = self.try_commit(e.cand);
-                    debug_assert!(!ok, "refused on a copy, committed on the original");
-                }
+        // each played out on its own copy (in parallel: the copies share
+        // nothing, and the choice below reads the results in order)
+        let copies: Vec<Coarsener> = alts.iter().map(|_| self.copy_for_rollout()).collect();
+        let outcomes: Vec<Option<Outcome>> = copies
+            .into_par_iter()
+            .zip(alts.par_iter())
+            .map(|(mut copy, &alt)| {
+                // (a chord's legality is not known before)
+                copy.apply_alt(alt).then(|| copy.play_out(target))
+            })
+            .collect();
+        let mut best: Option<(usize, Outcome)> = None;
+        for (i, o) in outcomes.into_iter().enumerate() {
+            let Some(o) = o else {
                 continue;
-            }
-            while copy.steps(target, usize::MAX) {}
-            let m = &copy.mesh;
-            let reached = m.face_count() <= target;
-            let verts = m.vertex_count();
-            let defects = m
-                .vertices()
-                .filter(|&v| m.valence(v) != m.ideal_valence(v))
-                .count();
-            let better = match best {
-                None => true,
-                Some((_, r, d, n)) => {
-                    (reached && !r)
-                        || (reached == r
-                            && (defects as u128) * (n as u128) < (d as u128) * (verts as u128))
-                }
             };
-            if better {
-                best = Some((i, reached, defects, verts));
+            if best.as_ref().map_or(true, |(_, b)| o.better_than(b)) {
+                best = Some((i, o));
             }
         }
         let Some((i, ..)) = best else {
@@ -138,6 +199,7 @@ impl Coarsener {
         };
         let ok = self.apply_alt(alts[i]);
         debug_assert!(ok, "an end-phase step committed on a copy is refused");
+        self.end_steps += ok as usize;
         Some(ok)
     }
 }

@@ -527,9 +527,12 @@ pub struct Coarsener {
     /// Face count at or below which the next chord phase runs
     /// ([`chord::CHORD_PHASE_EVERY`]).
     chord_next: usize,
-    /// A copy playing out an end-phase alternative ([`end_phase`]): it
-    /// runs the ordinary run, without an end phase of its own.
-    rollout: bool,
+    /// Whether the end phase ([`end_phase`]) may run: off in the copies
+    /// that play its alternatives out (they run the ordinary run).
+    end_phase: bool,
+    /// End-phase steps committed ([`Coarsener::end_phase_steps`]; kept
+    /// out of [`CoarsenReport`] for the same reason as `chords_done`).
+    end_steps: usize,
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
@@ -848,7 +851,8 @@ impl Coarsener {
             chords_on: false,
             chords_done: 0,
             chord_next: usize::MAX,
-            rollout: false,
+            end_phase: true,
+            end_steps: 0,
         }
     }
 
