@@ -70,7 +70,9 @@ pub const CHORD_MIN_CREASE: f64 = 0.15;
 /// A chord phase runs at the start and then each time the face count has
 /// fallen to this fraction of its count after the last one: local steps
 /// change which strips are legal (fandisk: 0.95 and 0.85 measured 83.9 %,
-/// 0.9 84.1 %, only at the start 80.7 %).
+/// 0.9 84.1 %, only at the start 80.7 %). Not in the end phase
+/// (`coarsen::end_phase`), where each chord collapse the phase would
+/// accept is one of the alternatives of every step.
 pub const CHORD_PHASE_EVERY: f64 = 0.9;
 
 /// The closed chord through `h0` (the entering half-edge of its first
