@@ -137,7 +137,8 @@ impl Coarsener {
     /// One end-phase step: `Some(true)` when a step was committed,
     /// `Some(false)` when the candidates taken from the queue were all
     /// refused (call again), `None` when the queue has no fresh candidate
-    /// left (the caller's ordinary handling of an empty queue applies).
+    /// left (the caller's ordinary handling of an empty queue applies) or
+    /// none of the alternatives committed on its copy (the ordinary pop).
     pub(super) fn end_phase_step(&mut self, target: usize) -> Option<bool> {
         let mut popped: Vec<Entry> = Vec::new();
         while popped.len() < END_PHASE_WIDTH {
@@ -199,11 +200,18 @@ impl Coarsener {
             }
         }
         let Some((i, ..)) = best else {
-            return Some(false);
+            // none committed: all taken from the queue were refused (and
+            // dropped: call again); or — not expected, the legal ones were
+            // tested on the same mesh — the queue's entries commit no
+            // more, and the ordinary pop takes over (it drops what it
+            // refuses), so the loop always moves on
+            return if legal.is_empty() { Some(false) } else { None };
         };
         let ok = self.apply_alt(alts[i]);
         debug_assert!(ok, "an end-phase step committed on a copy is refused");
         self.end_steps += ok as usize;
-        Some(ok)
+        // (were it refused, the same choice would come again: the
+        // ordinary pop takes over instead)
+        ok.then_some(true)
     }
 }
