@@ -179,6 +179,13 @@ impl Coarsener {
                 .into_iter()
                 .map(|c| Alt::Chord(c.start, c.gain)),
         );
+        if let [Alt::Step(e)] = alts[..] {
+            // nothing to choose between (and it commits: tested above) —
+            // no copy to play out
+            let ok = self.apply_alt(Alt::Step(e));
+            self.end_steps += ok as usize;
+            return ok.then_some(true);
+        }
         // each played out on its own copy (in parallel: the copies share
         // nothing, and the choice below reads the results in order)
         let copies: Vec<Coarsener> = alts.iter().map(|_| self.copy_for_rollout()).collect();
