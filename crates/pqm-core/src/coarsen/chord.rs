@@ -70,7 +70,9 @@ pub const CHORD_MIN_CREASE: f64 = 0.15;
 /// A chord phase runs at the start and then each time the face count has
 /// fallen to this fraction of its count after the last one: local steps
 /// change which strips are legal (fandisk: 0.95 and 0.85 measured 83.9 %,
-/// 0.9 84.1 %, only at the start 80.7 %).
+/// 0.9 84.1 %, only at the start 80.7 %). Not in the end phase
+/// (`coarsen::end_phase`), where each chord collapse the phase would
+/// accept is one of the alternatives of every step.
 pub const CHORD_PHASE_EVERY: f64 = 0.9;
 
 /// The closed chord through `h0` (the entering half-edge of its first
@@ -109,6 +111,14 @@ fn strip_of(m: &Mesh, enter: &[HalfedgeId]) -> Vec<FaceId> {
     quads.sort_unstable();
     quads.dedup();
     quads
+}
+
+/// A chord collapse to try: its first quad and the corner of its
+/// entering half-edge, and the defects it removes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ChordCand {
+    pub start: (FaceId, u8),
+    pub gain: i64,
 }
 
 /// A scored chord collapse.
@@ -334,53 +344,9 @@ impl Coarsener {
         }
         let mut done = 0;
         loop {
-            let faces = self.mesh.face_count();
-            let mut scored: Vec<Scored> = Vec::new();
-            for enter in self.chords() {
-                let strip = strip_of(&self.mesh, &enter);
-                if faces < target + strip.len() {
-                    continue;
-                }
-                let Ok(patch) = self.chord_patch(&enter) else {
-                    continue;
-                };
-                let (cost, gain) = self.chord_cost(&patch, &enter);
-                if gain < 0 {
-                    continue;
-                }
-                let m = &self.mesh;
-                let Some(f0) = m.face(enter[0]) else {
-                    continue;
-                };
-                let Some(i0) = m.face_halfedges(f0).position(|x| x == enter[0]) else {
-                    continue;
-                };
-                let key = strip.first().map_or(u32::MAX, |f| f.0);
-                scored.push(Scored {
-                    cost,
-                    gain,
-                    key,
-                    start: (f0, i0 as u8),
-                });
-            }
-            scored.sort_by(|x, y| x.cost.total_cmp(&y.cost).then(x.key.cmp(&y.key)));
             let mut committed = false;
-            for s in scored {
-                // traced again from its first quad and corner: a refused
-                // collapse's undo may have renumbered half-edges (see
-                // `Cand`), never faces or their corners
-                let m = &self.mesh;
-                let Some(h0) = m.face_halfedges(s.start.0).nth(s.start.1 as usize) else {
-                    continue;
-                };
-                let Ok(enter) = trace(m, h0, MAX_CHORD_QUADS) else {
-                    continue;
-                };
-                let Ok(patch) = self.chord_patch(&enter) else {
-                    continue;
-                };
-                if self.commit_patch(OpKind::QvMerge, patch, s.gain) {
-                    self.chords_done += 1;
+            for s in self.chord_candidates(target) {
+                if self.commit_chord(s.start, s.gain) {
                     done += 1;
                     committed = true;
                     break;
@@ -390,6 +356,76 @@ impl Coarsener {
                 return done;
             }
         }
+    }
+}
+
+impl Coarsener {
+    /// Every closed chord whose collapse adds no defect and leaves at
+    /// least `target` faces, scored by the paper's `E` (cheapest first,
+    /// ties by the strip's smallest face id): `(start, gain)` with `start`
+    /// the chord's first quad and the corner of its entering half-edge.
+    pub(super) fn chord_candidates(&self, target: usize) -> Vec<ChordCand> {
+        let faces = self.mesh.face_count();
+        let mut scored: Vec<Scored> = Vec::new();
+        for enter in self.chords() {
+            let strip = strip_of(&self.mesh, &enter);
+            if faces < target + strip.len() {
+                continue;
+            }
+            let Ok(patch) = self.chord_patch(&enter) else {
+                continue;
+            };
+            let (cost, gain) = self.chord_cost(&patch, &enter);
+            if gain < 0 {
+                continue;
+            }
+            let m = &self.mesh;
+            let Some(f0) = m.face(enter[0]) else {
+                continue;
+            };
+            let Some(i0) = m.face_halfedges(f0).position(|x| x == enter[0]) else {
+                continue;
+            };
+            let key = strip.first().map_or(u32::MAX, |f| f.0);
+            scored.push(Scored {
+                cost,
+                gain,
+                key,
+                start: (f0, i0 as u8),
+            });
+        }
+        scored.sort_by(|x, y| x.cost.total_cmp(&y.cost).then(x.key.cmp(&y.key)));
+        scored
+            .into_iter()
+            .map(|s| ChordCand {
+                start: s.start,
+                gain: s.gain,
+            })
+            .collect()
+    }
+
+    /// Collapses the chord entered at `start` (first quad, corner) under
+    /// every check of a step; `false` (mesh unchanged) when refused.
+    pub(super) fn commit_chord(&mut self, start: (FaceId, u8), gain: i64) -> bool {
+        // traced again from its first quad and corner: a refused
+        // collapse's undo may have renumbered half-edges (see `Cand`),
+        // never faces or their corners
+        let m = &self.mesh;
+        if !m.is_face_alive(start.0) {
+            return false;
+        }
+        let Some(h0) = m.face_halfedges(start.0).nth(start.1 as usize) else {
+            return false;
+        };
+        let Ok(enter) = trace(m, h0, MAX_CHORD_QUADS) else {
+            return false;
+        };
+        let Ok(patch) = self.chord_patch(&enter) else {
+            return false;
+        };
+        let ok = self.commit_patch(OpKind::QvMerge, patch, gain);
+        self.chords_done += ok as usize;
+        ok
     }
 }
 

@@ -58,7 +58,11 @@ impl Coarsener {
         if self.fix_only || target == 0 {
             return;
         }
-        self.maybe_chord_phase(target);
+        // (in the end phase the chord collapses are among each step's
+        // alternatives instead)
+        if !self.in_end_phase(target) {
+            self.maybe_chord_phase(target);
+        }
         let faces = self.mesh.face_count() as f64;
         let mut due = false;
         while let Some(&at) = FIX_PHASES_AT.get(self.fix_phases) {

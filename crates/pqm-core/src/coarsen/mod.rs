@@ -51,6 +51,7 @@
 mod chord;
 #[doc(hidden)]
 pub mod diagnose;
+mod end_phase;
 pub mod features;
 mod fix_phase;
 pub mod record;
@@ -526,6 +527,12 @@ pub struct Coarsener {
     /// Face count at or below which the next chord phase runs
     /// ([`chord::CHORD_PHASE_EVERY`]).
     chord_next: usize,
+    /// Whether the end phase ([`end_phase`]) may run: off in the copies
+    /// that play its alternatives out (they run the ordinary run).
+    end_phase: bool,
+    /// End-phase steps committed ([`Coarsener::end_phase_steps`]; kept
+    /// out of [`CoarsenReport`] for the same reason as `chords_done`).
+    end_steps: usize,
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
@@ -844,6 +851,8 @@ impl Coarsener {
             chords_on: false,
             chords_done: 0,
             chord_next: usize::MAX,
+            end_phase: true,
+            end_steps: 0,
         }
     }
 
@@ -962,6 +971,19 @@ impl Coarsener {
         let mut since = 0;
         while self.mesh.face_count() > target {
             self.start_fix_phase(target);
+            if self.in_end_phase(target) {
+                match self.end_phase_step(target) {
+                    Some(true) => {
+                        since += 1;
+                        if since >= commits {
+                            return true;
+                        }
+                        continue;
+                    }
+                    Some(false) => continue,
+                    None => {}
+                }
+            }
             let Some(e) = self.queue.pop() else {
                 if self.end_fix_phase() {
                     continue;
