@@ -272,6 +272,32 @@ pub struct Star {
     pub link: Vec<u32>,
 }
 
+/// An interior star of at most [`INLINE`] faces from
+/// [`MeshState::star_fast`]: face `f_i` of the canonical order (spec §7.5)
+/// as the corner id `c[i] = 4 f_i + k_i` of `m` in it, and `nx[i] = l_i`;
+/// entries past `n` are [`NIL`].
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FastStar {
+    pub(crate) n: usize,
+    pub(crate) c: [u32; 8],
+    pub(crate) nx: [u32; 8],
+}
+
+impl FastStar {
+    /// The same star as a [`Star`] (fixed 32-byte copies, then truncated:
+    /// no per-element push).
+    #[inline]
+    pub(crate) fn write_into(&self, out: &mut Star) {
+        let Star { faces, link } = out;
+        faces.clear();
+        faces.extend_from_slice(&self.c.map(|c| c >> 2));
+        faces.truncate(self.n);
+        link.clear();
+        link.extend_from_slice(&self.nx);
+        link.truncate(self.n);
+    }
+}
+
 /// Neighbourhood of a local-form anchor `m` (spec §7.7): `faces` = every
 /// slot whose quad has a corner in the closed star of `m` (the vertices of
 /// the faces at `m`), ascending; `verts` = the corners of those faces,
@@ -594,8 +620,8 @@ impl MeshState {
     /// corner blocks (their corners come with the rewritten and appended
     /// quads).
     #[inline(always)]
-    fn push_new_vertices(&mut self, r: &QRecord) {
-        for &p in &r.new_pos {
+    fn push_new_vertices(&mut self, new_pos: &[[u32; 3]]) {
+        for &p in new_pos {
             self.q.push(p);
             self.inline.push(Block::default());
         }
@@ -604,8 +630,8 @@ impl MeshState {
     /// The last step of applying a record: its appended quads, at the next
     /// slots.
     #[inline(always)]
-    fn append_quads(&mut self, r: &QRecord) {
-        for &quad in &r.appended {
+    fn append_quads(&mut self, appended: &[[u32; 4]]) {
+        for &quad in appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
             for (k, &v) in quad.iter().enumerate() {
@@ -629,7 +655,7 @@ impl MeshState {
         moved: &mut MoveDeltas,
         rw: &mut RewriteDeltas,
     ) {
-        self.push_new_vertices(r);
+        self.push_new_vertices(&r.new_pos);
         for &(v, p) in &r.moved {
             let old = std::mem::replace(&mut self.q[v as usize], p);
             moved.push((v, xor3(p, old)));
@@ -638,7 +664,28 @@ impl MeshState {
             let old = self.set_quad(s, quad);
             rw.push((s, xor4(quad, old)));
         }
-        self.append_quads(r);
+        self.append_quads(&r.appended);
+    }
+
+    /// [`MeshState::apply_delta_logged`] of a record that moves nothing,
+    /// given as its parts: the fused decoding of the compact forms makes
+    /// the rewritten quads in stack arrays, in star order (not by slot:
+    /// the log's entries of one record name distinct slots, and each
+    /// delta is applied on its own, so their order changes no level).
+    #[inline(always)]
+    pub(crate) fn apply_parts_logged(
+        &mut self,
+        new_pos: &[[u32; 3]],
+        rewritten: &[(u32, [u32; 4])],
+        appended: &[[u32; 4]],
+        rw: &mut RewriteDeltas,
+    ) {
+        self.push_new_vertices(new_pos);
+        for &(s, quad) in rewritten {
+            let old = self.set_quad(s, quad);
+            rw.push((s, xor4(quad, old)));
+        }
+        self.append_quads(appended);
     }
 
     /// Undoes one record applied by [`MeshState::apply_delta_logged`] with
@@ -822,24 +869,37 @@ impl MeshState {
     /// check both against [`MeshState::star_general`].
     #[inline]
     pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
-        let Some(Block(b)) = self.inline.get(m as usize) else {
-            return self.star_sorted(m, out);
-        };
+        match self.star_fast(m) {
+            Some(s) => {
+                s.write_into(out);
+                Ok(())
+            }
+            None => self.star_sorted(m, out),
+        }
+    }
+
+    /// The fast path of [`MeshState::star_into`] (see there), as corner
+    /// ids on the stack: `None` where it leaves the star to
+    /// [`MeshState::star_sorted`]. The decoder's fused forms read the
+    /// corner ids, which give each face's corner of `m` without a search.
+    #[inline]
+    pub(crate) fn star_fast(&self, m: u32) -> Option<FastStar> {
+        let Block(b) = self.inline.get(m as usize)?;
         // The overflow flag (bit 31) makes `n` too large too.
         let n = b[0] as usize;
         if !(2..=INLINE).contains(&n) {
-            return self.star_sorted(m, out);
+            return None;
         }
         // Padding `nx` and `pv` with NIL (never a vertex id) keeps the
         // padding out of every match.
-        let mut fs = [0u32; 8];
+        let mut cs = [NIL; 8];
         let mut nx = [NIL; 8];
         let mut pv = [NIL; 8];
         for i in 0..n {
             let c = b[1 + i];
-            let (f, k) = (c >> 2, (c & 3) as usize);
-            let q = &self.quads[f as usize];
-            (fs[i], nx[i], pv[i]) = (f, q[(k + 1) & 3], q[(k + 3) & 3]);
+            let k = (c & 3) as usize;
+            let q = &self.quads[(c >> 2) as usize];
+            (cs[i], nx[i], pv[i]) = (c, q[(k + 1) & 3], q[(k + 3) & 3]);
         }
         // Per face: the other faces with the same `pv` (must be none) and
         // its `succ` candidates, as bit masks.
@@ -850,41 +910,38 @@ impl MeshState {
             let not_a = !(1u32 << a);
             dup |= eq_mask8(&pv, pv[a]) & not_a;
             succ[a] = eq_mask8(&nx, pv[a]) & not_a;
-            // The first of equal slots (none are equal: a quad holds `m`
-            // once), as the stable sort puts first.
-            if fs[a] < fs[start] {
+            // The smallest slot (none are equal: a quad holds `m` once),
+            // as the stable sort puts first; corner `4 s + k` orders as
+            // its slot `s`.
+            if cs[a] < cs[start] {
                 start = a;
             }
         }
         if dup != 0 {
-            return self.star_sorted(m, out);
+            return None;
         }
-        // The walk into stack arrays, copied out whole (a fixed 32-byte
-        // copy each, then truncated: no per-element push).
-        let (mut of, mut ol) = ([0u32; 8], [0u32; 8]);
+        // The walk into stack arrays.
+        let mut out = FastStar {
+            n,
+            c: [NIL; 8],
+            nx: [NIL; 8],
+        };
         let (mut f, mut seen) = (start, 1u32 << start);
-        (of[0], ol[0]) = (fs[f], nx[f]);
+        (out.c[0], out.nx[0]) = (cs[f], nx[f]);
         for i in 1..n {
             let s = succ[f];
             let g = s.trailing_zeros() as usize;
             if s == 0 || seen & (1 << g) != 0 {
-                return self.star_sorted(m, out);
+                return None;
             }
             seen |= 1 << g;
-            (of[i], ol[i]) = (fs[g], nx[g]);
+            (out.c[i], out.nx[i]) = (cs[g], nx[g]);
             f = g;
         }
         if succ[f] == 0 || succ[f].trailing_zeros() as usize != start {
-            return self.star_sorted(m, out);
+            return None;
         }
-        let Star { faces, link } = out;
-        faces.clear();
-        faces.extend_from_slice(&of);
-        faces.truncate(n);
-        link.clear();
-        link.extend_from_slice(&ol);
-        link.truncate(n);
-        Ok(())
+        Some(out)
     }
 
     /// [`MeshState::star_into`] past its fast path.
@@ -1041,7 +1098,7 @@ fn first_other_in(keys: &[u32], key: u32, f: usize) -> Option<usize> {
 /// compares (x86-64 baseline), where the scalar loop took ~30
 /// instructions per mask.
 #[inline(always)]
-fn eq_mask8(v: &[u32; 8], key: u32) -> u32 {
+pub(crate) fn eq_mask8(v: &[u32; 8], key: u32) -> u32 {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;
@@ -2171,6 +2228,22 @@ fn decode_edge_split(
     r: &mut QRecord,
     sc: &mut DecodeScratch,
 ) -> Result<(), String> {
+    let a = edge_split_anchor(st, rd, cur, max_v, max_f)?;
+    // The anchor's star first: `r` is bounded by its size.
+    let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
+    let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
+    edge_split_after_link(st, rd, a, link, major, r, sc)
+}
+
+/// The edge split's count check and anchor (spec §7.10 step 1).
+#[inline(always)]
+fn edge_split_anchor(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+) -> Result<u32, String> {
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     if v0 as u64 + 4 > max_v as u64 || f0 as u64 + 4 > max_f as u64 {
@@ -2179,13 +2252,42 @@ fn decode_edge_split(
     let a = vref(cur.vref, rd[REFS].s()?, v0, "edge split")?;
     cur.vref = a;
     st.prefetch_ahead(&rd[REFS], a);
-    // The anchor's star first: `r` is bounded by its size.
-    let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
-    let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
+    Ok(a)
+}
+
+/// [`decode_edge_split`] once the anchor's star is in `sc.edge.stars[0]`
+/// and its link index is read.
+#[allow(clippy::too_many_arguments)]
+fn edge_split_after_link(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    a: u32,
+    link: usize,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
     let (ends, rho) = crate::edge_split::stars(st, a, link, &mut sc.edge)?;
+    let k = sc.edge.stars.each_ref().map(|s| s.faces.len());
+    let (n1, m, p, ra) = edge_split_fields(rd, ends, k, &mut sc.rots)?;
+    crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
+    // `build` gathered the four predictions while it made the quads.
+    sc.edge.pred.finish(st, r, 4, major, &mut rd[POS])
+}
+
+/// The edge split's fields after the link index (spec §7.10 steps 4–7),
+/// `k` = the endpoints' face counts: `(n1, m, p, ra)`, the fan rotations
+/// into `rots`.
+#[inline(always)]
+fn edge_split_fields(
+    rd: &mut [Reader; 5],
+    ends: [u32; 2],
+    k: [usize; 2],
+    rots: &mut Vec<u8>,
+) -> Result<([usize; 2], [usize; 2], usize, u8), String> {
     let (mut n1, mut m) = ([0usize; 2], [0usize; 2]);
     for x in 0..2 {
-        let k = sc.edge.stars[x].faces.len() as u64;
+        let k = k[x] as u64;
         if k < 3 {
             return Err(format!(
                 "edge split: endpoint {} has {k} faces (needs at least 3)",
@@ -2197,14 +2299,113 @@ fn decode_edge_split(
     }
     let p = rd[CONN].u_max(crate::edge_split::MAX_P, "edge-split permutations")? as usize;
     let ra = rd[CONN].u_max(255, "edge-split appended rotations")? as u8;
-    sc.rots.clear();
+    rots.clear();
     for _ in 0..m[0] + m[1] {
-        sc.rots
-            .push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
+        rots.push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
     }
-    crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
-    // `build` gathered the four predictions while it made the quads.
-    sc.edge.pred.finish(st, r, 4, major, &mut rd[POS])
+    Ok((n1, m, p, ra))
+}
+
+/// [`decode_record_into`] followed by [`MeshState::apply_delta_logged`]:
+/// the decoder's loop. An edge split whose stars are both on the fast
+/// path ([`MeshState::star_fast`]) is decoded and applied fused
+/// ([`crate::edge_split::build_fast`]: no explicit record; `r` gets its
+/// new codes and appended quads, which the decoder keeps, and no
+/// rewritten list). Same level, same log entries (within a record in
+/// another order), same errors before anything is applied: on error `st`
+/// is unchanged.
+#[allow(clippy::too_many_arguments)]
+pub fn decode_apply_record(
+    st: &mut MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+    moved: &mut MoveDeltas,
+    rw: &mut RewriteDeltas,
+) -> Result<(), String> {
+    // Symbol `0x1?` with bits 2–3 clear: the edge-split form (version 3).
+    if major >= 3 && rd[OPS].peek_byte().is_some_and(|b| b & 0xfc == 0x10) {
+        return decode_apply_edge_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw);
+    }
+    decode_record_into(st, rd, cur, max_v, max_f, major, r, sc)?;
+    st.apply_delta_logged(r, moved, rw);
+    Ok(())
+}
+
+/// The edge-split case of [`decode_apply_record`].
+#[allow(clippy::too_many_arguments)]
+fn decode_apply_edge_split(
+    st: &mut MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+    moved: &mut MoveDeltas,
+    rw: &mut RewriteDeltas,
+) -> Result<(), String> {
+    let sym = rd[OPS].byte()?;
+    r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
+    r.new_pos.clear();
+    r.moved.clear();
+    r.rewritten.clear();
+    r.appended.clear();
+    let a = edge_split_anchor(st, rd, cur, max_v, max_f)?;
+    // Either star off the fast path: the explicit record, then applied.
+    let mut slow = |st: &mut MeshState,
+                    rd: &mut [Reader; 5],
+                    r: &mut QRecord,
+                    sc: &mut DecodeScratch,
+                    link: usize|
+     -> Result<(), String> {
+        edge_split_after_link(st, rd, a, link, major, r, sc)?;
+        st.apply_delta_logged(r, moved, rw);
+        Ok(())
+    };
+    let Some(sa) = st.star_fast(a) else {
+        let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
+        let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
+        return slow(st, rd, r, sc, link);
+    };
+    let link = rd[CONN].u_max(sa.n as u64 - 1, "edge-split link index")? as usize;
+    let d = sa.nx[link];
+    let Some(sd) = st.star_fast(d) else {
+        sa.write_into(&mut sc.edge.stars[0]);
+        return slow(st, rd, r, sc, link);
+    };
+    // `A` in `D`'s link (the fast path's links are distinct).
+    let live = (1u32 << sd.n) - 1;
+    let hit = eq_mask8(&sd.nx, a) & live;
+    if hit == 0 {
+        return Err(format!("edge split: vertex {a} is not in the link of {d}"));
+    }
+    let rda = hit.trailing_zeros() as usize;
+    let (ends, rho, fs) = if a < d {
+        ([a, d], [link, rda], [sa, sd])
+    } else {
+        ([d, a], [rda, link], [sd, sa])
+    };
+    let (n1, m, p, ra) = edge_split_fields(rd, ends, [fs[0].n, fs[1].n], &mut sc.rots)?;
+    let mut rws = [(0u32, [0u32; 4]); crate::edge_split::FAST_REWRITES];
+    let mut app = [[0u32; 4]; 4];
+    let pred = &mut sc.edge.pred;
+    let n = crate::edge_split::build_fast(
+        st, ends, &fs, rho, n1, m, p, ra, &sc.rots, pred, &mut rws, &mut app,
+    )?;
+    // Every new vertex has a parallelogram of three old corners (`T_x`
+    // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most
+    // 2 + INLINE quads are deferred, so `finish` never falls back to the
+    // scans, which would read `r`'s quads (here only the appended ones).
+    r.appended.extend_from_slice(&app);
+    pred.finish(st, r, 4, major, &mut rd[POS])?;
+    st.apply_parts_logged(&r.new_pos, &rws[..n], &r.appended, rw);
+    Ok(())
 }
 
 /// Decodes the body of a general-form (`local` false, spec §7.4) or

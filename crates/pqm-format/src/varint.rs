@@ -48,6 +48,11 @@ impl<'a> Reader<'a> {
     pub fn remaining(&self) -> usize {
         self.buf.len() - self.pos
     }
+    /// The next raw byte, not consumed (`None` at the end).
+    #[inline]
+    pub fn peek_byte(&self) -> Option<u8> {
+        self.buf.get(self.pos).copied()
+    }
     /// One raw byte.
     #[inline]
     pub fn byte(&mut self) -> Result<u8, String> {

@@ -4,7 +4,9 @@
 
 use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
 use pqm_core::{shapes, Mesh, OpKind};
-use pqm_format::codec::{decode_record, Cursors, MeshState, QRecord};
+use pqm_format::codec::{
+    decode_apply_record, decode_record, Cursors, DecodeScratch, MeshState, QRecord,
+};
 use pqm_format::varint::{put_s, put_u, Reader};
 use pqm_format::*;
 
@@ -49,7 +51,111 @@ fn run(
     Ok(r)
 }
 
+/// The decoder's path on one record: decoded and applied at once
+/// (`decode_apply_record`, the edge split fused when both stars are on the
+/// fast path). It must give what `run` then `apply` give — the same
+/// vertices, quads and corner lists, the same log entries (up to their
+/// order) — and on error the same message, with the state untouched.
+fn run_apply(
+    st: &MeshState,
+    s: &[Vec<u8>; 5],
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+) -> Result<MeshState, String> {
+    let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+    let mut fused = st.clone();
+    let (mut moved, mut rw) = (Vec::new(), Vec::new());
+    let got = decode_apply_record(
+        &mut fused,
+        &mut rd,
+        &mut Cursors::default(),
+        max_v,
+        max_f,
+        major,
+        &mut QRecord::default(),
+        &mut DecodeScratch::new(),
+        &mut moved,
+        &mut rw,
+    );
+    match run(st, s, max_v, max_f, major) {
+        Err(e) => {
+            assert_eq!(got, Err(e.clone()));
+            assert_eq!(fused.q, st.q);
+            assert_eq!(fused.quads, st.quads);
+            Err(e)
+        }
+        Ok(r) => {
+            got.unwrap();
+            assert!(rd.iter().all(|x| x.remaining() == 0));
+            let mut want = st.clone();
+            let (m0, rw0) = want.apply(&r);
+            assert_eq!(fused.q, want.q);
+            assert_eq!(fused.quads, want.quads);
+            for v in 0..want.q.len() as u32 {
+                let mut a: Vec<_> = fused.corners(v).collect();
+                let mut b: Vec<_> = want.corners(v).collect();
+                a.sort_unstable();
+                b.sort_unstable();
+                assert_eq!(a, b, "corners of vertex {v}");
+            }
+            // Old values back from the deltas, by slot.
+            assert_eq!(moved.len(), m0.len());
+            let mut old: Vec<(u32, [u32; 4])> = rw
+                .iter()
+                .map(|&(s, d)| {
+                    let q = fused.quads[s as usize];
+                    (s, [0, 1, 2, 3].map(|k| q[k] ^ d[k]))
+                })
+                .collect();
+            old.sort_unstable();
+            let want_old: Vec<(u32, [u32; 4])> = r.rewritten.iter().map(|w| w.0).zip(rw0).collect();
+            assert_eq!(old, want_old);
+            Ok(fused)
+        }
+    }
+}
+
 const EXAMPLE: [u64; 9] = [2, 0, 0, 0, 0, 0, 0, 0, 0];
+
+/// Every field value of the worked example's record (anchors 6 and 7, all
+/// link indices, sectors, fans, 24 × 24 permutations sampled, rotations):
+/// the fused decoder path equals the explicit record applied, errors
+/// included.
+#[test]
+fn fused_edge_split_equals_build() {
+    let st = grid();
+    let mut n_ok = 0;
+    for (anchor, r) in [
+        (6, 0),
+        (6, 1),
+        (6, 2),
+        (6, 3),
+        (7, 0),
+        (7, 1),
+        (7, 3),
+        (12, 0),
+    ] {
+        for n1a in 0..2 {
+            for ea in 0..2 {
+                for n1b in 0..2 {
+                    for eb in 0..2 {
+                        for p in [0, 1, 25, 300, 575] {
+                            for ra in [0, 4, 0x93, 255] {
+                                let rots = [p % 4, ra % 4, 3, 1];
+                                let mut c = vec![r, n1a, ea, n1b, eb, p, ra];
+                                c.extend_from_slice(&rots[..(2 + ea + eb) as usize]);
+                                let s = streams(0x11, &c, anchor, &[1; 12]);
+                                n_ok += run_apply(&st, &s, 24, 16, 3).is_ok() as u32;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(n_ok > 100, "{n_ok} records built");
+}
 
 #[test]
 fn the_worked_example_of_the_spec_decodes_as_written() {
@@ -121,7 +227,7 @@ fn every_reject_rule_of_the_form_is_enforced() {
     let st = grid();
     let ok = |conn: &[u64], anchor: i64| streams(0x11, conn, anchor, &[0; 12]);
     let err = |s: [Vec<u8>; 5], max_v: u32, max_f: u32, major: u16, want: &str| {
-        let e = run(&st, &s, max_v, max_f, major).unwrap_err();
+        let e = run_apply(&st, &s, max_v, max_f, major).unwrap_err();
         assert!(e.contains(want), "wanted {want:?}, got {e:?}");
     };
     assert!(run(&st, &ok(&EXAMPLE, 6), 24, 16, 3).is_ok());
@@ -200,7 +306,7 @@ fn a_fan_face_shared_with_the_other_endpoint_is_refused() {
     let st = MeshState::new((1 << 14) - 1, vec![[0; 3]; 10], quads);
     assert_eq!(st.star(0).unwrap().link, vec![1, 2, 3, 4]);
     assert_eq!(st.star(1).unwrap().faces.len(), 5);
-    let run = |c: &[u64]| run(&st, &streams(0x11, c, 0, &[0; 12]), 30, 30, 3);
+    let run = |c: &[u64]| run_apply(&st, &streams(0x11, c, 0, &[0; 12]), 30, 30, 3);
     // Fan of 0 = slot 2 (n1 = 1, m = 1); at 1, slot 2 is in the second
     // sector (n1 = 0) or the fan (n1 = 1).
     for n1_d in [0, 1] {
