@@ -2127,9 +2127,6 @@ pub fn decode_record_into(
         }
         form = 4;
     }
-    let rot = ((sym >> 4) & 3) as usize;
-    let moved_flag = sym & 0x40 != 0;
-    let reflect_c = sym & 0x80 != 0;
     r.op = op;
     r.new_pos.clear();
     r.moved.clear();
@@ -2159,30 +2156,7 @@ pub fn decode_record_into(
             let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
             cur.vref = m;
             st.prefetch_ahead(&rd[REFS], m);
-            st.star_into(m, &mut sc.star)?;
-            let star = &sc.star;
-            let l = star.link.len();
-            if l < 2 {
-                return Err(format!("vertex {m} has fewer than two link vertices"));
-            }
-            let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
-            let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
-            let j = (i + 1 + e) % l;
-            let appended = build_split_into(st, m, star, i, j, rot, &mut r.rewritten)?;
-            r.appended.push(appended);
-            let m_old = st.q[m as usize];
-            if moved_flag {
-                let p = add_residual(predict_a(st, m, star, i, j), &mut rd[POS], st.qmax)?;
-                r.moved.push((m, p));
-            }
-            let m_new = r.moved.first().map_or(m_old, |mv| mv.1);
-            let pred = if reflect_c {
-                reflect(st, m_old, m_new)
-            } else {
-                predict_split(st, r, star.link[i], star.link[j], m_new, major)
-            };
-            let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-            r.new_pos.push(p);
+            split_after_anchor(st, rd, m, sym, major, r, sc)?;
         }
         _ if major < 2 => {
             return Err(format!(
@@ -2213,6 +2187,201 @@ pub fn decode_record_into(
             r.new_pos.push(p);
         }
     }
+    Ok(())
+}
+
+/// A split-form record (spec §7.5) after its anchor `m`, from symbol
+/// `sym`, into `r` (cleared).
+#[allow(clippy::too_many_arguments)]
+fn split_after_anchor(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    m: u32,
+    sym: u8,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
+    let rot = ((sym >> 4) & 3) as usize;
+    st.star_into(m, &mut sc.star)?;
+    let star = &sc.star;
+    let l = star.link.len();
+    if l < 2 {
+        return Err(format!("vertex {m} has fewer than two link vertices"));
+    }
+    let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
+    let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
+    let j = (i + 1 + e) % l;
+    let appended = build_split_into(st, m, star, i, j, rot, &mut r.rewritten)?;
+    r.appended.push(appended);
+    let m_old = st.q[m as usize];
+    if sym & 0x40 != 0 {
+        let p = add_residual(predict_a(st, m, star, i, j), &mut rd[POS], st.qmax)?;
+        r.moved.push((m, p));
+    }
+    let m_new = r.moved.first().map_or(m_old, |mv| mv.1);
+    let pred = if sym & 0x80 != 0 {
+        reflect(st, m_old, m_new)
+    } else {
+        predict_split(st, r, star.link[i], star.link[j], m_new, major)
+    };
+    let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+    r.new_pos.push(p);
+    Ok(())
+}
+
+/// The split case of [`decode_apply_record`]: when `m`'s star is on the
+/// fast path ([`MeshState::star_fast`], nearly always), the record is
+/// applied straight from its wings — each face on the `c` side gets `c`
+/// at the corner the star's corner id names (one corner moved between two
+/// lists, one log entry), its parallelogram summed on the way — instead of
+/// a sorted rewritten list that the prediction and then the apply read
+/// again. The same values as [`split_after_anchor`] then
+/// [`MeshState::apply_delta_logged`] (the sums of [`predict_a`] and
+/// [`predict_split`] over the same faces; test `fused_split_equals_explicit`
+/// and every real-mesh level), and nothing applied on error.
+#[allow(clippy::too_many_arguments)]
+fn decode_apply_split(
+    st: &mut MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+    moved: &mut MoveDeltas,
+    rw: &mut RewriteDeltas,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
+    let sym = rd[OPS].byte()?;
+    r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
+    r.new_pos.clear();
+    r.moved.clear();
+    r.rewritten.clear();
+    r.appended.clear();
+    if v0 >= max_v || f0 >= max_f {
+        return Err("split exceeds the final vertex or face count".into());
+    }
+    let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
+    cur.vref = m;
+    st.prefetch_ahead(&rd[REFS], m);
+    let Some(s) = st.star_fast(m) else {
+        split_after_anchor(st, rd, m, sym, major, r, sc)?;
+        st.apply_delta_logged(r, moved, rw);
+        return Ok(());
+    };
+    let l = s.n;
+    let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
+    let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
+    let j = if i + 1 + e < l {
+        i + 1 + e
+    } else {
+        i + 1 + e - l
+    };
+    let (b, d) = (s.nx[i], s.nx[j]);
+    if b == d {
+        return Err(format!("split of vertex {m}: both wings are vertex {b}"));
+    }
+    let c = v0;
+    let appended = rotl([m, d, c, b], (sym >> 4) & 3);
+    // Faces `t` in `[i, j)` (cyclic) keep `m`; the others go to `c`.
+    let in_a = |t: usize| {
+        if i < j {
+            i <= t && t < j
+        } else {
+            t >= i || t < j
+        }
+    };
+    let (q, quads) = (&st.q, &st.quads);
+    let m_old = q[m as usize];
+    let m_new = if sym & 0x40 != 0 {
+        // `predict_a`: the mean far corner of each side.
+        let mut sum = [[0i64; 3]; 2];
+        let mut n = [0i64; 2];
+        for t in 0..l {
+            let ct = s.c[t];
+            let far = q[quads[(ct >> 2) as usize][(ct as usize + 2) & 3] as usize];
+            let side = (!in_a(t)) as usize;
+            for a in 0..3 {
+                sum[side][a] += far[a] as i64;
+            }
+            n[side] += 1;
+        }
+        let mean = |s: usize, a: usize| {
+            if n[s] > 0 {
+                sum[s][a].div_euclid(n[s])
+            } else {
+                m_old[a] as i64
+            }
+        };
+        let qmax = st.qmax as i64;
+        let pred = [0, 1, 2].map(|a| {
+            (m_old[a] as i64 + (mean(0, a) - mean(1, a)).div_euclid(4)).clamp(0, qmax) as u32
+        });
+        let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+        r.moved.push((m, p));
+        p
+    } else {
+        m_old
+    };
+    // The `c` side's corners, and (`predict_split`) their parallelograms
+    // around `c` plus the appended quad's.
+    let mut side = [0u32; 8];
+    let mut n_side = 0usize;
+    let (qb, qd) = (q[b as usize], q[d as usize]);
+    let mut sum = [0i64; 3];
+    for t in 0..3 {
+        sum[t] = qb[t] as i64 + qd[t] as i64 - m_new[t] as i64;
+    }
+    let mut cnt = 1i64;
+    for t in 0..l {
+        if in_a(t) {
+            continue;
+        }
+        let ct = s.c[t];
+        side[n_side] = ct;
+        n_side += 1;
+        if major >= 2 {
+            let quad = &quads[(ct >> 2) as usize];
+            let k = ct as usize;
+            let (a, o, e) = (
+                q[quad[(k + 1) & 3] as usize],
+                q[quad[(k + 2) & 3] as usize],
+                q[quad[(k + 3) & 3] as usize],
+            );
+            for t in 0..3 {
+                sum[t] += a[t] as i64 + e[t] as i64 - o[t] as i64;
+            }
+            cnt += 1;
+        }
+    }
+    let pred = if sym & 0x80 != 0 {
+        reflect(st, m_old, m_new)
+    } else {
+        floor_mean(sum, cnt, st.qmax)
+    };
+    let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+    r.new_pos.push(p);
+    r.appended.push(appended);
+    // Applied: nothing can fail from here.
+    st.q.push(p);
+    st.inline.push(Block::default());
+    if let Some(&(_, pm)) = r.moved.first() {
+        let old = std::mem::replace(&mut st.q[m as usize], pm);
+        moved.push((m, xor3(pm, old)));
+    }
+    for &ct in &side[..n_side] {
+        let (slot, k) = (ct >> 2, (ct & 3) as usize);
+        st.quads[slot as usize][k] = c;
+        st.unlink(ct, m);
+        st.link(ct, c);
+        let mut delta = [0u32; 4];
+        delta[k] = m ^ c;
+        rw.push((slot, delta));
+    }
+    st.append_quads(&[appended]);
     Ok(())
 }
 
@@ -2328,8 +2497,15 @@ pub fn decode_apply_record(
     rw: &mut RewriteDeltas,
 ) -> Result<(), String> {
     // Symbol `0x1?` with bits 2–3 clear: the edge-split form (version 3).
-    if major >= 3 && rd[OPS].peek_byte().is_some_and(|b| b & 0xfc == 0x10) {
-        return decode_apply_edge_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw);
+    match rd[OPS].peek_byte() {
+        Some(b) if major >= 3 && b & 0xfc == 0x10 => {
+            return decode_apply_edge_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw);
+        }
+        // Bits 2–3 = 1: the split form.
+        Some(b) if b & 0x0c == 0x04 => {
+            return decode_apply_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw);
+        }
+        _ => {}
     }
     decode_record_into(st, rd, cur, max_v, max_f, major, r, sc)?;
     st.apply_delta_logged(r, moved, rw);
