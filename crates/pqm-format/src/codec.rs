@@ -895,32 +895,35 @@ impl MeshState {
         let mut cs = [NIL; 8];
         let mut nx = [NIL; 8];
         let mut pv = [NIL; 8];
+        let mut start = 0usize;
         for i in 0..n {
             let c = b[1 + i];
             let k = (c & 3) as usize;
             let q = &self.quads[(c >> 2) as usize];
             (cs[i], nx[i], pv[i]) = (c, q[(k + 1) & 3], q[(k + 3) & 3]);
-        }
-        // Per face: the other faces with the same `pv` (must be none) and
-        // its `succ` candidates, as bit masks.
-        let mut succ = [0u32; 8];
-        let mut dup = 0u32;
-        let mut start = 0usize;
-        for a in 0..n {
-            let not_a = !(1u32 << a);
-            dup |= eq_mask8(&pv, pv[a]) & not_a;
-            succ[a] = eq_mask8(&nx, pv[a]) & not_a;
             // The smallest slot (none are equal: a quad holds `m` once),
             // as the stable sort puts first; corner `4 s + k` orders as
             // its slot `s`.
-            if cs[a] < cs[start] {
-                start = a;
+            if c < cs[start] {
+                start = i;
             }
         }
-        if dup != 0 {
+        let live = (1u32 << n) - 1;
+        // No face whose next and previous corners are one vertex (only a
+        // quad repeating a vertex has one).
+        if eq_mask8x8(&nx, &pv) & live != 0 {
             return None;
         }
-        // The walk into stack arrays.
+        // The walk: from each face, the one face whose `nx` is its `pv`.
+        // Each step must have exactly one candidate (other than the face
+        // itself), and the walk must close over all `n` faces. This
+        // accepts exactly the stars the earlier form of this function
+        // (all `pv` distinct, then the walk by the first candidate)
+        // accepted, with the same steps: if it closes, `nx` of the faces
+        // are their successors' `pv`, so with distinct `pv` every
+        // candidate is unique; and two faces `a`, `b` with one `pv` would
+        // give `a` two candidates, `succ(a)` and `succ(b)` — unless
+        // `succ(b) = a`, i.e. `nx[a] = pv[a]`, refused above.
         let mut out = FastStar {
             n,
             c: [NIL; 8],
@@ -929,16 +932,16 @@ impl MeshState {
         let (mut f, mut seen) = (start, 1u32 << start);
         (out.c[0], out.nx[0]) = (cs[f], nx[f]);
         for i in 1..n {
-            let s = succ[f];
-            let g = s.trailing_zeros() as usize;
-            if s == 0 || seen & (1 << g) != 0 {
+            let s = eq_mask8(&nx, pv[f]) & !(1u32 << f);
+            if s == 0 || s & (s - 1) != 0 || seen & s != 0 {
                 return None;
             }
-            seen |= 1 << g;
+            let g = s.trailing_zeros() as usize;
+            seen |= s;
             (out.c[i], out.nx[i]) = (cs[g], nx[g]);
             f = g;
         }
-        if succ[f] == 0 || succ[f].trailing_zeros() as usize != start {
+        if eq_mask8(&nx, pv[f]) & !(1u32 << f) != 1 << start {
             return None;
         }
         Some(out)
@@ -1120,6 +1123,34 @@ pub(crate) fn eq_mask8(v: &[u32; 8], key: u32) -> u32 {
             mask |= ((x == key) as u32) << h;
         }
         mask
+    }
+}
+
+/// Bit `h` set where `a[h] == b[h]` (two SSE2 compares on x86-64).
+#[inline(always)]
+fn eq_mask8x8(a: &[u32; 8], b: &[u32; 8]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the unaligned loads
+        // read the 32 bytes of `a` and of `b`, 16 at a time.
+        unsafe {
+            let (a0, a1) = (
+                _mm_loadu_si128(a.as_ptr().cast::<__m128i>()),
+                _mm_loadu_si128(a.as_ptr().add(4).cast::<__m128i>()),
+            );
+            let (b0, b1) = (
+                _mm_loadu_si128(b.as_ptr().cast::<__m128i>()),
+                _mm_loadu_si128(b.as_ptr().add(4).cast::<__m128i>()),
+            );
+            let ml = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(a0, b0)));
+            let mh = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(a1, b1)));
+            (ml | (mh << 4)) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        (0..8).fold(0, |m, h| m | ((a[h] == b[h]) as u32) << h)
     }
 }
 
@@ -3384,7 +3415,7 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_distinct, MeshState, QRecord, Star, MAX_SPLIT_STAR, STAR_SMALL};
+    use super::{sort_distinct, MeshState, QRecord, Star, INLINE, MAX_SPLIT_STAR, STAR_SMALL};
     use pqm_core::OpKind;
     use proptest::prelude::*;
 
@@ -3600,6 +3631,8 @@ mod tests {
             same_stars(&MeshState::new(1, vec![[0; 3]; nv as usize], quads))?;
             let step = (step..step + n).find(|s| gcd(*s % n, n) == 1).unwrap_or(1) % n;
             let (st, _) = fan(n, step.max(1), open);
+            // A closed fan within a block takes the fast path.
+            prop_assert_eq!(st.star_fast(0).is_some(), !open && n as usize <= INLINE);
             let mut quads = st.quads.clone();
             quads.extend(quads_from(st.q.len() as u32, &extra));
             same_stars(&MeshState::new(1, st.q.clone(), quads))?;
