@@ -2202,20 +2202,7 @@ pub fn decode_record_into(
             let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
             cur.vref = m;
             st.prefetch_ahead(&rd[REFS], m);
-            st.slots_at_unsorted(m, &mut sc.slots)?;
-            let n = sc.slots.len() as u64;
-            let x = rd[CONN].u_max(2 * n - 1, "face-split index")?;
-            // The slot of rank `x / 2` in ascending order (a vertex is a
-            // corner of a quad at most once, so the slots are distinct):
-            // a selection, linear in the star also for a hostile 255-face
-            // one, instead of sorting the 4–6 slots.
-            let s = *sc.slots.select_nth_unstable((x >> 1) as usize).1;
-            let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
-            r.rewritten.push((s, rewritten));
-            r.appended.push(appended);
-            let pred = predict_face_split(st, m, s);
-            let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-            r.new_pos.push(p);
+            face_split_after_anchor(st, rd, m, sym, r, sc)?;
         }
     }
     Ok(())
@@ -2416,6 +2403,114 @@ fn decode_apply_split(
     Ok(())
 }
 
+/// A face-split record (spec §7.9) after its anchor `m`, from symbol
+/// `sym`, into `r` (cleared).
+fn face_split_after_anchor(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    m: u32,
+    sym: u8,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
+    st.slots_at_unsorted(m, &mut sc.slots)?;
+    let n = sc.slots.len() as u64;
+    let x = rd[CONN].u_max(2 * n - 1, "face-split index")?;
+    // The slot of rank `x / 2` in ascending order (a vertex is a
+    // corner of a quad at most once, so the slots are distinct):
+    // a selection, linear in the star also for a hostile 255-face
+    // one, instead of sorting the 4–6 slots.
+    let s = *sc.slots.select_nth_unstable((x >> 1) as usize).1;
+    let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
+    r.rewritten.push((s, rewritten));
+    r.appended.push(appended);
+    let pred = predict_face_split(st, m, s);
+    let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+    r.new_pos.push(p);
+    Ok(())
+}
+
+/// The face-split case of [`decode_apply_record`] (version 2 and later):
+/// when `m`'s corners all sit in its block (nearly always), the slot of
+/// rank `x / 2` is the corner whose id has that rank (corner ids order as
+/// their slots, which are distinct), and that corner id gives `m`'s place
+/// in the quad without a search; the two quads, the closed-form
+/// prediction and the apply follow without the slot list, the selection
+/// or the explicit record. The same values as [`face_split_after_anchor`]
+/// then [`MeshState::apply_delta_logged`] (test
+/// `fused_face_split_equals_explicit`), nothing applied on error.
+#[allow(clippy::too_many_arguments)]
+fn decode_apply_face_split(
+    st: &mut MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+    moved: &mut MoveDeltas,
+    rw: &mut RewriteDeltas,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
+    let sym = rd[OPS].byte()?;
+    r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
+    r.new_pos.clear();
+    r.moved.clear();
+    r.rewritten.clear();
+    r.appended.clear();
+    if v0 >= max_v || f0 >= max_f {
+        return Err("face split exceeds the final vertex or face count".into());
+    }
+    let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
+    cur.vref = m;
+    st.prefetch_ahead(&rd[REFS], m);
+    // `n` in 1..=INLINE, no overflow flag (bit 31 makes `n` too large).
+    let b = st.inline[m as usize].0;
+    let n = b[0] as usize;
+    if !(1..=INLINE).contains(&n) {
+        face_split_after_anchor(st, rd, m, sym, r, sc)?;
+        st.apply_delta_logged(r, moved, rw);
+        return Ok(());
+    }
+    let x = rd[CONN].u_max(2 * n as u64 - 1, "face-split index")?;
+    let rank = (x >> 1) as u32;
+    // The corner whose id has `rank` smaller ones among the block's `n`
+    // (distinct ids: exactly one).
+    let cs = &b[1..=n];
+    let mut ct = cs[0];
+    for &c in cs {
+        if cs.iter().map(|&o| (o < c) as u32).sum::<u32>() == rank {
+            ct = c;
+        }
+    }
+    let (s, k) = (ct >> 2, (ct & 3) as usize);
+    let f = st.quads[s as usize];
+    let c = v0;
+    let (p, o, q) = (f[(k + 1) & 3], f[(k + 2) & 3], f[(k + 3) & 3]);
+    // As `build_face_split` and `predict_face_split`, from corner `k`.
+    let (a, bq) = ([m, p, o, c], [m, c, o, q]);
+    let (xq, yq) = if x & 1 != 0 { (bq, a) } else { (a, bq) };
+    let xq = rotl(xq, (sym >> 4) & 3);
+    let yq = rotl(yq, sym >> 6);
+    let pos = &st.q;
+    let (pm, pp, po, pq) = (
+        pos[m as usize],
+        pos[p as usize],
+        pos[o as usize],
+        pos[q as usize],
+    );
+    let mut sum = [0i64; 3];
+    for t in 0..3 {
+        sum[t] = 2 * (pm[t] as i64 + po[t] as i64) - pp[t] as i64 - pq[t] as i64;
+    }
+    let pc = add_residual(floor_mean(sum, 2, st.qmax), &mut rd[POS], st.qmax)?;
+    r.new_pos.push(pc);
+    r.appended.push(yq);
+    st.apply_parts_logged(&r.new_pos, &[(s, xq)], &r.appended, rw);
+    Ok(())
+}
+
 /// Decodes an edge-split record (spec §7.10) after its symbol.
 #[allow(clippy::too_many_arguments)]
 fn decode_edge_split(
@@ -2532,9 +2627,12 @@ pub fn decode_apply_record(
         Some(b) if major >= 3 && b & 0xfc == 0x10 => {
             return decode_apply_edge_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw);
         }
-        // Bits 2–3 = 1: the split form.
+        // Bits 2–3 = 1: the split form; 3: the face split (version 2).
         Some(b) if b & 0x0c == 0x04 => {
             return decode_apply_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw);
+        }
+        Some(b) if major >= 2 && b & 0x0c == 0x0c => {
+            return decode_apply_face_split(st, rd, cur, max_v, max_f, r, sc, moved, rw);
         }
         _ => {}
     }

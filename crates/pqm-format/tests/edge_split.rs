@@ -430,3 +430,27 @@ fn fused_split_equals_explicit() {
     }
     assert!(n_ok > 500 && n_err > 500, "{n_ok} built, {n_err} refused");
 }
+
+/// The face-split form (spec §7.9) through the decoder's fused path equals
+/// the explicit record applied: every anchor of the grid (corners in 1, 2
+/// or 4 faces), every face index and diagonal, all rotations; indices
+/// past the anchor's faces and version-1 files rejected alike.
+#[test]
+fn fused_face_split_equals_explicit() {
+    let st = grid();
+    let (mut n_ok, mut n_err) = (0, 0);
+    for anchor in 0..20i64 {
+        for x in 0..9u64 {
+            for rot in [0x0cu8, 0x1d, 0x6c, 0xbd, 0xfc] {
+                for major in 1..=3u16 {
+                    let s = streams(rot, &[x], anchor, &[4, -3, 2]);
+                    match run_apply(&st, &s, 21, 13, major) {
+                        Ok(_) => n_ok += 1,
+                        Err(_) => n_err += 1,
+                    }
+                }
+            }
+        }
+    }
+    assert!(n_ok > 300 && n_err > 300, "{n_ok} built, {n_err} refused");
+}
