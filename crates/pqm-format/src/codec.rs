@@ -372,6 +372,9 @@ pub struct Cursors {
     pub vref: u32,
     /// Last rewritten slot coded.
     pub slot: u32,
+    /// The decoder's look-ahead into the chunk's `refs` stream
+    /// ([`MeshState::prefetch_ahead`]): reset with the cursors.
+    pub peek: crate::varint::Peek3,
 }
 
 impl MeshState {
@@ -499,14 +502,16 @@ impl MeshState {
     /// general-form record, the end of the chunk) costs a few useless
     /// fetches, nothing else.
     #[inline]
-    fn prefetch_ahead(&self, refs: &Reader, m: u32) {
+    fn prefetch_ahead(&self, refs: &Reader, m: u32, peek: &mut crate::varint::Peek3) {
         // A small mesh stays in the core's cache, where the look-ahead is
         // pure overhead (measured: spot, 2.9k faces, 13 % slower; loki,
         // 27k, even; the bunny, 209k, 9 % faster).
         if self.q.len() < PREFETCH_MIN_VERTICES {
             return;
         }
-        let [d1, d2, d3] = refs.peek_s3();
+        // Each value is parsed once, not three times (it is the third,
+        // second and first peeked value of three records).
+        let [d1, d2, d3] = refs.peek_s3_cached(peek);
         let nv = self.inline.len() as i64;
         let at = |v: i64| (0..nv).contains(&v).then_some(v as usize);
         let Some(m1) = d1.map(|d| (m as i64).wrapping_add(d)) else {
@@ -2175,7 +2180,7 @@ pub fn decode_record_into(
             if local {
                 let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
                 cur.vref = m;
-                st.prefetch_ahead(&rd[REFS], m);
+                st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
                 st.local_faces_with(m, &mut sc.marks, &mut sc.local)?;
             }
             decode_patch(st, rd, cur, max_v, max_f, local, major, sc, r)?;
@@ -2186,7 +2191,7 @@ pub fn decode_record_into(
             }
             let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
             cur.vref = m;
-            st.prefetch_ahead(&rd[REFS], m);
+            st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
             split_after_anchor(st, rd, m, sym, major, r, sc)?;
         }
         _ if major < 2 => {
@@ -2201,7 +2206,7 @@ pub fn decode_record_into(
             }
             let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
             cur.vref = m;
-            st.prefetch_ahead(&rd[REFS], m);
+            st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
             face_split_after_anchor(st, rd, m, sym, r, sc)?;
         }
     }
@@ -2284,7 +2289,7 @@ fn decode_apply_split(
     }
     let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
     cur.vref = m;
-    st.prefetch_ahead(&rd[REFS], m);
+    st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
     let Some(s) = st.star_fast(m) else {
         split_after_anchor(st, rd, m, sym, major, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
@@ -2464,7 +2469,7 @@ fn decode_apply_face_split(
     }
     let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
     cur.vref = m;
-    st.prefetch_ahead(&rd[REFS], m);
+    st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
     // `n` in 1..=INLINE, no overflow flag (bit 31 makes `n` too large).
     let b = st.inline[m as usize].0;
     let n = b[0] as usize;
@@ -2546,7 +2551,7 @@ fn edge_split_anchor(
     }
     let a = vref(cur.vref, rd[REFS].s()?, v0, "edge split")?;
     cur.vref = a;
-    st.prefetch_ahead(&rd[REFS], a);
+    st.prefetch_ahead(&rd[REFS], a, &mut cur.peek);
     Ok(a)
 }
 
@@ -3601,8 +3606,9 @@ mod tests {
         let bytes: Vec<u8> = (0..=255u8).collect();
         for start in 0..bytes.len() {
             let refs = crate::varint::Reader::new(&bytes[start..], "refs");
+            let mut peek = crate::varint::Peek3::default();
             for m in [0u32, 1, 8, 16, 17, 2 * n, 2 * n + 1, u32::MAX] {
-                st.prefetch_ahead(&refs, m);
+                st.prefetch_ahead(&refs, m, &mut peek);
             }
         }
         assert_eq!((st.q.clone(), st.quads.clone()), before);

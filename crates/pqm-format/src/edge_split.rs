@@ -430,7 +430,8 @@ pub(crate) fn build_fast(
             (k1, pv[r1 as usize])
         };
         pred.defer_at(&qd, kb, best as usize);
-        check_distinct(&qd, || format!("edge split: rewritten slot {slot}"))?;
+        // Two distinct corners of a stored quad replaced by two distinct
+        // new vertices: still four distinct corners.
         rw[n] = (slot, qd);
         n += 1;
     }
@@ -441,9 +442,13 @@ pub(crate) fn build_fast(
             let qd = if r == u8::MAX {
                 continue;
             } else if r >= 4 {
-                fan[x][(r - 4) as usize]
+                let qd = fan[x][(r - 4) as usize];
+                check_distinct(&qd, || format!("edge split: rewritten slot {slot}"))?;
+                qd
             } else {
-                // One new corner, where X was.
+                // One new corner, where X was: a stored quad (four
+                // distinct corners) with one replaced by a new vertex
+                // needs no check.
                 let k = (c & 3) as usize;
                 let mut qd = quads[slot as usize];
                 qd[k] = u(r as usize);
@@ -451,7 +456,6 @@ pub(crate) fn build_fast(
                 pred.add_single(q, pv[r as usize] as usize, a, o, e);
                 qd
             };
-            check_distinct(&qd, || format!("edge split: rewritten slot {slot}"))?;
             rw[n] = (slot, qd);
             n += 1;
         }
