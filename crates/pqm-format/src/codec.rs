@@ -2275,15 +2275,12 @@ fn decode_apply_split(
     sc: &mut DecodeScratch,
     moved: &mut MoveDeltas,
     rw: &mut RewriteDeltas,
+    kept: Kept,
 ) -> Result<(), String> {
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
     r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
-    r.new_pos.clear();
-    r.moved.clear();
-    r.rewritten.clear();
-    r.appended.clear();
     if v0 >= max_v || f0 >= max_f {
         return Err("split exceeds the final vertex or face count".into());
     }
@@ -2291,8 +2288,16 @@ fn decode_apply_split(
     cur.vref = m;
     st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
     let Some(s) = st.star_fast(m) else {
+        r.new_pos.clear();
+        r.moved.clear();
+        r.rewritten.clear();
+        r.appended.clear();
         split_after_anchor(st, rd, m, sym, major, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
+        if let Some((new_pos, appended)) = kept {
+            new_pos.push(r.new_pos[0]);
+            appended.push(r.appended[0]);
+        }
         return Ok(());
     };
     let l = s.n;
@@ -2343,12 +2348,12 @@ fn decode_apply_split(
         let pred = [0, 1, 2].map(|a| {
             (m_old[a] as i64 + (mean(0, a) - mean(1, a)).div_euclid(4)).clamp(0, qmax) as u32
         });
-        let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-        r.moved.push((m, p));
-        p
+        Some(add_residual(pred, &mut rd[POS], st.qmax)?)
     } else {
-        m_old
+        None
     };
+    let m_moved = m_new;
+    let m_new = m_new.unwrap_or(m_old);
     // The `c` side's corners, and (`predict_split`) their parallelograms
     // around `c` plus the appended quad's.
     let mut side = [0u32; 8];
@@ -2386,12 +2391,15 @@ fn decode_apply_split(
         floor_mean(sum, cnt, st.qmax)
     };
     let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-    r.new_pos.push(p);
-    r.appended.push(appended);
-    // Applied: nothing can fail from here.
+    // Applied: nothing can fail from here. (`r` is left as it was: the
+    // caller reads the new code and quad from `kept`.)
+    if let Some((new_pos, app)) = kept {
+        new_pos.push(p);
+        app.push(appended);
+    }
     st.q.push(p);
     st.inline.push(Block::default());
-    if let Some(&(_, pm)) = r.moved.first() {
+    if let Some(pm) = m_moved {
         let old = std::mem::replace(&mut st.q[m as usize], pm);
         moved.push((m, xor3(pm, old)));
     }
@@ -2455,15 +2463,12 @@ fn decode_apply_face_split(
     sc: &mut DecodeScratch,
     moved: &mut MoveDeltas,
     rw: &mut RewriteDeltas,
+    kept: Kept,
 ) -> Result<(), String> {
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
     r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
-    r.new_pos.clear();
-    r.moved.clear();
-    r.rewritten.clear();
-    r.appended.clear();
     if v0 >= max_v || f0 >= max_f {
         return Err("face split exceeds the final vertex or face count".into());
     }
@@ -2474,8 +2479,16 @@ fn decode_apply_face_split(
     let b = st.inline[m as usize].0;
     let n = b[0] as usize;
     if !(1..=INLINE).contains(&n) {
+        r.new_pos.clear();
+        r.moved.clear();
+        r.rewritten.clear();
+        r.appended.clear();
         face_split_after_anchor(st, rd, m, sym, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
+        if let Some((new_pos, appended)) = kept {
+            new_pos.push(r.new_pos[0]);
+            appended.push(r.appended[0]);
+        }
         return Ok(());
     }
     let x = rd[CONN].u_max(2 * n as u64 - 1, "face-split index")?;
@@ -2510,9 +2523,11 @@ fn decode_apply_face_split(
         sum[t] = 2 * (pm[t] as i64 + po[t] as i64) - pp[t] as i64 - pq[t] as i64;
     }
     let pc = add_residual(floor_mean(sum, 2, st.qmax), &mut rd[POS], st.qmax)?;
-    r.new_pos.push(pc);
-    r.appended.push(yq);
-    st.apply_parts_logged(&r.new_pos, &[(s, xq)], &r.appended, rw);
+    if let Some((new_pos, appended)) = kept {
+        new_pos.push(pc);
+        appended.push(yq);
+    }
+    st.apply_parts_logged(&[pc], &[(s, xq)], &[yq], rw);
     Ok(())
 }
 
@@ -2606,14 +2621,21 @@ fn edge_split_fields(
     Ok((n1, m, p, ra))
 }
 
+/// Where [`decode_apply_record`] appends a record's new vertex codes and
+/// appended quads for the caller (a decoder that can replay records keeps
+/// them; a forward-only one passes `None`).
+pub type Kept<'a> = Option<(&'a mut Vec<[u32; 3]>, &'a mut Vec<[u32; 4]>)>;
+
 /// [`decode_record_into`] followed by [`MeshState::apply_delta_logged`]:
 /// the decoder's loop. An edge split whose stars are both on the fast
 /// path ([`MeshState::star_fast`]) is decoded and applied fused
-/// ([`crate::edge_split::build_fast`]: no explicit record; `r` gets its
-/// new codes and appended quads, which the decoder keeps, and no
-/// rewritten list). Same level, same log entries (within a record in
-/// another order), same errors before anything is applied: on error `st`
-/// is unchanged.
+/// ([`crate::edge_split::build_fast`]), and so are the split and
+/// face-split forms ([`decode_apply_split`], [`decode_apply_face_split`]):
+/// no explicit record. The record's new codes and appended quads are
+/// appended to `kept` when given; `r` is scratch (only `r.op` is
+/// meaningful after the call). Same level, same log entries (within a
+/// record in another order), same errors before anything is applied: on
+/// error `st` is unchanged.
 #[allow(clippy::too_many_arguments)]
 pub fn decode_apply_record(
     st: &mut MeshState,
@@ -2626,23 +2648,36 @@ pub fn decode_apply_record(
     sc: &mut DecodeScratch,
     moved: &mut MoveDeltas,
     rw: &mut RewriteDeltas,
+    kept: Kept,
 ) -> Result<(), String> {
     // Symbol `0x1?` with bits 2–3 clear: the edge-split form (version 3).
     match rd[OPS].peek_byte() {
         Some(b) if major >= 3 && b & 0xfc == 0x10 => {
-            return decode_apply_edge_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw);
+            decode_apply_edge_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw)?;
         }
-        // Bits 2–3 = 1: the split form; 3: the face split (version 2).
+        // Bits 2–3 = 1: the split form; 3: the face split (version 2):
+        // their one new vertex and quad go to `kept` directly.
         Some(b) if b & 0x0c == 0x04 => {
-            return decode_apply_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw);
+            return decode_apply_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw, kept);
         }
         Some(b) if major >= 2 && b & 0x0c == 0x0c => {
-            return decode_apply_face_split(st, rd, cur, max_v, max_f, r, sc, moved, rw);
+            return decode_apply_face_split(st, rd, cur, max_v, max_f, r, sc, moved, rw, kept);
         }
-        _ => {}
+        _ => {
+            decode_record_into(st, rd, cur, max_v, max_f, major, r, sc)?;
+            st.apply_delta_logged(r, moved, rw);
+        }
     }
-    decode_record_into(st, rd, cur, max_v, max_f, major, r, sc)?;
-    st.apply_delta_logged(r, moved, rw);
+    if let Some((new_pos, appended)) = kept {
+        // Element by element: a record holds 1–4 of each, where
+        // `extend_from_slice` is a call to `memcpy`.
+        for &p in &r.new_pos {
+            new_pos.push(p);
+        }
+        for &q in &r.appended {
+            appended.push(q);
+        }
+    }
     Ok(())
 }
 

@@ -1071,6 +1071,10 @@ impl Decoder {
                 buffers,
                 &mut r.moved,
                 &mut r.rw,
+                // The explicit new vertices and quads serve only a replay
+                // onto the current level; a forward-only decoder copies the
+                // frontier instead, so it does not keep them.
+                (!forward_only).then_some((&mut r.new_pos, &mut r.appended)),
             )
             .map_err(|message| FormatError::BadRecord {
                 chunk: i,
@@ -1078,19 +1082,6 @@ impl Decoder {
                 message,
             })?;
             r.op.push(rec.op);
-            // The explicit new vertices and quads serve only a replay onto
-            // the current level; a forward-only decoder copies the frontier
-            // instead, so it does not keep them.
-            if !forward_only {
-                // Element by element: a record holds 1–4 of each, where
-                // `extend_from_slice` is a call to `memcpy`.
-                for &p in &rec.new_pos {
-                    r.new_pos.push(p);
-                }
-                for &q in &rec.appended {
-                    r.appended.push(q);
-                }
-            }
             r.v_at.push(st.q.len() as u32);
             r.f_at.push(st.quads.len() as u32);
             r.moved_at.push(r.moved.len());

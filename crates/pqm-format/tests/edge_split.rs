@@ -55,7 +55,8 @@ fn run(
 /// (`decode_apply_record`, the edge split fused when both stars are on the
 /// fast path). It must give what `run` then `apply` give — the same
 /// vertices, quads and corner lists, the same log entries (up to their
-/// order) — and on error the same message, with the state untouched.
+/// order), the same new codes and appended quads kept — and on error the
+/// same message, with the state untouched.
 fn run_apply(
     st: &MeshState,
     s: &[Vec<u8>; 5],
@@ -66,6 +67,7 @@ fn run_apply(
     let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
     let mut fused = st.clone();
     let (mut moved, mut rw) = (Vec::new(), Vec::new());
+    let (mut new_pos, mut appended) = (Vec::new(), Vec::new());
     let got = decode_apply_record(
         &mut fused,
         &mut rd,
@@ -77,6 +79,7 @@ fn run_apply(
         &mut DecodeScratch::new(),
         &mut moved,
         &mut rw,
+        Some((&mut new_pos, &mut appended)),
     );
     match run(st, s, max_v, max_f, major) {
         Err(e) => {
@@ -88,6 +91,7 @@ fn run_apply(
         Ok(r) => {
             got.unwrap();
             assert!(rd.iter().all(|x| x.remaining() == 0));
+            assert_eq!((new_pos, appended), (r.new_pos.clone(), r.appended.clone()));
             let mut want = st.clone();
             let (m0, rw0) = want.apply(&r);
             assert_eq!(fused.q, want.q);
