@@ -275,7 +275,7 @@ pub struct Star {
 /// An interior star of at most [`INLINE`] faces from
 /// [`MeshState::star_fast`]: face `f_i` of the canonical order (spec §7.5)
 /// as the corner id `c[i] = 4 f_i + k_i` of `m` in it, and `nx[i] = l_i`;
-/// entries past `n` are [`NIL`].
+/// entries past `n` mean nothing.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct FastStar {
     pub(crate) n: usize,
@@ -284,6 +284,13 @@ pub(crate) struct FastStar {
 }
 
 impl FastStar {
+    /// A buffer for [`MeshState::star_fast_into`].
+    pub(crate) const EMPTY: FastStar = FastStar {
+        n: 0,
+        c: [NIL; 8],
+        nx: [NIL; 8],
+    };
+
     /// The same star as a [`Star`] (fixed 32-byte copies, then truncated:
     /// no per-element push).
     #[inline]
@@ -889,11 +896,22 @@ impl MeshState {
     /// corner ids, which give each face's corner of `m` without a search.
     #[inline]
     pub(crate) fn star_fast(&self, m: u32) -> Option<FastStar> {
-        let Block(b) = self.inline.get(m as usize)?;
+        let mut out = FastStar::EMPTY;
+        self.star_fast_into(m, &mut out).then_some(out)
+    }
+
+    /// [`MeshState::star_fast`] into `out` (entries past `out.n` are left
+    /// as they were): false where that gives `None`. (Returned by value,
+    /// the 72-byte star was copied once more per call.)
+    #[inline]
+    pub(crate) fn star_fast_into(&self, m: u32, out: &mut FastStar) -> bool {
+        let Some(Block(b)) = self.inline.get(m as usize) else {
+            return false;
+        };
         // The overflow flag (bit 31) makes `n` too large too.
         let n = b[0] as usize;
         if !(2..=INLINE).contains(&n) {
-            return None;
+            return false;
         }
         // Padding `nx` and `pv` with NIL (never a vertex id) keeps the
         // padding out of every match.
@@ -917,7 +935,7 @@ impl MeshState {
         // No face whose next and previous corners are one vertex (only a
         // quad repeating a vertex has one).
         if eq_mask8x8(&nx, &pv) & live != 0 {
-            return None;
+            return false;
         }
         // The walk: from each face, the one face whose `nx` is its `pv`.
         // Each step must have exactly one candidate (other than the face
@@ -929,27 +947,20 @@ impl MeshState {
         // candidate is unique; and two faces `a`, `b` with one `pv` would
         // give `a` two candidates, `succ(a)` and `succ(b)` — unless
         // `succ(b) = a`, i.e. `nx[a] = pv[a]`, refused above.
-        let mut out = FastStar {
-            n,
-            c: [NIL; 8],
-            nx: [NIL; 8],
-        };
+        out.n = n;
         let (mut f, mut seen) = (start, 1u32 << start);
         (out.c[0], out.nx[0]) = (cs[f], nx[f]);
         for i in 1..n {
             let s = eq_mask8(&nx, pv[f]) & !(1u32 << f);
             if s == 0 || s & (s - 1) != 0 || seen & s != 0 {
-                return None;
+                return false;
             }
             let g = s.trailing_zeros() as usize;
             seen |= s;
             (out.c[i], out.nx[i]) = (cs[g], nx[g]);
             f = g;
         }
-        if eq_mask8(&nx, pv[f]) & !(1u32 << f) != 1 << start {
-            return None;
-        }
-        Some(out)
+        eq_mask8(&nx, pv[f]) & !(1u32 << f) == 1 << start
     }
 
     /// [`MeshState::star_into`] past its fast path.
@@ -2287,7 +2298,8 @@ fn decode_apply_split(
     let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
     cur.vref = m;
     st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
-    let Some(s) = st.star_fast(m) else {
+    let mut s = FastStar::EMPTY;
+    if !st.star_fast_into(m, &mut s) {
         r.new_pos.clear();
         r.moved.clear();
         r.rewritten.clear();
@@ -2299,7 +2311,7 @@ fn decode_apply_split(
             appended.push(r.appended[0]);
         }
         return Ok(());
-    };
+    }
     let l = s.n;
     let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
     let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
@@ -2713,17 +2725,19 @@ fn decode_apply_edge_split(
         st.apply_delta_logged(r, moved, rw);
         Ok(())
     };
-    let Some(sa) = st.star_fast(a) else {
+    let mut sa = FastStar::EMPTY;
+    if !st.star_fast_into(a, &mut sa) {
         let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
         let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
         return slow(st, rd, r, sc, link);
-    };
+    }
     let link = rd[CONN].u_max(sa.n as u64 - 1, "edge-split link index")? as usize;
     let d = sa.nx[link];
-    let Some(sd) = st.star_fast(d) else {
+    let mut sd = FastStar::EMPTY;
+    if !st.star_fast_into(d, &mut sd) {
         sa.write_into(&mut sc.edge.stars[0]);
         return slow(st, rd, r, sc, link);
-    };
+    }
     // `A` in `D`'s link (the fast path's links are distinct).
     let live = (1u32 << sd.n) - 1;
     let hit = eq_mask8(&sd.nx, a) & live;
@@ -2732,16 +2746,16 @@ fn decode_apply_edge_split(
     }
     let rda = hit.trailing_zeros() as usize;
     let (ends, rho, fs) = if a < d {
-        ([a, d], [link, rda], [sa, sd])
+        ([a, d], [link, rda], [&sa, &sd])
     } else {
-        ([d, a], [rda, link], [sd, sa])
+        ([d, a], [rda, link], [&sd, &sa])
     };
     let (n1, m, p, ra) = edge_split_fields(rd, ends, [fs[0].n, fs[1].n], &mut sc.rots)?;
     let mut rws = [(0u32, [0u32; 4]); crate::edge_split::FAST_REWRITES];
     let mut app = [[0u32; 4]; 4];
     let pred = &mut sc.edge.pred;
     let n = crate::edge_split::build_fast(
-        st, ends, &fs, rho, n1, m, p, ra, &sc.rots, pred, &mut rws, &mut app,
+        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, &mut rws, &mut app,
     )?;
     // Every new vertex has a parallelogram of three old corners (`T_x`
     // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most

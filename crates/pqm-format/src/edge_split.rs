@@ -327,7 +327,7 @@ pub(crate) const FAST_REWRITES: usize = 2 * crate::codec::INLINE;
 pub(crate) fn build_fast(
     st: &MeshState,
     ends: [u32; 2],
-    fs: &[FastStar; 2],
+    fs: [&FastStar; 2],
     rho: [usize; 2],
     n1: [usize; 2],
     m: [usize; 2],
@@ -352,7 +352,7 @@ pub(crate) fn build_fast(
     let mut tri = [[0u32; 4]; 2];
     let mut rot_i = 0usize;
     for x in 0..2 {
-        let s = &fs[x];
+        let s = fs[x];
         let k = s.n;
         let (xv, rho, n1, m) = (ends[x], rho[x], n1[x], m[x]);
         if m == 0 || n1 + m + 2 > k {
@@ -436,7 +436,7 @@ pub(crate) fn build_fast(
         n += 1;
     }
     for x in 0..2 {
-        let s = &fs[x];
+        let s = fs[x];
         for (&c, &r) in s.c[..s.n].iter().zip(&role[x]) {
             let slot = c >> 2;
             let qd = if r == u8::MAX {
