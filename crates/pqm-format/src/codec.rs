@@ -937,22 +937,35 @@ impl MeshState {
         if eq_mask8x8(&nx, &pv) & live != 0 {
             return false;
         }
-        // The walk: from each face, the one face whose `nx` is its `pv`.
-        // Each step must have exactly one candidate (other than the face
-        // itself), and the walk must close over all `n` faces. This
-        // accepts exactly the stars the earlier form of this function
-        // (all `pv` distinct, then the walk by the first candidate)
-        // accepted, with the same steps: if it closes, `nx` of the faces
-        // are their successors' `pv`, so with distinct `pv` every
+        // Per face its `succ` candidates: the other faces whose `nx` is its
+        // `pv`. There must be exactly one each, and the walk along them
+        // must close over all `n` faces. This accepts exactly the stars
+        // that "all `pv` distinct, then the walk by the first candidate"
+        // accepts, with the same steps: if the walk closes, `nx` of the
+        // faces are their successors' `pv`, so with distinct `pv` every
         // candidate is unique; and two faces `a`, `b` with one `pv` would
         // give `a` two candidates, `succ(a)` and `succ(b)` — unless
-        // `succ(b) = a`, i.e. `nx[a] = pv[a]`, refused above.
+        // `succ(b) = a`, i.e. `nx[a] = pv[a]`, refused above. (The masks
+        // are computed up front, independent of each other, so that the
+        // walk is a short chain of loads: a mask per step of the walk,
+        // measured, took fewer instructions but 1–3 % more time.)
+        let mut succ = [0u32; 8];
+        let (mut multi, mut none) = (0u32, false);
+        for a in 0..n {
+            let s = eq_mask8(&nx, pv[a]) & !(1u32 << a);
+            succ[a] = s;
+            multi |= s & s.wrapping_sub(1);
+            none |= s == 0;
+        }
+        if multi != 0 || none {
+            return false;
+        }
         out.n = n;
         let (mut f, mut seen) = (start, 1u32 << start);
         (out.c[0], out.nx[0]) = (cs[f], nx[f]);
         for i in 1..n {
-            let s = eq_mask8(&nx, pv[f]) & !(1u32 << f);
-            if s == 0 || s & (s - 1) != 0 || seen & s != 0 {
+            let s = succ[f];
+            if seen & s != 0 {
                 return false;
             }
             let g = s.trailing_zeros() as usize;
@@ -960,7 +973,7 @@ impl MeshState {
             (out.c[i], out.nx[i]) = (cs[g], nx[g]);
             f = g;
         }
-        eq_mask8(&nx, pv[f]) & !(1u32 << f) == 1 << start
+        succ[f] == 1 << start
     }
 
     /// [`MeshState::star_into`] past its fast path.
