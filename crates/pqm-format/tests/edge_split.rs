@@ -458,3 +458,129 @@ fn fused_face_split_equals_explicit() {
     }
     assert!(n_ok > 300 && n_err > 300, "{n_ok} built, {n_err} refused");
 }
+
+/// Random record streams (every form, fields mostly small and in range,
+/// sometimes not; the edge split's fields often valid) on a real level —
+/// the coarsened torus, vertices of valence 3 to 8 — through the decoder's
+/// fused path and through the explicit record: the same result or the
+/// same error, the same state, never a panic.
+#[test]
+fn random_records_fused_equals_explicit() {
+    let src = shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
+    let mesh = Mesh::from_indexed(&src).unwrap();
+    let opts = CoarsenOptions {
+        target_faces: Some(150),
+        placement: Placement::Subset,
+        ..Default::default()
+    };
+    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
+    c.run(&mut |_| {});
+    let (bytes, _) = write_to_vec(&c.to_progressive(), &EncodeOptions::default()).unwrap();
+    let mut dec = decode_all(&bytes, Limits::default()).unwrap();
+    dec.set_level(Target::Level(40)).unwrap();
+    let st = MeshState::new(
+        (1 << 14) - 1,
+        dec.position_codes().to_vec(),
+        dec.quads().to_vec(),
+    );
+    let nv = st.q.len() as u64;
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut rnd = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    };
+    let forms = [0x10u8, 0x11, 0x04, 0x45, 0x84, 0x0c, 0x3d, 0x00, 0x08, 0x21];
+    let mut ok = [0u32; 5];
+    for it in 0..60_000 {
+        let mut s: [Vec<u8>; 5] = Default::default();
+        let sym = if rnd() % 8 == 0 {
+            rnd() as u8
+        } else if rnd() % 2 == 0 {
+            0x10 | (rnd() & 1) as u8
+        } else {
+            forms[(rnd() % forms.len() as u64) as usize] | (rnd() as u8 & 0xc0)
+        };
+        s[0].push(sym);
+        let edge = sym & 0xfc == 0x10;
+        if edge && rnd() % 4 != 0 {
+            let (e0, e1) = (rnd() % 3, rnd() % 3);
+            let mut c = vec![
+                rnd() % 6,
+                rnd() % 3,
+                e0,
+                rnd() % 3,
+                e1,
+                rnd() % 576,
+                rnd() % 256,
+            ];
+            c.extend((0..2 + e0 + e1).map(|_| rnd() % 4));
+            if rnd() % 8 == 0 {
+                c.pop();
+            }
+            c.iter().for_each(|&x| put_u(&mut s[1], x));
+        } else {
+            for _ in 0..rnd() % 14 {
+                let x = [rnd() % 3, rnd() % 8, rnd() % 600, rnd()][(rnd() % 4) as usize];
+                put_u(&mut s[1], x);
+            }
+        }
+        put_s(&mut s[2], (rnd() % nv) as i64);
+        let npos = if edge && rnd() % 2 == 0 {
+            12
+        } else {
+            rnd() % 14
+        };
+        (0..npos).for_each(|_| put_s(&mut s[4], (rnd() % 200) as i64 - 100));
+        let major = [1u16, 2, 3, 3][(rnd() % 4) as usize];
+        let (max_v, max_f) = (st.q.len() as u32 + 10, st.quads.len() as u32 + 10);
+        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+        let mut fused = st.clone();
+        let (mut moved, mut rw, mut kept_v, mut kept_f) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let got = decode_apply_record(
+            &mut fused,
+            &mut rd,
+            &mut Cursors::default(),
+            max_v,
+            max_f,
+            major,
+            &mut QRecord::default(),
+            &mut DecodeScratch::new(),
+            &mut moved,
+            &mut rw,
+            Some((&mut kept_v, &mut kept_f)),
+        );
+        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+        let want = decode_record(&st, &mut rd, &mut Cursors::default(), max_v, max_f, major);
+        match (got, want) {
+            (Err(a), Err(b)) => {
+                assert_eq!(a, b, "record {it}");
+                assert_eq!(fused.quads, st.quads, "record {it}");
+            }
+            (Ok(()), Ok(r)) => {
+                let mut w = st.clone();
+                w.apply(&r);
+                assert_eq!(fused.q, w.q, "record {it}");
+                assert_eq!(fused.quads, w.quads, "record {it}");
+                assert_eq!((kept_v, kept_f), (r.new_pos.clone(), r.appended.clone()));
+                for v in 0..w.q.len() as u32 {
+                    let mut a: Vec<_> = fused.corners(v).collect();
+                    let mut b: Vec<_> = w.corners(v).collect();
+                    a.sort_unstable();
+                    b.sort_unstable();
+                    assert_eq!(a, b, "record {it}: corners of vertex {v}");
+                }
+                let form = if edge { 4 } else { (sym >> 2) as usize & 3 };
+                ok[form] += 1;
+            }
+            (a, b) => panic!("record {it}: fused {a:?}, explicit {:?}", b.map(|_| ())),
+        }
+    }
+    // Enough records of the fused forms were built to mean something.
+    assert!(
+        ok[1] > 300 && ok[3] > 300 && ok[4] > 30,
+        "built by form: {ok:?}"
+    );
+}
