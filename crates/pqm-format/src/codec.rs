@@ -272,6 +272,39 @@ pub struct Star {
     pub link: Vec<u32>,
 }
 
+/// An interior star of at most [`INLINE`] faces from
+/// [`MeshState::star_fast`]: face `f_i` of the canonical order (spec §7.5)
+/// as the corner id `c[i] = 4 f_i + k_i` of `m` in it, and `nx[i] = l_i`;
+/// entries past `n` mean nothing.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FastStar {
+    pub(crate) n: usize,
+    pub(crate) c: [u32; 8],
+    pub(crate) nx: [u32; 8],
+}
+
+impl FastStar {
+    /// A buffer for [`MeshState::star_fast_into`].
+    pub(crate) const EMPTY: FastStar = FastStar {
+        n: 0,
+        c: [NIL; 8],
+        nx: [NIL; 8],
+    };
+
+    /// The same star as a [`Star`] (fixed 32-byte copies, then truncated:
+    /// no per-element push).
+    #[inline]
+    pub(crate) fn write_into(&self, out: &mut Star) {
+        let Star { faces, link } = out;
+        faces.clear();
+        faces.extend_from_slice(&self.c.map(|c| c >> 2));
+        faces.truncate(self.n);
+        link.clear();
+        link.extend_from_slice(&self.nx);
+        link.truncate(self.n);
+    }
+}
+
 /// Neighbourhood of a local-form anchor `m` (spec §7.7): `faces` = every
 /// slot whose quad has a corner in the closed star of `m` (the vertices of
 /// the faces at `m`), ascending; `verts` = the corners of those faces,
@@ -346,6 +379,9 @@ pub struct Cursors {
     pub vref: u32,
     /// Last rewritten slot coded.
     pub slot: u32,
+    /// The decoder's look-ahead into the chunk's `refs` stream
+    /// ([`MeshState::prefetch_ahead`]): reset with the cursors.
+    pub peek: crate::varint::Peek3,
 }
 
 impl MeshState {
@@ -473,14 +509,16 @@ impl MeshState {
     /// general-form record, the end of the chunk) costs a few useless
     /// fetches, nothing else.
     #[inline]
-    fn prefetch_ahead(&self, refs: &Reader, m: u32) {
+    fn prefetch_ahead(&self, refs: &Reader, m: u32, peek: &mut crate::varint::Peek3) {
         // A small mesh stays in the core's cache, where the look-ahead is
         // pure overhead (measured: spot, 2.9k faces, 13 % slower; loki,
         // 27k, even; the bunny, 209k, 9 % faster).
         if self.q.len() < PREFETCH_MIN_VERTICES {
             return;
         }
-        let [d1, d2, d3] = refs.peek_s3();
+        // Each value is parsed once, not three times (it is the third,
+        // second and first peeked value of three records).
+        let [d1, d2, d3] = refs.peek_s3_cached(peek);
         let nv = self.inline.len() as i64;
         let at = |v: i64| (0..nv).contains(&v).then_some(v as usize);
         let Some(m1) = d1.map(|d| (m as i64).wrapping_add(d)) else {
@@ -594,8 +632,8 @@ impl MeshState {
     /// corner blocks (their corners come with the rewritten and appended
     /// quads).
     #[inline(always)]
-    fn push_new_vertices(&mut self, r: &QRecord) {
-        for &p in &r.new_pos {
+    fn push_new_vertices(&mut self, new_pos: &[[u32; 3]]) {
+        for &p in new_pos {
             self.q.push(p);
             self.inline.push(Block::default());
         }
@@ -604,8 +642,8 @@ impl MeshState {
     /// The last step of applying a record: its appended quads, at the next
     /// slots.
     #[inline(always)]
-    fn append_quads(&mut self, r: &QRecord) {
-        for &quad in &r.appended {
+    fn append_quads(&mut self, appended: &[[u32; 4]]) {
+        for &quad in appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
             for (k, &v) in quad.iter().enumerate() {
@@ -629,7 +667,7 @@ impl MeshState {
         moved: &mut MoveDeltas,
         rw: &mut RewriteDeltas,
     ) {
-        self.push_new_vertices(r);
+        self.push_new_vertices(&r.new_pos);
         for &(v, p) in &r.moved {
             let old = std::mem::replace(&mut self.q[v as usize], p);
             moved.push((v, xor3(p, old)));
@@ -638,7 +676,28 @@ impl MeshState {
             let old = self.set_quad(s, quad);
             rw.push((s, xor4(quad, old)));
         }
-        self.append_quads(r);
+        self.append_quads(&r.appended);
+    }
+
+    /// [`MeshState::apply_delta_logged`] of a record that moves nothing,
+    /// given as its parts: the fused decoding of the compact forms makes
+    /// the rewritten quads in stack arrays, in star order (not by slot:
+    /// the log's entries of one record name distinct slots, and each
+    /// delta is applied on its own, so their order changes no level).
+    #[inline(always)]
+    pub(crate) fn apply_parts_logged(
+        &mut self,
+        new_pos: &[[u32; 3]],
+        rewritten: &[(u32, [u32; 4])],
+        appended: &[[u32; 4]],
+        rw: &mut RewriteDeltas,
+    ) {
+        self.push_new_vertices(new_pos);
+        for &(s, quad) in rewritten {
+            let old = self.set_quad(s, quad);
+            rw.push((s, xor4(quad, old)));
+        }
+        self.append_quads(appended);
     }
 
     /// Undoes one record applied by [`MeshState::apply_delta_logged`] with
@@ -822,69 +881,99 @@ impl MeshState {
     /// check both against [`MeshState::star_general`].
     #[inline]
     pub fn star_into(&self, m: u32, out: &mut Star) -> Result<(), String> {
+        match self.star_fast(m) {
+            Some(s) => {
+                s.write_into(out);
+                Ok(())
+            }
+            None => self.star_sorted(m, out),
+        }
+    }
+
+    /// The fast path of [`MeshState::star_into`] (see there), as corner
+    /// ids on the stack: `None` where it leaves the star to
+    /// [`MeshState::star_sorted`]. The decoder's fused forms read the
+    /// corner ids, which give each face's corner of `m` without a search.
+    #[inline]
+    pub(crate) fn star_fast(&self, m: u32) -> Option<FastStar> {
+        let mut out = FastStar::EMPTY;
+        self.star_fast_into(m, &mut out).then_some(out)
+    }
+
+    /// [`MeshState::star_fast`] into `out` (entries past `out.n` are left
+    /// as they were): false where that gives `None`. (Returned by value,
+    /// the 72-byte star was copied once more per call.)
+    #[inline]
+    pub(crate) fn star_fast_into(&self, m: u32, out: &mut FastStar) -> bool {
         let Some(Block(b)) = self.inline.get(m as usize) else {
-            return self.star_sorted(m, out);
+            return false;
         };
         // The overflow flag (bit 31) makes `n` too large too.
         let n = b[0] as usize;
         if !(2..=INLINE).contains(&n) {
-            return self.star_sorted(m, out);
+            return false;
         }
         // Padding `nx` and `pv` with NIL (never a vertex id) keeps the
         // padding out of every match.
-        let mut fs = [0u32; 8];
+        let mut cs = [NIL; 8];
         let mut nx = [NIL; 8];
         let mut pv = [NIL; 8];
+        let mut start = 0usize;
         for i in 0..n {
             let c = b[1 + i];
-            let (f, k) = (c >> 2, (c & 3) as usize);
-            let q = &self.quads[f as usize];
-            (fs[i], nx[i], pv[i]) = (f, q[(k + 1) & 3], q[(k + 3) & 3]);
-        }
-        // Per face: the other faces with the same `pv` (must be none) and
-        // its `succ` candidates, as bit masks.
-        let mut succ = [0u32; 8];
-        let mut dup = 0u32;
-        let mut start = 0usize;
-        for a in 0..n {
-            let not_a = !(1u32 << a);
-            dup |= eq_mask8(&pv, pv[a]) & not_a;
-            succ[a] = eq_mask8(&nx, pv[a]) & not_a;
-            // The first of equal slots (none are equal: a quad holds `m`
-            // once), as the stable sort puts first.
-            if fs[a] < fs[start] {
-                start = a;
+            let k = (c & 3) as usize;
+            let q = &self.quads[(c >> 2) as usize];
+            (cs[i], nx[i], pv[i]) = (c, q[(k + 1) & 3], q[(k + 3) & 3]);
+            // The smallest slot (none are equal: a quad holds `m` once),
+            // as the stable sort puts first; corner `4 s + k` orders as
+            // its slot `s`.
+            if c < cs[start] {
+                start = i;
             }
         }
-        if dup != 0 {
-            return self.star_sorted(m, out);
+        let live = (1u32 << n) - 1;
+        // No face whose next and previous corners are one vertex (only a
+        // quad repeating a vertex has one).
+        if eq_mask8x8(&nx, &pv) & live != 0 {
+            return false;
         }
-        // The walk into stack arrays, copied out whole (a fixed 32-byte
-        // copy each, then truncated: no per-element push).
-        let (mut of, mut ol) = ([0u32; 8], [0u32; 8]);
+        // Per face its `succ` candidates: the other faces whose `nx` is its
+        // `pv`. There must be exactly one each, and the walk along them
+        // must close over all `n` faces. This accepts exactly the stars
+        // that "all `pv` distinct, then the walk by the first candidate"
+        // accepts, with the same steps: if the walk closes, `nx` of the
+        // faces are their successors' `pv`, so with distinct `pv` every
+        // candidate is unique; and two faces `a`, `b` with one `pv` would
+        // give `a` two candidates, `succ(a)` and `succ(b)` — unless
+        // `succ(b) = a`, i.e. `nx[a] = pv[a]`, refused above. (The masks
+        // are computed up front, independent of each other, so that the
+        // walk is a short chain of loads: a mask per step of the walk,
+        // measured, took fewer instructions but 1–3 % more time.)
+        let mut succ = [0u32; 8];
+        let (mut multi, mut none) = (0u32, false);
+        for a in 0..n {
+            let s = eq_mask8(&nx, pv[a]) & !(1u32 << a);
+            succ[a] = s;
+            multi |= s & s.wrapping_sub(1);
+            none |= s == 0;
+        }
+        if multi != 0 || none {
+            return false;
+        }
+        out.n = n;
         let (mut f, mut seen) = (start, 1u32 << start);
-        (of[0], ol[0]) = (fs[f], nx[f]);
+        (out.c[0], out.nx[0]) = (cs[f], nx[f]);
         for i in 1..n {
             let s = succ[f];
-            let g = s.trailing_zeros() as usize;
-            if s == 0 || seen & (1 << g) != 0 {
-                return self.star_sorted(m, out);
+            if seen & s != 0 {
+                return false;
             }
-            seen |= 1 << g;
-            (of[i], ol[i]) = (fs[g], nx[g]);
+            let g = s.trailing_zeros() as usize;
+            seen |= s;
+            (out.c[i], out.nx[i]) = (cs[g], nx[g]);
             f = g;
         }
-        if succ[f] == 0 || succ[f].trailing_zeros() as usize != start {
-            return self.star_sorted(m, out);
-        }
-        let Star { faces, link } = out;
-        faces.clear();
-        faces.extend_from_slice(&of);
-        faces.truncate(n);
-        link.clear();
-        link.extend_from_slice(&ol);
-        link.truncate(n);
-        Ok(())
+        succ[f] == 1 << start
     }
 
     /// [`MeshState::star_into`] past its fast path.
@@ -1041,7 +1130,7 @@ fn first_other_in(keys: &[u32], key: u32, f: usize) -> Option<usize> {
 /// compares (x86-64 baseline), where the scalar loop took ~30
 /// instructions per mask.
 #[inline(always)]
-fn eq_mask8(v: &[u32; 8], key: u32) -> u32 {
+pub(crate) fn eq_mask8(v: &[u32; 8], key: u32) -> u32 {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;
@@ -1063,6 +1152,34 @@ fn eq_mask8(v: &[u32; 8], key: u32) -> u32 {
             mask |= ((x == key) as u32) << h;
         }
         mask
+    }
+}
+
+/// Bit `h` set where `a[h] == b[h]` (two SSE2 compares on x86-64).
+#[inline(always)]
+fn eq_mask8x8(a: &[u32; 8], b: &[u32; 8]) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the unaligned loads
+        // read the 32 bytes of `a` and of `b`, 16 at a time.
+        unsafe {
+            let (a0, a1) = (
+                _mm_loadu_si128(a.as_ptr().cast::<__m128i>()),
+                _mm_loadu_si128(a.as_ptr().add(4).cast::<__m128i>()),
+            );
+            let (b0, b1) = (
+                _mm_loadu_si128(b.as_ptr().cast::<__m128i>()),
+                _mm_loadu_si128(b.as_ptr().add(4).cast::<__m128i>()),
+            );
+            let ml = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(a0, b0)));
+            let mh = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(a1, b1)));
+            (ml | (mh << 4)) as u32
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        (0..8).fold(0, |m, h| m | ((a[h] == b[h]) as u32) << h)
     }
 }
 
@@ -2070,9 +2187,6 @@ pub fn decode_record_into(
         }
         form = 4;
     }
-    let rot = ((sym >> 4) & 3) as usize;
-    let moved_flag = sym & 0x40 != 0;
-    let reflect_c = sym & 0x80 != 0;
     r.op = op;
     r.new_pos.clear();
     r.moved.clear();
@@ -2090,7 +2204,7 @@ pub fn decode_record_into(
             if local {
                 let m = vref(cur.vref, rd[REFS].s()?, v0, "local-form anchor")?;
                 cur.vref = m;
-                st.prefetch_ahead(&rd[REFS], m);
+                st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
                 st.local_faces_with(m, &mut sc.marks, &mut sc.local)?;
             }
             decode_patch(st, rd, cur, max_v, max_f, local, major, sc, r)?;
@@ -2101,31 +2215,8 @@ pub fn decode_record_into(
             }
             let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
             cur.vref = m;
-            st.prefetch_ahead(&rd[REFS], m);
-            st.star_into(m, &mut sc.star)?;
-            let star = &sc.star;
-            let l = star.link.len();
-            if l < 2 {
-                return Err(format!("vertex {m} has fewer than two link vertices"));
-            }
-            let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
-            let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
-            let j = (i + 1 + e) % l;
-            let appended = build_split_into(st, m, star, i, j, rot, &mut r.rewritten)?;
-            r.appended.push(appended);
-            let m_old = st.q[m as usize];
-            if moved_flag {
-                let p = add_residual(predict_a(st, m, star, i, j), &mut rd[POS], st.qmax)?;
-                r.moved.push((m, p));
-            }
-            let m_new = r.moved.first().map_or(m_old, |mv| mv.1);
-            let pred = if reflect_c {
-                reflect(st, m_old, m_new)
-            } else {
-                predict_split(st, r, star.link[i], star.link[j], m_new, major)
-            };
-            let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-            r.new_pos.push(p);
+            st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
+            split_after_anchor(st, rd, m, sym, major, r, sc)?;
         }
         _ if major < 2 => {
             return Err(format!(
@@ -2139,23 +2230,329 @@ pub fn decode_record_into(
             }
             let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
             cur.vref = m;
-            st.prefetch_ahead(&rd[REFS], m);
-            st.slots_at_unsorted(m, &mut sc.slots)?;
-            let n = sc.slots.len() as u64;
-            let x = rd[CONN].u_max(2 * n - 1, "face-split index")?;
-            // The slot of rank `x / 2` in ascending order (a vertex is a
-            // corner of a quad at most once, so the slots are distinct):
-            // a selection, linear in the star also for a hostile 255-face
-            // one, instead of sorting the 4–6 slots.
-            let s = *sc.slots.select_nth_unstable((x >> 1) as usize).1;
-            let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
-            r.rewritten.push((s, rewritten));
-            r.appended.push(appended);
-            let pred = predict_face_split(st, m, s);
-            let p = add_residual(pred, &mut rd[POS], st.qmax)?;
-            r.new_pos.push(p);
+            st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
+            face_split_after_anchor(st, rd, m, sym, r, sc)?;
         }
     }
+    Ok(())
+}
+
+/// A split-form record (spec §7.5) after its anchor `m`, from symbol
+/// `sym`, into `r` (cleared).
+#[allow(clippy::too_many_arguments)]
+fn split_after_anchor(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    m: u32,
+    sym: u8,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
+    let rot = ((sym >> 4) & 3) as usize;
+    st.star_into(m, &mut sc.star)?;
+    let star = &sc.star;
+    let l = star.link.len();
+    if l < 2 {
+        return Err(format!("vertex {m} has fewer than two link vertices"));
+    }
+    let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
+    let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
+    let j = (i + 1 + e) % l;
+    let appended = build_split_into(st, m, star, i, j, rot, &mut r.rewritten)?;
+    r.appended.push(appended);
+    let m_old = st.q[m as usize];
+    if sym & 0x40 != 0 {
+        let p = add_residual(predict_a(st, m, star, i, j), &mut rd[POS], st.qmax)?;
+        r.moved.push((m, p));
+    }
+    let m_new = r.moved.first().map_or(m_old, |mv| mv.1);
+    let pred = if sym & 0x80 != 0 {
+        reflect(st, m_old, m_new)
+    } else {
+        predict_split(st, r, star.link[i], star.link[j], m_new, major)
+    };
+    let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+    r.new_pos.push(p);
+    Ok(())
+}
+
+/// The split case of [`decode_apply_record`]: when `m`'s star is on the
+/// fast path ([`MeshState::star_fast`], nearly always), the record is
+/// applied straight from its wings — each face on the `c` side gets `c`
+/// at the corner the star's corner id names (one corner moved between two
+/// lists, one log entry), its parallelogram summed on the way — instead of
+/// a sorted rewritten list that the prediction and then the apply read
+/// again. The same values as [`split_after_anchor`] then
+/// [`MeshState::apply_delta_logged`] (the sums of [`predict_a`] and
+/// [`predict_split`] over the same faces; test `fused_split_equals_explicit`
+/// and every real-mesh level), and nothing applied on error.
+#[allow(clippy::too_many_arguments)]
+fn decode_apply_split(
+    st: &mut MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+    moved: &mut MoveDeltas,
+    rw: &mut RewriteDeltas,
+    kept: Kept,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
+    let sym = rd[OPS].byte()?;
+    r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
+    if v0 >= max_v || f0 >= max_f {
+        return Err("split exceeds the final vertex or face count".into());
+    }
+    let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
+    cur.vref = m;
+    st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
+    let mut s = FastStar::EMPTY;
+    if !st.star_fast_into(m, &mut s) {
+        r.new_pos.clear();
+        r.moved.clear();
+        r.rewritten.clear();
+        r.appended.clear();
+        split_after_anchor(st, rd, m, sym, major, r, sc)?;
+        st.apply_delta_logged(r, moved, rw);
+        if let Some((new_pos, appended)) = kept {
+            new_pos.push(r.new_pos[0]);
+            appended.push(r.appended[0]);
+        }
+        return Ok(());
+    }
+    let l = s.n;
+    let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
+    let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
+    let j = if i + 1 + e < l {
+        i + 1 + e
+    } else {
+        i + 1 + e - l
+    };
+    let (b, d) = (s.nx[i], s.nx[j]);
+    if b == d {
+        return Err(format!("split of vertex {m}: both wings are vertex {b}"));
+    }
+    let c = v0;
+    let appended = rotl([m, d, c, b], (sym >> 4) & 3);
+    // Faces `t` in `[i, j)` (cyclic) keep `m`; the others go to `c`.
+    let in_a = |t: usize| {
+        if i < j {
+            i <= t && t < j
+        } else {
+            t >= i || t < j
+        }
+    };
+    let (q, quads) = (&st.q, &st.quads);
+    let m_old = q[m as usize];
+    let m_new = if sym & 0x40 != 0 {
+        // `predict_a`: the mean far corner of each side.
+        let mut sum = [[0i64; 3]; 2];
+        let mut n = [0i64; 2];
+        for t in 0..l {
+            let ct = s.c[t];
+            let far = q[quads[(ct >> 2) as usize][(ct as usize + 2) & 3] as usize];
+            let side = (!in_a(t)) as usize;
+            for a in 0..3 {
+                sum[side][a] += far[a] as i64;
+            }
+            n[side] += 1;
+        }
+        let mean = |s: usize, a: usize| {
+            if n[s] > 0 {
+                sum[s][a].div_euclid(n[s])
+            } else {
+                m_old[a] as i64
+            }
+        };
+        let qmax = st.qmax as i64;
+        let pred = [0, 1, 2].map(|a| {
+            (m_old[a] as i64 + (mean(0, a) - mean(1, a)).div_euclid(4)).clamp(0, qmax) as u32
+        });
+        Some(add_residual(pred, &mut rd[POS], st.qmax)?)
+    } else {
+        None
+    };
+    let m_moved = m_new;
+    let m_new = m_new.unwrap_or(m_old);
+    // The `c` side's corners, and (`predict_split`) their parallelograms
+    // around `c` plus the appended quad's.
+    let mut side = [0u32; 8];
+    let mut n_side = 0usize;
+    let (qb, qd) = (q[b as usize], q[d as usize]);
+    let mut sum = [0i64; 3];
+    for t in 0..3 {
+        sum[t] = qb[t] as i64 + qd[t] as i64 - m_new[t] as i64;
+    }
+    let mut cnt = 1i64;
+    for t in 0..l {
+        if in_a(t) {
+            continue;
+        }
+        let ct = s.c[t];
+        side[n_side] = ct;
+        n_side += 1;
+        if major >= 2 {
+            let quad = &quads[(ct >> 2) as usize];
+            let k = ct as usize;
+            let (a, o, e) = (
+                q[quad[(k + 1) & 3] as usize],
+                q[quad[(k + 2) & 3] as usize],
+                q[quad[(k + 3) & 3] as usize],
+            );
+            for t in 0..3 {
+                sum[t] += a[t] as i64 + e[t] as i64 - o[t] as i64;
+            }
+            cnt += 1;
+        }
+    }
+    let pred = if sym & 0x80 != 0 {
+        reflect(st, m_old, m_new)
+    } else {
+        floor_mean(sum, cnt, st.qmax)
+    };
+    let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+    // Applied: nothing can fail from here. (`r` is left as it was: the
+    // caller reads the new code and quad from `kept`.)
+    if let Some((new_pos, app)) = kept {
+        new_pos.push(p);
+        app.push(appended);
+    }
+    st.q.push(p);
+    st.inline.push(Block::default());
+    if let Some(pm) = m_moved {
+        let old = std::mem::replace(&mut st.q[m as usize], pm);
+        moved.push((m, xor3(pm, old)));
+    }
+    for &ct in &side[..n_side] {
+        let (slot, k) = (ct >> 2, (ct & 3) as usize);
+        st.quads[slot as usize][k] = c;
+        st.unlink(ct, m);
+        st.link(ct, c);
+        let mut delta = [0u32; 4];
+        delta[k] = m ^ c;
+        rw.push((slot, delta));
+    }
+    st.append_quads(&[appended]);
+    Ok(())
+}
+
+/// A face-split record (spec §7.9) after its anchor `m`, from symbol
+/// `sym`, into `r` (cleared).
+fn face_split_after_anchor(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    m: u32,
+    sym: u8,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
+    st.slots_at_unsorted(m, &mut sc.slots)?;
+    let n = sc.slots.len() as u64;
+    let x = rd[CONN].u_max(2 * n - 1, "face-split index")?;
+    // The slot of rank `x / 2` in ascending order (a vertex is a
+    // corner of a quad at most once, so the slots are distinct):
+    // a selection, linear in the star also for a hostile 255-face
+    // one, instead of sorting the 4–6 slots.
+    let s = *sc.slots.select_nth_unstable((x >> 1) as usize).1;
+    let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
+    r.rewritten.push((s, rewritten));
+    r.appended.push(appended);
+    let pred = predict_face_split(st, m, s);
+    let p = add_residual(pred, &mut rd[POS], st.qmax)?;
+    r.new_pos.push(p);
+    Ok(())
+}
+
+/// The face-split case of [`decode_apply_record`] (version 2 and later):
+/// when `m`'s corners all sit in its block (nearly always), the slot of
+/// rank `x / 2` is the corner whose id has that rank (corner ids order as
+/// their slots, which are distinct), and that corner id gives `m`'s place
+/// in the quad without a search; the two quads, the closed-form
+/// prediction and the apply follow without the slot list, the selection
+/// or the explicit record. The same values as [`face_split_after_anchor`]
+/// then [`MeshState::apply_delta_logged`] (test
+/// `fused_face_split_equals_explicit`), nothing applied on error.
+#[allow(clippy::too_many_arguments)]
+fn decode_apply_face_split(
+    st: &mut MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+    moved: &mut MoveDeltas,
+    rw: &mut RewriteDeltas,
+    kept: Kept,
+) -> Result<(), String> {
+    let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
+    let sym = rd[OPS].byte()?;
+    r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
+    if v0 >= max_v || f0 >= max_f {
+        return Err("face split exceeds the final vertex or face count".into());
+    }
+    let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
+    cur.vref = m;
+    st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
+    // `n` in 1..=INLINE, no overflow flag (bit 31 makes `n` too large).
+    let b = st.inline[m as usize].0;
+    let n = b[0] as usize;
+    if !(1..=INLINE).contains(&n) {
+        r.new_pos.clear();
+        r.moved.clear();
+        r.rewritten.clear();
+        r.appended.clear();
+        face_split_after_anchor(st, rd, m, sym, r, sc)?;
+        st.apply_delta_logged(r, moved, rw);
+        if let Some((new_pos, appended)) = kept {
+            new_pos.push(r.new_pos[0]);
+            appended.push(r.appended[0]);
+        }
+        return Ok(());
+    }
+    let x = rd[CONN].u_max(2 * n as u64 - 1, "face-split index")?;
+    let rank = (x >> 1) as u32;
+    // The corner whose id has `rank` smaller ones among the block's `n`
+    // (distinct ids: exactly one).
+    let cs = &b[1..=n];
+    let mut ct = cs[0];
+    for &c in cs {
+        if cs.iter().map(|&o| (o < c) as u32).sum::<u32>() == rank {
+            ct = c;
+        }
+    }
+    let (s, k) = (ct >> 2, (ct & 3) as usize);
+    let f = st.quads[s as usize];
+    let c = v0;
+    let (p, o, q) = (f[(k + 1) & 3], f[(k + 2) & 3], f[(k + 3) & 3]);
+    // As `build_face_split` and `predict_face_split`, from corner `k`.
+    let (a, bq) = ([m, p, o, c], [m, c, o, q]);
+    let (xq, yq) = if x & 1 != 0 { (bq, a) } else { (a, bq) };
+    let xq = rotl(xq, (sym >> 4) & 3);
+    let yq = rotl(yq, sym >> 6);
+    let pos = &st.q;
+    let (pm, pp, po, pq) = (
+        pos[m as usize],
+        pos[p as usize],
+        pos[o as usize],
+        pos[q as usize],
+    );
+    let mut sum = [0i64; 3];
+    for t in 0..3 {
+        sum[t] = 2 * (pm[t] as i64 + po[t] as i64) - pp[t] as i64 - pq[t] as i64;
+    }
+    let pc = add_residual(floor_mean(sum, 2, st.qmax), &mut rd[POS], st.qmax)?;
+    if let Some((new_pos, appended)) = kept {
+        new_pos.push(pc);
+        appended.push(yq);
+    }
+    st.apply_parts_logged(&[pc], &[(s, xq)], &[yq], rw);
     Ok(())
 }
 
@@ -2171,6 +2568,22 @@ fn decode_edge_split(
     r: &mut QRecord,
     sc: &mut DecodeScratch,
 ) -> Result<(), String> {
+    let a = edge_split_anchor(st, rd, cur, max_v, max_f)?;
+    // The anchor's star first: `r` is bounded by its size.
+    let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
+    let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
+    edge_split_after_link(st, rd, a, link, major, r, sc)
+}
+
+/// The edge split's count check and anchor (spec §7.10 step 1).
+#[inline(always)]
+fn edge_split_anchor(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+) -> Result<u32, String> {
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
     if v0 as u64 + 4 > max_v as u64 || f0 as u64 + 4 > max_f as u64 {
@@ -2178,14 +2591,43 @@ fn decode_edge_split(
     }
     let a = vref(cur.vref, rd[REFS].s()?, v0, "edge split")?;
     cur.vref = a;
-    st.prefetch_ahead(&rd[REFS], a);
-    // The anchor's star first: `r` is bounded by its size.
-    let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
-    let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
+    st.prefetch_ahead(&rd[REFS], a, &mut cur.peek);
+    Ok(a)
+}
+
+/// [`decode_edge_split`] once the anchor's star is in `sc.edge.stars[0]`
+/// and its link index is read.
+#[allow(clippy::too_many_arguments)]
+fn edge_split_after_link(
+    st: &MeshState,
+    rd: &mut [Reader; 5],
+    a: u32,
+    link: usize,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+) -> Result<(), String> {
     let (ends, rho) = crate::edge_split::stars(st, a, link, &mut sc.edge)?;
+    let k = sc.edge.stars.each_ref().map(|s| s.faces.len());
+    let (n1, m, p, ra) = edge_split_fields(rd, ends, k, &mut sc.rots)?;
+    crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
+    // `build` gathered the four predictions while it made the quads.
+    sc.edge.pred.finish(st, r, 4, major, &mut rd[POS])
+}
+
+/// The edge split's fields after the link index (spec §7.10 steps 4–7),
+/// `k` = the endpoints' face counts: `(n1, m, p, ra)`, the fan rotations
+/// into `rots`.
+#[inline(always)]
+fn edge_split_fields(
+    rd: &mut [Reader; 5],
+    ends: [u32; 2],
+    k: [usize; 2],
+    rots: &mut Vec<u8>,
+) -> Result<([usize; 2], [usize; 2], usize, u8), String> {
     let (mut n1, mut m) = ([0usize; 2], [0usize; 2]);
     for x in 0..2 {
-        let k = sc.edge.stars[x].faces.len() as u64;
+        let k = k[x] as u64;
         if k < 3 {
             return Err(format!(
                 "edge split: endpoint {} has {k} faces (needs at least 3)",
@@ -2197,14 +2639,145 @@ fn decode_edge_split(
     }
     let p = rd[CONN].u_max(crate::edge_split::MAX_P, "edge-split permutations")? as usize;
     let ra = rd[CONN].u_max(255, "edge-split appended rotations")? as u8;
-    sc.rots.clear();
+    rots.clear();
     for _ in 0..m[0] + m[1] {
-        sc.rots
-            .push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
+        rots.push(rd[CONN].u_max(3, "edge-split fan rotation")? as u8);
     }
-    crate::edge_split::build(st, ends, rho, n1, m, p, ra, &sc.rots, &mut sc.edge, r)?;
-    // `build` gathered the four predictions while it made the quads.
-    sc.edge.pred.finish(st, r, 4, major, &mut rd[POS])
+    Ok((n1, m, p, ra))
+}
+
+/// Where [`decode_apply_record`] appends a record's new vertex codes and
+/// appended quads for the caller (a decoder that can replay records keeps
+/// them; a forward-only one passes `None`).
+pub type Kept<'a> = Option<(&'a mut Vec<[u32; 3]>, &'a mut Vec<[u32; 4]>)>;
+
+/// [`decode_record_into`] followed by [`MeshState::apply_delta_logged`]:
+/// the decoder's loop. An edge split whose stars are both on the fast
+/// path ([`MeshState::star_fast`]) is decoded and applied fused
+/// ([`crate::edge_split::build_fast`]), and so are the split and
+/// face-split forms ([`decode_apply_split`], [`decode_apply_face_split`]):
+/// no explicit record. The record's new codes and appended quads are
+/// appended to `kept` when given; `r` is scratch (only `r.op` is
+/// meaningful after the call). Same level, same log entries (within a
+/// record in another order), same errors before anything is applied: on
+/// error `st` is unchanged.
+#[allow(clippy::too_many_arguments)]
+pub fn decode_apply_record(
+    st: &mut MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+    moved: &mut MoveDeltas,
+    rw: &mut RewriteDeltas,
+    kept: Kept,
+) -> Result<(), String> {
+    // Symbol `0x1?` with bits 2–3 clear: the edge-split form (version 3).
+    match rd[OPS].peek_byte() {
+        Some(b) if major >= 3 && b & 0xfc == 0x10 => {
+            decode_apply_edge_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw)?;
+        }
+        // Bits 2–3 = 1: the split form; 3: the face split (version 2):
+        // their one new vertex and quad go to `kept` directly.
+        Some(b) if b & 0x0c == 0x04 => {
+            return decode_apply_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw, kept);
+        }
+        Some(b) if major >= 2 && b & 0x0c == 0x0c => {
+            return decode_apply_face_split(st, rd, cur, max_v, max_f, r, sc, moved, rw, kept);
+        }
+        _ => {
+            decode_record_into(st, rd, cur, max_v, max_f, major, r, sc)?;
+            st.apply_delta_logged(r, moved, rw);
+        }
+    }
+    if let Some((new_pos, appended)) = kept {
+        // Element by element: a record holds 1–4 of each, where
+        // `extend_from_slice` is a call to `memcpy`.
+        for &p in &r.new_pos {
+            new_pos.push(p);
+        }
+        for &q in &r.appended {
+            appended.push(q);
+        }
+    }
+    Ok(())
+}
+
+/// The edge-split case of [`decode_apply_record`].
+#[allow(clippy::too_many_arguments)]
+fn decode_apply_edge_split(
+    st: &mut MeshState,
+    rd: &mut [Reader; 5],
+    cur: &mut Cursors,
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+    r: &mut QRecord,
+    sc: &mut DecodeScratch,
+    moved: &mut MoveDeltas,
+    rw: &mut RewriteDeltas,
+) -> Result<(), String> {
+    let sym = rd[OPS].byte()?;
+    r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
+    r.new_pos.clear();
+    r.moved.clear();
+    r.rewritten.clear();
+    r.appended.clear();
+    let a = edge_split_anchor(st, rd, cur, max_v, max_f)?;
+    // Either star off the fast path: the explicit record, then applied.
+    let mut slow = |st: &mut MeshState,
+                    rd: &mut [Reader; 5],
+                    r: &mut QRecord,
+                    sc: &mut DecodeScratch,
+                    link: usize|
+     -> Result<(), String> {
+        edge_split_after_link(st, rd, a, link, major, r, sc)?;
+        st.apply_delta_logged(r, moved, rw);
+        Ok(())
+    };
+    let mut sa = FastStar::EMPTY;
+    if !st.star_fast_into(a, &mut sa) {
+        let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
+        let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
+        return slow(st, rd, r, sc, link);
+    }
+    let link = rd[CONN].u_max(sa.n as u64 - 1, "edge-split link index")? as usize;
+    let d = sa.nx[link];
+    let mut sd = FastStar::EMPTY;
+    if !st.star_fast_into(d, &mut sd) {
+        sa.write_into(&mut sc.edge.stars[0]);
+        return slow(st, rd, r, sc, link);
+    }
+    // `A` in `D`'s link (the fast path's links are distinct).
+    let live = (1u32 << sd.n) - 1;
+    let hit = eq_mask8(&sd.nx, a) & live;
+    if hit == 0 {
+        return Err(format!("edge split: vertex {a} is not in the link of {d}"));
+    }
+    let rda = hit.trailing_zeros() as usize;
+    let (ends, rho, fs) = if a < d {
+        ([a, d], [link, rda], [&sa, &sd])
+    } else {
+        ([d, a], [rda, link], [&sd, &sa])
+    };
+    let (n1, m, p, ra) = edge_split_fields(rd, ends, [fs[0].n, fs[1].n], &mut sc.rots)?;
+    let mut rws = [(0u32, [0u32; 4]); crate::edge_split::FAST_REWRITES];
+    let mut app = [[0u32; 4]; 4];
+    let pred = &mut sc.edge.pred;
+    let n = crate::edge_split::build_fast(
+        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, &mut rws, &mut app,
+    )?;
+    // Every new vertex has a parallelogram of three old corners (`T_x`
+    // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most
+    // 2 + INLINE quads are deferred, so `finish` never falls back to the
+    // scans, which would read `r`'s quads (here only the appended ones).
+    r.appended.extend_from_slice(&app);
+    pred.finish(st, r, 4, major, &mut rd[POS])?;
+    st.apply_parts_logged(&r.new_pos, &rws[..n], &r.appended, rw);
+    Ok(())
 }
 
 /// Decodes the body of a general-form (`local` false, spec §7.4) or
@@ -3007,7 +3580,7 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_distinct, MeshState, QRecord, Star, MAX_SPLIT_STAR, STAR_SMALL};
+    use super::{sort_distinct, MeshState, QRecord, Star, INLINE, MAX_SPLIT_STAR, STAR_SMALL};
     use pqm_core::OpKind;
     use proptest::prelude::*;
 
@@ -3095,8 +3668,9 @@ mod tests {
         let bytes: Vec<u8> = (0..=255u8).collect();
         for start in 0..bytes.len() {
             let refs = crate::varint::Reader::new(&bytes[start..], "refs");
+            let mut peek = crate::varint::Peek3::default();
             for m in [0u32, 1, 8, 16, 17, 2 * n, 2 * n + 1, u32::MAX] {
-                st.prefetch_ahead(&refs, m);
+                st.prefetch_ahead(&refs, m, &mut peek);
             }
         }
         assert_eq!((st.q.clone(), st.quads.clone()), before);
@@ -3223,6 +3797,8 @@ mod tests {
             same_stars(&MeshState::new(1, vec![[0; 3]; nv as usize], quads))?;
             let step = (step..step + n).find(|s| gcd(*s % n, n) == 1).unwrap_or(1) % n;
             let (st, _) = fan(n, step.max(1), open);
+            // A closed fan within a block takes the fast path.
+            prop_assert_eq!(st.star_fast(0).is_some(), !open && n as usize <= INLINE);
             let mut quads = st.quads.clone();
             quads.extend(quads_from(st.q.len() as u32, &extra));
             same_stars(&MeshState::new(1, st.q.clone(), quads))?;

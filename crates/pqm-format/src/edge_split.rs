@@ -3,12 +3,18 @@
 //! the local form's explicit slots and corners.
 //!
 //! [`build`] is the one place the explicit record is made from the
-//! parameters: the decoder calls it, and the encoder calls it on the
+//! parameters: `decode_record` calls it, and the encoder calls it on the
 //! parameters it derived ([`derive`]) and uses the form only when the result
 //! equals the record exactly — so whatever the derivation guesses, a file
-//! never holds a form-4 record that decodes to something else.
+//! never holds a form-4 record that decodes to something else. The
+//! decoder's loop takes [`build_fast`] when both stars are on the fast
+//! path: the same quads and predictions, applied without the explicit
+//! record (tests `fused_edge_split_equals_build` and every real-mesh
+//! level check the two against each other).
 
-use crate::codec::{check_distinct, rotl, MeshState, OnePass, QRecord, Star};
+use crate::codec::{
+    check_distinct, eq_mask8, rotl, FastStar, MeshState, OnePass, QRecord, Star, NIL,
+};
 
 /// The 24 permutations of `0..4` in lexicographic order (spec §7.10 step 5:
 /// permutation number `t` is `PERMS[t]`).
@@ -304,6 +310,178 @@ pub fn build(
     out.appended.clear();
     out.appended.extend_from_slice(&app);
     Ok(())
+}
+
+/// Most rewritten slots of [`build_fast`]: every face of both stars.
+pub(crate) const FAST_REWRITES: usize = 2 * crate::codec::INLINE;
+
+/// [`build`] for the decoder when both stars came from
+/// [`MeshState::star_fast`] (interior, at most [`crate::codec::INLINE`]
+/// faces each: nearly every edge split), straight from the parameters:
+/// the rewritten quads into `rw` in star order (returns their count) —
+/// no slot list to sort, the faces of both endpoints found by one vector
+/// compare per face — and the appended quads into `app`, the predictions
+/// fed to `pred` as `build` feeds them. Same quads, same predictions, and
+/// the same records rejected, in a decoder's state (every stored quad has
+/// four distinct corners: each passed `check_distinct`), as `build`
+/// followed by sorting by slot (test `fused_edge_split_equals_build`, and
+/// every real-mesh level). The decoder then applies `rw` and `app` itself
+/// ([`MeshState::apply_parts_logged`]): the explicit record is never made.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn build_fast(
+    st: &MeshState,
+    ends: [u32; 2],
+    fs: [&FastStar; 2],
+    rho: [usize; 2],
+    n1: [usize; 2],
+    m: [usize; 2],
+    p: usize,
+    ra: u8,
+    rots: &[u8],
+    pred: &mut OnePass,
+    rw: &mut [(u32, [u32; 4]); FAST_REWRITES],
+    app: &mut [[u32; 4]; 4],
+) -> Result<usize, String> {
+    let v0 = st.q.len() as u32;
+    let pv = PERMS[p / 24];
+    let pf = PERMS[p % 24];
+    let u = |i: usize| v0 + pv[i] as u32;
+    pred.clear();
+    let (q, quads) = (&st.q, &st.quads);
+    // Per endpoint and star position (not walk order): the new vertex
+    // `U_t` of a sector face (`t < 4`), or `4 + j` for fan quad `j`,
+    // whose rotated quad is `fan[x][j]`.
+    let mut role = [[0u8; 8]; 2];
+    let mut fan = [[[0u32; 4]; 8]; 2];
+    let mut tri = [[0u32; 4]; 2];
+    let mut rot_i = 0usize;
+    for x in 0..2 {
+        let s = fs[x];
+        let k = s.n;
+        let (xv, rho, n1, m) = (ends[x], rho[x], n1[x], m[x]);
+        if m == 0 || n1 + m + 2 > k {
+            return Err(format!(
+                "edge split: n1 = {n1}, m = {m} do not fit the {k} faces of vertex {xv}"
+            ));
+        }
+        // `(rho + i) mod k`: `rho < k`, `i < k`.
+        let wrap = |i: usize| if rho + i < k { rho + i } else { rho + i - k };
+        for i in 0..=n1 {
+            role[x][wrap(i)] = 2 * x as u8;
+        }
+        for i in n1 + m + 1..k {
+            role[x][wrap(i)] = 2 * x as u8 + 1;
+        }
+        let lam = |i: usize| s.nx[wrap(i)];
+        // Corner opposite X in fan face j (P_{2j+1}): the corner id gives
+        // X's place in the quad.
+        let opp = |j: usize| {
+            let c = s.c[wrap(n1 + 1 + j)];
+            quads[(c >> 2) as usize][(c as usize + 2) & 3]
+        };
+        let mut o = opp(0);
+        tri[x] = [xv, u(2 * x), lam(n1 + 1), o];
+        for j in 0..m {
+            let fq = if j + 1 < m {
+                let o2 = opp(j + 1);
+                let fq = [xv, o, lam(n1 + 2 + j), o2];
+                o = o2;
+                fq
+            } else {
+                let l = lam(n1 + 1 + m);
+                pred.add_single(q, pv[2 * x + 1] as usize, xv, o, l);
+                [xv, o, l, u(2 * x + 1)]
+            };
+            let t = *rots.get(rot_i).ok_or("edge split: too few fan rotations")?;
+            rot_i += 1;
+            role[x][wrap(n1 + 1 + j)] = 4 + j as u8;
+            fan[x][j] = rotl(fq, t);
+        }
+    }
+    // The faces of both endpoints: X1's faces whose slot is in X0's star.
+    let mut slots0 = [NIL; 8];
+    for (sl, &c) in slots0.iter_mut().zip(&fs[0].c[..fs[0].n]) {
+        *sl = c >> 2;
+    }
+    let mut n = 0usize;
+    for i1 in 0..fs[1].n {
+        let c1 = fs[1].c[i1];
+        let slot = c1 >> 2;
+        let hit = eq_mask8(&slots0, slot);
+        if hit == 0 {
+            continue;
+        }
+        let i0 = hit.trailing_zeros() as usize;
+        let (r0, r1) = (role[0][i0], role[1][i1]);
+        if r0 >= 4 || r1 >= 4 {
+            return Err(format!(
+                "edge split: slot {slot} is a fan face and a face of the other endpoint"
+            ));
+        }
+        // Done here: the loop below skips it in both stars.
+        role[0][i0] = u8::MAX;
+        role[1][i1] = u8::MAX;
+        // Two new corners, one per endpoint: the parallelogram goes to
+        // the larger once the smaller is decoded.
+        let c0 = fs[0].c[i0];
+        let (k0, k1) = ((c0 & 3) as usize, (c1 & 3) as usize);
+        let mut qd = quads[slot as usize];
+        qd[k0] = u(r0 as usize);
+        qd[k1] = u(r1 as usize);
+        let (kb, best) = if pv[r0 as usize] > pv[r1 as usize] {
+            (k0, pv[r0 as usize])
+        } else {
+            (k1, pv[r1 as usize])
+        };
+        pred.defer_at(&qd, kb, best as usize);
+        // Two distinct corners of a stored quad replaced by two distinct
+        // new vertices: still four distinct corners.
+        rw[n] = (slot, qd);
+        n += 1;
+    }
+    for x in 0..2 {
+        let s = fs[x];
+        for (&c, &r) in s.c[..s.n].iter().zip(&role[x]) {
+            let slot = c >> 2;
+            let qd = if r == u8::MAX {
+                continue;
+            } else if r >= 4 {
+                let qd = fan[x][(r - 4) as usize];
+                check_distinct(&qd, || format!("edge split: rewritten slot {slot}"))?;
+                qd
+            } else {
+                // One new corner, where X was: a stored quad (four
+                // distinct corners) with one replaced by a new vertex
+                // needs no check.
+                let k = (c & 3) as usize;
+                let mut qd = quads[slot as usize];
+                qd[k] = u(r as usize);
+                let (a, o, e) = (qd[(k + 1) & 3], qd[(k + 2) & 3], qd[(k + 3) & 3]);
+                pred.add_single(q, pv[r as usize] as usize, a, o, e);
+                qd
+            };
+            rw[n] = (slot, qd);
+            n += 1;
+        }
+    }
+    let [x0, x1] = ends;
+    let canon = [[x0, u(1), u(2), x1], [x0, x1, u(3), u(0)], tri[0], tri[1]];
+    // As in `build`.
+    let later = |a: usize, b: usize| if pv[a] > pv[b] { (1, a) } else { (0, b) };
+    let (d0, t0) = later(1, 2);
+    pred.defer_at(&canon[0], 2 - d0, pv[t0] as usize);
+    let (d1, t1) = later(3, 0);
+    pred.defer_at(&canon[1], 3 - d1, pv[t1] as usize);
+    for x in 0..2 {
+        let [xv, _, l, o] = tri[x];
+        pred.add_single(q, pv[2 * x] as usize, l, o, xv);
+    }
+    for (i, cq) in canon.into_iter().enumerate() {
+        let cq = rotl(cq, (ra >> (2 * i)) & 3);
+        check_distinct(&cq, || format!("edge split: appended quad {i}"))?;
+        app[pf[i] as usize] = cq;
+    }
+    Ok(n)
 }
 
 /// Rotation `t` with `rotl(q, t) == want`.

@@ -39,6 +39,16 @@ pub struct Reader<'a> {
     pub name: &'static str,
 }
 
+/// The cache of [`Reader::peek_s3_cached`]: three peeked values and the
+/// byte position after each.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Peek3 {
+    /// Values `vals[..n]` are valid (the rest past the end or malformed).
+    n: u8,
+    vals: [i64; 3],
+    ends: [usize; 3],
+}
+
 impl<'a> Reader<'a> {
     /// A reader over `buf` named `name`.
     pub fn new(buf: &'a [u8], name: &'static str) -> Self {
@@ -47,6 +57,11 @@ impl<'a> Reader<'a> {
     /// Bytes not read yet.
     pub fn remaining(&self) -> usize {
         self.buf.len() - self.pos
+    }
+    /// The next raw byte, not consumed (`None` at the end).
+    #[inline]
+    pub fn peek_byte(&self) -> Option<u8> {
+        self.buf.get(self.pos).copied()
     }
     /// One raw byte.
     #[inline]
@@ -136,35 +151,69 @@ impl<'a> Reader<'a> {
         let mut out = [None; 3];
         let mut pos = self.pos;
         for o in out.iter_mut() {
-            // One-byte values (most anchors' deltas) first.
-            match self.buf.get(pos) {
-                Some(&b) if b < 0x80 => {
-                    pos += 1;
-                    *o = Some(unzigzag(b as u64));
-                    continue;
-                }
-                None => return out,
-                _ => {}
-            }
-            let mut v: u64 = 0;
-            let mut done = false;
-            for i in 0..10 {
-                let Some(&b) = self.buf.get(pos) else {
-                    return out;
-                };
-                pos += 1;
-                v |= ((b & 0x7f) as u64).wrapping_shl(7 * i);
-                if b & 0x80 == 0 {
-                    done = true;
-                    break;
-                }
-            }
-            if !done {
+            let Some((v, next)) = self.peek_s_at(pos) else {
                 return out;
-            }
-            *o = Some(unzigzag(v));
+            };
+            *o = Some(v);
+            pos = next;
         }
         out
+    }
+
+    /// [`Reader::peek_s3`] through `cache`, which holds the last call's
+    /// values and where each ended: when this reader has consumed exactly
+    /// the first of them since (the decoder's next record read its anchor,
+    /// as guessed), the other two are reused and only the third is parsed.
+    /// The same values as [`Reader::peek_s3`]; a cache from another reader
+    /// (a new chunk) must be reset ([`Peek3::default`]).
+    #[inline]
+    pub fn peek_s3_cached(&self, cache: &mut Peek3) -> [Option<i64>; 3] {
+        let c = cache;
+        if c.n > 0 && self.pos == c.ends[0] {
+            // Shift by one, in place.
+            c.vals = [c.vals[1], c.vals[2], 0];
+            c.ends = [c.ends[1], c.ends[2], 0];
+            c.n -= 1;
+            if c.n == 2 {
+                if let Some((v, e)) = self.peek_s_at(c.ends[1]) {
+                    (c.vals[2], c.ends[2], c.n) = (v, e, 3);
+                }
+            }
+        } else {
+            c.n = 0;
+            let mut pos = self.pos;
+            while (c.n as usize) < 3 {
+                let Some((v, next)) = self.peek_s_at(pos) else {
+                    break;
+                };
+                (c.vals[c.n as usize], c.ends[c.n as usize]) = (v, next);
+                c.n += 1;
+                pos = next;
+            }
+        }
+        let n = c.n as usize;
+        [0, 1, 2].map(|t| (t < n).then_some(c.vals[t]))
+    }
+
+    /// The zigzag-coded value at byte `pos` and the position after it,
+    /// without consuming it (`None` past the end or malformed).
+    #[inline(always)]
+    fn peek_s_at(&self, mut pos: usize) -> Option<(i64, usize)> {
+        // One-byte values (most anchors' deltas) first.
+        let &b = self.buf.get(pos)?;
+        if b < 0x80 {
+            return Some((unzigzag(b as u64), pos + 1));
+        }
+        let mut v: u64 = 0;
+        for i in 0..10 {
+            let &b = self.buf.get(pos)?;
+            pos += 1;
+            v |= ((b & 0x7f) as u64).wrapping_shl(7 * i);
+            if b & 0x80 == 0 {
+                return Some((unzigzag(v), pos));
+            }
+        }
+        None
     }
 
     /// `n` raw bytes.
@@ -238,8 +287,9 @@ mod tests {
         /// far as they succeed) and consumes nothing.
         #[test]
         fn peek_sees_the_next_values(
-            vals in proptest::collection::vec(any::<i64>(), 0..4),
-            cut in 0usize..40,
+            vals in proptest::collection::vec(any::<i64>(), 0..8),
+            cut in 0usize..80,
+            skips in proptest::collection::vec(1usize..3, 8),
         ) {
             let mut out = Vec::new();
             for &v in &vals {
@@ -249,6 +299,20 @@ mod tests {
             let r = Reader::new(out, "t");
             let peeked = r.peek_s3();
             prop_assert_eq!(r.remaining(), out.len());
+            // The cached peek, fresh and then after each value read (the
+            // cache reused when exactly one value was consumed), equals
+            // the plain one.
+            let mut cache = Peek3::default();
+            let mut r3 = r.clone();
+            prop_assert_eq!(r3.peek_s3_cached(&mut cache), peeked);
+            'read: for &skip in &skips {
+                for _ in 0..skip {
+                    if r3.s().is_err() {
+                        break 'read;
+                    }
+                }
+                prop_assert_eq!(r3.peek_s3_cached(&mut cache), r3.peek_s3());
+            }
             let mut r2 = r.clone();
             for p in peeked {
                 match r2.s() {

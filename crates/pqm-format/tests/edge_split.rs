@@ -4,7 +4,9 @@
 
 use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
 use pqm_core::{shapes, Mesh, OpKind};
-use pqm_format::codec::{decode_record, Cursors, MeshState, QRecord};
+use pqm_format::codec::{
+    decode_apply_record, decode_record, Cursors, DecodeScratch, MeshState, QRecord,
+};
 use pqm_format::varint::{put_s, put_u, Reader};
 use pqm_format::*;
 
@@ -49,7 +51,115 @@ fn run(
     Ok(r)
 }
 
+/// The decoder's path on one record: decoded and applied at once
+/// (`decode_apply_record`, the edge split fused when both stars are on the
+/// fast path). It must give what `run` then `apply` give — the same
+/// vertices, quads and corner lists, the same log entries (up to their
+/// order), the same new codes and appended quads kept — and on error the
+/// same message, with the state untouched.
+fn run_apply(
+    st: &MeshState,
+    s: &[Vec<u8>; 5],
+    max_v: u32,
+    max_f: u32,
+    major: u16,
+) -> Result<MeshState, String> {
+    let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+    let mut fused = st.clone();
+    let (mut moved, mut rw) = (Vec::new(), Vec::new());
+    let (mut new_pos, mut appended) = (Vec::new(), Vec::new());
+    let got = decode_apply_record(
+        &mut fused,
+        &mut rd,
+        &mut Cursors::default(),
+        max_v,
+        max_f,
+        major,
+        &mut QRecord::default(),
+        &mut DecodeScratch::new(),
+        &mut moved,
+        &mut rw,
+        Some((&mut new_pos, &mut appended)),
+    );
+    match run(st, s, max_v, max_f, major) {
+        Err(e) => {
+            assert_eq!(got, Err(e.clone()));
+            assert_eq!(fused.q, st.q);
+            assert_eq!(fused.quads, st.quads);
+            Err(e)
+        }
+        Ok(r) => {
+            got.unwrap();
+            assert!(rd.iter().all(|x| x.remaining() == 0));
+            assert_eq!((new_pos, appended), (r.new_pos.clone(), r.appended.clone()));
+            let mut want = st.clone();
+            let (m0, rw0) = want.apply(&r);
+            assert_eq!(fused.q, want.q);
+            assert_eq!(fused.quads, want.quads);
+            for v in 0..want.q.len() as u32 {
+                let mut a: Vec<_> = fused.corners(v).collect();
+                let mut b: Vec<_> = want.corners(v).collect();
+                a.sort_unstable();
+                b.sort_unstable();
+                assert_eq!(a, b, "corners of vertex {v}");
+            }
+            // Old values back from the deltas, by slot.
+            assert_eq!(moved.len(), m0.len());
+            let mut old: Vec<(u32, [u32; 4])> = rw
+                .iter()
+                .map(|&(s, d)| {
+                    let q = fused.quads[s as usize];
+                    (s, [0, 1, 2, 3].map(|k| q[k] ^ d[k]))
+                })
+                .collect();
+            old.sort_unstable();
+            let want_old: Vec<(u32, [u32; 4])> = r.rewritten.iter().map(|w| w.0).zip(rw0).collect();
+            assert_eq!(old, want_old);
+            Ok(fused)
+        }
+    }
+}
+
 const EXAMPLE: [u64; 9] = [2, 0, 0, 0, 0, 0, 0, 0, 0];
+
+/// Every field value of the worked example's record (anchors 6 and 7, all
+/// link indices, sectors, fans, 24 × 24 permutations sampled, rotations):
+/// the fused decoder path equals the explicit record applied, errors
+/// included.
+#[test]
+fn fused_edge_split_equals_build() {
+    let st = grid();
+    let mut n_ok = 0;
+    for (anchor, r) in [
+        (6, 0),
+        (6, 1),
+        (6, 2),
+        (6, 3),
+        (7, 0),
+        (7, 1),
+        (7, 3),
+        (12, 0),
+    ] {
+        for n1a in 0..2 {
+            for ea in 0..2 {
+                for n1b in 0..2 {
+                    for eb in 0..2 {
+                        for p in [0, 1, 25, 300, 575] {
+                            for ra in [0, 4, 0x93, 255] {
+                                let rots = [p % 4, ra % 4, 3, 1];
+                                let mut c = vec![r, n1a, ea, n1b, eb, p, ra];
+                                c.extend_from_slice(&rots[..(2 + ea + eb) as usize]);
+                                let s = streams(0x11, &c, anchor, &[1; 12]);
+                                n_ok += run_apply(&st, &s, 24, 16, 3).is_ok() as u32;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(n_ok > 100, "{n_ok} records built");
+}
 
 #[test]
 fn the_worked_example_of_the_spec_decodes_as_written() {
@@ -121,7 +231,7 @@ fn every_reject_rule_of_the_form_is_enforced() {
     let st = grid();
     let ok = |conn: &[u64], anchor: i64| streams(0x11, conn, anchor, &[0; 12]);
     let err = |s: [Vec<u8>; 5], max_v: u32, max_f: u32, major: u16, want: &str| {
-        let e = run(&st, &s, max_v, max_f, major).unwrap_err();
+        let e = run_apply(&st, &s, max_v, max_f, major).unwrap_err();
         assert!(e.contains(want), "wanted {want:?}, got {e:?}");
     };
     assert!(run(&st, &ok(&EXAMPLE, 6), 24, 16, 3).is_ok());
@@ -200,7 +310,7 @@ fn a_fan_face_shared_with_the_other_endpoint_is_refused() {
     let st = MeshState::new((1 << 14) - 1, vec![[0; 3]; 10], quads);
     assert_eq!(st.star(0).unwrap().link, vec![1, 2, 3, 4]);
     assert_eq!(st.star(1).unwrap().faces.len(), 5);
-    let run = |c: &[u64]| run(&st, &streams(0x11, c, 0, &[0; 12]), 30, 30, 3);
+    let run = |c: &[u64]| run_apply(&st, &streams(0x11, c, 0, &[0; 12]), 30, 30, 3);
     // Fan of 0 = slot 2 (n1 = 1, m = 1); at 1, slot 2 is in the second
     // sector (n1 = 0) or the fan (n1 = 1).
     for n1_d in [0, 1] {
@@ -294,4 +404,183 @@ fn random_edge_splits_keep_the_mesh_valid() {
             assert_eq!(m.genus(), 0);
         }
     }
+}
+
+/// The split form (spec §7.5) through the decoder's fused path equals the
+/// explicit record applied (`run_apply`): every anchor of the grid
+/// (interior stars take the fused path, boundary ones the explicit
+/// record), every pair of wings, rotation, moved and reflected vertex, in
+/// every version; out-of-range wings and equal wings rejected alike.
+#[test]
+fn fused_split_equals_explicit() {
+    let st = grid();
+    let (mut n_ok, mut n_err) = (0, 0);
+    for anchor in 0..20i64 {
+        for i in 0..5u64 {
+            for e in 0..4u64 {
+                for flags in [0x04u8, 0x15, 0x24, 0x35, 0x44, 0x74, 0x84, 0xc5] {
+                    for major in 1..=3u16 {
+                        let n_pos = if flags & 0x40 != 0 { 6 } else { 3 };
+                        let pos = [3, -2, 1, 0, 5, -7];
+                        let s = streams(flags, &[i, e], anchor, &pos[..n_pos]);
+                        match run_apply(&st, &s, 21, 13, major) {
+                            Ok(_) => n_ok += 1,
+                            Err(_) => n_err += 1,
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(n_ok > 500 && n_err > 500, "{n_ok} built, {n_err} refused");
+}
+
+/// The face-split form (spec §7.9) through the decoder's fused path equals
+/// the explicit record applied: every anchor of the grid (corners in 1, 2
+/// or 4 faces), every face index and diagonal, all rotations; indices
+/// past the anchor's faces and version-1 files rejected alike.
+#[test]
+fn fused_face_split_equals_explicit() {
+    let st = grid();
+    let (mut n_ok, mut n_err) = (0, 0);
+    for anchor in 0..20i64 {
+        for x in 0..9u64 {
+            for rot in [0x0cu8, 0x1d, 0x6c, 0xbd, 0xfc] {
+                for major in 1..=3u16 {
+                    let s = streams(rot, &[x], anchor, &[4, -3, 2]);
+                    match run_apply(&st, &s, 21, 13, major) {
+                        Ok(_) => n_ok += 1,
+                        Err(_) => n_err += 1,
+                    }
+                }
+            }
+        }
+    }
+    assert!(n_ok > 300 && n_err > 300, "{n_ok} built, {n_err} refused");
+}
+
+/// Random record streams (every form, fields mostly small and in range,
+/// sometimes not; the edge split's fields often valid) on a real level —
+/// the coarsened torus, vertices of valence 3 to 8 — through the decoder's
+/// fused path and through the explicit record: the same result or the
+/// same error, the same state, never a panic.
+#[test]
+fn random_records_fused_equals_explicit() {
+    let src = shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
+    let mesh = Mesh::from_indexed(&src).unwrap();
+    let opts = CoarsenOptions {
+        target_faces: Some(150),
+        placement: Placement::Subset,
+        ..Default::default()
+    };
+    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
+    c.run(&mut |_| {});
+    let (bytes, _) = write_to_vec(&c.to_progressive(), &EncodeOptions::default()).unwrap();
+    let mut dec = decode_all(&bytes, Limits::default()).unwrap();
+    dec.set_level(Target::Level(40)).unwrap();
+    let st = MeshState::new(
+        (1 << 14) - 1,
+        dec.position_codes().to_vec(),
+        dec.quads().to_vec(),
+    );
+    let nv = st.q.len() as u64;
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut rnd = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    };
+    let forms = [0x10u8, 0x11, 0x04, 0x45, 0x84, 0x0c, 0x3d, 0x00, 0x08, 0x21];
+    let mut ok = [0u32; 5];
+    for it in 0..60_000 {
+        let mut s: [Vec<u8>; 5] = Default::default();
+        let sym = if rnd() % 8 == 0 {
+            rnd() as u8
+        } else if rnd() % 2 == 0 {
+            0x10 | (rnd() & 1) as u8
+        } else {
+            forms[(rnd() % forms.len() as u64) as usize] | (rnd() as u8 & 0xc0)
+        };
+        s[0].push(sym);
+        let edge = sym & 0xfc == 0x10;
+        if edge && rnd() % 4 != 0 {
+            let (e0, e1) = (rnd() % 3, rnd() % 3);
+            let mut c = vec![
+                rnd() % 6,
+                rnd() % 3,
+                e0,
+                rnd() % 3,
+                e1,
+                rnd() % 576,
+                rnd() % 256,
+            ];
+            c.extend((0..2 + e0 + e1).map(|_| rnd() % 4));
+            if rnd() % 8 == 0 {
+                c.pop();
+            }
+            c.iter().for_each(|&x| put_u(&mut s[1], x));
+        } else {
+            for _ in 0..rnd() % 14 {
+                let x = [rnd() % 3, rnd() % 8, rnd() % 600, rnd()][(rnd() % 4) as usize];
+                put_u(&mut s[1], x);
+            }
+        }
+        put_s(&mut s[2], (rnd() % nv) as i64);
+        let npos = if edge && rnd() % 2 == 0 {
+            12
+        } else {
+            rnd() % 14
+        };
+        (0..npos).for_each(|_| put_s(&mut s[4], (rnd() % 200) as i64 - 100));
+        let major = [1u16, 2, 3, 3][(rnd() % 4) as usize];
+        let (max_v, max_f) = (st.q.len() as u32 + 10, st.quads.len() as u32 + 10);
+        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+        let mut fused = st.clone();
+        let (mut moved, mut rw, mut kept_v, mut kept_f) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let got = decode_apply_record(
+            &mut fused,
+            &mut rd,
+            &mut Cursors::default(),
+            max_v,
+            max_f,
+            major,
+            &mut QRecord::default(),
+            &mut DecodeScratch::new(),
+            &mut moved,
+            &mut rw,
+            Some((&mut kept_v, &mut kept_f)),
+        );
+        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
+        let want = decode_record(&st, &mut rd, &mut Cursors::default(), max_v, max_f, major);
+        match (got, want) {
+            (Err(a), Err(b)) => {
+                assert_eq!(a, b, "record {it}");
+                assert_eq!(fused.quads, st.quads, "record {it}");
+            }
+            (Ok(()), Ok(r)) => {
+                let mut w = st.clone();
+                w.apply(&r);
+                assert_eq!(fused.q, w.q, "record {it}");
+                assert_eq!(fused.quads, w.quads, "record {it}");
+                assert_eq!((kept_v, kept_f), (r.new_pos.clone(), r.appended.clone()));
+                for v in 0..w.q.len() as u32 {
+                    let mut a: Vec<_> = fused.corners(v).collect();
+                    let mut b: Vec<_> = w.corners(v).collect();
+                    a.sort_unstable();
+                    b.sort_unstable();
+                    assert_eq!(a, b, "record {it}: corners of vertex {v}");
+                }
+                let form = if edge { 4 } else { (sym >> 2) as usize & 3 };
+                ok[form] += 1;
+            }
+            (a, b) => panic!("record {it}: fused {a:?}, explicit {:?}", b.map(|_| ())),
+        }
+    }
+    // Enough records of the fused forms were built to mean something.
+    assert!(
+        ok[1] > 300 && ok[3] > 300 && ok[4] > 30,
+        "built by form: {ok:?}"
+    );
 }
