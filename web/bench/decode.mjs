@@ -67,6 +67,7 @@ function measure(fn) {
   return { wall: performance.now() - t0, cpu: cpuMs(process.cpuUsage(c0)) };
 }
 
+const summary = [];
 for (const file of files) {
   // cold first, in fresh processes, before this process warms anything
   const cold = freshProcesses(self, ['--cold-child', file, options.forwardOnly ? '1' : '0'], coldRuns);
@@ -155,4 +156,17 @@ for (const file of files) {
   }
   console.log(`  without zstd: ${mfs(cpu - zstd).toFixed(2)} million faces/s CPU`);
   console.log(`  pushed in 64 KiB pieces: ${median(m.pieces).toFixed(1)} ms wall`);
+  const cc = cold.length > 0 ? median(cold.map((x) => x.cpu)) : NaN;
+  summary.push([path.basename(file, '.pqm'), String(faces), mfs(cpu), Math.min(...m.total), mfs(mean), mfs(cc), 100 * (zstd / cpu), 100 * (median(m.level) / cpu)]);
+}
+// one row per file: warm (median, best, mean of the back-to-back decodes)
+// and cold, million faces/s by CPU time
+const f2 = (x) => (Number.isFinite(x) ? x.toFixed(2) : '–');
+const head = ['mesh', 'faces', 'warm median', 'warm best', 'warm mean', 'cold', 'zstd %', 'level move %'];
+console.log(`\n${options.forwardOnly ? 'forward-only' : 'general'} decoder, million faces/s by CPU time (node ${process.version}; warm: ${runs} runs after ≥ 300 ms of warm-up; cold: first decode in a fresh process, median of ${coldRuns})`);
+console.log(`| ${head.join(' | ')} |`);
+console.log(`|${head.map(() => '---').join('|')}|`);
+for (const [name, faces, med, best, mean, cold, z, l] of summary) {
+  const mf = (ms) => (Number(faces) / ms / 1e3);
+  console.log(`| ${name} | ${faces} | ${f2(med)} | ${f2(mf(best))} | ${f2(mean)} | ${f2(cold)} | ${z.toFixed(0)} | ${l.toFixed(0)} |`);
 }
