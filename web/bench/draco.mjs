@@ -19,7 +19,8 @@
 //   per quad (6 uint32 indices), without the JSON chunk;
 // - decode, warm: million faces per second, CPU time (process.cpuUsage,
 //   median of --runs after warm-up runs — at least 3 and 300 ms of CPU —, so
-//   other processes on the machine count less);
+//   other processes on the machine count less), each decoder in a node
+//   process of its own that loads only it (the parent encodes with Draco);
 // - decode, cold: the first decode in a fresh node process (pqm: its module
 //   loaded, nothing run yet; Draco: its WASM module instantiated, nothing
 //   decoded yet), CPU time, median of --cold N processes (default 3, 0 to
@@ -69,7 +70,7 @@ if (files.length === 0) {
 const cpuMs = (c) => (c.user + c.system) / 1000;
 
 /** Median CPU milliseconds of `fn` over `runs` runs after warm-up runs (JIT tiers). */
-function timeCpu(fn) {
+function timeCpu(fn, runs) {
   warmUp(fn);
   const t = [];
   for (let r = 0; r < runs; r++) {
@@ -81,29 +82,37 @@ function timeCpu(fn) {
 }
 
 /**
- * Child process: `--cold-child pqm FILE FORWARD` or `--cold-child draco
- * FILE.drc` times the first decode in this fresh process, prints one JSON
- * line and exits.
+ * Child process: `--child pqm FILE FORWARD RUNS` or `--child draco
+ * FILE.drc - RUNS` decodes in this fresh process, which loads only that
+ * decoder: RUNS = 0 times the first decode (cold), else the median of RUNS
+ * after the warm-up (warm); prints one JSON line and exits. Each decoder
+ * is timed in a process of its own: in the parent, which has run Draco's
+ * encoder, pqm's decodes took ≈ 10 % more CPU (bunny, 122 against 107–112
+ * ms in a process that never loaded Draco).
  */
-async function coldChild([kind, file, fwd]) {
+async function child([kind, file, fwd, runsArg]) {
   const bytes = new Uint8Array(readFileSync(file));
-  let ms;
+  let fn;
   if (kind === 'pqm') {
-    const c0 = process.cpuUsage();
-    pqmDecode(bytes, fwd === '1');
-    ms = cpuMs(process.cpuUsage(c0));
+    fn = () => pqmDecode(bytes, fwd === '1');
   } else {
     decoderModule = await draco3d.createDecoderModule({});
+    fn = () => dracoDecode(bytes);
+  }
+  let ms;
+  if (Number(runsArg) === 0) {
     const c0 = process.cpuUsage();
-    dracoDecode(bytes);
+    fn();
     ms = cpuMs(process.cpuUsage(c0));
+  } else {
+    ms = timeCpu(fn, Number(runsArg));
   }
   console.log(JSON.stringify({ ms }));
   process.exit(0);
 }
 
 let decoderModule = null;
-if (args[0] === '--cold-child') await coldChild(args.slice(1));
+if (args[0] === '--child') await child(args.slice(1));
 const encoderModule = await draco3d.createEncoderModule({});
 decoderModule = await draco3d.createDecoderModule({});
 
@@ -178,15 +187,16 @@ for (const file of files) {
   // cold: fresh processes, before this one has decoded the file warm
   const drcFile = path.join(tmp, `${path.basename(file, '.pqm')}.drc`);
   writeFileSync(drcFile, drc);
-  const cold = (childArgs) => (coldRuns > 0 ? median(freshProcesses(self, ['--cold-child', ...childArgs], coldRuns).map((x) => x.ms)) : NaN);
+  const cold = (childArgs) => (coldRuns > 0 ? median(freshProcesses(self, ['--child', ...childArgs, '0'], coldRuns).map((x) => x.ms)) : NaN);
+  const warm = (childArgs) => freshProcesses(self, ['--child', ...childArgs, String(runs)], 1)[0].ms;
   const pqmCold = cold(['pqm', file, '0']);
   const fwdCold = cold(['pqm', file, '1']);
-  const drcCold = cold(['draco', drcFile]);
-  const pqmMs = timeCpu(() => pqmDecode(bytes));
+  const drcCold = cold(['draco', drcFile, '-']);
+  const pqmMs = warm(['pqm', file, '0']);
   // the one-way decoder a streaming client uses (no way back to coarser
   // levels, so no undo log): the same faces and positions
-  const fwdMs = timeCpu(() => pqmDecode(bytes, true));
-  const drcMs = timeCpu(() => dracoDecode(drc));
+  const fwdMs = warm(['pqm', file, '1']);
+  const drcMs = warm(['draco', drcFile, '-']);
   rows.push({
     mesh: path.basename(file, '.pqm'),
     V,
