@@ -4,6 +4,7 @@
 // one-way), then one or two source directories (A, and B = this
 // checkout's pqm-decoder/src by default) before the files — and the timed
 // decode with its warm-up.
+import { execFileSync } from 'node:child_process';
 import { existsSync, statSync } from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -50,7 +51,25 @@ export function timeDecode(PqmDecoder, bytes, forwardOnly) {
   return { ms, faces: d.faceCount };
 }
 
-/** Warm-up (JIT tiers): `run` at least 3 times and for 300 ms of CPU, at most 50 times. */
+/**
+ * Warm-up (JIT tiers): `run` at least 3 times and until 300 ms of CPU have
+ * gone by. No cap on the number of runs: a small file (spot decodes in
+ * ≈ 1.2 ms) needs a few hundred runs before V8's optimizing tier has
+ * compiled everything it will, and a cap of 50 runs stopped it at 60 ms.
+ */
 export function warmUp(run) {
-  for (let w = 0, c0 = process.cpuUsage(); w < 3 || (w < 50 && cpuMs(process.cpuUsage(c0)) < 300); w++) run();
+  for (let w = 0, c0 = process.cpuUsage(); w < 3 || cpuMs(process.cpuUsage(c0)) < 300; w++) run();
+}
+
+/**
+ * Cold figures: runs `node SCRIPT ...childArgs` `n` times, each a fresh
+ * process (nothing compiled yet, no warmed heap) that times its first
+ * decode and prints one JSON line; returns the parsed lines.
+ */
+export function freshProcesses(script, childArgs, n) {
+  const out = [];
+  for (let i = 0; i < n; i++) {
+    out.push(JSON.parse(execFileSync(process.execPath, [script, ...childArgs], { encoding: 'utf8' })));
+  }
+  return out;
 }

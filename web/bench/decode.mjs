@@ -6,25 +6,46 @@
 // goes: zstd (every frame), CRC-32 (every section), the records
 // (the rest of the push) and the move to the finest level.
 //
-//   node bench/decode.mjs [FILE.pqm ...] [--runs N] [--forward]
+//   node bench/decode.mjs [FILE.pqm ...] [--runs N] [--cold N] [--forward]
 //
 // --forward: the one-way decoder (`forwardOnly: true`).
 //
-// Times are medians over --runs runs after warm-up runs (at least 3, and
-// until 300 ms of CPU: a small file decodes in a few ms, far from enough
-// for the JIT's optimizing tier after one run), as CPU time
-// (process.cpuUsage: what this process used, so other processes on a busy
-// machine count less) and as wall time. faces = quads of the finest level.
+// Warm (steady state): medians over --runs runs after warm-up runs (at
+// least 3, and until 300 ms of CPU however many runs that takes: a small
+// file decodes in a few ms, far from enough for the JIT's optimizing tier
+// after one run), as CPU time (process.cpuUsage: what this process used,
+// so other processes on a busy machine count less) and as wall time.
+// Cold: the first decode in a fresh node process (the decoder's module
+// loaded, nothing run yet: interpreter and baseline tiers, a new heap) —
+// what a page that decodes one file sees —, median of --cold N processes
+// (default 3, 0 to skip). faces = quads of the finest level.
 import { readFileSync, readdirSync, existsSync, statSync } from 'node:fs';
+import { freshProcesses, warmUp } from './ab-common.mjs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { PqmDecoder, crc32 } from '../pqm-decoder/src/index.js';
 import { decompressFrame } from '../pqm-decoder/src/zstd.js';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
+const self = fileURLToPath(import.meta.url);
 const args = process.argv.slice(2);
+if (args[0] === '--cold-child') {
+  // child: --cold-child FILE FORWARD — one decode in this fresh process
+  const bytes = new Uint8Array(readFileSync(args[1]));
+  const c0 = process.cpuUsage();
+  const t0 = performance.now();
+  const d = new PqmDecoder(args[2] === '1' ? { forwardOnly: true } : {});
+  d.push(bytes);
+  d.setLevel({ level: d.deepestLevel });
+  const wall = performance.now() - t0;
+  const c = process.cpuUsage(c0);
+  console.log(JSON.stringify({ faces: d.faceCount, cpu: (c.user + c.system) / 1000, wall }));
+  process.exit(0);
+}
 const runsAt = args.indexOf('--runs');
 const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
+const coldAt = args.indexOf('--cold');
+const coldRuns = coldAt >= 0 ? Number(args.splice(coldAt, 2)[1]) : 3;
 const forwardAt = args.indexOf('--forward');
 const options = forwardAt >= 0 && args.splice(forwardAt, 1).length > 0 ? { forwardOnly: true } : {};
 let files = args;
@@ -46,7 +67,10 @@ function measure(fn) {
   return { wall: performance.now() - t0, cpu: cpuMs(process.cpuUsage(c0)) };
 }
 
+const summary = [];
 for (const file of files) {
+  // cold first, in fresh processes, before this process warms anything
+  const cold = freshProcesses(self, ['--cold-child', file, options.forwardOnly ? '1' : '0'], coldRuns);
   const bytes = new Uint8Array(readFileSync(file));
   const probe = new PqmDecoder();
   probe.push(bytes);
@@ -56,9 +80,13 @@ for (const file of files) {
   const uncompressed = sections.reduce((s, x) => s + x[2], 0);
   let faces = 0;
   const m = { total: [], totalWall: [], push: [], level: [], zstd: [], crc: [], pieces: [] };
-  const warm0 = process.cpuUsage();
-  let warm = 0;
-  for (let r = 0; r < runs + 1; r++) {
+  // The timed decodes run back to back (nothing else allocating between
+  // them), so the collections their garbage triggers land in them, as in
+  // any process that decodes file after file; zstd, CRC-32 and the
+  // 64 KiB-pieces decode are timed in loops of their own afterwards (when
+  // they ran between the timed decodes, a major GC fell outside the timed
+  // part every other run: bunny read 2.19 M faces/s instead of 1.84).
+  const decodeOnce = () => {
     let d = null;
     const push = measure(() => {
       d = new PqmDecoder(options);
@@ -66,32 +94,39 @@ for (const file of files) {
     });
     const level = measure(() => d.setLevel({ level: d.deepestLevel }));
     faces = d.faceCount;
-    d = null;
-    const zstd = measure(() => {
-      for (const [o, n, u] of sections) decompressFrame(bytes.subarray(o, o + n), u);
-    });
-    const crc = measure(() => {
-      for (const [o, n] of sections) crc32(bytes, o, o + n);
-    });
-    const pieces = measure(() => {
-      const s = new PqmDecoder(options);
-      for (let o = 0; o < bytes.length; o += 65536) s.push(bytes.subarray(o, o + 65536));
-      s.setLevel({ level: s.deepestLevel });
-    });
-    if (r === 0) {
-      // warm-up: repeat run 0 until 3 runs and 300 ms of CPU (at most 50)
-      if (++warm < 3 || (warm < 50 && cpuMs(process.cpuUsage(warm0)) < 300)) r--;
-      continue;
-    }
+    return { push, level };
+  };
+  warmUp(decodeOnce);
+  for (let r = 0; r < runs; r++) {
+    const { push, level } = decodeOnce();
     m.total.push(push.cpu + level.cpu);
     m.totalWall.push(push.wall + level.wall);
     m.push.push(push.cpu);
     m.level.push(level.cpu);
-    m.zstd.push(zstd.cpu);
-    m.crc.push(crc.cpu);
-    m.pieces.push(pieces.wall);
+  }
+  for (let r = 0; r < runs; r++) {
+    m.zstd.push(
+      measure(() => {
+        for (const [o, n, u] of sections) decompressFrame(bytes.subarray(o, o + n), u);
+      }).cpu,
+    );
+    m.crc.push(
+      measure(() => {
+        for (const [o, n] of sections) crc32(bytes, o, o + n);
+      }).cpu,
+    );
+  }
+  for (let r = 0; r < runs; r++) {
+    m.pieces.push(
+      measure(() => {
+        const s = new PqmDecoder(options);
+        for (let o = 0; o < bytes.length; o += 65536) s.push(bytes.subarray(o, o + 65536));
+        s.setLevel({ level: s.deepestLevel });
+      }).wall,
+    );
   }
   const cpu = median(m.total);
+  const mean = m.total.reduce((a, b) => a + b, 0) / m.total.length;
   const wall = median(m.totalWall);
   const zstd = median(m.zstd);
   const crc = median(m.crc);
@@ -104,13 +139,34 @@ for (const file of files) {
   );
   console.log(
     `  decode + refine to the finest level: ${cpu.toFixed(1)} ms CPU = ${mfs(cpu).toFixed(2)} million faces/s ` +
-      `(wall ${wall.toFixed(1)} ms = ${mfs(wall).toFixed(2)} M/s; medians of ${runs})`,
+      `(wall ${wall.toFixed(1)} ms = ${mfs(wall).toFixed(2)} M/s; medians of ${runs}; CPU mean ${mean.toFixed(1)} ms = ${mfs(mean).toFixed(2)} M/s)`,
   );
   console.log(
     `  push ${push.toFixed(1)} ms: zstd ${zstd.toFixed(1)} ms (${pct(zstd)}, ${(uncompressed / 1e3 / zstd).toFixed(0)} MB/s out), ` +
       `CRC ${crc.toFixed(1)} ms (${pct(crc)}), records ${(push - zstd - crc).toFixed(1)} ms (${pct(push - zstd - crc)}); ` +
       `level move ${median(m.level).toFixed(1)} ms (${pct(median(m.level))})`,
   );
+  if (cold.length > 0) {
+    const cc = median(cold.map((x) => x.cpu));
+    const cw = median(cold.map((x) => x.wall));
+    console.log(
+      `  cold (first decode in a fresh process, median of ${cold.length}): ${cc.toFixed(1)} ms CPU = ${mfs(cc).toFixed(2)} million faces/s ` +
+        `(wall ${cw.toFixed(1)} ms = ${mfs(cw).toFixed(2)} M/s; ${(cc / cpu).toFixed(1)}× the warm time)`,
+    );
+  }
   console.log(`  without zstd: ${mfs(cpu - zstd).toFixed(2)} million faces/s CPU`);
   console.log(`  pushed in 64 KiB pieces: ${median(m.pieces).toFixed(1)} ms wall`);
+  const cc = cold.length > 0 ? median(cold.map((x) => x.cpu)) : NaN;
+  summary.push([path.basename(file, '.pqm'), String(faces), mfs(cpu), Math.min(...m.total), mfs(mean), mfs(cc), 100 * (zstd / cpu), 100 * (median(m.level) / cpu)]);
+}
+// one row per file: warm (median, best, mean of the back-to-back decodes)
+// and cold, million faces/s by CPU time
+const f2 = (x) => (Number.isFinite(x) ? x.toFixed(2) : '–');
+const head = ['mesh', 'faces', 'warm median', 'warm best', 'warm mean', 'cold', 'zstd %', 'level move %'];
+console.log(`\n${options.forwardOnly ? 'forward-only' : 'general'} decoder, million faces/s by CPU time (node ${process.version}; warm: ${runs} runs after ≥ 300 ms of warm-up; cold: first decode in a fresh process, median of ${coldRuns})`);
+console.log(`| ${head.join(' | ')} |`);
+console.log(`|${head.map(() => '---').join('|')}|`);
+for (const [name, faces, med, best, mean, cold, z, l] of summary) {
+  const mf = (ms) => (Number(faces) / ms / 1e3);
+  console.log(`| ${name} | ${faces} | ${f2(med)} | ${f2(mf(best))} | ${f2(mean)} | ${f2(cold)} | ${z.toFixed(0)} | ${l.toFixed(0)} |`);
 }

@@ -2,7 +2,7 @@
 // encoder and decoder) on the same meshes, in node:
 //
 //   bash bench/make-data.sh        # once: bench/data/*.pqm from shared/meshes
-//   npm run bench:draco            # or: node bench/draco.mjs [FILE.pqm ...] [--runs N]
+//   npm run bench:draco            # or: node bench/draco.mjs [FILE.pqm ...] [--runs N] [--cold N]
 //
 // For each .pqm file, the mesh compared is its finest level as pqm-decoder
 // decodes it (the input mesh with positions on the 14-bit grid), each quad
@@ -17,8 +17,14 @@
 //   chunk table and the VORD section included), the Draco buffer, and a
 //   plain GLB's buffers computed as 12 bytes per vertex (float32 xyz) + 24
 //   per quad (6 uint32 indices), without the JSON chunk;
-// - decode: million faces per second, CPU time (process.cpuUsage, median of
-//   --runs after warm-up runs, so other processes on the machine count less).
+// - decode, warm: million faces per second, CPU time (process.cpuUsage,
+//   median of --runs after warm-up runs — at least 3 and 300 ms of CPU —, so
+//   other processes on the machine count less), each decoder in a node
+//   process of its own that loads only it (the parent encodes with Draco);
+// - decode, cold: the first decode in a fresh node process (pqm: its module
+//   loaded, nothing run yet; Draco: its WASM module instantiated, nothing
+//   decoded yet), CPU time, median of --cold N processes (default 3, 0 to
+//   skip). The cold CPU time includes V8's compiler threads.
 //   pqm: push the whole file into a new PqmDecoder (CRC, zstd, records) and
 //   go to the finest level (positions + triangle indices ready), faces =
 //   quads of the finest level; also with `forwardOnly: true` (the one-way
@@ -28,19 +34,24 @@
 //   same surface, the same triangles). Draco's triangles/s is twice that.
 // Ratios are pqm / Draco for size (below 1: pqm smaller) and for speed
 // (above 1: pqm faster).
-import { readFileSync, readdirSync, existsSync, statSync } from 'node:fs';
+import { readFileSync, readdirSync, existsSync, statSync, writeFileSync, mkdtempSync, rmSync } from 'node:fs';
+import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { createRequire } from 'node:module';
 import { PqmDecoder } from '../pqm-decoder/src/index.js';
+import { freshProcesses, median, warmUp } from './ab-common.mjs';
 
 const require = createRequire(import.meta.url);
 const draco3d = require('draco3d');
 
 const here = path.dirname(fileURLToPath(import.meta.url));
+const self = fileURLToPath(import.meta.url);
 const args = process.argv.slice(2);
 const runsAt = args.indexOf('--runs');
 const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
+const coldAt = args.indexOf('--cold');
+const coldRuns = coldAt >= 0 ? Number(args.splice(coldAt, 2)[1]) : 3;
 let files = args;
 if (files.length === 0) {
   const dir = path.join(here, 'data');
@@ -56,12 +67,11 @@ if (files.length === 0) {
   }
 }
 
-const median = (xs) => [...xs].sort((a, b) => a - b)[xs.length >> 1];
 const cpuMs = (c) => (c.user + c.system) / 1000;
 
 /** Median CPU milliseconds of `fn` over `runs` runs after warm-up runs (JIT tiers). */
-function timeCpu(fn) {
-  for (let w = 0, c0 = process.cpuUsage(); w < 3 || (w < 50 && cpuMs(process.cpuUsage(c0)) < 300); w++) fn();
+function timeCpu(fn, runs) {
+  warmUp(fn);
   const t = [];
   for (let r = 0; r < runs; r++) {
     const c0 = process.cpuUsage();
@@ -71,8 +81,40 @@ function timeCpu(fn) {
   return median(t);
 }
 
+/**
+ * Child process: `--child pqm FILE FORWARD RUNS` or `--child draco
+ * FILE.drc - RUNS` decodes in this fresh process, which loads only that
+ * decoder: RUNS = 0 times the first decode (cold), else the median of RUNS
+ * after the warm-up (warm); prints one JSON line and exits. Each decoder
+ * is timed in a process of its own: in the parent, which has run Draco's
+ * encoder, pqm's decodes took ≈ 10 % more CPU (bunny, 122 against 107–112
+ * ms in a process that never loaded Draco).
+ */
+async function child([kind, file, fwd, runsArg]) {
+  const bytes = new Uint8Array(readFileSync(file));
+  let fn;
+  if (kind === 'pqm') {
+    fn = () => pqmDecode(bytes, fwd === '1');
+  } else {
+    decoderModule = await draco3d.createDecoderModule({});
+    fn = () => dracoDecode(bytes);
+  }
+  let ms;
+  if (Number(runsArg) === 0) {
+    const c0 = process.cpuUsage();
+    fn();
+    ms = cpuMs(process.cpuUsage(c0));
+  } else {
+    ms = timeCpu(fn, Number(runsArg));
+  }
+  console.log(JSON.stringify({ ms }));
+  process.exit(0);
+}
+
+let decoderModule = null;
+if (args[0] === '--child') await child(args.slice(1));
 const encoderModule = await draco3d.createEncoderModule({});
-const decoderModule = await draco3d.createDecoderModule({});
+decoderModule = await draco3d.createDecoderModule({});
 
 /** Draco bytes of the triangle mesh (positions only). */
 function dracoEncode(positions, triangles) {
@@ -124,6 +166,7 @@ function pqmDecode(bytes, forwardOnly = false) {
   return d;
 }
 
+const tmp = mkdtempSync(path.join(os.tmpdir(), 'pqm-draco-'));
 const rows = [];
 for (const file of files) {
   const bytes = new Uint8Array(readFileSync(file));
@@ -141,11 +184,19 @@ for (const file of files) {
     throw new Error(`${file}: Draco returned ${dracoTris} triangles, expected ${2 * F}`);
   }
   const glb = 12 * V + 24 * F;
-  const pqmMs = timeCpu(() => pqmDecode(bytes));
+  // cold: fresh processes, before this one has decoded the file warm
+  const drcFile = path.join(tmp, `${path.basename(file, '.pqm')}.drc`);
+  writeFileSync(drcFile, drc);
+  const cold = (childArgs) => (coldRuns > 0 ? median(freshProcesses(self, ['--child', ...childArgs, '0'], coldRuns).map((x) => x.ms)) : NaN);
+  const warm = (childArgs) => freshProcesses(self, ['--child', ...childArgs, String(runs)], 1)[0].ms;
+  const pqmCold = cold(['pqm', file, '0']);
+  const fwdCold = cold(['pqm', file, '1']);
+  const drcCold = cold(['draco', drcFile, '-']);
+  const pqmMs = warm(['pqm', file, '0']);
   // the one-way decoder a streaming client uses (no way back to coarser
   // levels, so no undo log): the same faces and positions
-  const fwdMs = timeCpu(() => pqmDecode(bytes, true));
-  const drcMs = timeCpu(() => dracoDecode(drc));
+  const fwdMs = warm(['pqm', file, '1']);
+  const drcMs = warm(['draco', drcFile, '-']);
   rows.push({
     mesh: path.basename(file, '.pqm'),
     V,
@@ -159,20 +210,26 @@ for (const file of files) {
     dropped: 2 * F - dracoTris,
     pqmMs,
     drcMs,
+    pqmColdMfs: F / pqmCold / 1000,
+    fwdColdMfs: F / fwdCold / 1000,
+    drcColdMfs: dracoTris / 2 / drcCold / 1000,
   });
 }
+rmSync(tmp, { recursive: true, force: true });
 
 const f1 = (x) => x.toFixed(1);
 const f2 = (x) => x.toFixed(2);
 const header = [
   'mesh', 'V', 'quads', 'pqm b/v', 'Draco b/v', 'GLB b/v', 'size pqm/Draco',
   'pqm Mf/s', 'pqm forward-only Mf/s', 'Draco Mf/s', 'speed pqm/Draco', 'pqm ms', 'Draco ms',
+  'cold pqm Mf/s', 'cold pqm forward-only Mf/s', 'cold Draco Mf/s',
 ];
 const table = rows.map((r) => [
   r.mesh, String(r.V), String(r.F), f1(r.pqmBpv), f1(r.drcBpv), f1(r.glbBpv), f2(r.pqmBpv / r.drcBpv),
   f2(r.pqmMfs), f2(r.fwdMfs), f2(r.drcMfs), f2(r.pqmMfs / r.drcMfs), f1(r.pqmMs), f1(r.drcMs),
+  f2(r.pqmColdMfs), f2(r.fwdColdMfs), f2(r.drcColdMfs),
 ]);
-console.log(`node ${process.version}, CPU-time medians of ${runs} runs; Draco: draco3d ${require('draco3d/package.json').version} (WASM), qp 14, speed 3/3, edgebreaker`);
+console.log(`node ${process.version}, warm: CPU-time medians of ${runs} runs after ≥ 300 ms of warm-up; cold: first decode in a fresh process, median of ${coldRuns} processes; Draco: draco3d ${require('draco3d/package.json').version} (WASM), qp 14, speed 3/3, edgebreaker`);
 console.log(`| ${header.join(' | ')} |`);
 console.log(`|${header.map(() => '---').join('|')}|`);
 for (const t of table) console.log(`| ${t.join(' | ')} |`);

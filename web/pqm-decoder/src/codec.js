@@ -534,8 +534,38 @@ export function decodeChunk(payload, index, info, st, log, h) {
     if (typeof e !== 'string') throw e;
     if (t < 0) throw invalid(section, e);
     throw badRecord(index, first + t, e);
+  } finally {
+    anchorMaps(ctx);
   }
 }
+
+/**
+ * Keeps the chunk context of the last decoded chunk alive, emptied: its
+ * readers read an empty array and it holds a fresh empty frontier and
+ * log, not the decoder's. Why: V8's optimized code of the record
+ * functions checks the hidden classes (maps) of the context, its readers,
+ * the frontier and the log, and a map lives only as long as an object
+ * has it. After a full collection with no decoder alive (a page that
+ * decodes a second mesh after an idle GC; `gc()` between decodes) the
+ * maps died and all that code was dropped ("weak objects", --trace-deopt):
+ * bunny then took 270–300 ms instead of 100–115 until V8 had compiled
+ * again. With one emptied context alive the maps, and the code, survive.
+ * Memory: a few empty objects. The empty frontier and log are created
+ * here, after the real ones, so they have the real ones' current maps.
+ */
+function anchorMaps(ctx) {
+  ctx.st = new Frontier();
+  ctx.log = new RecordLog(ctx.log.forward);
+  for (const r of [ctx.ops, ctx.conn, ctx.refs, ctx.slots, ctx.pos]) {
+    r.b = ANCHOR_BYTES;
+    r.p = 0;
+    r.end = 0;
+  }
+  anchoredContext = ctx;
+}
+const ANCHOR_BYTES = new Uint8Array(0);
+/** @type {ChunkContext|null} see anchorMaps */
+let anchoredContext = null;
 
 /**
  * Undoes on the frontier the log entries from `nMoved` / `nRw` on (those of
