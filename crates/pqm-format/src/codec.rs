@@ -203,7 +203,7 @@ impl<T: Copy> Paged<T> {
 /// before the loop that uses them overlaps the misses, where the loop's
 /// data-dependent branches (insertion by slot) would replay them one by one.
 #[inline(always)]
-fn prefetch<T>(x: &[T], i: usize) {
+pub(crate) fn prefetch<T>(x: &[T], i: usize) {
     #[cfg(target_arch = "x86_64")]
     {
         // No bounds check: the address is only a hint (`wrapping_add`
@@ -221,7 +221,7 @@ fn prefetch<T>(x: &[T], i: usize) {
 /// Vertex count from which the decoder prefetches ahead
 /// ([`MeshState::prefetch_ahead`]): about where its scattered arrays (~60
 /// bytes per vertex: block, code, quads) outgrow a 2 MiB L2 cache.
-const PREFETCH_MIN_VERTICES: usize = 1 << 15;
+pub(crate) const PREFETCH_MIN_VERTICES: usize = 1 << 15;
 
 /// How far past the end of the corner blocks (in blocks; twice as many
 /// codes and quads, whose entries are half a block or less: each array
