@@ -29,6 +29,13 @@ import { decompressFrame } from '../pqm-decoder/src/zstd.js';
 const here = path.dirname(fileURLToPath(import.meta.url));
 const self = fileURLToPath(import.meta.url);
 const args = process.argv.slice(2);
+if (args.includes('--help') || args.includes('-h')) {
+  // the header comment above is the manual
+  const text = readFileSync(self, 'utf8').split('\n');
+  const end = text.findIndex((l) => !l.startsWith('//'));
+  console.log(text.slice(0, end).map((l) => l.replace(/^\/\/ ?/, '')).join('\n'));
+  process.exit(0);
+}
 if (args[0] === '--cold-child') {
   // child: --cold-child FILE FORWARD — one decode in this fresh process
   const bytes = new Uint8Array(readFileSync(args[1]));
