@@ -12,6 +12,7 @@
 //! | shape | V | F | χ | boundary |
 //! |---|---|---|---|---|
 //! | [`cube`] | 8 | 6 | 2 | closed |
+//! | [`box_grid`]`(n, _)` | 6n² + 2 | 6n² | 2 | closed |
 //! | [`quad_sphere`]`(n, _)` | 6n² + 2 | 6n² | 2 | closed |
 //! | [`torus`]`(a, b, _, _)` | ab | ab | 0 | closed |
 //! | [`grid`]`(nx, ny, _, _)` | (nx+1)(ny+1) | nx·ny | 1 | one loop |
@@ -71,6 +72,24 @@ pub fn cube(size: f64) -> IndexedMesh {
     let positions = lattice
         .iter()
         .map(|l| DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64) * size - DVec3::splat(h))
+        .collect();
+    IndexedMesh::from_faces(positions, quads)
+}
+
+/// Axis-aligned box centred at the origin with edge lengths `size`, each
+/// side an `n × n` grid of quads (`n ≥ 1`, raised to 1 if smaller), with
+/// welded vertices: 6n² quads, 6n² + 2 vertices, closed, genus 0, eight
+/// valence-3 corners and all others valence 4, its twelve edges sharp
+/// (90°) — the block layout of a CAD part.
+pub fn box_grid(n: u32, size: DVec3) -> IndexedMesh {
+    let n = n.max(1);
+    let (lattice, quads) = cube_lattice(n);
+    let positions = lattice
+        .iter()
+        .map(|l| {
+            let unit = DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64) / n as f64;
+            (unit - DVec3::splat(0.5)) * size
+        })
         .collect();
     IndexedMesh::from_faces(positions, quads)
 }

@@ -5,51 +5,7 @@
 //! to the input exactly), and it is deterministic.
 
 use pqm_core::coarsen::{CoarsenOptions, Coarsener};
-use pqm_core::{IndexedMesh, Mesh};
-
-/// A box `sx × sy × sz` whose sides are grids of `n × m` quads (`n` along
-/// the longest side): 96–97 % ideal (its eight corners have valence 3),
-/// one edge in `n` or `m` on a sharp crease — the block layout of a CAD
-/// part, so the chord phases (and so the end phase) run.
-fn box_grid(n: u32, size: glam::DVec3) -> IndexedMesh {
-    use glam::DVec3;
-    let mut p: Vec<DVec3> = Vec::new();
-    let mut faces = Vec::new();
-    let mut index = std::collections::BTreeMap::new();
-    let axes = [
-        (DVec3::X, DVec3::Y, DVec3::Z),
-        (-DVec3::X, DVec3::Z, DVec3::Y),
-        (DVec3::Y, DVec3::Z, DVec3::X),
-        (-DVec3::Y, DVec3::X, DVec3::Z),
-        (DVec3::Z, DVec3::X, DVec3::Y),
-        (-DVec3::Z, DVec3::Y, DVec3::X),
-    ];
-    for (nrm, u, v) in axes {
-        let mut id = |i: u32, j: u32| {
-            let q =
-                nrm + u * (2.0 * i as f64 / n as f64 - 1.0) + v * (2.0 * j as f64 / n as f64 - 1.0);
-            let key = (q * n as f64).round();
-            let key = (key.x as i64, key.y as i64, key.z as i64);
-            *index.entry(key).or_insert_with(|| {
-                p.push(q * size);
-                (p.len() - 1) as u32
-            })
-        };
-        for j in 0..n {
-            for i in 0..n {
-                faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1)]);
-            }
-        }
-    }
-    for f in faces.iter_mut() {
-        let c: DVec3 = f.iter().map(|&i| p[i as usize]).sum::<DVec3>() / 4.0;
-        let nrm = (p[f[1] as usize] - p[f[0] as usize]).cross(p[f[2] as usize] - p[f[0] as usize]);
-        if nrm.dot(c) < 0.0 {
-            f.reverse();
-        }
-    }
-    IndexedMesh::from_faces(p, faces)
-}
+use pqm_core::{shapes, IndexedMesh, Mesh};
 
 fn ideal(m: &Mesh) -> (usize, usize) {
     let d = m
@@ -73,7 +29,7 @@ fn coarsen(src: &IndexedMesh, target: usize, end_phase: bool) -> Coarsener {
 
 #[test]
 fn end_phase_is_never_less_ideal_and_replays() {
-    let src = box_grid(6, glam::DVec3::new(2.0, 1.3, 0.7));
+    let src = shapes::box_grid(6, glam::DVec3::new(2.0, 1.3, 0.7));
     for target in [60, 100, 150] {
         let on = coarsen(&src, target, true);
         let off = coarsen(&src, target, false);

@@ -71,6 +71,31 @@ fn quad_sphere_counts_valences_and_radius() {
 }
 
 #[test]
+fn box_grid_counts_valences_and_extent() {
+    let size = DVec3::new(2.0, 1.3, 0.7);
+    for n in [1u32, 2, 5] {
+        let m = box_grid(n, size);
+        let n2 = (n * n) as usize;
+        assert_eq!((m.face_count(), m.vertex_count()), (6 * n2, 6 * n2 + 2));
+        assert_eq!(euler(&m), 2);
+        assert_closed_oriented(&m);
+        assert_outward(&m, |_| DVec3::ZERO);
+        for p in &m.positions {
+            // on the box: inside it, and on one of its six sides
+            let d = (p.abs() - size / 2.0).max_element();
+            assert!(d.abs() < 1e-12, "n = {n}: {p} off the box");
+        }
+        let val = valences(&m);
+        assert_eq!(val.iter().filter(|&&v| v == 3).count(), 8, "n = {n}");
+        assert_eq!(
+            val.iter().filter(|&&v| v == 4).count(),
+            m.vertex_count() - 8
+        );
+    }
+    assert_eq!(box_grid(0, DVec3::ONE).face_count(), 6);
+}
+
+#[test]
 fn quad_sphere_quads_are_reasonably_uniform() {
     // The tan warp keeps the largest/smallest face area ratio small.
     let m = quad_sphere(16, 1.0);
