@@ -2680,8 +2680,10 @@ pub type Kept<'a> = Option<(&'a mut Vec<[u32; 3]>, &'a mut Vec<[u32; 4]>)>;
 /// no explicit record. The record's new codes and appended quads are
 /// appended to `kept` when given; `r` is scratch (only `r.op` is
 /// meaningful after the call). Same level, same log entries (within a
-/// record in another order), same errors before anything is applied: on
-/// error `st` is unchanged.
+/// record in another order), the same records refused before anything is
+/// applied — on error `st` is unchanged; where several slots of a record
+/// break a rule the message may name another of them (star order, not
+/// slot order; found by the fuzz target).
 #[allow(clippy::too_many_arguments)]
 pub fn decode_apply_record(
     st: &mut MeshState,

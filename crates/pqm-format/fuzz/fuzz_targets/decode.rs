@@ -7,7 +7,10 @@
 //!   same outcome, deepest level and mesh.
 //! * Mode 1 (record streams): the input is the five record streams of a
 //!   chunk, decoded against a valid generated mesh under the 1.x, 2.0 or
-//!   3.0 rules (bypasses CRCs so the record decoder itself is exercised).
+//!   3.0 rules (bypasses CRCs so the record decoder itself is exercised),
+//!   both by the explicit record then `apply` and by the decoder's fused
+//!   path (`decode_apply_record`): both refuse the record, or both give
+//!   the same mesh.
 //!
 //! `cargo +nightly fuzz run decode` (or `cargo fuzz run decode -s none` on
 //! stable) from `crates/pqm-format`; seed corpus: `spec/vectors/*.pqm`.
@@ -120,7 +123,9 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!(whole.3, fwd.2);
         assert_eq!(whole.4, fwd.3);
     } else {
-        use pqm_format::codec::{decode_record, Cursors, MeshState};
+        use pqm_format::codec::{
+            decode_apply_record, decode_record, Cursors, DecodeScratch, MeshState, QRecord,
+        };
         use pqm_format::varint::Reader;
         // Bits 1-2 pick the rules (1.x, 2.0, 3.0), the rest the mesh.
         let major = 1 + ((mode >> 1) & 3).min(2) as u16;
@@ -133,21 +138,51 @@ fuzz_target!(|data: &[u8]| {
             pos.iter().map(|p| q.quantize(*p)).collect(),
             quads,
         );
+        let mut fused = st.clone();
         let n = rest.len() / 5;
-        let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&rest[k * n..(k + 1) * n], "s"));
-        let mut cur = Cursors::default();
+        let streams = || [0, 1, 2, 3, 4].map(|k| Reader::new(&rest[k * n..(k + 1) * n], "s"));
+        let (mut rd, mut rd_fused) = (streams(), streams());
+        let (mut cur, mut cur_fused) = (Cursors::default(), Cursors::default());
+        let (mut scratch, mut sc) = (QRecord::default(), DecodeScratch::new());
+        let (mut moved, mut rw) = (Vec::new(), Vec::new());
         let (mv, mf) = (st.q.len() as u32 + 50, st.quads.len() as u32 + 50);
         for _ in 0..20 {
-            match decode_record(&st, &mut rd, &mut cur, mv, mf, major) {
+            let explicit = decode_record(&st, &mut rd, &mut cur, mv, mf, major);
+            let got = decode_apply_record(
+                &mut fused,
+                &mut rd_fused,
+                &mut cur_fused,
+                mv,
+                mf,
+                major,
+                &mut scratch,
+                &mut sc,
+                &mut moved,
+                &mut rw,
+                None,
+            );
+            match explicit {
                 Ok(r) => {
+                    assert_eq!(got, Ok(()));
                     st.apply(&r);
                     assert!(st
                         .quads
                         .iter()
                         .flatten()
                         .all(|&v| (v as usize) < st.q.len()));
+                    assert_eq!(fused.q, st.q);
+                    assert_eq!(fused.quads, st.quads);
                 }
-                Err(_) => break,
+                Err(e) => {
+                    // refused too, nothing applied (the message may name
+                    // another element of the same defect: the fused path
+                    // checks a record's slots in star order, the explicit
+                    // one in slot order)
+                    assert!(got.is_err(), "fused path accepted: {e}");
+                    assert_eq!(fused.q, st.q);
+                    assert_eq!(fused.quads, st.quads);
+                    break;
+                }
             }
         }
     }
