@@ -1,10 +1,10 @@
 //! Fuzz the push decoder.
 //!
 //! * Mode 0 (raw bytes): the input is a `.pqm` file; pushing it whole and
-//!   pushing it split at a point chosen by the input must give the same
-//!   outcome, the same events and the same deepest level and mesh; a
-//!   [`Decoder::forward_only`] decoder fed the split input must reach the
-//!   same outcome, deepest level and mesh.
+//!   pushing it split at one point chosen by the input must give the same
+//!   outcome, the same events and the same deepest level and mesh, and so
+//!   must a `Decoder::forward_only` decoder fed the two pieces
+//!   (`split_check.rs`; the `buf_independent` target cuts in many places).
 //! * Mode 1 (record streams): the input is the five record streams of a
 //!   chunk, decoded against a valid generated mesh under the 1.x, 2.0 or
 //!   3.0 rules (bypasses CRCs so the record decoder itself is exercised),
@@ -17,83 +17,9 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use pqm_format::{Decoder, Limits, Target};
 
-fn outcome(
-    parts: &[&[u8]],
-) -> (
-    bool,
-    Vec<pqm_format::Event>,
-    Option<usize>,
-    Vec<[u32; 4]>,
-    Vec<[u32; 3]>,
-) {
-    let limits = Limits {
-        max_vertices: 1 << 20,
-        max_faces: 1 << 20,
-        max_memory_bytes: 256 << 20,
-    };
-    let mut d = Decoder::new(limits);
-    let mut events = Vec::new();
-    let mut ok = true;
-    for p in parts {
-        match d.push(p) {
-            Ok(e) => events.extend(e),
-            Err(_) => {
-                ok = false;
-                break;
-            }
-        }
-    }
-    let _ = d.status();
-    if d.deepest_level().is_some() {
-        let c = d
-            .set_level(Target::Level(usize::MAX))
-            .expect("reachable level");
-        assert_eq!(Some(c.to_level), d.deepest_level());
-        let back = d.set_level(Target::Level(0)).expect("level 0");
-        assert_eq!(back.to_level, 0);
-        d.set_level(Target::Level(usize::MAX))
-            .expect("refine again");
-    }
-    (
-        ok,
-        events,
-        d.deepest_level(),
-        d.quads().to_vec(),
-        d.position_codes().to_vec(),
-    )
-}
-
-/// [`Decoder::forward_only`] on the same parts: whether every push
-/// succeeded, the deepest level and its mesh.
-fn forward(parts: &[&[u8]]) -> (bool, Option<usize>, Vec<[u32; 4]>, Vec<[u32; 3]>) {
-    let limits = Limits {
-        max_vertices: 1 << 20,
-        max_faces: 1 << 20,
-        max_memory_bytes: 256 << 20,
-    };
-    let mut d = Decoder::forward_only(limits);
-    let mut ok = true;
-    for p in parts {
-        if d.push(p).is_err() {
-            ok = false;
-            break;
-        }
-    }
-    if d.deepest_level().is_some() {
-        let c = d
-            .refine_to(Target::Level(usize::MAX))
-            .expect("deepest level");
-        assert_eq!(Some(c.to_level), d.deepest_level());
-    }
-    (
-        ok,
-        d.deepest_level(),
-        d.quads().to_vec(),
-        d.position_codes().to_vec(),
-    )
-}
+#[path = "split_check.rs"]
+mod split_check;
 
 fuzz_target!(|data: &[u8]| {
     let Some((&mode, rest)) = data.split_first() else {
@@ -105,23 +31,7 @@ fuzz_target!(|data: &[u8]| {
         } else {
             0
         };
-        let whole = outcome(&[rest]);
-        let split = outcome(&[&rest[..at], &rest[at..]]);
-        // Once an error happened, events after it are lost either way; the
-        // levels decoded before the error must agree.
-        assert_eq!(whole.0, split.0);
-        if whole.0 {
-            assert_eq!(whole.1, split.1);
-        }
-        assert_eq!(whole.2, split.2);
-        assert_eq!(whole.3, split.3);
-        assert_eq!(whole.4, split.4);
-        // The one-way decoder keeps the same deepest level, error or not.
-        let fwd = forward(&[&rest[..at], &rest[at..]]);
-        assert_eq!(whole.0, fwd.0);
-        assert_eq!(whole.2, fwd.1);
-        assert_eq!(whole.3, fwd.2);
-        assert_eq!(whole.4, fwd.3);
+        split_check::check_pieces(rest, &[at]);
     } else {
         use pqm_format::codec::{
             decode_apply_record, decode_record, Cursors, DecodeScratch, MeshState, QRecord,

@@ -1,0 +1,113 @@
+//! Shared by the `decode` and `buf_independent` fuzz targets: a file
+//! pushed whole and pushed in pieces must decode alike.
+
+use pqm_format::{Decoder, Limits, Target};
+
+/// The decoders' budget under fuzzing (large enough for the vectors, small
+/// enough that a hostile header is refused quickly).
+fn limits() -> Limits {
+    Limits {
+        max_vertices: 1 << 20,
+        max_faces: 1 << 20,
+        max_memory_bytes: 256 << 20,
+    }
+}
+
+fn outcome(
+    parts: &[&[u8]],
+) -> (
+    bool,
+    Vec<pqm_format::Event>,
+    Option<usize>,
+    Vec<[u32; 4]>,
+    Vec<[u32; 3]>,
+) {
+    let mut d = Decoder::new(limits());
+    let mut events = Vec::new();
+    let mut ok = true;
+    for p in parts {
+        match d.push(p) {
+            Ok(e) => events.extend(e),
+            Err(_) => {
+                ok = false;
+                break;
+            }
+        }
+    }
+    let _ = d.status();
+    if d.deepest_level().is_some() {
+        let c = d
+            .set_level(Target::Level(usize::MAX))
+            .expect("reachable level");
+        assert_eq!(Some(c.to_level), d.deepest_level());
+        let back = d.set_level(Target::Level(0)).expect("level 0");
+        assert_eq!(back.to_level, 0);
+        d.set_level(Target::Level(usize::MAX))
+            .expect("refine again");
+    }
+    (
+        ok,
+        events,
+        d.deepest_level(),
+        d.quads().to_vec(),
+        d.position_codes().to_vec(),
+    )
+}
+
+/// [`Decoder::forward_only`] on the same parts: whether every push
+/// succeeded, the deepest level and its mesh.
+fn forward(parts: &[&[u8]]) -> (bool, Option<usize>, Vec<[u32; 4]>, Vec<[u32; 3]>) {
+    let mut d = Decoder::forward_only(limits());
+    let mut ok = true;
+    for p in parts {
+        if d.push(p).is_err() {
+            ok = false;
+            break;
+        }
+    }
+    if d.deepest_level().is_some() {
+        let c = d
+            .refine_to(Target::Level(usize::MAX))
+            .expect("deepest level");
+        assert_eq!(Some(c.to_level), d.deepest_level());
+    }
+    (
+        ok,
+        d.deepest_level(),
+        d.quads().to_vec(),
+        d.position_codes().to_vec(),
+    )
+}
+
+/// `bytes` pushed whole and cut at `cuts` (positions into `bytes`, any
+/// order, clamped) must give the same outcome, the same events and the
+/// same deepest level and mesh; a [`Decoder::forward_only`] decoder fed the
+/// pieces must reach the same outcome, deepest level and mesh.
+pub fn check_pieces(bytes: &[u8], cuts: &[usize]) {
+    let mut cuts: Vec<usize> = cuts.iter().map(|&c| c.min(bytes.len())).collect();
+    cuts.sort_unstable();
+    let mut parts = Vec::with_capacity(cuts.len() + 1);
+    let mut at = 0;
+    for &c in &cuts {
+        parts.push(&bytes[at..c]);
+        at = c;
+    }
+    parts.push(&bytes[at..]);
+    let whole = outcome(&[bytes]);
+    let split = outcome(&parts);
+    // Once an error happened, events after it are lost either way; the
+    // levels decoded before the error must agree.
+    assert_eq!(whole.0, split.0);
+    if whole.0 {
+        assert_eq!(whole.1, split.1);
+    }
+    assert_eq!(whole.2, split.2);
+    assert_eq!(whole.3, split.3);
+    assert_eq!(whole.4, split.4);
+    // The one-way decoder keeps the same deepest level, error or not.
+    let fwd = forward(&parts);
+    assert_eq!(whole.0, fwd.0);
+    assert_eq!(whole.2, fwd.1);
+    assert_eq!(whole.3, fwd.2);
+    assert_eq!(whole.4, fwd.3);
+}
