@@ -381,9 +381,9 @@ fn coarsen_reaches_the_target_and_keeps_a_valid_quad_mesh() {
     assert!(v["time_s"].as_f64().unwrap() >= 0.0);
 }
 
-/// Chord collapses run on block-structured CAD input (fandisk) and are
-/// reported as their own operator, in JSON and in the text summary; an
-/// organic mesh (spot) never gets them (the gate in `coarsen::chord`).
+/// Chord collapses and the end phase run on block-structured CAD input
+/// (fandisk) and are reported, in JSON and in the text summary; an organic
+/// mesh (spot) never gets them (the gate in `coarsen::chord`).
 #[test]
 fn coarsen_reports_chord_collapses_on_cad_input_only() {
     let d = TempDir::new().unwrap();
@@ -392,6 +392,10 @@ fn coarsen_reports_chord_collapses_on_cad_input_only() {
     let v = json_ok(&["coarsen", s(&fandisk), "-o", s(&out), "--faces", "250"]);
     assert!(
         v["operators"]["chord_collapses"].as_u64().unwrap() > 0,
+        "{v}"
+    );
+    assert!(
+        v["operators"]["end_phase_steps"].as_u64().unwrap() > 0,
         "{v}"
     );
     let (im, _) = load_valid(&out);
@@ -404,9 +408,11 @@ fn coarsen_reports_chord_collapses_on_cad_input_only() {
     let summary =
         String::from_utf8_lossy(&text.stdout).into_owned() + &String::from_utf8_lossy(&text.stderr);
     assert!(summary.contains("chord collapses"), "{summary}");
+    assert!(summary.contains("end phase"), "{summary}");
     let spot_out = d.path().join("spot_700.obj");
     let v = json_ok(&["coarsen", s(&spot()), "-o", s(&spot_out), "--faces", "700"]);
     assert_eq!(v["operators"]["chord_collapses"], 0, "{v}");
+    assert_eq!(v["operators"]["end_phase_steps"], 0, "{v}");
 }
 
 #[test]

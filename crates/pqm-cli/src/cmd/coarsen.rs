@@ -15,7 +15,10 @@ use std::time::Instant;
 /// qCoarsen paper's error), and the coarse quad mesh is written. On
 /// block-structured CAD meshes (nearly all vertices of valence 4 and many
 /// sharp edges, e.g. fandisk) whole quad strips are also collapsed at once
-/// ("chord collapses"), which keeps the layout of the singular vertices.
+/// ("chord collapses"), which keeps the layout of the singular vertices,
+/// and the last steps before a face target are chosen by playing a few
+/// alternatives out to the target ("end phase"; slower, fewer irregular
+/// vertices).
 ///
 /// The result stays quad-only and valid, with the same topology (components,
 /// boundary loops, genus) and every feature curve kept. Non-quad input is
@@ -66,6 +69,9 @@ pub struct Operators {
     /// Whole quad strips removed at once (CAD-like inputs only; each is
     /// one record, not counted in `qv_merges`).
     pub chord_collapses: usize,
+    /// Steps chosen by the end phase (CAD-like inputs with a face target
+    /// only; each is also counted as its own kind above).
+    pub end_phase_steps: usize,
     pub rejected: usize,
 }
 
@@ -77,6 +83,7 @@ impl Operators {
             qe_merges: r.qe_merges,
             doublets: r.doublets,
             chord_collapses: c.chord_collapses(),
+            end_phase_steps: c.end_phase_steps(),
             rejected: r.rejected,
         }
     }
@@ -200,9 +207,10 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             r.qv_merges,
             r.qe_merges,
             r.doublets,
-            match p.coarsener.chord_collapses() {
-                0 => String::new(),
-                n => format!(", {n} chord collapses"),
+            match (p.coarsener.chord_collapses(), p.coarsener.end_phase_steps()) {
+                (0, 0) => String::new(),
+                (n, 0) => format!(", {n} chord collapses"),
+                (n, e) => format!(", {n} chord collapses, {e} steps chosen by the end phase"),
             },
             r.rejected,
             r.error,
