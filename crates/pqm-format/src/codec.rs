@@ -50,6 +50,14 @@ pub struct QRecord {
 }
 
 impl QRecord {
+    /// Empties the four lists (the decoders reuse one record as scratch).
+    pub fn clear_parts(&mut self) {
+        self.new_pos.clear();
+        self.moved.clear();
+        self.rewritten.clear();
+        self.appended.clear();
+    }
+
     /// The coarsener's record on the quantization grid: positions quantized,
     /// moved vertices sorted by id (the form every coding reads).
     pub fn quantized(rec: &pqm_core::SplitRecord, quant: &crate::quant::Quantizer) -> Self {
@@ -2191,7 +2199,6 @@ pub fn decode_record_into(
     sc: &mut DecodeScratch,
 ) -> Result<(), String> {
     let v0 = st.q.len() as u32;
-    let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
     let op = OpKind::from_code(sym & 3).ok_or("bad op")?;
     let mut form = (sym >> 2) & 3;
@@ -2209,10 +2216,7 @@ pub fn decode_record_into(
         form = 4;
     }
     r.op = op;
-    r.new_pos.clear();
-    r.moved.clear();
-    r.rewritten.clear();
-    r.appended.clear();
+    r.clear_parts();
     match form {
         4 => decode_edge_split(st, rd, cur, max_v, max_f, major, r, sc)?,
         0 | 2 => {
@@ -2231,12 +2235,7 @@ pub fn decode_record_into(
             decode_patch(st, rd, cur, max_v, max_f, local, major, sc, r)?;
         }
         1 => {
-            if v0 >= max_v || f0 >= max_f {
-                return Err("split exceeds the final vertex or face count".into());
-            }
-            let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
-            cur.vref = m;
-            st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
+            let m = read_anchor(st, rd, cur, max_v, max_f, 1, "split")?;
             split_after_anchor(st, rd, m, sym, major, r, sc)?;
         }
         _ if major < 2 => {
@@ -2246,12 +2245,7 @@ pub fn decode_record_into(
         }
         _ => {
             // Face-split form (spec §7.9).
-            if v0 >= max_v || f0 >= max_f {
-                return Err("face split exceeds the final vertex or face count".into());
-            }
-            let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
-            cur.vref = m;
-            st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
+            let m = read_anchor(st, rd, cur, max_v, max_f, 1, "face split")?;
             face_split_after_anchor(st, rd, m, sym, r, sc)?;
         }
     }
@@ -2323,27 +2317,15 @@ fn decode_apply_split(
     kept: Kept,
 ) -> Result<(), String> {
     let v0 = st.q.len() as u32;
-    let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
     r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
-    if v0 >= max_v || f0 >= max_f {
-        return Err("split exceeds the final vertex or face count".into());
-    }
-    let m = vref(cur.vref, rd[REFS].s()?, v0, "split")?;
-    cur.vref = m;
-    st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
+    let m = read_anchor(st, rd, cur, max_v, max_f, 1, "split")?;
     let mut s = FastStar::EMPTY;
     if !st.star_fast_into(m, &mut s) {
-        r.new_pos.clear();
-        r.moved.clear();
-        r.rewritten.clear();
-        r.appended.clear();
+        r.clear_parts();
         split_after_anchor(st, rd, m, sym, major, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
-        if let Some((new_pos, appended)) = kept {
-            new_pos.push(r.new_pos[0]);
-            appended.push(r.appended[0]);
-        }
+        keep(r, kept);
         return Ok(());
     }
     let l = s.n;
@@ -2512,29 +2494,17 @@ fn decode_apply_face_split(
     kept: Kept,
 ) -> Result<(), String> {
     let v0 = st.q.len() as u32;
-    let f0 = st.quads.len() as u32;
     let sym = rd[OPS].byte()?;
     r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
-    if v0 >= max_v || f0 >= max_f {
-        return Err("face split exceeds the final vertex or face count".into());
-    }
-    let m = vref(cur.vref, rd[REFS].s()?, v0, "face split")?;
-    cur.vref = m;
-    st.prefetch_ahead(&rd[REFS], m, &mut cur.peek);
+    let m = read_anchor(st, rd, cur, max_v, max_f, 1, "face split")?;
     // `n` in 1..=INLINE, no overflow flag (bit 31 makes `n` too large).
     let b = st.inline[m as usize].0;
     let n = b[0] as usize;
     if !(1..=INLINE).contains(&n) {
-        r.new_pos.clear();
-        r.moved.clear();
-        r.rewritten.clear();
-        r.appended.clear();
+        r.clear_parts();
         face_split_after_anchor(st, rd, m, sym, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
-        if let Some((new_pos, appended)) = kept {
-            new_pos.push(r.new_pos[0]);
-            appended.push(r.appended[0]);
-        }
+        keep(r, kept);
         return Ok(());
     }
     let x = rd[CONN].u_max(2 * n as u64 - 1, "face-split index")?;
@@ -2589,28 +2559,33 @@ fn decode_edge_split(
     r: &mut QRecord,
     sc: &mut DecodeScratch,
 ) -> Result<(), String> {
-    let a = edge_split_anchor(st, rd, cur, max_v, max_f)?;
+    let a = read_anchor(st, rd, cur, max_v, max_f, 4, "edge split")?;
     // The anchor's star first: `r` is bounded by its size.
     let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
     let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
     edge_split_after_link(st, rd, a, link, major, r, sc)
 }
 
-/// The edge split's count check and anchor (spec §7.10 step 1).
+/// A compact form's count check and anchor: the record adds `grows`
+/// vertices and faces at most (split and face split 1, edge split 4; spec
+/// §7.5, §7.9, §7.10 step 1), then its anchor, `what` naming the form in
+/// the errors.
 #[inline(always)]
-fn edge_split_anchor(
+fn read_anchor(
     st: &MeshState,
     rd: &mut [Reader; 5],
     cur: &mut Cursors,
     max_v: u32,
     max_f: u32,
+    grows: u32,
+    what: &str,
 ) -> Result<u32, String> {
     let v0 = st.q.len() as u32;
     let f0 = st.quads.len() as u32;
-    if v0 as u64 + 4 > max_v as u64 || f0 as u64 + 4 > max_f as u64 {
-        return Err("edge split exceeds the final vertex or face count".into());
+    if v0 as u64 + grows as u64 > max_v as u64 || f0 as u64 + grows as u64 > max_f as u64 {
+        return Err(format!("{what} exceeds the final vertex or face count"));
     }
-    let a = vref(cur.vref, rd[REFS].s()?, v0, "edge split")?;
+    let a = vref(cur.vref, rd[REFS].s()?, v0, what)?;
     cur.vref = a;
     st.prefetch_ahead(&rd[REFS], a, &mut cur.peek);
     Ok(a)
@@ -2716,6 +2691,13 @@ pub fn decode_apply_record(
             st.apply_delta_logged(r, moved, rw);
         }
     }
+    keep(r, kept);
+    Ok(())
+}
+
+/// Appends `r`'s new codes and appended quads to `kept`, when given.
+#[inline(always)]
+fn keep(r: &QRecord, kept: Kept) {
     if let Some((new_pos, appended)) = kept {
         // Element by element: a record holds 1–4 of each, where
         // `extend_from_slice` is a call to `memcpy`.
@@ -2726,7 +2708,6 @@ pub fn decode_apply_record(
             appended.push(q);
         }
     }
-    Ok(())
 }
 
 /// The edge-split case of [`decode_apply_record`].
@@ -2745,11 +2726,8 @@ fn decode_apply_edge_split(
 ) -> Result<(), String> {
     let sym = rd[OPS].byte()?;
     r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
-    r.new_pos.clear();
-    r.moved.clear();
-    r.rewritten.clear();
-    r.appended.clear();
-    let a = edge_split_anchor(st, rd, cur, max_v, max_f)?;
+    r.clear_parts();
+    let a = read_anchor(st, rd, cur, max_v, max_f, 4, "edge split")?;
     // Either star off the fast path: the explicit record, then applied.
     let mut slow = |st: &mut MeshState,
                     rd: &mut [Reader; 5],
