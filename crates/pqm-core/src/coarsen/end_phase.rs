@@ -156,22 +156,29 @@ impl Coarsener {
         // one is dropped, as the ordinary run drops it, and its refusal
         // counted; the original is not touched (an undo may renumber
         // half-edges, and the step chosen below must commit on the
-        // original exactly as it did on its copy)
+        // original exactly as it did on its copy). A legal one's copy,
+        // its step committed, is kept to be played out below.
         let mut legal: Vec<Entry> = Vec::with_capacity(popped.len());
+        let mut stepped: Vec<Coarsener> = Vec::with_capacity(popped.len());
         for &e in &popped {
             let mut copy = self.copy_for_rollout();
             if copy.apply_alt(Alt::Step(e)) {
                 legal.push(e);
+                stepped.push(copy);
             } else {
                 self.report.rejections = copy.report.rejections;
                 self.report.refused_fixes = copy.report.refused_fixes;
             }
         }
-        // the legal ones back in the queue: the copies play the ordinary
-        // run, which needs them (an entry a commit made stale is skipped
-        // as usual)
+        // the legal ones back in the queue, the original's and each kept
+        // copy's: the play-outs run the ordinary run, which needs them (an
+        // entry a commit made stale is skipped as usual; the queue's order
+        // is total, so when an entry was pushed does not matter)
         for &e in &legal {
             self.queue.push(e);
+            for copy in &mut stepped {
+                copy.queue.push(e);
+            }
         }
         let mut alts: Vec<Alt> = legal.iter().map(|&e| Alt::Step(e)).collect();
         alts.extend(
@@ -187,14 +194,20 @@ impl Coarsener {
             return ok.then_some(true);
         }
         // each played out on its own copy (in parallel: the copies share
-        // nothing, and the choice below reads the results in order)
-        let copies: Vec<Coarsener> = alts.iter().map(|_| self.copy_for_rollout()).collect();
+        // nothing, and the choice below reads the results in order); the
+        // queue steps' copies have their step committed already, a chord's
+        // legality is not known before
+        let mut copies: Vec<(Coarsener, bool)> = stepped.into_iter().map(|c| (c, true)).collect();
+        copies.extend(
+            alts[legal.len()..]
+                .iter()
+                .map(|_| (self.copy_for_rollout(), false)),
+        );
         let outcomes: Vec<Option<Outcome>> = copies
             .into_par_iter()
             .zip(alts.par_iter())
-            .map(|(mut copy, &alt)| {
-                // (a chord's legality is not known before)
-                copy.apply_alt(alt).then(|| copy.play_out(target))
+            .map(|((mut copy, done), &alt)| {
+                (done || copy.apply_alt(alt)).then(|| copy.play_out(target))
             })
             .collect();
         let mut best: Option<(usize, Outcome)> = None;
