@@ -251,11 +251,19 @@ struct Records {
     /// Vertex / face count at level k (k = 0 ..= decoded records).
     v_at: Vec<u32>,
     f_at: Vec<u32>,
-    moved_at: Vec<usize>,
+    /// Where record k's entries start in `moved` and `rw`, for levels
+    /// `at0 ..`: entry `k - at0` (levels before `at0` have no entries). A
+    /// general decoder keeps every level (`at0` = 0); a forward-only one
+    /// only the chunk being decoded (it drops the logs at each commit, so
+    /// the lists restart there: on the bunny 2.6 MB of writes fewer per
+    /// decode). `u32`: the logs are bounded by that (see
+    /// [`Records::push_level`]), half the memory of `usize`.
+    moved_at: Vec<u32>,
+    rw_at: Vec<u32>,
+    at0: usize,
     /// `(vertex, new ^ old code)` per moved vertex, record by record (see
     /// [`MeshState::apply_delta_logged`]: one delta moves either way).
     moved: Vec<codec::MoveDelta>,
-    rw_at: Vec<usize>,
     /// `(slot, new ^ old quad)` per rewritten slot.
     rw: Vec<codec::RewriteDelta>,
     /// Codes of vertices `base_v..`, and quads of slots `base_f..`.
@@ -270,8 +278,8 @@ impl Records {
     /// memory an earlier mesh used (a process decoding more than once, as
     /// `decode_loop` does) each new line was in no cache and the pushes
     /// waited for it: the bunny's forward-only loop took 11 % less time
-    /// with these hints (`moved_at` and `rw_at`, 8 bytes an entry, most of
-    /// it). A fresh process's pages come zeroed, already cached, and a
+    /// with these hints (`moved_at` and `rw_at`, then 8 bytes an entry,
+    /// most of it). A fresh process's pages come zeroed, already cached, and a
     /// hint to a page not yet mapped is dropped: its one decode measured
     /// even. The logs (`rw`, `new_pos`, `appended`) gained nothing: the
     /// general decoder's large logs are fresh pages each decode.
@@ -280,18 +288,62 @@ impl Records {
         codec::prefetch(&self.op, self.op.len() + 256);
         codec::prefetch(&self.v_at, self.v_at.len() + 64);
         codec::prefetch(&self.f_at, self.f_at.len() + 64);
-        codec::prefetch(&self.moved_at, self.moved_at.len() + 32);
-        codec::prefetch(&self.rw_at, self.rw_at.len() + 32);
+        codec::prefetch(&self.moved_at, self.moved_at.len() + 64);
+        codec::prefetch(&self.rw_at, self.rw_at.len() + 64);
     }
 
-    /// Room for `records` more records adding `vertices` vertices and
-    /// `faces` appended quads.
-    fn reserve(&mut self, records: usize, vertices: usize, faces: usize) {
+    /// Start of level `k`'s entries in `moved` (0 before `at0`).
+    #[inline]
+    fn moved_at(&self, k: usize) -> usize {
+        k.checked_sub(self.at0)
+            .and_then(|i| self.moved_at.get(i))
+            .map_or(0, |&x| x as usize)
+    }
+
+    /// Start of level `k`'s entries in `rw` (0 before `at0`).
+    #[inline]
+    fn rw_at(&self, k: usize) -> usize {
+        k.checked_sub(self.at0)
+            .and_then(|i| self.rw_at.get(i))
+            .map_or(0, |&x| x as usize)
+    }
+
+    /// Record `k`'s moved-vertex entries.
+    fn moved_of(&self, k: usize) -> &[codec::MoveDelta] {
+        &self.moved[self.moved_at(k)..self.moved_at(k + 1)]
+    }
+
+    /// Record `k`'s rewritten-slot entries.
+    fn rw_of(&self, k: usize) -> &[codec::RewriteDelta] {
+        &self.rw[self.rw_at(k)..self.rw_at(k + 1)]
+    }
+
+    /// Ends the level of a record just applied to `st`: its counts and
+    /// where its log entries end. `false` (nothing pushed) when a log has
+    /// outgrown the `u32` offsets (4 G entries, beyond any real file; the
+    /// caller undoes the record).
+    #[inline(always)]
+    fn push_level(&mut self, op: OpKind, st: &MeshState) -> bool {
+        let (Ok(m), Ok(w)) = (u32::try_from(self.moved.len()), u32::try_from(self.rw.len()))
+        else {
+            return false;
+        };
+        self.op.push(op);
+        self.v_at.push(st.q.len() as u32);
+        self.f_at.push(st.quads.len() as u32);
+        self.moved_at.push(m);
+        self.rw_at.push(w);
+        true
+    }
+
+    /// Room for `records` more records (`at_records` more in the log
+    /// offsets) adding `vertices` vertices and `faces` appended quads.
+    fn reserve(&mut self, records: usize, at_records: usize, vertices: usize, faces: usize) {
         self.op.reserve(records);
         self.v_at.reserve(records);
         self.f_at.reserve(records);
-        self.moved_at.reserve(records);
-        self.rw_at.reserve(records);
+        self.moved_at.reserve(at_records);
+        self.rw_at.reserve(at_records);
         self.new_pos.reserve(vertices);
         self.appended.reserve(faces);
     }
@@ -888,7 +940,7 @@ impl Decoder {
         // Room for the finest level up front: the header's counts were
         // checked against the limits, and what is reserved here (80 bytes
         // per vertex — 44 of them the frontier's codes and corner block —,
-        // 48 per face, 25 per record; the frontier's overflow lists add at
+        // 48 per face, 17 per record; the frontier's overflow lists add at
         // most 4 per vertex and 32 per face) stays within
         // `Limits::estimate`. Growing these lists chunk by chunk copied them
         // ~log2(final / base) times. Untouched capacity is address space,
@@ -898,10 +950,12 @@ impl Decoder {
             (h.final_face_count - h.base_face_count) as usize,
         );
         st.reserve(nv, nf);
+        let n_rec = h.record_count as usize + 1;
         if self.forward_only {
-            self.recs.reserve(h.record_count as usize + 1, 0, 0);
+            // Its log offsets cover one chunk at a time.
+            self.recs.reserve(n_rec, 0, 0, 0);
         } else {
-            self.recs.reserve(h.record_count as usize + 1, nv, nf);
+            self.recs.reserve(n_rec, n_rec, nv, nf);
         }
         let mut q = Vec::with_capacity(st.q.len() + nv);
         q.extend_from_slice(&st.q);
@@ -976,10 +1030,13 @@ impl Decoder {
         r.rw.clear();
         r.new_pos.clear();
         r.appended.clear();
-        // The chunk's own entries (those before it are 0 already).
-        let k0 = self.chunk_levels.iter().rev().nth(1).copied().unwrap_or(0);
-        r.moved_at[k0..].fill(0);
-        r.rw_at[k0..].fill(0);
+        // The log offsets restart at the committed level: no level before
+        // it has entries now.
+        r.at0 = r.op.len();
+        for at in [&mut r.moved_at, &mut r.rw_at] {
+            at.clear();
+            at.push(0);
+        }
     }
 
     /// Decompresses chunk `i` into `payload` and decodes its records
@@ -1018,9 +1075,9 @@ impl Decoder {
             .saturating_sub(st.quads.len())
             .min(cap);
         if self.forward_only {
-            r.reserve(n_rec, 0, 0);
+            r.reserve(n_rec, n_rec, 0, 0);
         } else {
-            r.reserve(n_rec, n_v, n_f);
+            r.reserve(n_rec, n_rec, n_v, n_f);
         }
         st.reserve(n_v, n_f);
         let result = Self::decode_chunk_records(
@@ -1040,16 +1097,18 @@ impl Decoder {
                 st.undo_deltas(
                     r.v_at[k] as usize,
                     r.f_at[k] as usize,
-                    &r.moved[r.moved_at[k]..r.moved_at[k + 1]],
-                    &r.rw[r.rw_at[k]..r.rw_at[k + 1]],
+                    r.moved_of(k),
+                    r.rw_of(k),
                 );
             }
             r.op.truncate(k0);
             for at in [&mut r.v_at, &mut r.f_at] {
                 at.truncate(k0 + 1);
             }
-            r.moved_at.truncate(k0 + 1);
-            r.rw_at.truncate(k0 + 1);
+            // `at0 <= k0`: the chunk's levels are covered.
+            for at in [&mut r.moved_at, &mut r.rw_at] {
+                at.truncate(k0 + 1 - r.at0);
+            }
             r.moved.truncate(lens.0);
             r.rw.truncate(lens.1);
             r.new_pos.truncate(lens.2);
@@ -1108,11 +1167,23 @@ impl Decoder {
                 record: first_record + t,
                 message,
             })?;
-            r.op.push(rec.op);
-            r.v_at.push(st.q.len() as u32);
-            r.f_at.push(st.quads.len() as u32);
-            r.moved_at.push(r.moved.len());
-            r.rw_at.push(r.rw.len());
+            if !r.push_level(rec.op, st) {
+                // A log past 4 G entries: this record is undone here (it
+                // has no level; the caller rolls back the others).
+                let k = r.op.len();
+                let (m0, w0) = (r.moved_at(k), r.rw_at(k));
+                st.undo_deltas(
+                    r.v_at[k] as usize,
+                    r.f_at[k] as usize,
+                    &r.moved[m0..],
+                    &r.rw[w0..],
+                );
+                return Err(FormatError::BadRecord {
+                    chunk: i,
+                    record: first_record + t,
+                    message: "the undo log exceeds 2^32 entries".into(),
+                });
+            }
         }
         for s in rd.iter() {
             if s.remaining() != 0 {
@@ -1381,7 +1452,7 @@ impl Decoder {
                 && st.quads.len() == f_to as usize
                 && (self.forward_only
                     || self.copy_policy.copies(
-                        (r.rw_at[to] - r.rw_at[from]) + (r.moved_at[to] - r.moved_at[from]),
+                        (r.rw_at(to) - r.rw_at(from)) + (r.moved_at(to) - r.moved_at(from)),
                         (v_from + f_from) as usize,
                     ))
         });
@@ -1395,12 +1466,12 @@ impl Decoder {
             // Forward-only: the dropped logs' ids, kept per chunk.
             moved.append(&mut self.pending_moved);
             rewritten.append(&mut self.pending_rw);
-            for &(v, _) in &r.moved[r.moved_at[from]..r.moved_at[to]] {
+            for &(v, _) in &r.moved[r.moved_at(from)..r.moved_at(to)] {
                 if v < v_from {
                     moved.push(v);
                 }
             }
-            for &(s, _) in &r.rw[r.rw_at[from]..r.rw_at[to]] {
+            for &(s, _) in &r.rw[r.rw_at(from)..r.rw_at(to)] {
                 if s < f_from {
                     rewritten.push(s);
                 }
@@ -1424,7 +1495,7 @@ impl Decoder {
                 // long refinement.
                 // The level holds each entry's old value: the delta gives
                 // the new one.
-                for &(v, d) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
+                for &(v, d) in r.moved_of(k) {
                     let p = codec::xor3(self.q[v as usize], d);
                     self.q[v as usize] = p;
                     self.pos[v as usize] = f32_of(p);
@@ -1432,7 +1503,7 @@ impl Decoder {
                         moved.push(v);
                     }
                 }
-                for &(s, d) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
+                for &(s, d) in r.rw_of(k) {
                     let q = &mut self.quads[s as usize];
                     *q = codec::xor4(*q, d);
                     if s < f_from {
@@ -1450,7 +1521,7 @@ impl Decoder {
                 self.quads.truncate(r.f_at[k] as usize);
                 // The level holds each entry's new value: the delta gives
                 // the old one.
-                for &(v, d) in r.moved[r.moved_at[k]..r.moved_at[k + 1]].iter().rev() {
+                for &(v, d) in r.moved_of(k).iter().rev() {
                     let o = codec::xor3(self.q[v as usize], d);
                     self.q[v as usize] = o;
                     self.pos[v as usize] = f32_of(o);
@@ -1458,7 +1529,7 @@ impl Decoder {
                         moved.push(v);
                     }
                 }
-                for &(s, d) in r.rw[r.rw_at[k]..r.rw_at[k + 1]].iter().rev() {
+                for &(s, d) in r.rw_of(k).iter().rev() {
                     let q = &mut self.quads[s as usize];
                     *q = codec::xor4(*q, d);
                     if s < f_to {
@@ -1660,12 +1731,12 @@ impl Decoder {
         let mut q = st.q[..bv].to_vec();
         let mut quads = st.quads[..bf].to_vec();
         for k in (0..r.op.len()).rev() {
-            for &(v, d) in &r.moved[r.moved_at[k]..r.moved_at[k + 1]] {
+            for &(v, d) in r.moved_of(k) {
                 if (v as usize) < bv {
                     q[v as usize] = codec::xor3(q[v as usize], d);
                 }
             }
-            for &(s, d) in &r.rw[r.rw_at[k]..r.rw_at[k + 1]] {
+            for &(s, d) in r.rw_of(k) {
                 if (s as usize) < bf {
                     quads[s as usize] = codec::xor4(quads[s as usize], d);
                 }
@@ -1678,7 +1749,8 @@ impl Decoder {
             let new_pos = &r.new_pos[(r.v_at[k] as usize - bv)..(r.v_at[k + 1] as usize - bv)];
             let appended = &r.appended[(r.f_at[k] as usize - bf)..(r.f_at[k + 1] as usize - bf)];
             q.extend_from_slice(new_pos);
-            let moved = r.moved[r.moved_at[k]..r.moved_at[k + 1]]
+            let moved = r
+                .moved_of(k)
                 .iter()
                 .map(|&(v, d)| {
                     let p = codec::xor3(q[v as usize], d);
@@ -1686,7 +1758,8 @@ impl Decoder {
                     (v, dq(p))
                 })
                 .collect();
-            let mut rewritten: Vec<(u32, [u32; 4])> = r.rw[r.rw_at[k]..r.rw_at[k + 1]]
+            let mut rewritten: Vec<(u32, [u32; 4])> = r
+                .rw_of(k)
                 .iter()
                 .map(|&(s, d)| {
                     let n = codec::xor4(quads[s as usize], d);
