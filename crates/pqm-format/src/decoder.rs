@@ -9,9 +9,11 @@
 //! Internally the decoder keeps two meshes: the *frontier* (the deepest
 //! decoded level, with vertex→face adjacency, needed to decode the next
 //! record) and the *current* level the caller sees. Every decoded record is
-//! stored in explicit form together with its undo data (old positions of
-//! moved vertices, old contents of rewritten slots), so moving between levels
-//! never re-decodes anything.
+//! stored as its undo data (`new ^ old` of its moved vertices and rewritten
+//! slots) and its counts; its new vertices and quads are the frontier's
+//! until a replay below the deepest level first needs them (then unwound
+//! from the frontier once), so moving between levels never re-decodes
+//! anything.
 //!
 //! Every count and index in the input is checked before it is used or
 //! allocated for; claims in the header and chunk table are checked against
@@ -266,9 +268,17 @@ struct Records {
     moved: Vec<codec::MoveDelta>,
     /// `(slot, new ^ old quad)` per rewritten slot.
     rw: Vec<codec::RewriteDelta>,
-    /// Codes of vertices `base_v..`, and quads of slots `base_f..`.
+    /// Codes of vertices `base_v..v_at[kept]` and quads of slots
+    /// `base_f..f_at[kept]` as their records made them: what a replay to a
+    /// level below the deepest appends. Not written while decoding (on the
+    /// bunny 5.8 MB a decode, with a page fault per 4 KiB, for a level that
+    /// a refinement to the deepest level copies from the frontier
+    /// instead): the first such replay unwinds them from the frontier
+    /// ([`Decoder::unwound`]) for every record decoded so far.
     new_pos: Vec<[u32; 3]>,
     appended: Vec<[u32; 4]>,
+    /// Records `0..kept` have their entries in `new_pos` and `appended`.
+    kept: usize,
 }
 
 impl Records {
@@ -281,8 +291,8 @@ impl Records {
     /// with these hints (`moved_at` and `rw_at`, then 8 bytes an entry,
     /// most of it). A fresh process's pages come zeroed, already cached, and a
     /// hint to a page not yet mapped is dropped: its one decode measured
-    /// even. The logs (`rw`, `new_pos`, `appended`) gained nothing: the
-    /// general decoder's large logs are fresh pages each decode.
+    /// even. The logs (`moved`, `rw`) gained nothing: the general
+    /// decoder's large logs are fresh pages each decode.
     #[inline(always)]
     fn prefetch_tail(&self) {
         codec::prefetch(&self.op, self.op.len() + 256);
@@ -324,8 +334,10 @@ impl Records {
     /// caller undoes the record).
     #[inline(always)]
     fn push_level(&mut self, op: OpKind, st: &MeshState) -> bool {
-        let (Ok(m), Ok(w)) = (u32::try_from(self.moved.len()), u32::try_from(self.rw.len()))
-        else {
+        let (Ok(m), Ok(w)) = (
+            u32::try_from(self.moved.len()),
+            u32::try_from(self.rw.len()),
+        ) else {
             return false;
         };
         self.op.push(op);
@@ -337,17 +349,31 @@ impl Records {
     }
 
     /// Room for `records` more records (`at_records` more in the log
-    /// offsets) adding `vertices` vertices and `faces` appended quads.
-    fn reserve(&mut self, records: usize, at_records: usize, vertices: usize, faces: usize) {
+    /// offsets).
+    fn reserve(&mut self, records: usize, at_records: usize) {
         self.op.reserve(records);
         self.v_at.reserve(records);
         self.f_at.reserve(records);
         self.moved_at.reserve(at_records);
         self.rw_at.reserve(at_records);
-        self.new_pos.reserve(vertices);
-        self.appended.reserve(faces);
     }
 }
+
+/// `frontier` when it is level `to` of `r` (the deepest decoded one).
+fn frontier_at<'a>(
+    frontier: &'a Option<MeshState>,
+    r: &Records,
+    to: usize,
+) -> Option<&'a MeshState> {
+    frontier.as_ref().filter(|st| {
+        to + 1 == r.v_at.len()
+            && st.q.len() == r.v_at[to] as usize
+            && st.quads.len() == r.f_at[to] as usize
+    })
+}
+
+/// Codes and quads of [`Decoder::unwound`].
+type UnwoundIds = (Vec<[u32; 3]>, Vec<[u32; 4]>);
 
 /// The push decoder (see the module docs).
 pub struct Decoder {
@@ -938,9 +964,9 @@ impl Decoder {
         let mut st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
             .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
         // Room for the finest level up front: the header's counts were
-        // checked against the limits, and what is reserved here (80 bytes
+        // checked against the limits, and what is reserved here (68 bytes
         // per vertex — 44 of them the frontier's codes and corner block —,
-        // 48 per face, 17 per record; the frontier's overflow lists add at
+        // 32 per face, 17 per record; the frontier's overflow lists add at
         // most 4 per vertex and 32 per face) stays within
         // `Limits::estimate`. Growing these lists chunk by chunk copied them
         // ~log2(final / base) times. Untouched capacity is address space,
@@ -953,9 +979,9 @@ impl Decoder {
         let n_rec = h.record_count as usize + 1;
         if self.forward_only {
             // Its log offsets cover one chunk at a time.
-            self.recs.reserve(n_rec, 0, 0, 0);
+            self.recs.reserve(n_rec, 0);
         } else {
-            self.recs.reserve(n_rec, n_rec, nv, nf);
+            self.recs.reserve(n_rec, n_rec);
         }
         let mut q = Vec::with_capacity(st.q.len() + nv);
         q.extend_from_slice(&st.q);
@@ -1028,8 +1054,6 @@ impl Decoder {
         }
         r.moved.clear();
         r.rw.clear();
-        r.new_pos.clear();
-        r.appended.clear();
         // The log offsets restart at the committed level: no level before
         // it has entries now.
         r.at0 = r.op.len();
@@ -1061,7 +1085,7 @@ impl Decoder {
             .ok_or_else(|| DecodeError::Internal("no frontier".into()))?;
         let r = &mut self.recs;
         let k0 = r.op.len();
-        let lens = (r.moved.len(), r.rw.len(), r.new_pos.len(), r.appended.len());
+        let lens = (r.moved.len(), r.rw.len());
         // Room for the chunk as the table states it, but never more than its
         // payload could hold (every record, new vertex and appended face
         // takes at least one byte): a hostile table cannot make this
@@ -1074,11 +1098,7 @@ impl Decoder {
         let n_f = (info.face_count as usize)
             .saturating_sub(st.quads.len())
             .min(cap);
-        if self.forward_only {
-            r.reserve(n_rec, n_rec, 0, 0);
-        } else {
-            r.reserve(n_rec, n_rec, n_v, n_f);
-        }
+        r.reserve(n_rec, n_rec);
         st.reserve(n_v, n_f);
         let result = Self::decode_chunk_records(
             i,
@@ -1090,7 +1110,6 @@ impl Decoder {
             r,
             &mut self.rec,
             &mut self.buffers,
-            self.forward_only,
         );
         if result.is_err() {
             for k in (k0..r.op.len()).rev() {
@@ -1111,8 +1130,6 @@ impl Decoder {
             }
             r.moved.truncate(lens.0);
             r.rw.truncate(lens.1);
-            r.new_pos.truncate(lens.2);
-            r.appended.truncate(lens.3);
         }
         self.frontier = Some(st);
         Ok(result?)
@@ -1133,7 +1150,6 @@ impl Decoder {
         r: &mut Records,
         rec: &mut codec::QRecord,
         buffers: &mut codec::DecodeScratch,
-        forward_only: bool,
     ) -> Result<(), FormatError> {
         let mut cur = Cursors::default();
         // On a large mesh, the lines the next records' levels go to
@@ -1158,9 +1174,9 @@ impl Decoder {
                 &mut r.moved,
                 &mut r.rw,
                 // The explicit new vertices and quads serve only a replay
-                // onto the current level; a forward-only decoder copies the
-                // frontier instead, so it does not keep them.
-                (!forward_only).then_some((&mut r.new_pos, &mut r.appended)),
+                // below the deepest level: unwound from the frontier when
+                // one first needs them (`Records::new_pos`).
+                None,
             )
             .map_err(|message| FormatError::BadRecord {
                 chunk: i,
@@ -1420,6 +1436,50 @@ impl Decoder {
         self.shared = false;
     }
 
+    /// The codes of vertices `v0..` and quads of slots `f0..` with records
+    /// `k0..` (to the deepest level) undone from the frontier, ids below
+    /// `v0` / `f0` left out: a vertex or slot that existed at level `k0`
+    /// gets its value there; one made by record `k >= k0` its value as
+    /// that record made it (no earlier record touches it), what a replay
+    /// appends. `None` before the base mesh.
+    fn unwound(&self, v0: usize, f0: usize, k0: usize) -> Option<UnwoundIds> {
+        let r = &self.recs;
+        let st = self.frontier.as_ref()?;
+        let mut q = st.q.get(v0..)?.to_vec();
+        let mut quads = st.quads.get(f0..)?.to_vec();
+        for k in (k0..r.op.len()).rev() {
+            for &(v, d) in r.moved_of(k).iter().rev() {
+                if let Some(c) = (v as usize).checked_sub(v0).and_then(|i| q.get_mut(i)) {
+                    *c = codec::xor3(*c, d);
+                }
+            }
+            for &(s, d) in r.rw_of(k).iter().rev() {
+                if let Some(c) = (s as usize).checked_sub(f0).and_then(|i| quads.get_mut(i)) {
+                    *c = codec::xor4(*c, d);
+                }
+            }
+        }
+        Some((q, quads))
+    }
+
+    /// Appends the new codes and quads of records `kept..` (to the deepest
+    /// level) to `recs.new_pos` / `recs.appended`, unwound from the
+    /// frontier: once for the records decoded so far, on the first replay
+    /// that needs them.
+    fn keep_records(&mut self) -> Result<(), DecodeError> {
+        let r = &self.recs;
+        let k0 = r.kept;
+        let (v0, f0) = (r.v_at[k0] as usize, r.f_at[k0] as usize);
+        let (q, quads) = self
+            .unwound(v0, f0, k0)
+            .ok_or_else(|| DecodeError::Internal("no frontier to unwind".into()))?;
+        let r = &mut self.recs;
+        r.new_pos.extend_from_slice(&q);
+        r.appended.extend_from_slice(&quads);
+        r.kept = r.op.len();
+        Ok(())
+    }
+
     fn go_to(&mut self, to: usize) -> Result<Change, DecodeError> {
         if to != self.level {
             // Only a move away from the deepest level reaches here while
@@ -1427,10 +1487,19 @@ impl Decoder {
             self.unshare();
         }
         let from = self.level;
-        let r = &self.recs;
-        if to >= r.v_at.len() {
+        if to >= self.recs.v_at.len() {
             return Err(DecodeError::Internal(format!("level {to} not decoded")));
         }
+        if to > from
+            && to > self.recs.kept
+            && frontier_at(&self.frontier, &self.recs, to).is_none()
+            && !self.forward_only
+        {
+            // A replay below the deepest level needs the new codes and
+            // quads of its records.
+            self.keep_records()?;
+        }
+        let r = &self.recs;
         let (v_from, v_to) = (r.v_at[from], r.v_at[to]);
         let (f_from, f_to) = (r.f_at[from], r.f_at[to]);
         let (bv, bf) = (r.v_at[0], r.f_at[0]);
@@ -1446,15 +1515,13 @@ impl Decoder {
         // same level and the same `Change` (test `frontier_copy_equals_replay`);
         // the copy is taken when the records to replay write more entries
         // than a sixteenth of the level holds.
-        let frontier = self.frontier.as_ref().filter(|st| {
-            to + 1 == r.v_at.len()
-                && st.q.len() == v_to as usize
-                && st.quads.len() == f_to as usize
-                && (self.forward_only
-                    || self.copy_policy.copies(
-                        (r.rw_at(to) - r.rw_at(from)) + (r.moved_at(to) - r.moved_at(from)),
-                        (v_from + f_from) as usize,
-                    ))
+        let at_to = frontier_at(&self.frontier, r, to);
+        let frontier = at_to.filter(|_| {
+            self.forward_only
+                || self.copy_policy.copies(
+                    (r.rw_at(to) - r.rw_at(from)) + (r.moved_at(to) - r.moved_at(from)),
+                    (v_from + f_from) as usize,
+                )
         });
         if self.forward_only && to != from && (to < from || frontier.is_none()) {
             return Err(DecodeError::Parameter(format!(
@@ -1483,9 +1550,37 @@ impl Decoder {
                 .extend(st.q[v_from as usize..].iter().map(|&c| f32_of(c)));
             // The codes and quads are the frontier's (see `shared`).
             self.shared = true;
+        } else if let (true, Some(st)) = (to > from, at_to) {
+            // A short refinement to the deepest level: the records' writes
+            // to what the caller has, replayed; the new vertices and quads
+            // are the frontier's (their values at this level).
+            self.q.extend_from_slice(&st.q[v_from as usize..]);
+            self.pos
+                .extend(st.q[v_from as usize..].iter().map(|&c| f32_of(c)));
+            self.quads.extend_from_slice(&st.quads[f_from as usize..]);
+            for k in from..to {
+                for &(v, d) in r.moved_of(k) {
+                    if v < v_from {
+                        let p = codec::xor3(self.q[v as usize], d);
+                        self.q[v as usize] = p;
+                        self.pos[v as usize] = f32_of(p);
+                        moved.push(v);
+                    }
+                }
+                for &(s, d) in r.rw_of(k) {
+                    if s < f_from {
+                        let q = &mut self.quads[s as usize];
+                        *q = codec::xor4(*q, d);
+                        rewritten.push(s);
+                    }
+                }
+            }
         } else if to > from {
             let nv = (v_to - bv) as usize;
-            let new = &r.new_pos[(v_from - bv) as usize..nv];
+            let new = r
+                .new_pos
+                .get((v_from - bv) as usize..nv)
+                .ok_or_else(|| DecodeError::Internal("replay past the kept records".into()))?;
             self.q.extend_from_slice(new);
             self.pos.extend(new.iter().map(|&c| f32_of(c)));
             for k in from..to {
@@ -1510,8 +1605,11 @@ impl Decoder {
                         rewritten.push(s);
                     }
                 }
+                let app = (r.f_at[k] - bf) as usize..(r.f_at[k + 1] - bf) as usize;
                 self.quads.extend_from_slice(
-                    &r.appended[(r.f_at[k] - bf) as usize..(r.f_at[k + 1] - bf) as usize],
+                    r.appended.get(app).ok_or_else(|| {
+                        DecodeError::Internal("replay past the kept records".into())
+                    })?,
                 );
             }
         } else if to < from {
@@ -1725,29 +1823,17 @@ impl Decoder {
         let r = &self.recs;
         let (bv, bf) = (*r.v_at.first()? as usize, *r.f_at.first()? as usize);
         let dq = |c: [u32; 3]| quant.dequantize_vec(c);
-        // Level 0 contents: undo every decoded record from the frontier
-        // (the logs hold deltas: only the base's ids are kept here).
-        let st = self.frontier.as_ref()?;
-        let mut q = st.q[..bv].to_vec();
-        let mut quads = st.quads[..bf].to_vec();
-        for k in (0..r.op.len()).rev() {
-            for &(v, d) in r.moved_of(k) {
-                if (v as usize) < bv {
-                    q[v as usize] = codec::xor3(q[v as usize], d);
-                }
-            }
-            for &(s, d) in r.rw_of(k) {
-                if (s as usize) < bf {
-                    quads[s as usize] = codec::xor4(quads[s as usize], d);
-                }
-            }
-        }
+        // Every record undone from the frontier: level 0's codes and quads,
+        // then each record's new ones as it made them.
+        let (all_q, all_quads) = self.unwound(0, 0, 0)?;
+        let mut q = all_q[..bv].to_vec();
+        let mut quads = all_quads[..bf].to_vec();
         let base = IndexedMesh::from_faces(q.iter().map(|&c| dq(c)).collect(), quads.iter());
         // The records' explicit new codes and quads: a replay from level 0.
         let mut records = Vec::with_capacity(r.op.len());
         for k in 0..r.op.len() {
-            let new_pos = &r.new_pos[(r.v_at[k] as usize - bv)..(r.v_at[k + 1] as usize - bv)];
-            let appended = &r.appended[(r.f_at[k] as usize - bf)..(r.f_at[k + 1] as usize - bf)];
+            let new_pos = &all_q[r.v_at[k] as usize..r.v_at[k + 1] as usize];
+            let appended = &all_quads[r.f_at[k] as usize..r.f_at[k + 1] as usize];
             q.extend_from_slice(new_pos);
             let moved = r
                 .moved_of(k)

@@ -321,6 +321,63 @@ proptest! {
     }
 }
 
+/// Levels below the deepest one while the file streams in: a replay there
+/// uses the records' new codes and quads, which the decoder unwinds from
+/// the frontier on the first such replay and again for the chunks decoded
+/// after it (`Records::kept`); a refinement to the deepest level takes the
+/// frontier's. Every level equals the reference, every `Change` keeps a
+/// shadow of the buffers equal, and `to_progressive_mesh` rebuilds the
+/// same levels at any point.
+#[test]
+fn replays_below_the_deepest_level_while_streaming() {
+    for seed in 0..8u64 {
+        let mut pm = testgen::generate(seed, 150);
+        pqm_format::vectors::add_face_splits(&mut pm, 20, seed);
+        pqm_format::vectors::add_edge_splits(&mut pm, 10, seed);
+        let opts = EncodeOptions {
+            chunk_records: Some(13),
+            ..EncodeOptions::default()
+        };
+        let bytes = encode(&pm, &opts);
+        let q = expected_quantizer(&pm, opts.bits);
+        let mut dec = Decoder::new(Limits::default());
+        let mut shadow: Option<Shadow> = None;
+        let mut rng = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+        let mut next = move |n: usize| {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng % n as u64) as usize
+        };
+        let step = 1 + seed as usize * 97 % 400;
+        for at in (0..bytes.len()).step_by(step) {
+            dec.push(&bytes[at..(at + step).min(bytes.len())]).unwrap();
+            let Some(deepest) = dec.deepest_level() else {
+                continue;
+            };
+            let sh = shadow.get_or_insert_with(|| Shadow {
+                pos: dec.positions().to_vec(),
+                tris: dec.triangle_indices(),
+            });
+            for k in [next(deepest + 1), next(deepest + 1), deepest] {
+                let c = dec.set_level(Target::Level(k)).unwrap();
+                assert_level(&dec, &pm, &q, k);
+                sh.apply(&dec, &c);
+                assert_eq!(&sh.pos[..], dec.positions(), "seed {seed} level {k}");
+                assert_eq!(sh.tris, dec.triangle_indices(), "seed {seed} level {k}");
+            }
+            if next(4) == 0 {
+                let back = dec.to_progressive_mesh().unwrap();
+                assert_eq!(back.records.len(), deepest);
+                for k in [0, deepest / 2, deepest] {
+                    assert_eq!(back.level_quads(k).1, pm.level_quads(k).1, "seed {seed}");
+                }
+            }
+        }
+        assert!(dec.status().finished);
+    }
+}
+
 #[test]
 fn one_byte_at_a_time_equals_all_at_once() {
     for seed in 0..6 {
