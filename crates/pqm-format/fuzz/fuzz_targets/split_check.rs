@@ -13,15 +13,19 @@ fn limits() -> Limits {
     }
 }
 
-fn outcome(
-    parts: &[&[u8]],
-) -> (
+/// What [`outcome`] observes: whether every push succeeded, the events,
+/// the deepest level, its mesh, and the mesh of the level halfway.
+type Outcome = (
     bool,
     Vec<pqm_format::Event>,
     Option<usize>,
     Vec<[u32; 4]>,
     Vec<[u32; 3]>,
-) {
+    Vec<[u32; 4]>,
+    Vec<[u32; 3]>,
+);
+
+fn outcome(parts: &[&[u8]]) -> Outcome {
     let mut d = Decoder::new(limits());
     let mut events = Vec::new();
     let mut ok = true;
@@ -35,13 +39,18 @@ fn outcome(
         }
     }
     let _ = d.status();
-    if d.deepest_level().is_some() {
+    let mut mid = (Vec::new(), Vec::new());
+    if let Some(deepest) = d.deepest_level() {
         let c = d
             .set_level(Target::Level(usize::MAX))
             .expect("reachable level");
         assert_eq!(Some(c.to_level), d.deepest_level());
         let back = d.set_level(Target::Level(0)).expect("level 0");
         assert_eq!(back.to_level, 0);
+        // A replay below the deepest level (the records' new codes and
+        // quads unwound from the frontier), then up again.
+        d.set_level(Target::Level(deepest / 2)).expect("level halfway");
+        mid = (d.quads().to_vec(), d.position_codes().to_vec());
         d.set_level(Target::Level(usize::MAX))
             .expect("refine again");
     }
@@ -51,6 +60,8 @@ fn outcome(
         d.deepest_level(),
         d.quads().to_vec(),
         d.position_codes().to_vec(),
+        mid.0,
+        mid.1,
     )
 }
 
@@ -104,6 +115,8 @@ pub fn check_pieces(bytes: &[u8], cuts: &[usize]) {
     assert_eq!(whole.2, split.2);
     assert_eq!(whole.3, split.3);
     assert_eq!(whole.4, split.4);
+    assert_eq!(whole.5, split.5);
+    assert_eq!(whole.6, split.6);
     // The one-way decoder keeps the same deepest level, error or not.
     let fwd = forward(&parts);
     assert_eq!(whole.0, fwd.0);
