@@ -7,6 +7,12 @@
 //! codes, so that an A/B pair of builds can be checked to decode the same
 //! mesh.
 //!
+//! The figure depends on the heap layout, which the executable's name moves
+//! (`std::env::args` allocates it): one build measured makehuman
+//! forward-only 2.38 ms under one name and 2.72 ms under another of other
+//! length, reproducibly. Compare builds under several name lengths (copies
+//! named `z`, `zz`, … alternated; `docs/figures-history.md`, session 12).
+//!
 //! With `forward` after `N` the decoder is [`Decoder::forward_only`] (no
 //! undo data: one-way decoding). With `order` the timed part also asks for
 //! the vertex order ([`Decoder::vertex_order`], which decodes the `VORD` /
