@@ -1267,6 +1267,54 @@ function canonicalStar(st, m, sc) {
   // interior with start 0 — exactly what the rewind and walk below give.
   // Otherwise (a boundary, or a reject) they run as specified.
   const sList = sc.list;
+  if (K <= INLINE) {
+    // The same fast path with succ from a table instead of a scan of the
+    // K faces per step (K² / 2 compares, each step's exit a mispredict):
+    // face j under the hash of n(j), stamped with this walk's generation.
+    // Two faces under one hash (a shared n, or a collision: ≈ 7 % of
+    // stars of 6 faces) leave the table incomplete: the scan below runs
+    // instead. Small stars only (K ≤ INLINE: 256 buckets hold them with
+    // few collisions). Same-window A/B, separate processes, B / A time by
+    // median (minimum): bunny 0.963 (0.954) and 0.994 (0.967), loki 0.946
+    // (0.982), makehuman 0.964 (0.978), spot 0.957 (0.966).
+    if (++sc.gen === 0x7fffffff) {
+      sc.gen = 1;
+      sc.inWalk.fill(0);
+      succGen.fill(0);
+    }
+    const gen = sc.gen;
+    let ok = true;
+    for (let j = 0; j < K; j++) {
+      const n = sN[j];
+      const h = Math.imul(n, 0x9e3779b1) >>> 24;
+      ok = ok && succGen[h] !== gen;
+      succGen[h] = gen;
+      succKey[h] = n;
+      succFace[h] = j;
+    }
+    if (ok) {
+      let last = 0;
+      let len = 1;
+      sList[0] = 0;
+      for (;;) {
+        const p = sP[last];
+        const h = Math.imul(p, 0x9e3779b1) >>> 24;
+        if (succGen[h] !== gen || succKey[h] !== p) break;
+        const g = succFace[h];
+        if (g === 0) {
+          if (len === K) {
+            sc.K = K;
+            sc.boundary = false;
+            return K;
+          }
+          break;
+        }
+        if (len === K) break;
+        sList[len++] = g;
+        last = g;
+      }
+    }
+  }
   {
     // succ is a function, so a walk from 0 that comes back to 0 is a cycle
     // of distinct faces: back to 0 after exactly K steps means all K faces
@@ -1351,6 +1399,12 @@ function canonicalStar(st, m, sc) {
   sc.boundary = boundary;
   return K;
 }
+
+// canonicalStar's succ table: per hash of a vertex id, the walk generation
+// that wrote it, the id and the face of the star whose n(f) it is
+const succGen = new Int32Array(256);
+const succKey = new Int32Array(256);
+const succFace = new Int32Array(256);
 
 // Star scratch of the split, face-split and edge-split forms (the edge
 // split needs two stars at once).
