@@ -361,9 +361,11 @@ const RW_PER_APP = 3.5;
  * @param {number} nv base_vertex_count
  * @param {number} nf base_face_count
  * @param {number} qmax
+ * @param {number} [capV=nv] vertices to make room for (≥ nv)
+ * @param {number} [capF=nf] slots to make room for (≥ nf)
  * @returns {Frontier}
  */
-export function decodeBase(payload, nv, nf, qmax) {
+export function decodeBase(payload, nv, nf, qmax, capV = nv, capF = nf) {
   const section = 'base mesh';
   // Every corner and coordinate takes at least one byte.
   if (4 * nf + 3 * nv > payload.length) {
@@ -373,8 +375,8 @@ export function decodeBase(payload, nv, nf, qmax) {
     );
   }
   const st = new Frontier();
-  st.q = new Int32Array(16 * nv);
-  st.f = new Uint32Array(4 * nf);
+  st.q = new Int32Array(16 * Math.max(nv, capV));
+  st.f = new Uint32Array(4 * Math.max(nf, capF));
   const r = new Reader(payload, 0, payload.length, 'base');
   try {
     let prev = 0;

@@ -592,7 +592,15 @@ export class PqmDecoder {
       if (typeof e === 'string') throw invalid('base mesh', e);
       throw e;
     }
-    const st = decodeBase(payload, nv, nf, 2 ** h.quantBits - 1);
+    // Room for the file's final counts as far as the delivered bytes can
+    // hold them (as _onChunk reserves: memory follows what was delivered),
+    // for the frontier and the current level's codes, positions and
+    // triangles: a whole file is one allocation per array, not a
+    // base-sized one and then a copy into a final-sized one.
+    const got = this._consumed + this._queue.length;
+    const capV = Math.max(nv, Math.min(h.finalVertexCount, got));
+    const capF = Math.max(nf, Math.min(h.finalFaceCount, got));
+    const st = decodeBase(payload, nv, nf, 2 ** h.quantBits - 1, capV, capF);
     st.maxV = h.finalVertexCount;
     st.maxF = h.finalFaceCount;
     this._log.maxLevels = h.recordCount + 1;
@@ -602,16 +610,17 @@ export class PqmDecoder {
     this._nv = nv;
     this._nf = nf;
     // the frontier keeps each code in a 16-int vertex record (codec.js)
-    this._q = new Uint32Array(3 * nv);
+    this._q = new Uint32Array(3 * capV);
     for (let v = 0; v < nv; v++) {
       this._q[3 * v] = st.q[16 * v];
       this._q[3 * v + 1] = st.q[16 * v + 1];
       this._q[3 * v + 2] = st.q[16 * v + 2];
     }
-    this._pos = new Float32Array(3 * nv);
+    this._pos = new Float32Array(3 * capV);
     this._dequantizeInto(this._pos, this._q, 0, nv);
+    // (base-sized: at the final level the quads are the frontier's own)
     this._quads = st.f.slice(0, 4 * nf);
-    this._tris = new Uint32Array(6 * nf);
+    this._tris = new Uint32Array(6 * capF);
     this._writeTrisRange(0, nf);
     this._level = 0;
   }
