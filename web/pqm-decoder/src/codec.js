@@ -432,8 +432,12 @@ class ChunkContext {
     this.log = log;
     this.VF = finalV;
     this.FF = finalF;
-    this.qmax = 2 ** bits - 1;
-    this.half = 2 ** (bits - 1);
+    // As int32 (bits ≤ 24, checked with the header): `2 ** bits` is a
+    // heap number, and through clamp() and readCode it made the code
+    // fields (cx … pz) double fields, each store a boxed float and each
+    // read a conversion.
+    this.qmax = (1 << bits) - 1;
+    this.half = 1 << (bits - 1);
     this.vcur = 0;
     this.scur = 0;
     this.nExtra = 0; // entries of the general form's extra list
