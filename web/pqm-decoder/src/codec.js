@@ -321,6 +321,22 @@ export class RecordLog {
     this.levels = n + 1;
   }
 
+  /** Room for `levels` levels in vAt, fAt (and movedAt, rwAt, ops unless one-way). */
+  reserveLevels(levels) {
+    const n = this.levels;
+    const max = this.maxLevels;
+    if (levels > this.vAt.length) {
+      this.vAt = ensure(this.vAt, levels, n, max);
+      this.fAt = ensure(this.fAt, levels, n, max);
+    }
+    if (this.forward) return;
+    if (levels > this.movedAt.length) {
+      this.movedAt = ensure(this.movedAt, levels, n, max);
+      this.rwAt = ensure(this.rwAt, levels, n, max);
+    }
+    if (levels > this.ops.length) this.ops = ensure(this.ops, levels, this.nRecords, max);
+  }
+
   /**
    * Room for `levels` levels and for the rewritten-slot entries of `nApp`
    * appended quads (the general log's whole `rw` holds every record's, the
@@ -509,17 +525,34 @@ export function decodeChunk(payload, index, info, st, log, h) {
   const nf0 = st.nf;
   let t = 0;
   try {
+    // Room for the chunk's levels once, then one store per array per
+    // record, with no capacity test or call each. (The table's record
+    // counts sum to the header's, so this stays within maxLevels; and
+    // every record takes a byte of the ops stream, so no more than that
+    // is reserved: memory follows the bytes delivered. A chunk that
+    // claims more fails at the end of that stream.)
+    const n0 = log.levels;
+    const nEnd = n0 + info.recordCount;
+    log.reserveLevels(n0 + Math.min(info.recordCount, ctx.ops.remaining()));
+    const vAt = log.vAt;
+    const fAt = log.fAt;
+    const movedAt = log.movedAt;
+    const rwAt = log.rwAt;
+    const ops = log.ops;
+    const r0 = log.nRecords;
     for (; t < info.recordCount; t++) {
       decodeRecord(ctx);
+      const n = n0 + t;
+      vAt[n] = st.nv;
+      fAt[n] = st.nf;
       if (!forward) {
-        if (log.nRecords + 1 > log.ops.length) {
-          log.ops = ensure(log.ops, log.nRecords + 1, log.nRecords, log.maxLevels);
-        }
-        log.ops[log.nRecords] = ctx.lastOp;
+        ops[r0 + t] = ctx.lastOp;
+        movedAt[n] = log.nMoved;
+        rwAt[n] = log.nRw;
       }
-      log.nRecords++;
-      log.pushLevel(st.nv, st.nf);
     }
+    log.levels = nEnd;
+    log.nRecords = r0 + info.recordCount;
     for (const s of streams) {
       if (s.remaining() !== 0) {
         t = -1;
