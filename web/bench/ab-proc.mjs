@@ -24,6 +24,13 @@ if (args[0] === '--child') {
   const [, dir, file, runsArg, fwd] = args;
   const { PqmDecoder } = await import(pathToFileURL(path.join(dir, 'index.js')).href);
   const bytes = new Uint8Array(readFileSync(file));
+  // A push-only decode first, as bench/decode.mjs's probe: without it
+  // most of these processes decoded the small files with ≈ 600–800 fresh
+  // pages from the kernel per decode (glibc returning and re-mapping the
+  // freed arrays' memory, ≈ 3 µs a page on this VM; README, sessions 11
+  // and 12), with it ≈ 0–300: makehuman's per-process medians went from
+  // 1.35–2.02 to 2.34–2.57 M faces/s, same code and window.
+  new PqmDecoder().push(bytes);
   let faces = 0;
   const run = () => {
     const r = timeDecode(PqmDecoder, bytes, fwd === '1');
