@@ -593,10 +593,12 @@ export class PqmDecoder {
       throw e;
     }
     // Room for the file's final counts as far as the delivered bytes can
-    // hold them (as _onChunk reserves: memory follows what was delivered),
-    // for the frontier and the current level's codes, positions and
-    // triangles: a whole file is one allocation per array, not a
-    // base-sized one and then a copy into a final-sized one.
+    // hold them (as _onChunk reserves: memory follows what was delivered)
+    // for the frontier: a whole file is one allocation per frontier array,
+    // not a base-sized one and then a copy into a final-sized one. (The
+    // current level's arrays too, measured: same speed, but bunny decodes
+    // then took 2,200–3,100 fresh pages from the kernel instead of
+    // 1,050–3,000, glibc placing the arrays differently.)
     const got = this._consumed + this._queue.length;
     const capV = Math.max(nv, Math.min(h.finalVertexCount, got));
     const capF = Math.max(nf, Math.min(h.finalFaceCount, got));
@@ -610,17 +612,16 @@ export class PqmDecoder {
     this._nv = nv;
     this._nf = nf;
     // the frontier keeps each code in a 16-int vertex record (codec.js)
-    this._q = new Uint32Array(3 * capV);
+    this._q = new Uint32Array(3 * nv);
     for (let v = 0; v < nv; v++) {
       this._q[3 * v] = st.q[16 * v];
       this._q[3 * v + 1] = st.q[16 * v + 1];
       this._q[3 * v + 2] = st.q[16 * v + 2];
     }
-    this._pos = new Float32Array(3 * capV);
+    this._pos = new Float32Array(3 * nv);
     this._dequantizeInto(this._pos, this._q, 0, nv);
-    // (base-sized: at the final level the quads are the frontier's own)
     this._quads = st.f.slice(0, 4 * nf);
-    this._tris = new Uint32Array(6 * capF);
+    this._tris = new Uint32Array(6 * nf);
     this._writeTrisRange(0, nf);
     this._level = 0;
   }
