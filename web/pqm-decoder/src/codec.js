@@ -1310,7 +1310,7 @@ function canonicalStar(st, m, sc) {
     // The same fast path with succ from a table instead of a scan of the
     // K faces per step (K² / 2 compares, each step's exit a mispredict):
     // face j under the hash of n(j), stamped with this walk's generation.
-    // Two faces under one hash (a shared n, or a collision: ≈ 7 % of
+    // Two faces under one hash (a shared n, or a collision: ≈ 6 % of
     // stars of 6 faces) leave the table incomplete: the scan below runs
     // instead. Small stars only (K ≤ INLINE: 256 buckets hold them with
     // few collisions). Same-window A/B, separate processes, B / A time by
