@@ -104,6 +104,10 @@ for (const file of files) {
     return { push, level };
   };
   warmUp(decodeOnce);
+  // minor page faults of the timed decodes: fresh pages from the kernel,
+  // ≈ 3 µs each on this VM, whose count depends on glibc's state more
+  // than on the decoder (README, sessions 11 and 12)
+  const pf0 = process.resourceUsage().minorPageFault;
   for (let r = 0; r < runs; r++) {
     const { push, level } = decodeOnce();
     m.total.push(push.cpu + level.cpu);
@@ -111,6 +115,7 @@ for (const file of files) {
     m.push.push(push.cpu);
     m.level.push(level.cpu);
   }
+  const faults = (process.resourceUsage().minorPageFault - pf0) / runs;
   for (let r = 0; r < runs; r++) {
     m.zstd.push(
       measure(() => {
@@ -164,16 +169,16 @@ for (const file of files) {
   console.log(`  without zstd: ${mfs(cpu - zstd).toFixed(2)} million faces/s CPU`);
   console.log(`  pushed in 64 KiB pieces: ${median(m.pieces).toFixed(1)} ms wall`);
   const cc = cold.length > 0 ? median(cold.map((x) => x.cpu)) : NaN;
-  summary.push([path.basename(file, '.pqm'), String(faces), mfs(cpu), Math.min(...m.total), mfs(mean), mfs(cc), 100 * (zstd / cpu), 100 * (median(m.level) / cpu)]);
+  summary.push([path.basename(file, '.pqm'), String(faces), mfs(cpu), Math.min(...m.total), mfs(mean), mfs(cc), 100 * (zstd / cpu), 100 * (median(m.level) / cpu), faults]);
 }
 // one row per file: warm (median, best, mean of the back-to-back decodes)
 // and cold, million faces/s by CPU time
 const f2 = (x) => (Number.isFinite(x) ? x.toFixed(2) : '–');
-const head = ['mesh', 'faces', 'warm median', 'warm best', 'warm mean', 'cold', 'zstd %', 'level move %'];
+const head = ['mesh', 'faces', 'warm median', 'warm best', 'warm mean', 'cold', 'zstd %', 'level move %', 'page faults / decode'];
 console.log(`\n${options.forwardOnly ? 'forward-only' : 'general'} decoder, million faces/s by CPU time (node ${process.version}; warm: ${runs} runs after ≥ 300 ms of warm-up; cold: first decode in a fresh process, median of ${coldRuns})`);
 console.log(`| ${head.join(' | ')} |`);
 console.log(`|${head.map(() => '---').join('|')}|`);
-for (const [name, faces, med, best, mean, cold, z, l] of summary) {
+for (const [name, faces, med, best, mean, cold, z, l, pf] of summary) {
   const mf = (ms) => (Number(faces) / ms / 1e3);
-  console.log(`| ${name} | ${faces} | ${f2(med)} | ${f2(mf(best))} | ${f2(mean)} | ${f2(cold)} | ${z.toFixed(0)} | ${l.toFixed(0)} |`);
+  console.log(`| ${name} | ${faces} | ${f2(med)} | ${f2(mf(best))} | ${f2(mean)} | ${f2(cold)} | ${z.toFixed(0)} | ${l.toFixed(0)} | ${pf.toFixed(0)} |`);
 }
