@@ -979,25 +979,27 @@ impl MeshState {
         // walk is a short chain of loads: a mask per step of the walk,
         // measured, took fewer instructions but 1–3 % more time.)
         let mut succ = [0u32; 8];
-        let (mut multi, mut none) = (0u32, false);
         for a in 0..n {
-            let s = eq_mask8(&nx, pv[a]) & !(1u32 << a);
-            succ[a] = s;
-            multi |= s & s.wrapping_sub(1);
-            none |= s == 0;
+            succ[a] = eq_mask8(&nx, pv[a]) & !(1u32 << a);
         }
-        if multi != 0 || none {
-            return false;
-        }
+        // "Exactly one candidate" is checked on the walk, face by face, not
+        // over all `n` up front: a walk that closes over all `n` faces
+        // steps from each of them once (the last one's step is the closing
+        // compare, itself exact), so it checks every face; a walk that
+        // does not close refuses anyway. Same stars accepted, ~5 fewer
+        // instructions per face (the check is off the walk's load chain).
         out.n = n;
         let (mut f, mut seen) = (start, 1u32 << start);
         (out.c[0], out.nx[0]) = (cs[f], nx[f]);
         for i in 1..n {
             let s = succ[f];
-            if seen & s != 0 {
+            // Refuses a face with no candidate (`s == 0`), with two or
+            // more (`s & (s - 1)`), or one already walked (`s & seen`).
+            if (s & (s.wrapping_sub(1) | seen)) | (s == 0) as u32 != 0 {
                 return false;
             }
-            let g = s.trailing_zeros() as usize;
+            // `& 7`: `s` is one bit of the eight, the index needs no check.
+            let g = (s.trailing_zeros() & 7) as usize;
             seen |= s;
             (out.c[i], out.nx[i]) = (cs[g], nx[g]);
             f = g;
@@ -2386,6 +2388,9 @@ fn decode_apply_split(
     // around `c` plus the appended quad's.
     let mut side = [0u32; 8];
     let mut n_side = 0usize;
+    // The corners that stay at `m`: its block after the record.
+    let mut stay = [0u32; 8];
+    let mut n_stay = 0usize;
     let (qb, qd) = (q[b as usize], q[d as usize]);
     let mut sum = [0i64; 3];
     for t in 0..3 {
@@ -2394,6 +2399,8 @@ fn decode_apply_split(
     let mut cnt = 1i64;
     for t in 0..l {
         if in_a(t) {
+            stay[n_stay] = s.c[t];
+            n_stay += 1;
             continue;
         }
         let ct = s.c[t];
@@ -2426,7 +2433,23 @@ fn decode_apply_split(
         app.push(appended);
     }
     st.q.push(p);
-    st.inline.push(Block::default());
+    // The corner blocks of `m` and `c` written whole, not by one unlink and
+    // one link per moved corner (a block scan, a swap-remove and an
+    // append each): `m`'s block held exactly the star's `l` corners (the
+    // fast star has no overflow list), `c`'s is new, and both keep room
+    // for the appended quad's corner (`1 <= n_side, n_stay < l <= 7`).
+    // The order of a block's corners carries no meaning (see
+    // [`MeshState`]): the same corners as the unlink / link pairs. All 7
+    // entries are copied (fixed size: two vector moves, where a copy of
+    // `n` entries was a `memcpy` call); those past the count are stale,
+    // as a swap-remove leaves them, and nothing reads them.
+    let mut cb = Block::default();
+    cb.0[0] = n_side as u32;
+    cb.0[1..].copy_from_slice(&side[..INLINE]);
+    st.inline.push(cb);
+    let mb = &mut st.inline[m as usize].0;
+    mb[0] = n_stay as u32;
+    mb[1..].copy_from_slice(&stay[..INLINE]);
     if let Some(pm) = m_moved {
         let old = std::mem::replace(&mut st.q[m as usize], pm);
         moved.push((m, xor3(pm, old)));
@@ -2434,8 +2457,6 @@ fn decode_apply_split(
     for &ct in &side[..n_side] {
         let (slot, k) = (ct >> 2, (ct & 3) as usize);
         st.quads[slot as usize][k] = c;
-        st.unlink(ct, m);
-        st.link(ct, c);
         let mut delta = [0u32; 4];
         delta[k] = m ^ c;
         rw.push((slot, delta));
