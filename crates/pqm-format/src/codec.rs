@@ -986,8 +986,9 @@ impl MeshState {
         // over all `n` up front: a walk that closes over all `n` faces
         // steps from each of them once (the last one's step is the closing
         // compare, itself exact), so it checks every face; a walk that
-        // does not close refuses anyway. Same stars accepted, ~5 fewer
-        // instructions per face (the check is off the walk's load chain).
+        // does not close refuses anyway. Same stars accepted, 0.5 % fewer
+        // instructions per decoded face on the real meshes (the check is a
+        // predicted branch beside the walk's chain of loads, not in it).
         out.n = n;
         let (mut f, mut seen) = (start, 1u32 << start);
         (out.c[0], out.nx[0]) = (cs[f], nx[f]);
