@@ -185,6 +185,10 @@ export class PqmDecoder {
     this._nv = 0;
     this._nf = 0;
     this._q = new Uint32Array(0);
+    // true when the current level is the final frontier's: its codes are
+    // then read from the frontier's vertex records and `_q` is stale until
+    // `_ownCodes` copies them (see `_goTo`)
+    this._qShared = false;
     this._pos = new Float32Array(0);
     this._quads = new Uint32Array(0);
     this._tris = new Uint32Array(0);
@@ -613,6 +617,7 @@ export class PqmDecoder {
     this._nf = nf;
     // the frontier keeps each code in a 16-int vertex record (codec.js)
     this._q = new Uint32Array(3 * nv);
+    this._qShared = false;
     for (let v = 0; v < nv; v++) {
       this._q[3 * v] = st.q[16 * v];
       this._q[3 * v + 1] = st.q[16 * v + 1];
@@ -901,7 +906,6 @@ export class PqmDecoder {
     const fMin = Math.min(fFrom, fTo);
     const M = log.moved;
     const R = log.rw;
-    const q = this._q;
     // Marks: a vertex / slot below vMin / fMin touched by a logged entry is
     // collected once (stamp = this move's epoch), so repeated entries cost
     // no sort or dedupe later.
@@ -920,11 +924,16 @@ export class PqmDecoder {
       // Once every chunk is decoded the frontier never changes again, so
       // the current level's quads are the frontier's own (no copy; a later
       // coarsening copies them first, `_ownQuads`).
+      // Likewise its codes are the frontier's records' (no copy into `_q`:
+      // bunny 2.5 MB written and as many fresh pages; `_ownCodes` copies
+      // them when a later move or a caller needs them as an array).
       const st = this._frontier;
       const final = this._chunksReady === this._chunks.length;
       if (final) this._quads = st.f;
+      if (!final) this._ownCodes();
+      this._qShared = final;
       this._reserve(vTo, fTo);
-      const qq = this._q;
+      const qq = final ? null : this._q;
       const quads = final ? null : this._quads;
       const sq = st.q;
       const sf = st.f;
@@ -934,9 +943,7 @@ export class PqmDecoder {
           vMark[v] = epoch;
           if (nMoved === moved.length) moved = this._movedScratch = ensure(moved, nMoved + 1);
           moved[nMoved++] = v;
-          qq[3 * v] = sq[16 * v];
-          qq[3 * v + 1] = sq[16 * v + 1];
-          qq[3 * v + 2] = sq[16 * v + 2];
+          copyVertices(qq, this._pos, sq, v, v + 1, this._min, this._step);
         }
       }
       for (let e = log.rwAt[from], end = log.rwAt[to]; e < end; e++) {
@@ -957,6 +964,7 @@ export class PqmDecoder {
       copyQuads(quads, this._tris, sf, fFrom, fTo);
     } else if (to > from) {
       this._firstStates();
+      this._ownCodes();
       this._reserve(vTo, fTo);
       const qq = this._q;
       const quads = this._quads;
@@ -990,6 +998,7 @@ export class PqmDecoder {
       this._writeTrisRange(fFrom, fTo);
     } else if (to < from) {
       const quads = this._ownQuads();
+      const q = this._ownCodes();
       // Undo in reverse record order; truncation is implicit (ids ≥ vTo /
       // slots ≥ fTo are never read), so entries of those are skipped.
       for (let e = log.movedAt[from] - 1, end = log.movedAt[to]; e >= end; e--) {
@@ -1019,11 +1028,12 @@ export class PqmDecoder {
     const movedSorted = moved.slice(0, nMoved).sort();
     const rwSorted = rewritten.slice(0, nRw).sort();
     // positions and triangles of what exists before and after and changed
+    // (the move to the final frontier wrote its moved positions already)
     const pos = this._pos;
     const qq = this._q;
     const [x0, y0, z0] = this._min;
     const [sx, sy, sz] = this._step;
-    for (let i = 0; i < nMoved; i++) {
+    for (let i = 0; i < nMoved && !this._qShared; i++) {
       const o = 3 * movedSorted[i];
       pos[o] = x0 + qq[o] * sx;
       pos[o + 1] = y0 + qq[o + 1] * sy;
@@ -1072,16 +1082,20 @@ export class PqmDecoder {
       // Once every chunk is decoded the frontier never changes again, so the
       // current level's quads can be the frontier's own: no copy, and no
       // fresh pages for one (bunny: 3.3 MB, ≈ 800 page faults).
+      // Its codes likewise (`_qShared`: read from the frontier's records
+      // until `_ownCodes` copies them).
       const final = this._chunksReady === this._chunks.length;
       if (final) this._quads = st.f;
+      this._qShared = final;
       this._reserve(vTo, fTo);
       // One pass per buffer pair, straight from the frontier: each code is
       // copied and dequantized in the same step, each quad copied and split
       // into its triangles (not a copy, then a second pass over the copy).
-      copyVertices(this._q, this._pos, st.q, vFrom, vTo, this._min, this._step);
+      const qq = final ? null : this._q;
+      copyVertices(qq, this._pos, st.q, vFrom, vTo, this._min, this._step);
       for (let i = 0; i < movedSorted.length; i++) {
         const v = movedSorted[i];
-        copyVertices(this._q, this._pos, st.q, v, v + 1, this._min, this._step);
+        copyVertices(qq, this._pos, st.q, v, v + 1, this._min, this._step);
       }
       const quads = final ? null : this._quads;
       copyQuads(quads, this._tris, st.f, fFrom, fTo);
@@ -1191,13 +1205,37 @@ export class PqmDecoder {
     return this._quads;
   }
 
-  /** Grows the current-level buffers to hold `nv` vertices and `nf` faces. */
+  /**
+   * The current level's codes as an array of the decoder's own (3 per
+   * vertex): when they are the final frontier's (`_qShared`), copied from
+   * its vertex records first.
+   */
+  _ownCodes() {
+    if (this._qShared) {
+      const sq = this._frontier.q;
+      const n = this._nv;
+      const q = new Uint32Array(3 * n);
+      for (let v = 0; v < n; v++) {
+        q[3 * v] = sq[16 * v];
+        q[3 * v + 1] = sq[16 * v + 1];
+        q[3 * v + 2] = sq[16 * v + 2];
+      }
+      this._q = q;
+      this._qShared = false;
+    }
+    return this._q;
+  }
+
+  /**
+   * Grows the current-level buffers to hold `nv` vertices and `nf` faces
+   * (the codes unless they are the frontier's, `_qShared`).
+   */
   _reserve(nv, nf) {
     const v = this._nv;
     const f = this._nf;
     const mv = this._header.finalVertexCount;
     const mf = this._header.finalFaceCount;
-    this._q = ensure(this._q, 3 * nv, 3 * v, 3 * mv);
+    if (!this._qShared) this._q = ensure(this._q, 3 * nv, 3 * v, 3 * mv);
     this._pos = ensure(this._pos, 3 * nv, 3 * v, 3 * mv);
     this._quads = ensure(this._quads, 4 * nf, 4 * f, 4 * mf);
     this._tris = ensure(this._tris, 6 * nf, 6 * f, 6 * mf);
@@ -1299,7 +1337,7 @@ export class PqmDecoder {
   positionsF64() {
     const n = this._nv;
     const out = new Float64Array(3 * n);
-    const q = this._q;
+    const q = this._ownCodes();
     const [x0, y0, z0] = this._min;
     const [sx, sy, sz] = this._step;
     for (let o = 0; o < 3 * n; o += 3) {
@@ -1312,7 +1350,7 @@ export class PqmDecoder {
 
   /** Quantization codes of the current level, 3 per vertex (a view). */
   get positionCodes() {
-    return this._q.subarray(0, 3 * this._nv);
+    return this._ownCodes().subarray(0, 3 * this._nv);
   }
 
   /** Quads of the current level, 4 vertex ids per slot, counter-clockwise (a view). */
@@ -1419,12 +1457,23 @@ export class PqmDecoder {
 
 /**
  * Codes of vertices `a .. b` from the frontier's vertex records (16 ints
- * each, code first) into `q` (3 per vertex) and their f32 positions (spec
+ * each, code first) into `q` (3 per vertex; unless null: the current
+ * level's codes are the records themselves) and their f32 positions (spec
  * §5: min + code · step, in f64, then rounded) into `pos`.
  */
 function copyVertices(q, pos, sq, a, b, min, step) {
   const x0 = min[0], y0 = min[1], z0 = min[2];
   const sx = step[0], sy = step[1], sz = step[2];
+  if (q === null) {
+    for (let v = a; v < b; v++) {
+      const o = 3 * v;
+      const i = 16 * v;
+      pos[o] = x0 + sq[i] * sx;
+      pos[o + 1] = y0 + sq[i + 1] * sy;
+      pos[o + 2] = z0 + sq[i + 2] * sz;
+    }
+    return;
+  }
   for (let v = a; v < b; v++) {
     const o = 3 * v;
     const i = 16 * v;

@@ -232,3 +232,41 @@ test('random damage to payloads, table and header: only PqmErrors, never a crash
   }
   assert.ok(rejected > 100, `most damage is detected (${rejected} rejected, ${accepted} accepted)`);
 });
+
+test('a chunk that fails after some of its records leaves the previous level exact, positions included', () => {
+  // The records of a failed chunk are rolled back on the frontier, which
+  // the move to the deepest level reads (codes, positions, quads): its
+  // codes must go back exactly. Damage inside the last chunk's streams,
+  // both decoders.
+  const rand = rng(7);
+  let checked = 0;
+  for (const f of files) {
+    const clean = decodeAll(f.bytes);
+    if (clean.chunks.length < 2) continue;
+    for (const forwardOnly of [false, true]) {
+      for (let tries = 0; tries < 40; tries++) {
+        const parts = unpack(f.bytes);
+        const last = parts.chunks.length - 1;
+        const p = parts.chunks[last];
+        p[Math.floor(p.length / 4 + rand() * ((3 * p.length) / 4))] ^= 1 + Math.floor(rand() * 255);
+        const d = new PqmDecoder({ forwardOnly });
+        let err = null;
+        try {
+          d.push(pack(parts));
+          d.end();
+        } catch (e) {
+          err = e;
+        }
+        if (!(err instanceof PqmError) || err.kind !== 'bad-record') continue;
+        d.setLevel({ level: d.deepestLevel });
+        clean.setLevel({ level: d.deepestLevel });
+        const what = `${f.name}${forwardOnly ? ' (forward-only)' : ''}: ${err.message}`;
+        assert.deepEqual(levelDigests(d), levelDigests(clean), what);
+        assert.deepEqual([...d.positions], [...clean.positions], what);
+        checked++;
+        break;
+      }
+    }
+  }
+  assert.ok(checked >= 4, `damaged chunks checked: ${checked}`);
+});
