@@ -2,7 +2,7 @@
 // encoder and decoder) on the same meshes, in node:
 //
 //   bash bench/make-data.sh        # once: bench/data/*.pqm from shared/meshes
-//   npm run bench:draco            # or: node bench/draco.mjs [FILE.pqm ...] [--runs N] [--cold N]
+//   npm run bench:draco            # or: node bench/draco.mjs [FILE.pqm ...] [--runs N] [--procs N] [--cold N]
 //
 // For each .pqm file, the mesh compared is its finest level as pqm-decoder
 // decodes it (the input mesh with positions on the 14-bit grid), each quad
@@ -19,8 +19,13 @@
 //   per quad (6 uint32 indices), without the JSON chunk;
 // - decode, warm: million faces per second, CPU time (process.cpuUsage,
 //   median of --runs after warm-up runs — at least 3 and 300 ms of CPU —, so
-//   other processes on the machine count less), each decoder in a node
-//   process of its own that loads only it (the parent encodes with Draco);
+//   other processes on the machine count less), each decoder in node
+//   processes of its own that load only it (the parent encodes with Draco);
+//   the median of --procs N such processes (default 3). One process's
+//   median is not enough: in node a process lands in one of two glibc heap
+//   states (web/README.md, session 12: the heap top trimmed after a
+//   collection, or not), and a small file's decodes then take 0 or several
+//   hundred fresh pages each, which moves its figure by up to 30 %;
 // - decode, cold: the first decode in a fresh node process (pqm: its module
 //   loaded, nothing run yet; Draco: its WASM module instantiated, nothing
 //   decoded yet), CPU time, median of --cold N processes (default 3, 0 to
@@ -50,6 +55,12 @@ const self = fileURLToPath(import.meta.url);
 const args = process.argv.slice(2);
 const runsAt = args.indexOf('--runs');
 const runs = runsAt >= 0 ? Number(args.splice(runsAt, 2)[1]) : 7;
+const procsAt = args.indexOf('--procs');
+const procs = procsAt >= 0 ? Number(args.splice(procsAt, 2)[1]) : 3;
+if (!(Number.isInteger(procs) && procs >= 1)) {
+  console.error(`--procs wants a whole number ≥ 1`);
+  process.exit(2);
+}
 const coldAt = args.indexOf('--cold');
 const coldRuns = coldAt >= 0 ? Number(args.splice(coldAt, 2)[1]) : 3;
 let files = args;
@@ -188,7 +199,7 @@ for (const file of files) {
   const drcFile = path.join(tmp, `${path.basename(file, '.pqm')}.drc`);
   writeFileSync(drcFile, drc);
   const cold = (childArgs) => (coldRuns > 0 ? median(freshProcesses(self, ['--child', ...childArgs, '0'], coldRuns).map((x) => x.ms)) : NaN);
-  const warm = (childArgs) => freshProcesses(self, ['--child', ...childArgs, String(runs)], 1)[0].ms;
+  const warm = (childArgs) => median(freshProcesses(self, ['--child', ...childArgs, String(runs)], procs).map((x) => x.ms));
   const pqmCold = cold(['pqm', file, '0']);
   const fwdCold = cold(['pqm', file, '1']);
   const drcCold = cold(['draco', drcFile, '-']);
@@ -229,7 +240,7 @@ const table = rows.map((r) => [
   f2(r.pqmMfs), f2(r.fwdMfs), f2(r.drcMfs), f2(r.pqmMfs / r.drcMfs), f1(r.pqmMs), f1(r.drcMs),
   f2(r.pqmColdMfs), f2(r.fwdColdMfs), f2(r.drcColdMfs),
 ]);
-console.log(`node ${process.version}, warm: CPU-time medians of ${runs} runs after ≥ 300 ms of warm-up; cold: first decode in a fresh process, median of ${coldRuns} processes; Draco: draco3d ${require('draco3d/package.json').version} (WASM), qp 14, speed 3/3, edgebreaker`);
+console.log(`node ${process.version}, warm: CPU-time medians of ${runs} runs after ≥ 300 ms of warm-up, median of ${procs} processes; cold: first decode in a fresh process, median of ${coldRuns} processes; Draco: draco3d ${require('draco3d/package.json').version} (WASM), qp 14, speed 3/3, edgebreaker`);
 console.log(`| ${header.join(' | ')} |`);
 console.log(`|${header.map(() => '---').join('|')}|`);
 for (const t of table) console.log(`| ${t.join(' | ')} |`);
