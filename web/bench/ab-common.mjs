@@ -52,13 +52,22 @@ export function timeDecode(PqmDecoder, bytes, forwardOnly) {
 }
 
 /**
- * Warm-up (JIT tiers): `run` at least 3 times and until 300 ms of CPU have
- * gone by. No cap on the number of runs: a small file (spot decodes in
+ * Warm-up (JIT tiers): `run` at least 3 times and until WARM_UP_MS of CPU
+ * have gone by. No cap on the number of runs: a small file (spot decodes in
  * ≈ 1.2 ms) needs a few hundred runs before V8's optimizing tier has
  * compiled everything it will, and a cap of 50 runs stopped it at 60 ms.
+ * 1 s, not 300 ms: `process.cpuUsage` counts the compiler threads too, and
+ * a fresh process's first makehuman decodes take ≈ 75 ms of CPU each, so
+ * 300 ms were only 4 decodes. The timed decodes that followed were still
+ * being compiled (9–13 ms each, with 450–950 page faults per decode —
+ * not glibc trimming the heap: they stayed with its trim and mmap
+ * thresholds at 1 GB, so most likely the compiler threads' memory), against
+ * 6.6 ms and 0–2 faults after 1 s (≈ 100 decodes). Session 12 measured this; bench:draco's makehuman figure
+ * moved from ≈ 1.9 to ≈ 2.8 M faces/s with it.
  */
+export const WARM_UP_MS = 1000;
 export function warmUp(run) {
-  for (let w = 0, c0 = process.cpuUsage(); w < 3 || cpuMs(process.cpuUsage(c0)) < 300; w++) run();
+  for (let w = 0, c0 = process.cpuUsage(); w < 3 || cpuMs(process.cpuUsage(c0)) < WARM_UP_MS; w++) run();
 }
 
 /**

@@ -1,6 +1,6 @@
 // A/B decode speed of two pqm-decoder source trees in *separate processes*,
 // alternating A, B, A, B, … for --rounds rounds: each process loads one
-// tree, warms up (at least 3 runs and 300 ms of CPU) and reports the median
+// tree, warms up (at least 3 runs and 1 s of CPU) and reports the median
 // and minimum CPU time (process.cpuUsage) of --runs whole-file decodes to
 // the finest level. In one process (bench/ab.mjs) both trees share one heap
 // and one JIT, so one tree's garbage, page reuse and deopts land on the

@@ -9,7 +9,7 @@
 // commit, with `fzstd` resolvable from it); NEW_SRC_DIR defaults to this
 // checkout's. Per file: the median CPU time (process.cpuUsage) of "push the
 // whole file into a new decoder and go to the finest level" over N runs
-// after warm-up runs (at least 3 and 300 ms of CPU per tree), as million
+// after warm-up runs (at least 3 and 1 s of CPU per tree), as million
 // faces/s, and B / A (below 1: B is faster); the same for the minima, which
 // drift less than medians on a loaded machine. Both trees must read the
 // file's version; with --pairs the files come in pairs (A's, then B's),

@@ -11,9 +11,9 @@
 // --forward: the one-way decoder (`forwardOnly: true`).
 //
 // Warm (steady state): medians over --runs runs after warm-up runs (at
-// least 3, and until 300 ms of CPU however many runs that takes: a small
-// file decodes in a few ms, far from enough for the JIT's optimizing tier
-// after one run), as CPU time (process.cpuUsage: what this process used,
+// least 3, and until 1 s of CPU however many runs that takes, see
+// ab-common.mjs's WARM_UP_MS: a small file decodes in a few ms, far from
+// enough for the JIT's optimizing tier after one run), as CPU time (process.cpuUsage: what this process used,
 // so other processes on a busy machine count less) and as wall time.
 // Cold: the first decode in a fresh node process (the decoder's module
 // loaded, nothing run yet: interpreter and baseline tiers, a new heap) —
@@ -175,7 +175,7 @@ for (const file of files) {
 // and cold, million faces/s by CPU time
 const f2 = (x) => (Number.isFinite(x) ? x.toFixed(2) : '–');
 const head = ['mesh', 'faces', 'warm median', 'warm best', 'warm mean', 'cold', 'zstd %', 'level move %', 'page faults / decode'];
-console.log(`\n${options.forwardOnly ? 'forward-only' : 'general'} decoder, million faces/s by CPU time (node ${process.version}; warm: ${runs} runs after ≥ 300 ms of warm-up; cold: first decode in a fresh process, median of ${coldRuns})`);
+console.log(`\n${options.forwardOnly ? 'forward-only' : 'general'} decoder, million faces/s by CPU time (node ${process.version}; warm: ${runs} runs after ≥ 1 s of warm-up; cold: first decode in a fresh process, median of ${coldRuns})`);
 console.log(`| ${head.join(' | ')} |`);
 console.log(`|${head.map(() => '---').join('|')}|`);
 for (const [name, faces, med, best, mean, cold, z, l, pf] of summary) {
