@@ -344,12 +344,6 @@ export class RecordLog {
    * capacities grow past them as usual.
    */
   reserve(levels, nApp) {
-    const n = this.levels;
-    const max = this.maxLevels;
-    if (levels > this.vAt.length) {
-      this.vAt = ensure(this.vAt, levels, n, max);
-      this.fAt = ensure(this.fAt, levels, n, max);
-    }
     // Rewritten corners: about 3.3 per appended quad in the encoder's files
     // (loki and bunny; 1.9 rewritten slots, most of them with one changed
     // corner), so room for RW_PER_APP per quad — one allocation instead of
@@ -357,12 +351,7 @@ export class RecordLog {
     // pages); a file with more grows ×2 from there.
     const nRw = Math.ceil(RW_PER_APP * nApp);
     if (2 * nRw > this.rw.length) this.rw = ensure(this.rw, 2 * nRw, 2 * this.nRw);
-    if (this.forward) return;
-    if (levels > this.movedAt.length) {
-      this.movedAt = ensure(this.movedAt, levels, n, max);
-      this.rwAt = ensure(this.rwAt, levels, n, max);
-    }
-    if (levels > this.ops.length) this.ops = ensure(this.ops, levels, this.nRecords, max);
+    this.reserveLevels(levels);
   }
 }
 RecordLog.prototype.levels = 0;
