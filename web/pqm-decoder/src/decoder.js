@@ -615,14 +615,8 @@ export class PqmDecoder {
     // level 0 becomes the current level
     this._nv = nv;
     this._nf = nf;
-    // the frontier keeps each code in a 16-int vertex record (codec.js)
-    this._q = new Uint32Array(3 * nv);
+    this._q = codesOf(st.q, nv);
     this._qShared = false;
-    for (let v = 0; v < nv; v++) {
-      this._q[3 * v] = st.q[16 * v];
-      this._q[3 * v + 1] = st.q[16 * v + 1];
-      this._q[3 * v + 2] = st.q[16 * v + 2];
-    }
     this._pos = new Float32Array(3 * nv);
     this._dequantizeInto(this._pos, this._q, 0, nv);
     this._quads = st.f.slice(0, 4 * nf);
@@ -1212,15 +1206,7 @@ export class PqmDecoder {
    */
   _ownCodes() {
     if (this._qShared) {
-      const sq = this._frontier.q;
-      const n = this._nv;
-      const q = new Uint32Array(3 * n);
-      for (let v = 0; v < n; v++) {
-        q[3 * v] = sq[16 * v];
-        q[3 * v + 1] = sq[16 * v + 1];
-        q[3 * v + 2] = sq[16 * v + 2];
-      }
-      this._q = q;
+      this._q = codesOf(this._frontier.q, this._nv);
       this._qShared = false;
     }
     return this._q;
@@ -1453,6 +1439,20 @@ export class PqmDecoder {
       error: this._failed,
     };
   }
+}
+
+/**
+ * The codes of vertices 0..n (3 per vertex) out of the frontier's vertex
+ * records, which keep each code in the first 3 of 16 ints (codec.js).
+ */
+function codesOf(sq, n) {
+  const q = new Uint32Array(3 * n);
+  for (let v = 0; v < n; v++) {
+    q[3 * v] = sq[16 * v];
+    q[3 * v + 1] = sq[16 * v + 1];
+    q[3 * v + 2] = sq[16 * v + 2];
+  }
+  return q;
 }
 
 /**
