@@ -160,6 +160,19 @@ pub struct MeshState {
     ov_links: Paged<[u32; 2]>,
 }
 
+impl MeshState {
+    /// Makes this state equal to `base`, reusing its arrays' allocations
+    /// (the decoder decodes its chunks again on its own frontier).
+    pub fn reset_to(&mut self, base: &MeshState) {
+        self.qmax = base.qmax;
+        self.q.clone_from(&base.q);
+        self.quads.clone_from(&base.quads);
+        self.inline.clone_from(&base.inline);
+        self.ov_head.clone_from(&base.ov_head);
+        self.ov_links.clone_from(&base.ov_links);
+    }
+}
+
 /// Entries per page of a [`Paged`] array.
 const PAGE: usize = 64;
 
