@@ -299,13 +299,17 @@ impl Records {
     /// hint to a page not yet mapped is dropped: its one decode measured
     /// even. The logs (`moved`, `rw`) gained nothing: the general
     /// decoder's large logs are fresh pages each decode.
+    /// Without `LOGS` the offsets are not written (see
+    /// [`Records::push_counts`]).
     #[inline(always)]
-    fn prefetch_tail(&self) {
+    fn prefetch_tail<const LOGS: bool>(&self) {
         codec::prefetch(&self.op, self.op.len() + 256);
         codec::prefetch(&self.v_at, self.v_at.len() + 64);
         codec::prefetch(&self.f_at, self.f_at.len() + 64);
-        codec::prefetch(&self.moved_at, self.moved_at.len() + 64);
-        codec::prefetch(&self.rw_at, self.rw_at.len() + 64);
+        if LOGS {
+            codec::prefetch(&self.moved_at, self.moved_at.len() + 64);
+            codec::prefetch(&self.rw_at, self.rw_at.len() + 64);
+        }
     }
 
     /// Start of level `k`'s entries in `moved` (0 before `at0`).
@@ -346,12 +350,22 @@ impl Records {
         ) else {
             return false;
         };
-        self.op.push(op);
-        self.v_at.push(st.q.len() as u32);
-        self.f_at.push(st.quads.len() as u32);
+        self.push_counts(op, st);
         self.moved_at.push(m);
         self.rw_at.push(w);
         true
+    }
+
+    /// Ends the level of a record just applied to `st` without its log
+    /// offsets: in a decoder without logs (`Decoder::logs`) nothing reads
+    /// them (the chunk's log is dropped at its commit, and a failed chunk
+    /// is undone as a whole), and they were two of its five pushes per
+    /// record.
+    #[inline(always)]
+    fn push_counts(&mut self, op: OpKind, st: &MeshState) {
+        self.op.push(op);
+        self.v_at.push(st.q.len() as u32);
+        self.f_at.push(st.quads.len() as u32);
     }
 
     /// Room for `records` more records (`at_records` more in the log
@@ -1172,9 +1186,15 @@ impl Decoder {
         let n_f = (info.face_count as usize)
             .saturating_sub(st.quads.len())
             .min(cap);
-        r.reserve(n_rec, n_rec);
+        let logs = self.logs;
+        r.reserve(n_rec, if logs { n_rec } else { 0 });
         st.reserve(n_v, n_f);
-        let result = Self::decode_chunk_records(
+        let decode = if logs {
+            Self::decode_chunk_records::<true>
+        } else {
+            Self::decode_chunk_records::<false>
+        };
+        let result = decode(
             i,
             info,
             h,
@@ -1186,12 +1206,23 @@ impl Decoder {
             &mut self.buffers,
         );
         if result.is_err() {
-            for k in (k0..r.op.len()).rev() {
+            if logs {
+                for k in (k0..r.op.len()).rev() {
+                    st.undo_deltas(
+                        r.v_at[k] as usize,
+                        r.f_at[k] as usize,
+                        r.moved_of(k),
+                        r.rw_of(k),
+                    );
+                }
+            } else {
+                // No per-record offsets: the chunk's records undone at
+                // once (the log holds only this chunk's entries).
                 st.undo_deltas(
-                    r.v_at[k] as usize,
-                    r.f_at[k] as usize,
-                    r.moved_of(k),
-                    r.rw_of(k),
+                    r.v_at[k0] as usize,
+                    r.f_at[k0] as usize,
+                    &r.moved[lens.0..],
+                    &r.rw[lens.1..],
                 );
             }
             r.op.truncate(k0);
@@ -1213,8 +1244,10 @@ impl Decoder {
     /// to `r` (whose last level is `st`'s); then checks that every stream is
     /// consumed and the counts match the chunk table. On error `r` holds the
     /// records applied so far. `rec` and `buffers` are reused per record.
+    /// With `LOGS` each level gets its log offsets too
+    /// ([`Records::push_level`]), else only its counts.
     #[allow(clippy::too_many_arguments)]
-    fn decode_chunk_records(
+    fn decode_chunk_records<const LOGS: bool>(
         i: u32,
         info: &ChunkInfo,
         h: &Header,
@@ -1232,7 +1265,7 @@ impl Decoder {
         let big = st.q.len() >= codec::PREFETCH_MIN_VERTICES;
         for t in 0..info.record_count {
             if big {
-                r.prefetch_tail();
+                r.prefetch_tail::<LOGS>();
             }
             // Decoded and applied (the compact forms fused, without the
             // explicit rewritten list); on error `st` is as before.
@@ -1257,7 +1290,9 @@ impl Decoder {
                 record: first_record + t,
                 message,
             })?;
-            if !r.push_level(rec.op, st) {
+            if !LOGS {
+                r.push_counts(rec.op, st);
+            } else if !r.push_level(rec.op, st) {
                 // A log past 4 G entries: this record is undone here (it
                 // has no level; the caller rolls back the others).
                 let k = r.op.len();
@@ -1580,7 +1615,7 @@ impl Decoder {
             let mut rd =
                 codec::split_streams(&payload).map_err(|m| DecodeError::invalid(section, m))?;
             let k0 = r.op.len() as u32;
-            Self::decode_chunk_records(
+            Self::decode_chunk_records::<true>(
                 i as u32,
                 info,
                 h,
