@@ -16,7 +16,8 @@
 //! once). Until then a general decoder decodes as a forward-only one does
 //! and keeps the compressed chunks instead of the undo data: the first
 //! move below the deepest level decodes them again, once, for it (on the
-//! bunny ~30 ms); every later move replays the undo data and never
+//! bunny the first move to level 0 and back took 46 ms, a whole decode 31,
+//! later moves 3); every later move replays the undo data and never
 //! re-decodes anything.
 //!
 //! Every count and index in the input is checked before it is used or
