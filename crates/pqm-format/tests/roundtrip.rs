@@ -403,6 +403,14 @@ fn undo_logs_are_rebuilt_on_the_first_move_below_the_deepest_level() {
         }
         let q = expected_quantizer(&pm, opts.bits);
         let mut dec = Decoder::new(Limits::default());
+        // Seeds 1, 5, 9 ask for the logs before any byte (written while
+        // decoding), seeds 3, 7, 11 at a push of their own (decoded again
+        // then), the others leave it to the first move below the deepest.
+        let ask_logs_at = match seed % 4 {
+            1 => Some(0),
+            3 => Some(seed as usize * 13),
+            _ => None,
+        };
         let mut shadow: Option<Shadow> = None;
         let step = 1 + seed as usize * 61 % 300;
         // The push after which the decoder first leaves the deepest level.
@@ -410,6 +418,9 @@ fn undo_logs_are_rebuilt_on_the_first_move_below_the_deepest_level() {
         let first_detour = (seed as usize * 31) % (pushes + 1);
         let mut failed = false;
         for (n, at) in (0..bytes.len()).step_by(step).enumerate() {
+            if Some(n) == ask_logs_at.map(|p| p % pushes) {
+                dec.keep_undo_logs().unwrap();
+            }
             if dec.push(&bytes[at..(at + step).min(bytes.len())]).is_err() {
                 failed = true;
             }
@@ -443,6 +454,12 @@ fn undo_logs_are_rebuilt_on_the_first_move_below_the_deepest_level() {
             assert_eq!(back.level_quads(k).1, pm.level_quads(k).1, "seed {seed}");
         }
     }
+    // A forward-only decoder has no undo data to keep.
+    let mut fwd = Decoder::forward_only(Limits::default());
+    assert!(matches!(
+        fwd.keep_undo_logs(),
+        Err(DecodeError::Parameter(_))
+    ));
 }
 
 #[test]
