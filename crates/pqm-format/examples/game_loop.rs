@@ -82,6 +82,10 @@ fn main() {
     );
 
     let mut dec = Decoder::new(Limits::default());
+    // This camera flies back out, so the decoder will coarsen: ask for the
+    // undo logs up front, written while decoding, rather than have the first
+    // coarsening frame decode the chunks again (a whole decode's time).
+    dec.keep_undo_logs().expect("a general decoder");
     let mut gpu = GpuMesh::default();
     let mut received = 0usize;
     let bytes_per_frame = 3000;

@@ -160,6 +160,19 @@ pub struct MeshState {
     ov_links: Paged<[u32; 2]>,
 }
 
+impl MeshState {
+    /// Makes this state equal to `base`, reusing its arrays' allocations
+    /// (the decoder decodes its chunks again on its own frontier).
+    pub fn reset_to(&mut self, base: &MeshState) {
+        self.qmax = base.qmax;
+        self.q.clone_from(&base.q);
+        self.quads.clone_from(&base.quads);
+        self.inline.clone_from(&base.inline);
+        self.ov_head.clone_from(&base.ov_head);
+        self.ov_links.clone_from(&base.ov_links);
+    }
+}
+
 /// Entries per page of a [`Paged`] array.
 const PAGE: usize = 64;
 
@@ -733,6 +746,12 @@ impl MeshState {
     /// these log entries: removes the slots from `f_before` on and the
     /// vertices from `v_before` on, and restores the old quads of `rw` and
     /// the old codes of `moved`. Records must be undone in reverse order.
+    ///
+    /// Also undoes several consecutive records at once, given the counts
+    /// before the first and all their entries: entries for slots and
+    /// vertices that the records themselves made (at or past the counts)
+    /// are skipped, as those are removed; the others compose (`x ^= d`),
+    /// and each `set_quad` unlinks the corners it links before.
     pub fn undo_deltas(
         &mut self,
         v_before: usize,
@@ -748,11 +767,15 @@ impl MeshState {
         }
         self.quads.truncate(f_before);
         for &(s, d) in rw.iter().rev() {
-            self.set_quad(s, xor4(self.quads[s as usize], d));
+            if (s as usize) < f_before {
+                self.set_quad(s, xor4(self.quads[s as usize], d));
+            }
         }
         for &(v, d) in moved.iter().rev() {
-            let q = &mut self.q[v as usize];
-            *q = xor3(*q, d);
+            if (v as usize) < v_before {
+                let q = &mut self.q[v as usize];
+                *q = xor3(*q, d);
+            }
         }
         self.q.truncate(v_before);
         self.inline.truncate(v_before);

@@ -9,11 +9,16 @@
 //! Internally the decoder keeps two meshes: the *frontier* (the deepest
 //! decoded level, with vertex→face adjacency, needed to decode the next
 //! record) and the *current* level the caller sees. Every decoded record is
-//! stored as its undo data (`new ^ old` of its moved vertices and rewritten
-//! slots) and its counts; its new vertices and quads are the frontier's
-//! until a replay below the deepest level first needs them (then unwound
-//! from the frontier once), so moving between levels never re-decodes
-//! anything.
+//! stored as its counts and, once a move below the deepest level has needed
+//! them, its undo data (`new ^ old` of its moved vertices and rewritten
+//! slots); its new vertices and quads are the frontier's until a replay
+//! below the deepest level first needs them (then unwound from the frontier
+//! once). Until then a general decoder decodes as a forward-only one does
+//! and keeps the compressed chunks instead of the undo data: the first
+//! move below the deepest level decodes them again, once, for it (on the
+//! bunny the first move to level 0 and back took 46 ms, a whole decode 31,
+//! later moves 3); every later move replays the undo data and never
+//! re-decodes anything.
 //!
 //! Every count and index in the input is checked before it is used or
 //! allocated for; claims in the header and chunk table are checked against
@@ -246,7 +251,9 @@ pub struct Status {
 
 /// Explicit records with undo data, structure-of-arrays: every committed
 /// record (a chunk being decoded appends to it and is truncated away if it
-/// fails).
+/// fails). The undo data covers every record only once a general decoder
+/// needed it (`Decoder::logs`); before, as in a forward-only decoder, only
+/// the chunk being decoded.
 #[derive(Default)]
 struct Records {
     op: Vec<OpKind>,
@@ -255,10 +262,10 @@ struct Records {
     f_at: Vec<u32>,
     /// Where record k's entries start in `moved` and `rw`, for levels
     /// `at0 ..`: entry `k - at0` (levels before `at0` have no entries). A
-    /// general decoder keeps every level (`at0` = 0); a forward-only one
-    /// only the chunk being decoded (it drops the logs at each commit, so
-    /// the lists restart there: on the bunny 2.6 MB of writes fewer per
-    /// decode). `u32`: the logs are bounded by that (see
+    /// decoder with its logs (`Decoder::logs`) keeps every level (`at0` =
+    /// 0); one without only the chunk being decoded (it drops the logs at
+    /// each commit, so the lists restart there: on the bunny 2.6 MB of
+    /// writes fewer per decode). `u32`: the logs are bounded by that (see
     /// [`Records::push_level`]), half the memory of `usize`.
     moved_at: Vec<u32>,
     rw_at: Vec<u32>,
@@ -293,13 +300,17 @@ impl Records {
     /// hint to a page not yet mapped is dropped: its one decode measured
     /// even. The logs (`moved`, `rw`) gained nothing: the general
     /// decoder's large logs are fresh pages each decode.
+    /// Without `LOGS` the offsets are not written (see
+    /// [`Records::push_counts`]).
     #[inline(always)]
-    fn prefetch_tail(&self) {
+    fn prefetch_tail<const LOGS: bool>(&self) {
         codec::prefetch(&self.op, self.op.len() + 256);
         codec::prefetch(&self.v_at, self.v_at.len() + 64);
         codec::prefetch(&self.f_at, self.f_at.len() + 64);
-        codec::prefetch(&self.moved_at, self.moved_at.len() + 64);
-        codec::prefetch(&self.rw_at, self.rw_at.len() + 64);
+        if LOGS {
+            codec::prefetch(&self.moved_at, self.moved_at.len() + 64);
+            codec::prefetch(&self.rw_at, self.rw_at.len() + 64);
+        }
     }
 
     /// Start of level `k`'s entries in `moved` (0 before `at0`).
@@ -340,12 +351,22 @@ impl Records {
         ) else {
             return false;
         };
-        self.op.push(op);
-        self.v_at.push(st.q.len() as u32);
-        self.f_at.push(st.quads.len() as u32);
+        self.push_counts(op, st);
         self.moved_at.push(m);
         self.rw_at.push(w);
         true
+    }
+
+    /// Ends the level of a record just applied to `st` without its log
+    /// offsets: in a decoder without logs (`Decoder::logs`) nothing reads
+    /// them (the chunk's log is dropped at its commit, and a failed chunk
+    /// is undone as a whole), and they were two of its five pushes per
+    /// record.
+    #[inline(always)]
+    fn push_counts(&mut self, op: OpKind, st: &MeshState) {
+        self.op.push(op);
+        self.v_at.push(st.q.len() as u32);
+        self.f_at.push(st.quads.len() as u32);
     }
 
     /// Room for `records` more records (`at_records` more in the log
@@ -372,8 +393,45 @@ fn frontier_at<'a>(
     })
 }
 
-/// Codes and quads of [`Decoder::unwound`].
+/// Codes and quads of [`unwound`].
 type UnwoundIds = (Vec<[u32; 3]>, Vec<[u32; 4]>);
+
+/// What a general decoder keeps to rebuild its undo logs (see
+/// `Decoder::logs`): the compressed base mesh and every committed chunk's
+/// compressed bytes (on the bunny 1.4 MB, where the logs are 7.8 MB). The
+/// base is decoded again too: a copy of its state was as large as the
+/// whole file on spot, written at every decode.
+struct Replay {
+    base: Vec<u8>,
+    bytes: Vec<u8>,
+    /// Chunk `i`'s bytes are `bytes[ends[i - 1]..ends[i]]` (from 0 for
+    /// chunk 0).
+    ends: Vec<usize>,
+}
+
+/// The codes of vertices `v0..` and quads of slots `f0..` with records
+/// `k0..` of `r` (to the deepest level, `st`) undone from `st`, ids below
+/// `v0` / `f0` left out: a vertex or slot that existed at level `k0` gets
+/// its value there; one made by record `k >= k0` its value as that record
+/// made it (no earlier record touches it), what a replay appends. `r` must
+/// have its logs from `k0` on.
+fn unwound(r: &Records, st: &MeshState, v0: usize, f0: usize, k0: usize) -> Option<UnwoundIds> {
+    let mut q = st.q.get(v0..)?.to_vec();
+    let mut quads = st.quads.get(f0..)?.to_vec();
+    for k in (k0..r.op.len()).rev() {
+        for &(v, d) in r.moved_of(k).iter().rev() {
+            if let Some(c) = (v as usize).checked_sub(v0).and_then(|i| q.get_mut(i)) {
+                *c = codec::xor3(*c, d);
+            }
+        }
+        for &(s, d) in r.rw_of(k).iter().rev() {
+            if let Some(c) = (s as usize).checked_sub(f0).and_then(|i| quads.get_mut(i)) {
+                *c = codec::xor4(*c, d);
+            }
+        }
+    }
+    Some((q, quads))
+}
 
 /// The push decoder (see the module docs).
 pub struct Decoder {
@@ -425,7 +483,23 @@ pub struct Decoder {
     copy_policy: CopyPolicy,
     /// Keeps no undo data past a chunk ([`Decoder::forward_only`]).
     forward_only: bool,
-    /// Forward-only: moved vertices below the current level's count and
+    /// The undo logs (`Records::moved`, `rw` and their offsets) cover
+    /// every record. A general decoder starts without them and decodes as
+    /// a forward-only one does (each chunk's log dropped at its commit),
+    /// keeping the compressed chunks instead (`replay`): the logs are
+    /// rebuilt from those by decoding the chunks again, once, when a move
+    /// to a level other than the deepest first needs them
+    /// ([`Decoder::ensure_logs`]); from then on every chunk's log is kept.
+    /// On the bunny the logs are 7.8 MB written per decode, and their page
+    /// faults (glibc returns the freed heap top to the kernel) made the
+    /// general decoder 25–30 % slower than the forward-only one in a
+    /// process decoding repeatedly (session 13, docs/figures-history.md).
+    /// A refinement to the deepest level needs no logs: it takes the
+    /// pending ids' values from the frontier, or shares the frontier.
+    logs: bool,
+    /// What rebuilds the logs while `logs` is false (general decoders).
+    replay: Option<Replay>,
+    /// Without logs (`logs`): moved vertices below the current level's count and
     /// rewritten slots below its face count, since the last move (what the
     /// next [`Change`] reports; the logs they come from are dropped).
     pending_moved: Vec<u32>,
@@ -488,6 +562,8 @@ impl Decoder {
             shared: false,
             copy_policy: CopyPolicy::Auto,
             forward_only: false,
+            logs: false,
+            replay: None,
             pending_moved: Vec::new(),
             pending_rw: Vec::new(),
         }
@@ -501,12 +577,40 @@ impl Decoder {
     /// [`Decoder::to_progressive_mesh`] gives `None`. Everything else — the
     /// push API, the checks, [`Limits`], the events, the levels it reaches
     /// and the [`Change`]s it reports — is the same as [`Decoder::new`]'s;
-    /// it needs less memory (no per-record log) and decodes faster.
+    /// it needs less memory (neither undo data nor the compressed chunks to
+    /// rebuild it).
     pub fn forward_only(limits: Limits) -> Self {
         Decoder {
             forward_only: true,
             ..Decoder::new(limits)
         }
+    }
+
+    /// Makes a general decoder keep its undo logs for every record from now
+    /// on, so that no later move pays for them. By default a general decoder
+    /// keeps none until a move below the deepest level first needs them, and
+    /// that move decodes the committed chunks again (on the bunny 46 ms for
+    /// the first move to level 0 and back, against 31 ms for a whole decode
+    /// and 3 ms for later moves): a client that will coarsen and cannot take
+    /// that pause in a frame calls this — before the base mesh arrives (the
+    /// logs are then written while decoding: no pause later, but one-shot
+    /// decodes 6–9 % slower, their pages being fresh), or at a moment of its
+    /// choosing (the chunks so far are decoded again then).
+    ///
+    /// A forward-only decoder keeps no undo data: [`DecodeError::Parameter`].
+    pub fn keep_undo_logs(&mut self) -> Result<(), DecodeError> {
+        if self.forward_only {
+            return Err(DecodeError::Parameter(
+                "a forward-only decoder keeps no undo logs".into(),
+            ));
+        }
+        if self.frontier.is_none() {
+            // Before the base mesh: every record gets its log as it is
+            // decoded, and no compressed chunk is kept to rebuild them.
+            self.logs = true;
+            return Ok(());
+        }
+        self.ensure_logs()
     }
 
     /// Feeds the next bytes of the file; returns the events they completed,
@@ -963,6 +1067,18 @@ impl Decoder {
         let qmax = self.quant.map_or(0, |q| q.qmax());
         let mut st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
             .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
+        if !self.forward_only && !self.logs {
+            // Room for the chunks as the table states them (growing the
+            // list copied it ~log2(chunks) times), never past the
+            // uncompressed payload counted in `Limits::estimate`.
+            let claimed: u64 = self.chunks.iter().map(|c| c.compressed_len as u64).sum();
+            let room = claimed.min(self.payload_total) as usize;
+            self.replay = Some(Replay {
+                base: b.to_vec(),
+                bytes: Vec::with_capacity(room),
+                ends: Vec::new(),
+            });
+        }
         // Room for the finest level up front: the header's counts were
         // checked against the limits, and what is reserved here (68 bytes
         // per vertex — 44 of them the frontier's codes and corner block —,
@@ -976,13 +1092,10 @@ impl Decoder {
             (h.final_face_count - h.base_face_count) as usize,
         );
         st.reserve(nv, nf);
+        // The log offsets cover one chunk at a time until a general
+        // decoder needs its logs (`logs`).
         let n_rec = h.record_count as usize + 1;
-        if self.forward_only {
-            // Its log offsets cover one chunk at a time.
-            self.recs.reserve(n_rec, 0);
-        } else {
-            self.recs.reserve(n_rec, n_rec);
-        }
+        self.recs.reserve(n_rec, if self.logs { n_rec } else { 0 });
         let mut q = Vec::with_capacity(st.q.len() + nv);
         q.extend_from_slice(&st.q);
         let mut pos = Vec::with_capacity(st.q.len() + nv);
@@ -1026,13 +1139,17 @@ impl Decoder {
         result?;
         self.chunks_ready = i + 1;
         self.chunk_levels.push(self.recs.op.len());
-        if self.forward_only {
+        if !self.logs {
+            if let Some(src) = &mut self.replay {
+                src.bytes.extend_from_slice(b);
+                src.ends.push(src.bytes.len());
+            }
             self.drop_chunk_log();
         }
         Ok(())
     }
 
-    /// Forward-only: keeps of the committed chunk's log only the ids the
+    /// Without logs (`logs`): keeps of the committed chunk's log only the ids the
     /// next [`Change`] reports (below the current level's counts), then
     /// empties the log — its buffers are reused by the next chunk, so the
     /// decoder's memory does not grow with the records.
@@ -1098,9 +1215,15 @@ impl Decoder {
         let n_f = (info.face_count as usize)
             .saturating_sub(st.quads.len())
             .min(cap);
-        r.reserve(n_rec, n_rec);
+        let logs = self.logs;
+        r.reserve(n_rec, if logs { n_rec } else { 0 });
         st.reserve(n_v, n_f);
-        let result = Self::decode_chunk_records(
+        let decode = if logs {
+            Self::decode_chunk_records::<true>
+        } else {
+            Self::decode_chunk_records::<false>
+        };
+        let result = decode(
             i,
             info,
             h,
@@ -1112,12 +1235,23 @@ impl Decoder {
             &mut self.buffers,
         );
         if result.is_err() {
-            for k in (k0..r.op.len()).rev() {
+            if logs {
+                for k in (k0..r.op.len()).rev() {
+                    st.undo_deltas(
+                        r.v_at[k] as usize,
+                        r.f_at[k] as usize,
+                        r.moved_of(k),
+                        r.rw_of(k),
+                    );
+                }
+            } else {
+                // No per-record offsets: the chunk's records undone at
+                // once (the log holds only this chunk's entries).
                 st.undo_deltas(
-                    r.v_at[k] as usize,
-                    r.f_at[k] as usize,
-                    r.moved_of(k),
-                    r.rw_of(k),
+                    r.v_at[k0] as usize,
+                    r.f_at[k0] as usize,
+                    &r.moved[lens.0..],
+                    &r.rw[lens.1..],
                 );
             }
             r.op.truncate(k0);
@@ -1139,8 +1273,10 @@ impl Decoder {
     /// to `r` (whose last level is `st`'s); then checks that every stream is
     /// consumed and the counts match the chunk table. On error `r` holds the
     /// records applied so far. `rec` and `buffers` are reused per record.
+    /// With `LOGS` each level gets its log offsets too
+    /// ([`Records::push_level`]), else only its counts.
     #[allow(clippy::too_many_arguments)]
-    fn decode_chunk_records(
+    fn decode_chunk_records<const LOGS: bool>(
         i: u32,
         info: &ChunkInfo,
         h: &Header,
@@ -1158,7 +1294,7 @@ impl Decoder {
         let big = st.q.len() >= codec::PREFETCH_MIN_VERTICES;
         for t in 0..info.record_count {
             if big {
-                r.prefetch_tail();
+                r.prefetch_tail::<LOGS>();
             }
             // Decoded and applied (the compact forms fused, without the
             // explicit rewritten list); on error `st` is as before.
@@ -1183,7 +1319,9 @@ impl Decoder {
                 record: first_record + t,
                 message,
             })?;
-            if !r.push_level(rec.op, st) {
+            if !LOGS {
+                r.push_counts(rec.op, st);
+            } else if !r.push_level(rec.op, st) {
                 // A log past 4 G entries: this record is undone here (it
                 // has no level; the caller rolls back the others).
                 let k = r.op.len();
@@ -1436,30 +1574,131 @@ impl Decoder {
         self.shared = false;
     }
 
-    /// The codes of vertices `v0..` and quads of slots `f0..` with records
-    /// `k0..` (to the deepest level) undone from the frontier, ids below
-    /// `v0` / `f0` left out: a vertex or slot that existed at level `k0`
-    /// gets its value there; one made by record `k >= k0` its value as
-    /// that record made it (no earlier record touches it), what a replay
-    /// appends. `None` before the base mesh.
-    fn unwound(&self, v0: usize, f0: usize, k0: usize) -> Option<UnwoundIds> {
-        let r = &self.recs;
-        let st = self.frontier.as_ref()?;
-        let mut q = st.q.get(v0..)?.to_vec();
-        let mut quads = st.quads.get(f0..)?.to_vec();
-        for k in (k0..r.op.len()).rev() {
-            for &(v, d) in r.moved_of(k).iter().rev() {
-                if let Some(c) = (v as usize).checked_sub(v0).and_then(|i| q.get_mut(i)) {
-                    *c = codec::xor3(*c, d);
-                }
-            }
-            for &(s, d) in r.rw_of(k).iter().rev() {
-                if let Some(c) = (s as usize).checked_sub(f0).and_then(|i| quads.get_mut(i)) {
-                    *c = codec::xor4(*c, d);
-                }
-            }
+    /// Every record decoded so far, its undo logs included, decoded again
+    /// from the base mesh and the kept compressed chunks (`replay`), with
+    /// a copy of the base mesh as the frontier.
+    fn rebuilt_logs(&self) -> Result<Records, DecodeError> {
+        let mut st = self.kept_base()?;
+        self.decode_logs(&mut st)
+    }
+
+    /// The base mesh decoded again from `replay`.
+    fn kept_base(&self) -> Result<MeshState, DecodeError> {
+        let (Some(src), Some(h)) = (&self.replay, &self.header) else {
+            return Err(DecodeError::Internal("no base mesh kept".into()));
+        };
+        let mut payload = Vec::new();
+        decompress_frame(
+            &mut new_zstd()?,
+            Section::BaseMesh,
+            &src.base,
+            h.base_uncompressed_len,
+            &mut payload,
+        )?;
+        let qmax = self.quant.map_or(0, |q| q.qmax());
+        codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
+            .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))
+    }
+
+    /// Every record decoded so far, its undo logs included, decoded again
+    /// from the kept compressed chunks (`replay`) onto `st`, which holds
+    /// the base mesh: `st` ends at the deepest level. The decoding is
+    /// deterministic: the levels are the ones decoded on arrival (checked:
+    /// counts of every level).
+    fn decode_logs(&self, st: &mut MeshState) -> Result<Records, DecodeError> {
+        let src = self
+            .replay
+            .as_ref()
+            .ok_or_else(|| DecodeError::Internal("no chunks kept for the undo logs".into()))?;
+        let h = self
+            .header
+            .as_ref()
+            .ok_or_else(|| DecodeError::Internal("no header".into()))?;
+        let n = self.recs.v_at.len();
+        let mut r = Records::default();
+        r.reserve(n, n);
+        r.v_at.push(st.q.len() as u32);
+        r.f_at.push(st.quads.len() as u32);
+        r.moved_at.push(0);
+        r.rw_at.push(0);
+        if let (Some(&v), Some(&f)) = (self.recs.v_at.last(), self.recs.f_at.last()) {
+            st.reserve(
+                (v as usize).saturating_sub(st.q.len()),
+                (f as usize).saturating_sub(st.quads.len()),
+            );
         }
-        Some((q, quads))
+        let mut zstd = new_zstd()?;
+        let mut payload = Vec::new();
+        let mut rec = codec::QRecord::default();
+        let mut buffers = codec::DecodeScratch::default();
+        let mut start = 0;
+        for (i, &end) in src.ends.iter().enumerate() {
+            let info = self
+                .chunks
+                .get(i)
+                .ok_or_else(|| DecodeError::Internal("chunk index".into()))?;
+            let section = Section::Chunk(i as u32);
+            let b = &src.bytes[start..end];
+            start = end;
+            decompress_frame(&mut zstd, section, b, info.uncompressed_len, &mut payload)?;
+            let mut rd =
+                codec::split_streams(&payload).map_err(|m| DecodeError::invalid(section, m))?;
+            let k0 = r.op.len() as u32;
+            Self::decode_chunk_records::<true>(
+                i as u32,
+                info,
+                h,
+                k0,
+                st,
+                &mut rd,
+                &mut r,
+                &mut rec,
+                &mut buffers,
+            )?;
+        }
+        if r.v_at != self.recs.v_at || r.f_at != self.recs.f_at {
+            return Err(DecodeError::Internal(
+                "the undo logs decoded again reach other levels".into(),
+            ));
+        }
+        Ok(r)
+    }
+
+    /// Gives a general decoder its undo logs for every record decoded so
+    /// far (see `logs`), once: the chunks are decoded again, on the
+    /// frontier itself set back to the base mesh (its arrays reused: no
+    /// second frontier beside it, so the memory stays within
+    /// [`Limits::estimate`]). Keeps them for every later chunk.
+    fn ensure_logs(&mut self) -> Result<(), DecodeError> {
+        if self.logs || self.forward_only {
+            return Ok(());
+        }
+        let base = self.kept_base()?;
+        let Some(mut st) = self.frontier.take() else {
+            return Err(DecodeError::Internal("no frontier".into()));
+        };
+        st.reset_to(&base);
+        drop(base);
+        let full = self.decode_logs(&mut st);
+        self.frontier = Some(st);
+        let full = match full {
+            Ok(full) => full,
+            Err(e) => {
+                // Only a bug gets here (the chunks decoded before): the
+                // frontier is not the deepest level any more.
+                self.failed_other = Some(e.to_string());
+                return Err(e);
+            }
+        };
+        let r = &mut self.recs;
+        (r.moved, r.rw, r.moved_at, r.rw_at) = (full.moved, full.rw, full.moved_at, full.rw_at);
+        r.at0 = 0;
+        // The logs from the current level on name these ids.
+        self.pending_moved = Vec::new();
+        self.pending_rw = Vec::new();
+        self.replay = None;
+        self.logs = true;
+        Ok(())
     }
 
     /// Appends the new codes and quads of records `kept..` (to the deepest
@@ -1471,7 +1710,9 @@ impl Decoder {
         let k0 = r.kept;
         let (v0, f0) = (r.v_at[k0] as usize, r.f_at[k0] as usize);
         let (q, quads) = self
-            .unwound(v0, f0, k0)
+            .frontier
+            .as_ref()
+            .and_then(|st| unwound(r, st, v0, f0, k0))
             .ok_or_else(|| DecodeError::Internal("no frontier to unwind".into()))?;
         let r = &mut self.recs;
         r.new_pos.extend_from_slice(&q);
@@ -1490,11 +1731,13 @@ impl Decoder {
         if to >= self.recs.v_at.len() {
             return Err(DecodeError::Internal(format!("level {to} not decoded")));
         }
-        if to > from
-            && to > self.recs.kept
-            && frontier_at(&self.frontier, &self.recs, to).is_none()
-            && !self.forward_only
-        {
+        let to_frontier = frontier_at(&self.frontier, &self.recs, to).is_some();
+        if to != from && !(to > from && to_frontier) && !self.forward_only {
+            // Anything but a refinement to the deepest level replays the
+            // logs.
+            self.ensure_logs()?;
+        }
+        if to > from && to > self.recs.kept && !to_frontier && !self.forward_only {
             // A replay below the deepest level needs the new codes and
             // quads of its records.
             self.keep_records()?;
@@ -1516,21 +1759,22 @@ impl Decoder {
         // the copy is taken when the records to replay write more entries
         // than a sixteenth of the level holds.
         let at_to = frontier_at(&self.frontier, r, to);
-        let frontier = at_to.filter(|_| {
-            self.forward_only
-                || self.copy_policy.copies(
-                    (r.rw_at(to) - r.rw_at(from)) + (r.moved_at(to) - r.moved_at(from)),
-                    (v_from + f_from) as usize,
-                )
-        });
-        if self.forward_only && to != from && (to < from || frontier.is_none()) {
+        // Without logs the ids to update are the pending ones.
+        let entries = if self.logs {
+            (r.rw_at(to) - r.rw_at(from)) + (r.moved_at(to) - r.moved_at(from))
+        } else {
+            self.pending_moved.len() + self.pending_rw.len()
+        };
+        let frontier =
+            at_to.filter(|_| self.copy_policy.copies(entries, (v_from + f_from) as usize));
+        if self.forward_only && to != from && (to < from || at_to.is_none()) {
             return Err(DecodeError::Parameter(format!(
                 "a forward-only decoder moves only to the deepest decoded level ({}), not from level {from} to {to}",
                 r.v_at.len() - 1
             )));
         }
         if let (true, Some(st)) = (to > from, frontier) {
-            // Forward-only: the dropped logs' ids, kept per chunk.
+            // Without logs: the dropped logs' ids, kept per chunk.
             moved.append(&mut self.pending_moved);
             rewritten.append(&mut self.pending_rw);
             for &(v, _) in &r.moved[r.moved_at(from)..r.moved_at(to)] {
@@ -1558,6 +1802,18 @@ impl Decoder {
             self.pos
                 .extend(st.q[v_from as usize..].iter().map(|&c| f32_of(c)));
             self.quads.extend_from_slice(&st.quads[f_from as usize..]);
+            // Without logs (dropped at each chunk's commit): the ids they
+            // named, kept per chunk, get the frontier's values.
+            for v in self.pending_moved.drain(..) {
+                let p = st.q[v as usize];
+                self.q[v as usize] = p;
+                self.pos[v as usize] = f32_of(p);
+                moved.push(v);
+            }
+            for s in self.pending_rw.drain(..) {
+                self.quads[s as usize] = st.quads[s as usize];
+                rewritten.push(s);
+            }
             for k in from..to {
                 for &(v, d) in r.moved_of(k) {
                     if v < v_from {
@@ -1820,12 +2076,20 @@ impl Decoder {
             return None;
         }
         let quant = self.quant?;
-        let r = &self.recs;
+        // A general decoder without its logs yet decodes them again here
+        // (without keeping them: this takes `&self`).
+        let rebuilt;
+        let r = if self.logs {
+            &self.recs
+        } else {
+            rebuilt = self.rebuilt_logs().ok()?;
+            &rebuilt
+        };
         let (bv, bf) = (*r.v_at.first()? as usize, *r.f_at.first()? as usize);
         let dq = |c: [u32; 3]| quant.dequantize_vec(c);
         // Every record undone from the frontier: level 0's codes and quads,
         // then each record's new ones as it made them.
-        let (all_q, all_quads) = self.unwound(0, 0, 0)?;
+        let (all_q, all_quads) = unwound(r, self.frontier.as_ref()?, 0, 0, 0)?;
         let mut q = all_q[..bv].to_vec();
         let mut quads = all_quads[..bf].to_vec();
         let base = IndexedMesh::from_faces(q.iter().map(|&c| dq(c)).collect(), quads.iter());
@@ -2151,6 +2415,36 @@ mod tests {
                 assert_eq!(d.position_codes(), &base_codes[..]);
             }
         }
+    }
+
+    /// Undo logs asked for before the base mesh are written while decoding:
+    /// no compressed chunk is kept to rebuild them, and the first move below
+    /// the deepest level decodes nothing again (the levels are checked in
+    /// `tests/roundtrip.rs`); a default general decoder keeps the chunks
+    /// until that move and drops them after it.
+    #[test]
+    fn undo_logs_asked_for_up_front_keep_no_chunks() {
+        let mut pm = testgen::generate(7, 120);
+        crate::vectors::add_edge_splits(&mut pm, 10, 7);
+        let opts = EncodeOptions {
+            chunk_records: Some(11),
+            ..EncodeOptions::default()
+        };
+        let bytes = write_to_vec(&pm, &opts).expect("encode").0;
+        let mut eager = Decoder::new(Limits::default());
+        eager.keep_undo_logs().unwrap();
+        eager.push(&bytes).unwrap();
+        assert!(eager.logs && eager.replay.is_none());
+        let mut lazy = Decoder::new(Limits::default());
+        lazy.push(&bytes).unwrap();
+        assert!(!lazy.logs && lazy.replay.as_ref().is_some_and(|r| !r.ends.is_empty()));
+        for d in [&mut eager, &mut lazy] {
+            d.set_level(Target::Level(usize::MAX)).unwrap();
+            d.set_level(Target::Level(0)).unwrap();
+            assert!(d.logs && d.replay.is_none());
+        }
+        assert_eq!(eager.quads(), lazy.quads());
+        assert_eq!(eager.position_codes(), lazy.position_codes());
     }
 
     /// A single-segment frame of content size `fcs` whose only block is raw

@@ -378,6 +378,90 @@ fn replays_below_the_deepest_level_while_streaming() {
     }
 }
 
+/// A general decoder keeps no undo logs until a move other than a
+/// refinement to the deepest level needs them: it streams as a forward-only
+/// one does (refinements take the ids of each chunk's dropped log and the
+/// frontier's values), then decodes the chunks again for the logs on the
+/// first such move, at a random point of the stream (also after a chunk
+/// that failed and was rolled back). Every level equals the reference and
+/// every `Change` keeps a shadow of the buffers equal, before and after.
+#[test]
+fn undo_logs_are_rebuilt_on_the_first_move_below_the_deepest_level() {
+    for seed in 0..12u64 {
+        let mut pm = testgen::generate(seed, 150);
+        pqm_format::vectors::add_face_splits(&mut pm, 20, seed);
+        pqm_format::vectors::add_edge_splits(&mut pm, 10, seed);
+        let opts = EncodeOptions {
+            chunk_records: Some(7 + seed as usize % 5),
+            ..EncodeOptions::default()
+        };
+        let mut bytes = encode(&pm, &opts);
+        if seed % 3 == 2 {
+            // A flip in the second half: most hit a chunk (rolled back).
+            let i = bytes.len() / 2 + (seed as usize * 7919) % (bytes.len() / 2);
+            bytes[i] ^= 0x5a;
+        }
+        let q = expected_quantizer(&pm, opts.bits);
+        let mut dec = Decoder::new(Limits::default());
+        // Seeds 1, 5, 9 ask for the logs before any byte (written while
+        // decoding), seeds 3, 7, 11 at a push of their own (decoded again
+        // then), the others leave it to the first move below the deepest.
+        let ask_logs_at = match seed % 4 {
+            1 => Some(0),
+            3 => Some(seed as usize * 13),
+            _ => None,
+        };
+        let mut shadow: Option<Shadow> = None;
+        let step = 1 + seed as usize * 61 % 300;
+        // The push after which the decoder first leaves the deepest level.
+        let pushes = bytes.len().div_ceil(step);
+        let first_detour = (seed as usize * 31) % (pushes + 1);
+        let mut failed = false;
+        for (n, at) in (0..bytes.len()).step_by(step).enumerate() {
+            if Some(n) == ask_logs_at.map(|p| p % pushes) {
+                dec.keep_undo_logs().unwrap();
+            }
+            if dec.push(&bytes[at..(at + step).min(bytes.len())]).is_err() {
+                failed = true;
+            }
+            let Some(deepest) = dec.deepest_level() else {
+                continue;
+            };
+            let sh = shadow.get_or_insert_with(|| Shadow {
+                pos: dec.positions().to_vec(),
+                tris: dec.triangle_indices(),
+            });
+            let mut targets = vec![deepest];
+            if n >= first_detour || failed {
+                targets = vec![(n * 7 + seed as usize) % (deepest + 1), deepest];
+            }
+            for k in targets {
+                let c = dec.set_level(Target::Level(k)).unwrap();
+                assert_level(&dec, &pm, &q, k);
+                sh.apply(&dec, &c);
+                assert_eq!(&sh.pos[..], dec.positions(), "seed {seed} level {k}");
+                assert_eq!(sh.tris, dec.triangle_indices(), "seed {seed} level {k}");
+            }
+            if failed {
+                break;
+            }
+        }
+        assert_eq!(dec.status().finished, !failed, "seed {seed}");
+        let deepest = dec.deepest_level().unwrap();
+        let back = dec.to_progressive_mesh().unwrap();
+        assert_eq!(back.records.len(), deepest);
+        for k in [0, deepest / 2, deepest] {
+            assert_eq!(back.level_quads(k).1, pm.level_quads(k).1, "seed {seed}");
+        }
+    }
+    // A forward-only decoder has no undo data to keep.
+    let mut fwd = Decoder::forward_only(Limits::default());
+    assert!(matches!(
+        fwd.keep_undo_logs(),
+        Err(DecodeError::Parameter(_))
+    ));
+}
+
 #[test]
 fn one_byte_at_a_time_equals_all_at_once() {
     for seed in 0..6 {
@@ -1303,6 +1387,12 @@ fn a_failing_record_discards_its_whole_chunk() {
                 "level {k}"
             );
         }
+        dec.set_level(Target::Level(usize::MAX)).unwrap();
+        assert_level(&dec, &pm, &q, level);
+        // A move below it decodes the committed chunks again for the undo
+        // logs (the failed chunk's bytes are not among them).
+        dec.set_level(Target::Level(level / 2)).unwrap();
+        assert_level(&dec, &pm, &q, level / 2);
         dec.set_level(Target::Level(usize::MAX)).unwrap();
         assert_level(&dec, &pm, &q, level);
     }
