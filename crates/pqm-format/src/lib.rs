@@ -43,6 +43,13 @@
 //!   `faces_appended`, and draw `6 * quads().len()` indices.
 //!
 //! Slots never move while they exist, so every update is a sub-range write.
+//!
+//! A game that will also coarsen (the camera moves away) calls
+//! [`Decoder::keep_undo_logs`] before pushing: by default a general decoder
+//! keeps no undo data until its first move below the deepest level, which
+//! then decodes the chunks again (a whole decode's time, in one frame);
+//! with the logs asked for up front they are written while decoding
+//! instead. A client that only ever refines uses [`Decoder::forward_only`].
 
 pub mod codec;
 pub mod decoder;
