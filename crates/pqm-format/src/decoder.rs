@@ -1759,14 +1759,17 @@ impl Decoder {
         // the copy is taken when the records to replay write more entries
         // than a sixteenth of the level holds.
         let at_to = frontier_at(&self.frontier, r, to);
-        // Without logs the ids to update are the pending ones.
-        let entries = if self.logs {
-            (r.rw_at(to) - r.rw_at(from)) + (r.moved_at(to) - r.moved_at(from))
-        } else {
-            self.pending_moved.len() + self.pending_rw.len()
-        };
-        let frontier =
-            at_to.filter(|_| self.copy_policy.copies(entries, (v_from + f_from) as usize));
+        // Without logs the ids to update are the pending ones. Counted only
+        // when `to` is the deepest level (`at_to`), so `to >= from` and the
+        // log offsets do not run backwards.
+        let frontier = at_to.filter(|_| {
+            let entries = if self.logs {
+                (r.rw_at(to) - r.rw_at(from)) + (r.moved_at(to) - r.moved_at(from))
+            } else {
+                self.pending_moved.len() + self.pending_rw.len()
+            };
+            self.copy_policy.copies(entries, (v_from + f_from) as usize)
+        });
         if self.forward_only && to != from && (to < from || at_to.is_none()) {
             return Err(DecodeError::Parameter(format!(
                 "a forward-only decoder moves only to the deepest decoded level ({}), not from level {from} to {to}",
