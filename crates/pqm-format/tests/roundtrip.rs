@@ -321,6 +321,15 @@ proptest! {
     }
 }
 
+/// The mesh of the streaming tests: 150 records with face splits and edge
+/// splits mixed in.
+fn streamed_mesh(seed: u64) -> ProgressiveMesh {
+    let mut pm = testgen::generate(seed, 150);
+    pqm_format::vectors::add_face_splits(&mut pm, 20, seed);
+    pqm_format::vectors::add_edge_splits(&mut pm, 10, seed);
+    pm
+}
+
 /// Levels below the deepest one while the file streams in: a replay there
 /// uses the records' new codes and quads, which the decoder unwinds from
 /// the frontier on the first such replay and again for the chunks decoded
@@ -331,9 +340,7 @@ proptest! {
 #[test]
 fn replays_below_the_deepest_level_while_streaming() {
     for seed in 0..8u64 {
-        let mut pm = testgen::generate(seed, 150);
-        pqm_format::vectors::add_face_splits(&mut pm, 20, seed);
-        pqm_format::vectors::add_edge_splits(&mut pm, 10, seed);
+        let pm = streamed_mesh(seed);
         let opts = EncodeOptions {
             chunk_records: Some(13),
             ..EncodeOptions::default()
@@ -388,9 +395,7 @@ fn replays_below_the_deepest_level_while_streaming() {
 #[test]
 fn undo_logs_are_rebuilt_on_the_first_move_below_the_deepest_level() {
     for seed in 0..12u64 {
-        let mut pm = testgen::generate(seed, 150);
-        pqm_format::vectors::add_face_splits(&mut pm, 20, seed);
-        pqm_format::vectors::add_edge_splits(&mut pm, 10, seed);
+        let pm = streamed_mesh(seed);
         let opts = EncodeOptions {
             chunk_records: Some(7 + seed as usize % 5),
             ..EncodeOptions::default()
