@@ -629,6 +629,16 @@ fn encode_info_decode_levels_prefixes_and_full_equality() {
         prev_bytes = b;
     }
     assert_eq!(levels.last().unwrap()["faces"], 2928);
+    // positions + connectivity: the file up to the end of the records (the
+    // finest level's bytes), without the vertex order that follows them
+    let geometry = f["geometry_bits_per_vertex"].as_f64().unwrap();
+    let records_end = levels.last().unwrap()["bytes"].as_u64().unwrap();
+    let v = info["final_vertices"].as_u64().unwrap();
+    assert!(
+        (geometry - 8.0 * records_end as f64 / v as f64).abs() < 1e-9,
+        "{geometry} {e}"
+    );
+    assert!(info["has_vertex_order"] == true && geometry < f["bits_per_vertex"].as_f64().unwrap());
     // the text form shows the table
     pqm()
         .args(["info", s(&file)])
