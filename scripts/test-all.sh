@@ -40,6 +40,10 @@ cargo fmt --all --check
 log "cargo clippy --workspace --all-targets -- -D warnings"
 cargo clippy --workspace --all-targets -- -D warnings
 
+log "RUSTDOCFLAGS=\"-D warnings\" cargo doc --workspace --no-deps"
+# Broken, ambiguous or private intra-doc links fail here, as clippy's do.
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps
+
 # --- tests ----------------------------------------------------------------
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT

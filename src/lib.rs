@@ -4,6 +4,6 @@
 //! `tests/` (and users who want one dependency) can reach everything:
 //!
 //! * [`core`] — the quad mesh, I/O, operators, coarsener and metrics;
-//! * [`format`] — the `.pqm` writer, reader and streaming decoder.
+//! * [`mod@format`] — the `.pqm` writer, reader and streaming decoder.
 pub use pqm_core as core;
 pub use pqm_format as format;

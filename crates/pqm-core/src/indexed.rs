@@ -2,7 +2,8 @@
 //! consume. It is the exchange type between file formats and the half-edge
 //! [`crate::mesh::Mesh`]; it keeps whatever the file had (any polygon size,
 //! texture coordinates, normals, groups, per-vertex scalar properties) and
-//! checks nothing beyond what `check()` is asked to check.
+//! checks nothing: [`Mesh::from_indexed`](crate::mesh::Mesh::from_indexed)
+//! checks the structure when a soup becomes a half-edge mesh.
 
 use glam::DVec3;
 use std::collections::BTreeMap;
@@ -80,7 +81,8 @@ impl IndexedMesh {
         (0..self.face_count()).map(move |f| self.face(f))
     }
 
-    /// Appends a face (no checks; see [`IndexedMesh::check`]).
+    /// Appends a face, unchecked: the structure is checked when the soup
+    /// becomes a half-edge mesh ([`Mesh::from_indexed`](crate::mesh::Mesh::from_indexed)).
     pub fn push_face(&mut self, face: &[u32]) {
         if self.face_starts.is_empty() {
             self.face_starts.push(0);

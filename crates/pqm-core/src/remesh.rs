@@ -28,9 +28,9 @@
 //! # Measurements
 //!
 //! [`RemeshResult`] describes three stages, each with face and vertex
-//! counts, the valence structure ([`crate::metrics::valence`]) and, when
+//! counts, the valence structure ([`mod@crate::metrics::valence`]) and, when
 //! [`RemeshOptions::measure`] is set, the symmetric sampled Hausdorff
-//! distance to the input ([`crate::metrics::hausdorff`], default sampling)
+//! distance to the input ([`mod@crate::metrics::hausdorff`], default sampling)
 //! in units of the **input's bounding-box diagonal**: the split (the
 //! pipeline's starting point; its distance is ~0 since the split does not
 //! move the surface), the coarse mesh, and the output. Wall-clock seconds

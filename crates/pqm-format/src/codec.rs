@@ -131,8 +131,8 @@ pub const NIL: u32 = u32::MAX;
 /// `[n, c_1 … c_7]` holding up to [`INLINE`] of its corners; the rest (a
 /// vertex in more than 7 faces, a few per cent on real meshes) are a doubly
 /// linked list (`ov_head`: first corner per vertex, `ov_links`:
-/// `[next, prev]` per corner, both [`Paged`]: only the pages of 64 ids
-/// that hold an entry are allocated), flagged by [`OVERFLOW`] in `n`. At
+/// `[next, prev]` per corner, both `Paged`: only the pages of 64 ids
+/// that hold an entry are allocated), flagged by `OVERFLOW` in `n`. At
 /// most 32 bytes per vertex and 32 per slot, and 1/64 of that for the page
 /// tables (within `Limits::estimate`). Reading a
 /// star is then one cache miss for the block and independent misses for
@@ -410,7 +410,7 @@ pub struct Cursors {
     /// Last rewritten slot coded.
     pub slot: u32,
     /// The decoder's look-ahead into the chunk's `refs` stream
-    /// ([`MeshState::prefetch_ahead`]): reset with the cursors.
+    /// (`MeshState::prefetch_ahead`): reset with the cursors.
     pub peek: crate::varint::Peek3,
 }
 
@@ -925,10 +925,10 @@ impl MeshState {
     /// current face's `pv`), each step one branch-free compare of the seven
     /// padded entries. When that walk closes a cycle over all `n` faces,
     /// the `nx` of the faces are the `n` distinct `pv` values, so every
-    /// `succ` had exactly one candidate and [`MeshState::star_sorted`]'s
+    /// `succ` had exactly one candidate and `MeshState::star_sorted`'s
     /// walk over the faces sorted by slot makes the same steps: same
     /// result. Anything else (a boundary, a repeated link vertex, a broken
-    /// fan, an overflow list) is left to [`MeshState::star_sorted`].
+    /// fan, an overflow list) is left to `MeshState::star_sorted`.
     /// Property tests `fast_star_equals_general` and the real-mesh levels
     /// check both against [`MeshState::star_general`].
     #[inline]
@@ -2694,9 +2694,9 @@ pub type Kept<'a> = Option<(&'a mut Vec<[u32; 3]>, &'a mut Vec<[u32; 4]>)>;
 
 /// [`decode_record_into`] followed by [`MeshState::apply_delta_logged`]:
 /// the decoder's loop. An edge split whose stars are both on the fast
-/// path ([`MeshState::star_fast`]) is decoded and applied fused
-/// ([`crate::edge_split::build_fast`]), and so are the split and
-/// face-split forms ([`decode_apply_split`], [`decode_apply_face_split`]):
+/// path (`MeshState::star_fast`) is decoded and applied fused
+/// (`edge_split::build_fast`), and so are the split and
+/// face-split forms (`decode_apply_split`, `decode_apply_face_split`):
 /// no explicit record. The record's new codes and appended quads are
 /// appended to `kept` when given; `r` is scratch (only `r.op` is
 /// meaningful after the call). Same level, same log entries (within a

@@ -4,10 +4,10 @@
 //!
 //! [`build`] is the one place the explicit record is made from the
 //! parameters: `decode_record` calls it, and the encoder calls it on the
-//! parameters it derived ([`derive`]) and uses the form only when the result
+//! parameters it derived ([`derive()`]) and uses the form only when the result
 //! equals the record exactly — so whatever the derivation guesses, a file
 //! never holds a form-4 record that decodes to something else. The
-//! decoder's loop takes [`build_fast`] when both stars are on the fast
+//! decoder's loop takes `build_fast` when both stars are on the fast
 //! path: the same quads and predictions, applied without the explicit
 //! record (tests `fused_edge_split_equals_build` and every real-mesh
 //! level check the two against each other).

@@ -1,4 +1,4 @@
-//! The `.pqm` writer: [`write`] a [`ProgressiveMesh`] in one pass to any
+//! The `.pqm` writer: [`write()`] a [`ProgressiveMesh`] in one pass to any
 //! `Write` (chunks are buffered in memory because the chunk table, which
 //! holds their offsets and lengths, comes first).
 //!
@@ -137,7 +137,7 @@ pub struct BitsPerVertex {
     pub total: f64,
 }
 
-/// What [`write`] produced.
+/// What [`write()`] produced.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct EncodeReport {
     /// Header bytes.
@@ -719,7 +719,7 @@ pub fn write(
     Ok(report)
 }
 
-/// [`write`] into a new `Vec<u8>`.
+/// [`write()`] into a new `Vec<u8>`.
 pub fn write_to_vec(
     mesh: &ProgressiveMesh,
     opts: &EncodeOptions,

@@ -1,7 +1,7 @@
 //! # pqm-format
 //!
 //! The `.pqm` progressive quad mesh file format — byte layout in
-//! `spec/pqm.md`, the single source of truth — with a writer ([`write`]) and a
+//! `spec/pqm.md`, the single source of truth — with a writer ([`write()`]) and a
 //! push-style streaming decoder ([`Decoder`]) that refines and coarsens
 //! between levels exactly.
 //!

@@ -99,7 +99,7 @@ impl FeatureState {
 
     /// Rule 1 on a merge group (`into` plus the vertices merging into it):
     /// its feature vertices are consecutive on one curve — one, two joined
-    /// by a feature edge, or a run of three ([`FeatureState::check_run`]) —
+    /// by a feature edge, or a run of three (`FeatureState::check_run`) —
     /// with at most one corner. Returns the vertex whose position the group
     /// must keep, if any (the corner, or the single feature vertex), and
     /// whether the group merges along a feature edge.
@@ -368,5 +368,5 @@ pub enum GroupConstraint {
 
 /// A run of three of a boundary loop may merge only where the loop through
 /// its middle vertex passes within this (times the run's mean edge length)
-/// of the run's vertices ([`FeatureState::cuts_loop_corner`]).
+/// of the run's vertices (`FeatureState::cuts_loop_corner`).
 pub const RUN_CORNER_CUT: f64 = 0.25;

@@ -112,7 +112,7 @@ pub const RESCUE_ITERATIONS: u32 = 6;
 /// of the input faces it stands for (fraction of the bbox diagonal): what
 /// keeps the Hausdorff distance of a level down.
 pub const MAX_SURFACE_DEVIATION: f64 = 0.007;
-/// The [`Coarsener::surface_deviation`] a step away from features may reach
+/// The `Coarsener::surface_deviation` a step away from features may reach
 /// in the last phase (when nothing is legal under
 /// [`MAX_SURFACE_DEVIATION`]). Unbounded, one such step on fandisk (plane
 /// deviation between 2.1 and 2.2 %) alone set its Hausdorff distance to
@@ -128,7 +128,7 @@ pub const LAST_PHASE_MAX_SURFACE_DEVIATION: f64 = 0.02;
 /// Factor on [`MAX_SURFACE_DEVIATION`] for a step that removes at least
 /// [`FIX_MIN_GAIN`] defects (non-ideal vertices, as scored), away from
 /// features, in the first phase, under [`Placement::Qem`]
-/// ([`Coarsener::fix_deviation_factor`]). Such steps cancel 3–5 pairs
+/// (`Coarsener::fix_deviation_factor`). Such steps cancel 3–5 pairs
 /// where zippers meet; refused, both pairs stay. Spot's refusals of
 /// defect-removing steps were mostly "off the surface" (53 of 68). Ideal
 /// fraction, before → after (same session): spot 83.7 → 86.6 % (Hausdorff
@@ -179,7 +179,7 @@ pub const A_FLOOR: f64 = 0.3;
 /// loki 76.7 %. Neither kept. Kept instead (round 3): the wide relaxation
 /// puts back, after each iteration, the vertices of any quad at its edge
 /// (checked, not in the step's own faces) that the iteration took under
-/// `min(MIN_NEW_QUAD_JACOBIAN, its value before)` ([`Coarsener::relax_keeping`]);
+/// `min(MIN_NEW_QUAD_JACOBIAN, its value before)` (`Coarsener::relax_keeping`);
 /// the bunny's defect-removing steps refused as "inverted or too distorted"
 /// 1,980 → 1,201, ideal
 /// fraction spot 83.5 → 83.7 % (699 faces), fandisk 81.5 → 81.5 %, loki
@@ -337,7 +337,7 @@ impl Attributes {
     }
 }
 
-/// Queue a qeMerge per re-fan side combination (see [`QE_VARIANTS`])
+/// Queue a qeMerge per re-fan side combination (see `QE_VARIANTS`)
 /// rather than only the non-crossing one. Off: measured on the quality-bar
 /// meshes it does not help. Unfiltered, E picks crossing fans often and
 /// every mesh ends worse (ideal fraction −0.4 to −2.9 points, three floors

@@ -1,10 +1,10 @@
 //! Mesh quality metrics: the figures the qCoarsen paper reports in its Table 1,
-//! computed on an [`IndexedMesh`](crate::IndexedMesh).
+//! computed on an [`IndexedMesh`].
 //!
-//! * [`scaled_jacobian`] — per-face Scaled Jacobian and its `{median, worst}`;
-//! * [`valence`] — vertex structure: ideal fraction, extraordinary count, worst valence;
-//! * [`topology`] — Euler characteristic, components, boundary loops, genus;
-//! * [`hausdorff`] — symmetric surface-sampled Hausdorff distance (uses [`crate::bvh`]);
+//! * [`mod@scaled_jacobian`] — per-face Scaled Jacobian and its `{median, worst}`;
+//! * [`mod@valence`] — vertex structure: ideal fraction, extraordinary count, worst valence;
+//! * [`mod@topology`] — Euler characteristic, components, boundary loops, genus;
+//! * [`mod@hausdorff`] — symmetric surface-sampled Hausdorff distance (uses [`crate::bvh`]);
 //! * [`stats`] — [`MeshStats`], all of the above in one serialisable record.
 //!
 //! ## Which faces count

@@ -2,8 +2,8 @@
 //!
 //! The record serialises with serde (field names as below) and prints as a
 //! two-column table with `Display`. Definitions live in the metric modules:
-//! [`super::topology`], [`super::scaled_jacobian`], [`super::valence`],
-//! [`super::hausdorff`].
+//! [`mod@super::topology`], [`mod@super::scaled_jacobian`], [`mod@super::valence`],
+//! [`mod@super::hausdorff`].
 
 use super::hausdorff::{hausdorff, HausdorffOptions, HausdorffStats};
 use super::scaled_jacobian::{scaled_jacobian, ScaledJacobianStats};
@@ -26,7 +26,7 @@ pub struct MeshStats {
     pub triangles: usize,
     /// Faces with any other number of corners.
     pub other_faces: usize,
-    /// Boundary loops (see [`super::topology`]).
+    /// Boundary loops (see [`mod@super::topology`]).
     pub boundary_loops: usize,
     /// Connected components.
     pub components: usize,
@@ -39,7 +39,7 @@ pub struct MeshStats {
     /// Vertex structure `{ideal_fraction, extraordinary, worst}`.
     pub valence: ValenceStats,
     /// Irregular vertices the topology forces on a doublet-free quad mesh
-    /// (8 per closed sphere; see [`super::topology`]): `extraordinary` can
+    /// (8 per closed sphere; see [`mod@super::topology`]): `extraordinary` can
     /// never go below it, so it bounds the ideal fraction any coarsening
     /// can reach at a given vertex count.
     pub forced_irregular: usize,

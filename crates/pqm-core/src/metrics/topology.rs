@@ -26,7 +26,7 @@
 //!   (a doublet, which the coarsener removes). So a closed genus-0 component
 //!   (`χ = 2`) of a doublet-free quad mesh has at least 8 irregular
 //!   vertices, whatever its connectivity — the cube's 8 corners: a lower
-//!   bound on `extraordinary` (see [`super::valence`]) that no coarsener can
+//!   bound on `extraordinary` (see [`mod@super::valence`]) that no coarsener can
 //!   beat without changing the topology. Components with a boundary are left
 //!   out (their corners may be ideal at valence 2).
 //!

@@ -9,8 +9,8 @@
 //! it would commit, and what makes every step a recordable, invertible
 //! replacement.
 //!
-//! * [`qv_merge`] — quad-vertex merge: a quad's diagonal vertices merge.
-//! * [`qe_merge`] — quad-edge merge: two adjacent quads collapse onto their
+//! * [`mod@qv_merge`] — quad-vertex merge: a quad's diagonal vertices merge.
+//! * [`mod@qe_merge`] — quad-edge merge: two adjacent quads collapse onto their
 //!   shared edge, then the 1-ring of each endpoint is re-fanned into quads.
 //! * [`doublet`] — doublet removal: two quads sharing two edges become one.
 
@@ -317,7 +317,7 @@ impl GeometryGuard {
     }
 
     /// Vertices on sharp creases: a face's fold-over reference does not
-    /// reach across them (see [`GeometryGuard::local_normal`]).
+    /// reach across them (see `GeometryGuard::local_normal`).
     pub fn with_creases(mut self, creases: Vec<VertexId>) -> Self {
         self.creases = creases;
         self
