@@ -646,6 +646,33 @@ fn encode_info_decode_levels_prefixes_and_full_equality() {
         .success()
         .stdout(predicate::str::contains("level"))
         .stdout(predicate::str::contains("bytes"));
+    // a truncated copy: percentages are of the whole file (never above
+    // 100 %), and exactly the levels beyond the cut are marked
+    let cut = levels[1]["bytes"].as_u64().unwrap() + 5;
+    let part = d.path().join("part.pqm");
+    std::fs::write(&part, &std::fs::read(&file).unwrap()[..cut as usize]).unwrap();
+    let out = pqm().args(["info", s(&part)]).output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let rows: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains('%') && !l.contains("file %"))
+        .collect();
+    assert_eq!(rows.len(), levels.len(), "{text}");
+    for (row, level) in rows.iter().zip(levels) {
+        let pct: f64 = row
+            .split('%')
+            .next()
+            .unwrap()
+            .split_whitespace()
+            .last()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!((0.0..=100.0).contains(&pct), "{row}");
+        let beyond = level["bytes"].as_u64().unwrap() > cut;
+        assert_eq!(row.contains("not received"), beyond, "{row}");
+    }
 
     // decode at several levels: each is a valid genus-0 quad mesh with the
     // face count the chunk table announces

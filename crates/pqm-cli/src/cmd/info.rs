@@ -200,15 +200,39 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             "{:>8} {:>10} {:>10} {:>12} {:>12} {:>7}\n",
             "level", "faces", "vertices", "error", "bytes", "file %"
         ));
+        // A truncated file: percentages of the whole file as far as the
+        // chunk table tells it (up to its last chunk; optional sections
+        // after it are not counted), and the levels not received marked.
+        let whole = if r.complete {
+            r.file_bytes
+        } else {
+            r.levels
+                .iter()
+                .map(|l| l.bytes)
+                .max()
+                .unwrap_or(0)
+                .max(r.file_bytes)
+        };
         for row in &r.levels {
             s.push_str(&format!(
-                "{:>8} {:>10} {:>10} {:>12.3e} {:>12} {:>6.1}%\n",
+                "{:>8} {:>10} {:>10} {:>12.3e} {:>12} {:>6.1}%{}\n",
                 row.level,
                 row.faces,
                 row.vertices,
                 row.error,
                 row.bytes,
-                100.0 * row.bytes as f64 / r.file_bytes.max(1) as f64
+                100.0 * row.bytes as f64 / whole.max(1) as f64,
+                if row.bytes > r.file_bytes {
+                    "  not received"
+                } else {
+                    ""
+                }
+            ));
+        }
+        if !r.complete {
+            s.push_str(&format!(
+                "(file %: of the {whole} bytes up to the last chunk; the file has {})\n",
+                r.file_bytes
             ));
         }
         s
