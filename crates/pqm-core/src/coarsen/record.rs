@@ -6,8 +6,9 @@
 //! (the logs are most of the coarsener's memory growth). [`to_progressive`]
 //! then replays the logs in
 //! reverse — coarse to fine — and assigns the canonical numbering of
-//! [`crate::progressive`]: base vertices and faces in id order, each record's
-//! re-inserted vertices appended, each face kept at its slot.
+//! [`crate::progressive`]: base faces and vertices in a traversal order (see
+//! [`Base::of`]), each record's re-inserted vertices appended, each face kept
+//! at its slot.
 
 use crate::indexed::IndexedMesh;
 use crate::mesh::{FaceId, Mesh, VertexId};
@@ -380,19 +381,20 @@ pub struct Base {
 }
 
 impl Base {
-    /// The base of `coarsest`: its vertices and faces in id order.
+    /// The base of `coarsest`, numbered in [`traversal_order`].
     pub fn of(coarsest: &Mesh) -> Base {
+        let (faces, vertices) = traversal_order(coarsest);
         let mut cv = vec![NONE; coarsest.vertex_capacity()];
         let mut cf = vec![NONE; coarsest.face_capacity()];
         let mut base = IndexedMesh::new();
-        let mut vertex_order = Vec::with_capacity(coarsest.vertex_capacity());
-        for v in coarsest.vertices() {
+        let mut vertex_order = Vec::with_capacity(vertices.len());
+        for v in vertices {
             cv[v.idx()] = base.positions.len() as u32;
             vertex_order.push(v.0);
             base.positions.push(coarsest.position(v));
         }
         let mut buf = Vec::with_capacity(4);
-        for f in coarsest.faces() {
+        for f in faces {
             cf[f.idx()] = base.face_count() as u32;
             buf.clear();
             buf.extend(coarsest.face_vertices(f).map(|v| cv[v.idx()]));
@@ -405,6 +407,64 @@ impl Base {
             vertex_order,
         }
     }
+}
+
+/// The order the base's faces and vertices are numbered in.
+///
+/// Invariant: faces are in breadth-first order — start at the lowest-id
+/// face not yet reached; visiting a face appends it; then, for each of its
+/// corners in order, the faces around that corner not yet queued are queued
+/// in ascending face id; repeat per connected component. Vertices are
+/// numbered by first appearance along that face order (corners in order
+/// within a face); live vertices in no face (there should be none) come
+/// last, in id order. So each face after the first of its component shares
+/// a vertex with an earlier face, and the first appearances of vertex ids
+/// along the faces are `0, 1, 2, …`.
+///
+/// Why: the base section of a `.pqm` file (spec §6) stores each corner as a
+/// delta of the previous corner and each vertex's position as a delta of the
+/// previous vertex's; when ids follow a traversal both deltas are small
+/// (the coarsener's own ids follow no order). Deterministic: the only
+/// orders used are face ids, corner order and the queue's.
+fn traversal_order(m: &Mesh) -> (Vec<FaceId>, Vec<VertexId>) {
+    let mut queued = vec![false; m.face_capacity()];
+    let mut faces: Vec<FaceId> = Vec::with_capacity(m.face_count());
+    let mut around: Vec<FaceId> = Vec::new();
+    // `faces` is the queue itself: faces are visited in the order queued
+    let mut head = 0;
+    for start in m.faces() {
+        if queued[start.idx()] {
+            continue;
+        }
+        queued[start.idx()] = true;
+        faces.push(start);
+        while head < faces.len() {
+            let f = faces[head];
+            head += 1;
+            for v in m.face_vertices(f) {
+                around.clear();
+                around.extend(m.vertex_faces(v).filter(|g| !queued[g.idx()]));
+                around.sort_unstable();
+                around.dedup();
+                for &g in &around {
+                    queued[g.idx()] = true;
+                    faces.push(g);
+                }
+            }
+        }
+    }
+    let mut numbered = vec![false; m.vertex_capacity()];
+    let mut vertices: Vec<VertexId> = Vec::with_capacity(m.vertex_count());
+    for &f in &faces {
+        for v in m.face_vertices(f) {
+            if !numbered[v.idx()] {
+                numbered[v.idx()] = true;
+                vertices.push(v);
+            }
+        }
+    }
+    vertices.extend(m.vertices().filter(|v| !numbered[v.idx()]));
+    (faces, vertices)
 }
 
 /// Replays `n` logs given last-logged first (coarse → fine).
@@ -697,6 +757,147 @@ mod tests {
             .map(|f| f.iter().map(|&v| pm.vertex_order[v as usize]).collect())
             .collect();
         let mut want: Vec<Vec<u32>> = src.faces().map(|f| f.to_vec()).collect();
+        got.sort();
+        want.sort();
+        assert_eq!(got, want);
+    }
+
+    /// Checks that `base` is numbered as [`traversal_order`] documents:
+    /// vertex ids first appear along the faces as `0, 1, 2, …` (and every
+    /// vertex is in a face); components are contiguous; each face after
+    /// the first of its component shares a vertex with an earlier face, and
+    /// (breadth-first) the earliest such face — the one that queued it —
+    /// never moves back along the order, nor, among the faces one face
+    /// queued, does the corner of it that queued them. Returns the number
+    /// of components.
+    fn assert_traversal_order(base: &IndexedMesh) -> usize {
+        let faces: Vec<&[u32]> = base.faces().collect();
+        let mut next = 0u32;
+        for f in &faces {
+            for &v in *f {
+                assert!(v <= next, "vertex {v} appears before {next}");
+                next = next.max(v + 1);
+            }
+        }
+        assert_eq!(next as usize, base.vertex_count(), "a vertex in no face");
+        // earliest earlier face sharing a vertex with each face
+        let mut first_face = vec![usize::MAX; base.vertex_count()];
+        let (mut components, mut start) = (0, 0);
+        let mut last: Option<(usize, usize)> = None;
+        for (i, f) in faces.iter().enumerate() {
+            let parent = f
+                .iter()
+                .map(|&v| first_face[v as usize])
+                .filter(|&p| p < i)
+                .min();
+            match parent {
+                None => {
+                    components += 1;
+                    start = i;
+                    last = None;
+                }
+                Some(p) => {
+                    // components are contiguous: nothing reaches back into
+                    // an earlier one
+                    assert!(p >= start, "face {i} touches an earlier component");
+                    // the first corner of `p` that is also in `f`
+                    let corner = faces[p]
+                        .iter()
+                        .position(|v| f.contains(v))
+                        .expect("shares a vertex");
+                    if let Some(prev) = last {
+                        assert!(
+                            prev <= (p, corner),
+                            "face {i}: queued by {p}/{corner} after {prev:?}"
+                        );
+                    }
+                    last = Some((p, corner));
+                }
+            }
+            for &v in *f {
+                let e = &mut first_face[v as usize];
+                *e = (*e).min(i);
+            }
+        }
+        components
+    }
+
+    /// The base of a real coarsening (two components, one with a boundary)
+    /// is in the documented traversal order, and the records still replay
+    /// it to the input, id for id through `vertex_order`.
+    #[test]
+    fn base_is_numbered_in_traversal_order() {
+        use crate::coarsen::{CoarsenOptions, Coarsener, Placement};
+        let torus = crate::shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
+        let mut grid = crate::shapes::noisy(&crate::shapes::grid(24, 16, 3.0, 2.0), 0.01, 3);
+        for p in &mut grid.positions {
+            p.x += 10.0;
+        }
+        let src = crate::shapes::concat(&[torus, grid]);
+        let mesh = Mesh::from_indexed(&src).unwrap();
+        let opts = CoarsenOptions {
+            target_faces: Some(200),
+            placement: Placement::Subset,
+            ..Default::default()
+        };
+        let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
+        c.run(&mut |_| {});
+        let pm = c.into_progressive();
+        pm.validate().unwrap();
+        assert!(!pm.records.is_empty());
+        assert_eq!(assert_traversal_order(&pm.base), 2);
+        let fine = pm.level(pm.records.len());
+        for (canon, &orig) in pm.vertex_order.iter().enumerate() {
+            assert_eq!(fine.positions[canon], src.positions[orig as usize]);
+        }
+        let mut got: Vec<Vec<u32>> = fine
+            .faces()
+            .map(|f| f.iter().map(|&v| pm.vertex_order[v as usize]).collect())
+            .collect();
+        let mut want: Vec<Vec<u32>> = src.faces().map(|f| f.to_vec()).collect();
+        got.sort();
+        want.sort();
+        assert_eq!(got, want);
+    }
+
+    /// On an uncoarsened mesh whose ids follow no order (a procedural
+    /// mesh's faces and vertices shuffled), [`Base::of`] numbers it in the
+    /// traversal order and `vertex_order` maps each base vertex back to its
+    /// input position.
+    #[test]
+    fn base_of_shuffled_mesh_is_in_traversal_order() {
+        let src = crate::shapes::two_components();
+        // a fixed permutation of vertices and faces (multiplicative, so
+        // neighbours in the input are far apart in the ids)
+        let nv = src.vertex_count() as u64;
+        let perm_v: Vec<u32> = (0..nv).map(|i| ((i * 37 + 11) % nv) as u32).collect();
+        let faces: Vec<&[u32]> = src.faces().collect();
+        let nf = faces.len() as u64;
+        let mut shuffled = IndexedMesh::new();
+        shuffled.positions = vec![DVec3::ZERO; nv as usize];
+        for (i, &j) in perm_v.iter().enumerate() {
+            shuffled.positions[j as usize] = src.positions[i];
+        }
+        for k in 0..nf {
+            let f = faces[((k * 29 + 5) % nf) as usize];
+            let q: Vec<u32> = f.iter().map(|&v| perm_v[v as usize]).collect();
+            shuffled.push_face(&q);
+        }
+        let base = Base::of(&Mesh::from_indexed(&shuffled).unwrap());
+        assert_eq!(assert_traversal_order(&base.base), 2);
+        assert_eq!(base.base.face_count(), shuffled.face_count());
+        for (canon, &orig) in base.vertex_order.iter().enumerate() {
+            assert_eq!(
+                base.base.positions[canon],
+                shuffled.positions[orig as usize]
+            );
+        }
+        let mut got: Vec<Vec<u32>> = base
+            .base
+            .faces()
+            .map(|f| f.iter().map(|&v| base.vertex_order[v as usize]).collect())
+            .collect();
+        let mut want: Vec<Vec<u32>> = shuffled.faces().map(|f| f.to_vec()).collect();
         got.sort();
         want.sort();
         assert_eq!(got, want);
