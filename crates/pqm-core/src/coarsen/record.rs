@@ -381,7 +381,10 @@ pub struct Base {
 }
 
 impl Base {
-    /// The base of `coarsest`, numbered in [`traversal_order`].
+    /// The base of `coarsest`, numbered in a traversal order: faces
+    /// breadth-first, vertices by first appearance along them (the private
+    /// `traversal_order` states it exactly), so the base section's deltas
+    /// are small.
     pub fn of(coarsest: &Mesh) -> Base {
         let (faces, vertices) = traversal_order(coarsest);
         let mut cv = vec![NONE; coarsest.vertex_capacity()];
@@ -747,14 +750,20 @@ mod tests {
         }
         // On a closed surface nearly every qeMerge has the shape.
         assert!(checked > 20 && checked * 10 >= qe * 9, "{checked} of {qe}");
-        let fine = pm.level(pm.records.len());
-        for (canon, &orig) in pm.vertex_order.iter().enumerate() {
-            assert_eq!(fine.positions[canon], src.positions[orig as usize]);
+        assert_is_input(&pm.level(pm.records.len()), &pm.vertex_order, &src);
+    }
+
+    /// `mesh`, its vertices mapped to input ids by `order`, is `src`: the
+    /// same positions and the same faces with the same corner order (face
+    /// order aside).
+    fn assert_is_input(mesh: &IndexedMesh, order: &[u32], src: &IndexedMesh) {
+        assert_eq!(order.len(), mesh.positions.len());
+        for (canon, &orig) in order.iter().enumerate() {
+            assert_eq!(mesh.positions[canon], src.positions[orig as usize]);
         }
-        // The same faces with the same corner order, in input ids.
-        let mut got: Vec<Vec<u32>> = fine
+        let mut got: Vec<Vec<u32>> = mesh
             .faces()
-            .map(|f| f.iter().map(|&v| pm.vertex_order[v as usize]).collect())
+            .map(|f| f.iter().map(|&v| order[v as usize]).collect())
             .collect();
         let mut want: Vec<Vec<u32>> = src.faces().map(|f| f.to_vec()).collect();
         got.sort();
@@ -846,18 +855,7 @@ mod tests {
         pm.validate().unwrap();
         assert!(!pm.records.is_empty());
         assert_eq!(assert_traversal_order(&pm.base), 2);
-        let fine = pm.level(pm.records.len());
-        for (canon, &orig) in pm.vertex_order.iter().enumerate() {
-            assert_eq!(fine.positions[canon], src.positions[orig as usize]);
-        }
-        let mut got: Vec<Vec<u32>> = fine
-            .faces()
-            .map(|f| f.iter().map(|&v| pm.vertex_order[v as usize]).collect())
-            .collect();
-        let mut want: Vec<Vec<u32>> = src.faces().map(|f| f.to_vec()).collect();
-        got.sort();
-        want.sort();
-        assert_eq!(got, want);
+        assert_is_input(&pm.level(pm.records.len()), &pm.vertex_order, &src);
     }
 
     /// On an uncoarsened mesh whose ids follow no order (a procedural
@@ -886,21 +884,7 @@ mod tests {
         let base = Base::of(&Mesh::from_indexed(&shuffled).unwrap());
         assert_eq!(assert_traversal_order(&base.base), 2);
         assert_eq!(base.base.face_count(), shuffled.face_count());
-        for (canon, &orig) in base.vertex_order.iter().enumerate() {
-            assert_eq!(
-                base.base.positions[canon],
-                shuffled.positions[orig as usize]
-            );
-        }
-        let mut got: Vec<Vec<u32>> = base
-            .base
-            .faces()
-            .map(|f| f.iter().map(|&v| base.vertex_order[v as usize]).collect())
-            .collect();
-        let mut want: Vec<Vec<u32>> = shuffled.faces().map(|f| f.to_vec()).collect();
-        got.sort();
-        want.sort();
-        assert_eq!(got, want);
+        assert_is_input(&base.base, &base.vertex_order, &shuffled);
     }
 
     proptest! {
