@@ -57,10 +57,12 @@ pub struct Args {
     #[command(flatten)]
     pub coarsener: CoarsenerArgs,
     /// Coarsen in rounds of independent steps, each round committing up to
-    /// R × its starting face count steps, so that the records of a round can
-    /// be stored in ascending order of their anchor vertices (smaller
-    /// vertex references; the file format is the same). Only with
-    /// `--placement subset`. Default: DEFAULT_ROUNDS_HELP.
+    /// R × its starting face count steps, so that the records of a round are
+    /// stored in ascending order of their anchor vertices (smaller vertex
+    /// references, same file format). With R = 0.01: 1–8.5 % smaller
+    /// geometry, encoding up to a third slower, intermediate levels with
+    /// 1–2 points fewer ideal vertices; larger R: smaller files, worse
+    /// levels. Only with `--placement subset`. Default: off.
     #[arg(long, value_name = "R", value_parser = parse_ratio, conflicts_with = "no_rounds", help_heading = "Coarsener")]
     pub round_fraction: Option<f64>,
     /// One step at a time in the priority queue's order (no rounds; see
