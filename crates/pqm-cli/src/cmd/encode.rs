@@ -59,10 +59,10 @@ pub struct Args {
     /// Coarsen in rounds of independent steps, each round committing up to
     /// R × its starting face count steps, so that the records of a round are
     /// stored in ascending order of their anchor vertices (smaller vertex
-    /// references, same file format). With R = 0.01: 1–8.5 % smaller
+    /// references, same file format). With R = 0.005: 1.4–7 % smaller
     /// geometry, encoding up to a third slower, intermediate levels with
-    /// 1–2 points fewer ideal vertices; larger R: smaller files, worse
-    /// levels. Only with `--placement subset`. Default: off.
+    /// up to 1.4 points fewer ideal vertices; larger R: smaller files,
+    /// worse levels. Only with `--placement subset`. Default: off.
     #[arg(long, value_name = "R", value_parser = parse_ratio, conflicts_with = "no_rounds", help_heading = "Coarsener")]
     pub round_fraction: Option<f64>,
     /// One step at a time in the priority queue's order (no rounds; see

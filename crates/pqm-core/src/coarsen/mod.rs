@@ -239,13 +239,16 @@ pub struct CoarsenOptions {
     /// round get the error bound of its coarse end.
     ///
     /// Measured (session 14, `pqm encode`, geometry bits per vertex, main →
-    /// 0.01 / 0.05 / 0.1): spot 50.6 → 50.0 / 48.6 / 49.1, makehuman 45.9 →
-    /// 44.9 / 43.1 / 43.6, loki 42.7 → 41.6 / 39.5 / 39.7, bunny 44.1 →
-    /// 40.3 / 38.4 / 37.5; but the level at a quarter of the faces has 0.7–2.5
-    /// (0.01) to 8–23 (0.1) points fewer ideal vertices, encoding takes
-    /// 17–32 % (0.01) to 45 % longer, decoding speed is unchanged within
-    /// noise. Rounds rarely reach a quota above 0.05: they end when every
-    /// candidate left would change a locked face. Off by default.
+    /// 0.005 / 0.01 / 0.05 / 0.1): spot 50.6 → 49.7 / 50.0 / 48.6 / 49.1,
+    /// makehuman 45.9 → 45.2 / 44.9 / 43.1 / 43.6, loki 42.7 → 42.1 / 41.6
+    /// / 39.5 / 39.7, bunny 44.1 → 40.9 / 40.3 / 38.4 / 37.5 (the `refs`
+    /// stream: bunny 8.4 → 6.0 / 5.5 / 4.9 / 4.4 bits per refined vertex);
+    /// but the level at a quarter of the faces has 0.3–1.4 (0.005), 0.7–2.5
+    /// (0.01) up to 8–23 (0.1) points fewer ideal vertices, encoding takes
+    /// 10–45 % longer, and decoding (`decode_loop`) is unchanged within
+    /// noise but on makehuman, 15–20 % slower at every fraction. Rounds
+    /// rarely reach a quota above 0.05: they end when every candidate left
+    /// would change a locked face. Off by default.
     pub round_fraction: Option<f64>,
 }
 
