@@ -1099,3 +1099,63 @@ fn smoothing_with_subset_placement_is_a_usage_error() {
         .success();
     assert!(out.exists());
 }
+
+/// `--round-fraction` (rounds of independent steps) writes a file whose
+/// full level is the input, like any; `--no-rounds` is the default's file
+/// byte for byte (rounds are off by default).
+#[test]
+fn encode_in_rounds_decodes_to_the_input_and_no_rounds_is_the_default() {
+    let d = TempDir::new().unwrap();
+    let (plain, off, rounds) = (
+        d.path().join("plain.pqm"),
+        d.path().join("off.pqm"),
+        d.path().join("rounds.pqm"),
+    );
+    json_ok(&["encode", s(&spot()), "-o", s(&plain)]);
+    json_ok(&["encode", s(&spot()), "-o", s(&off), "--no-rounds"]);
+    let e = json_ok(&[
+        "encode",
+        s(&spot()),
+        "-o",
+        s(&rounds),
+        "--round-fraction",
+        "0.05",
+    ]);
+    assert_eq!(std::fs::read(&plain).unwrap(), std::fs::read(&off).unwrap());
+    assert_ne!(
+        std::fs::read(&plain).unwrap(),
+        std::fs::read(&rounds).unwrap()
+    );
+    assert_eq!(e["files"][0]["faces"], 2928);
+    let full = d.path().join("full.obj");
+    json_ok(&["decode", s(&rounds), "-o", s(&full)]);
+    let (got, _) = load_valid(&full);
+    let want = io::read_mesh(&spot()).unwrap();
+    assert_eq!(got.vertex_count(), want.vertex_count());
+    // the same faces (each from its smallest vertex: the corner a face
+    // starts at is not kept) over the input's vertex ids
+    let faces = |m: &IndexedMesh| {
+        let mut fs: Vec<Vec<u32>> = m
+            .faces()
+            .map(|f| {
+                let k = (0..f.len()).min_by_key(|&i| f[i]).unwrap();
+                (0..f.len()).map(|i| f[(k + i) % f.len()]).collect()
+            })
+            .collect();
+        fs.sort();
+        fs
+    };
+    assert_eq!(faces(&got), faces(&want));
+    pqm()
+        .args([
+            "encode",
+            s(&spot()),
+            "-o",
+            "x.pqm",
+            "--round-fraction",
+            "0.1",
+            "--no-rounds",
+        ])
+        .assert()
+        .code(2);
+}

@@ -25,6 +25,10 @@ use std::time::Instant;
 /// any failed). Positions are quantized to --bits per axis over the bounding
 /// box; decoding the full level gives exactly the quantized input. Non-quad
 /// input is split into quads first (see `pqm coarsen --help`).
+/// `pqm encode`'s round fraction when neither `--round-fraction` nor
+/// `--no-rounds` is given (see `CoarsenOptions::round_fraction`).
+pub const DEFAULT_ROUND_FRACTION: Option<f64> = None;
+
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
   pqm encode spot.obj -o spot.pqm
@@ -52,6 +56,19 @@ pub struct Args {
     pub max_error: Option<f64>,
     #[command(flatten)]
     pub coarsener: CoarsenerArgs,
+    /// Coarsen in rounds of independent steps, each round committing up to
+    /// R × its starting face count steps, so that the records of a round are
+    /// stored in ascending order of their anchor vertices (smaller vertex
+    /// references, same file format). With R = 0.005: 1.4–7 % smaller
+    /// geometry, encoding up to a third slower, intermediate levels with
+    /// up to 1.4 points fewer ideal vertices; larger R: smaller files,
+    /// worse levels. Only with `--placement subset`. Default: off.
+    #[arg(long, value_name = "R", value_parser = parse_ratio, conflicts_with = "no_rounds", help_heading = "Coarsener")]
+    pub round_fraction: Option<f64>,
+    /// One step at a time in the priority queue's order (no rounds; see
+    /// --round-fraction).
+    #[arg(long, help_heading = "Coarsener")]
+    pub no_rounds: bool,
     /// Quantization bits per axis, 8..=24.
     #[arg(long, value_name = "N", default_value_t = 14, value_parser = clap::value_parser!(u8).range(8..=24), help_heading = "File")]
     pub bits: u8,
@@ -258,6 +275,11 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         target_ratio: args.base_ratio,
         max_error: args.max_error,
         placement: Placement::Subset,
+        round_fraction: if args.no_rounds {
+            None
+        } else {
+            args.round_fraction.or(DEFAULT_ROUND_FRACTION)
+        },
         ..Default::default()
     };
     let mut p = prepare(input, &args.coarsener, opts, ctx)?;
@@ -269,6 +291,12 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         .unwrap_or_default();
     let r = run_with_bar(&mut p.coarsener, target, &label, ctx);
     let operators = Operators::of(&r, &p.coarsener);
+    if let Some((rounds, steps, deferrals)) = p.coarsener.round_stats() {
+        ctx.verbose(format!(
+            "{label}: {steps} steps in {rounds} rounds ({:.1} per round), {deferrals} candidates set aside",
+            steps as f64 / rounds.max(1) as f64
+        ));
+    }
     let pm = p.coarsener.into_progressive();
     let eopts = EncodeOptions {
         bits: args.bits,

@@ -356,16 +356,122 @@ impl StepLogs {
 /// `errors[s]` is the error bound after `s` steps (`logs.len() + 1`
 /// entries).
 pub fn to_progressive(coarsest: &Mesh, logs: &StepLogs, errors: &[f64]) -> ProgressiveMesh {
-    build(Base::of(coarsest), logs.len(), logs.iter_rev(), errors)
+    build(
+        Base::of(coarsest),
+        logs.len(),
+        logs.iter_rev(),
+        errors,
+        None,
+    )
+    .0
+}
+
+/// [`to_progressive`] of a run in rounds ([`super::CoarsenOptions::round_fraction`]):
+/// the steps of each round are put in ascending order of their anchors
+/// (see [`Rounds`]). Also returns, per record, its round and its step's
+/// sort key (for tests and studies).
+pub fn to_progressive_in_rounds(
+    coarsest: &Mesh,
+    logs: &StepLogs,
+    errors: &[f64],
+    rounds: &Rounds,
+) -> (ProgressiveMesh, Vec<(u32, u32)>) {
+    build(
+        Base::of(coarsest),
+        logs.len(),
+        logs.iter_rev(),
+        errors,
+        Some(rounds),
+    )
 }
 
 /// [`to_progressive`] that consumes the logs and frees them as their records
 /// are built, so the logs and the records are not both held in full (the
 /// same result). `base` is [`Base::of`] the coarsest mesh: taking it first
 /// lets the caller free the mesh before the records are built.
-pub fn into_progressive(base: Base, mut logs: StepLogs, errors: &[f64]) -> ProgressiveMesh {
+/// With `rounds` (a run in rounds), the steps of each round are sorted as in
+/// [`to_progressive_in_rounds`].
+pub fn into_progressive(
+    base: Base,
+    mut logs: StepLogs,
+    errors: &[f64],
+    rounds: Option<&Rounds>,
+) -> ProgressiveMesh {
     let n = logs.len();
-    build(base, n, std::iter::from_fn(move || logs.pop()), errors)
+    build(
+        base,
+        n,
+        std::iter::from_fn(move || logs.pop()),
+        errors,
+        rounds,
+    )
+    .0
+}
+
+/// Step and round boundaries of a run in rounds of independent steps
+/// ([`super::CoarsenOptions::round_fraction`]), in commit order.
+///
+/// A *step* is the logs one commit pushed (the operator, then the doublet
+/// removals it triggered); a *round* is a run of steps none of which
+/// removes or rewrites a face an earlier step of the round wrote, so their
+/// refinement records commute. Each step carries two *key vertices* (coarsener ids)
+/// that exist from the round's coarse end on: its sort key is the smaller
+/// canonical id of the two — for a qvMerge twice the surviving vertex (the
+/// split form's anchor, spec §7.5), for a qeMerge the two endpoints of the
+/// shared edge (the edge-split form's `A`, `D`, §7.10), for a lone doublet
+/// removal two corners of the face it rewrote.
+#[derive(Clone, Debug, Default)]
+pub struct Rounds {
+    steps: Vec<StepMark>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct StepMark {
+    logs: u32,
+    key: [u32; 2],
+    round: u32,
+}
+
+impl Rounds {
+    /// No steps.
+    pub fn new() -> Rounds {
+        Rounds::default()
+    }
+    /// Appends a step of `logs` logs in round `round` (rounds numbered in
+    /// commit order; consecutive steps with the same number form a round).
+    pub fn push(&mut self, logs: usize, key: [VertexId; 2], round: u32) {
+        self.steps.push(StepMark {
+            logs: logs as u32,
+            key: key.map(|v| v.0),
+            round,
+        });
+    }
+    /// Number of steps.
+    pub fn len(&self) -> usize {
+        self.steps.len()
+    }
+    /// Whether no step is marked.
+    pub fn is_empty(&self) -> bool {
+        self.steps.is_empty()
+    }
+    /// Number of rounds.
+    pub fn round_count(&self) -> usize {
+        let mut n = 0;
+        for (i, s) in self.steps.iter().enumerate() {
+            if i == 0 || self.steps[i - 1].round != s.round {
+                n += 1;
+            }
+        }
+        n
+    }
+    /// Logs covered by the marked steps.
+    pub fn log_count(&self) -> usize {
+        self.steps.iter().map(|s| s.logs as usize).sum()
+    }
+    /// Bytes held, for memory reports.
+    pub fn heap_bytes(&self) -> usize {
+        self.steps.capacity() * std::mem::size_of::<StepMark>()
+    }
 }
 
 /// What the records are built from besides the logs: the coarsest mesh in
@@ -470,87 +576,163 @@ fn traversal_order(m: &Mesh) -> (Vec<FaceId>, Vec<VertexId>) {
     (faces, vertices)
 }
 
-/// Replays `n` logs given last-logged first (coarse → fine).
+/// The numbering state of [`build`]: coarsener ids → canonical ones.
+struct Numbering {
+    cv: Vec<u32>,
+    cf: Vec<u32>,
+    vertex_order: Vec<u32>,
+    n_faces: u32,
+}
+
+/// Replays `n` logs given last-logged first (coarse → fine). With `rounds`
+/// (covering every log), the steps of each round are sorted by their keys
+/// (stable: equal keys keep the coarse-to-fine order) before their records
+/// are built, each step's records kept together and in order, and every
+/// level inside a round gets the error bound of the round's coarse end.
+/// Returns, per record, its round and its step's key (`(0, u32::MAX)`
+/// without rounds).
 fn build(
     start: Base,
     n: usize,
     coarse_to_fine: impl Iterator<Item = StepLog>,
     errors: &[f64],
-) -> ProgressiveMesh {
+    rounds: Option<&Rounds>,
+) -> (ProgressiveMesh, Vec<(u32, u32)>) {
     let Base {
-        mut cv,
-        mut cf,
+        cv,
+        cf,
         base,
-        mut vertex_order,
+        vertex_order,
     } = start;
-    let mut n_faces = base.face_count() as u32;
+    let mut num = Numbering {
+        n_faces: base.face_count() as u32,
+        cv,
+        cf,
+        vertex_order,
+    };
     let mut records = Vec::with_capacity(n);
-    for log in coarse_to_fine {
-        let mut rec = SplitRecord {
-            op: log.op,
-            new_vertices: Vec::new(),
-            moved: Vec::new(),
-            rewritten: Vec::new(),
-            appended_faces: Vec::new(),
-        };
-        let mut removed = log.removed_vertices;
-        removed.sort_by_key(|r| r.0);
-        for (v, p) in removed {
-            cv[v.idx()] = vertex_order.len() as u32;
-            vertex_order.push(v.0);
-            rec.new_vertices.push(p);
-        }
-        let mut moved: Vec<(u32, DVec3)> = log
-            .moved
-            .iter()
-            .map(|&(v, before)| (cv[v.idx()], before))
-            .collect();
-        moved.sort_by_key(|m| m.0);
-        rec.moved = moved;
-        let quad = |vs: &[VertexId; 4], cv: &[u32]| -> [u32; 4] {
-            vs.map(|v| if v.0 == NONE { NONE } else { cv[v.idx()] })
-        };
-        let mut appended: Vec<(FaceId, [u32; 4])> = Vec::new();
-        for (f, vs) in &log.faces_before {
-            let q = quad(vs, &cv);
-            if log.faces_after.contains(f) {
-                rec.rewritten.push((cf[f.idx()], q));
-            } else {
-                appended.push((*f, q));
+    let mut keys = Vec::new();
+    let rounds = rounds.filter(|r| r.log_count() == n);
+    let mut errors = std::borrow::Cow::Borrowed(errors);
+    match rounds {
+        None => {
+            for log in coarse_to_fine {
+                records.push(record_of(log, &mut num));
             }
         }
-        rec.rewritten.sort_by_key(|r| r.0);
-        appended.sort_by_key(|a| a.0);
-        if log.op == OpKind::QeMerge {
-            let v0 = (vertex_order.len() - rec.new_vertices.len()) as u32;
-            if let Some((u, order)) = qe_canonical_order(&appended, v0, rec.new_vertices.len()) {
-                relabel_qe(
-                    &mut rec,
-                    &mut appended,
-                    &mut vertex_order,
-                    &mut cv,
-                    v0,
-                    u,
-                    order,
-                );
+        Some(r) => {
+            keys.reserve(n);
+            let mut logs = coarse_to_fine;
+            // rounds last first; each round's steps in commit order
+            let mut end = r.steps.len();
+            let mut log_end = n;
+            while end > 0 {
+                let round = r.steps[end - 1].round;
+                let mut begin = end - 1;
+                while begin > 0 && r.steps[begin - 1].round == round {
+                    begin -= 1;
+                }
+                let marks = &r.steps[begin..end];
+                let n_logs: usize = marks.iter().map(|m| m.logs as usize).sum();
+                // levels inside the round: the error of its coarse end
+                let log_begin = log_end - n_logs;
+                if log_end < errors.len() && log_begin + 1 < log_end {
+                    let e = errors[log_end];
+                    errors.to_mut()[log_begin + 1..log_end].fill(e);
+                }
+                // the round's steps coarse to fine (last committed first),
+                // each with its logs coarse to fine
+                let key_of = |m: &StepMark, cv: &[u32]| {
+                    let c = |v: u32| cv.get(v as usize).copied().unwrap_or(NONE);
+                    c(m.key[0]).min(c(m.key[1]))
+                };
+                let mut steps: Vec<(u32, Vec<StepLog>)> = marks
+                    .iter()
+                    .rev()
+                    .map(|m| {
+                        let ls: Vec<StepLog> = logs.by_ref().take(m.logs as usize).collect();
+                        (key_of(m, &num.cv), ls)
+                    })
+                    .collect();
+                steps.sort_by_key(|s| s.0);
+                for (key, ls) in steps {
+                    for log in ls {
+                        records.push(record_of(log, &mut num));
+                        keys.push((round, key));
+                    }
+                }
+                end = begin;
+                log_end = log_begin;
             }
         }
-        for (f, q) in appended {
-            cf[f.idx()] = n_faces;
-            n_faces += 1;
-            rec.appended_faces.push(q);
-        }
-        records.push(rec);
     }
     let level_error = (0..=n)
         .map(|k| errors.get(n - k).copied().unwrap_or(0.0))
         .collect();
-    ProgressiveMesh {
+    let pm = ProgressiveMesh {
         base,
         records,
-        vertex_order,
+        vertex_order: num.vertex_order,
         level_error,
+    };
+    (pm, keys)
+}
+
+/// The record of one log, numbering what it re-inserts.
+fn record_of(log: StepLog, num: &mut Numbering) -> SplitRecord {
+    let Numbering {
+        cv,
+        cf,
+        vertex_order,
+        n_faces,
+    } = num;
+    let mut rec = SplitRecord {
+        op: log.op,
+        new_vertices: Vec::new(),
+        moved: Vec::new(),
+        rewritten: Vec::new(),
+        appended_faces: Vec::new(),
+    };
+    let mut removed = log.removed_vertices;
+    removed.sort_by_key(|r| r.0);
+    for (v, p) in removed {
+        cv[v.idx()] = vertex_order.len() as u32;
+        vertex_order.push(v.0);
+        rec.new_vertices.push(p);
     }
+    let mut moved: Vec<(u32, DVec3)> = log
+        .moved
+        .iter()
+        .map(|&(v, before)| (cv[v.idx()], before))
+        .collect();
+    moved.sort_by_key(|m| m.0);
+    rec.moved = moved;
+    let quad = |vs: &[VertexId; 4], cv: &[u32]| -> [u32; 4] {
+        vs.map(|v| if v.0 == NONE { NONE } else { cv[v.idx()] })
+    };
+    let mut appended: Vec<(FaceId, [u32; 4])> = Vec::new();
+    for (f, vs) in &log.faces_before {
+        let q = quad(vs, cv);
+        if log.faces_after.contains(f) {
+            rec.rewritten.push((cf[f.idx()], q));
+        } else {
+            appended.push((*f, q));
+        }
+    }
+    rec.rewritten.sort_by_key(|r| r.0);
+    appended.sort_by_key(|a| a.0);
+    if log.op == OpKind::QeMerge {
+        let v0 = (vertex_order.len() - rec.new_vertices.len()) as u32;
+        if let Some((u, order)) = qe_canonical_order(&appended, v0, rec.new_vertices.len()) {
+            relabel_qe(&mut rec, &mut appended, vertex_order, cv, v0, u, order);
+        }
+    }
+    for (f, q) in appended {
+        cf[f.idx()] = *n_faces;
+        *n_faces += 1;
+        rec.appended_faces.push(q);
+    }
+    rec
 }
 
 /// The canonical order of a qeMerge record's new vertices and appended

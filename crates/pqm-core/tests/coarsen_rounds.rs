@@ -1,0 +1,185 @@
+//! Coarsening in rounds of independent steps (`CoarsenOptions::round_fraction`):
+//! the records still replay to the input, each round's records come in
+//! ascending order of their anchors, and the result is deterministic.
+
+use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
+use pqm_core::progressive::{OpKind, ProgressiveMesh};
+use pqm_core::{shapes, IndexedMesh, Mesh};
+
+fn coarsener(src: &IndexedMesh, target: usize, rounds: Option<f64>) -> Coarsener {
+    let mesh = Mesh::from_indexed(src).expect("valid quad mesh");
+    let opts = CoarsenOptions {
+        target_faces: Some(target),
+        placement: Placement::Subset,
+        round_fraction: rounds,
+        ..Default::default()
+    };
+    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
+    c.run(&mut |_| {});
+    c
+}
+
+fn torus() -> IndexedMesh {
+    shapes::noisy(&shapes::bumpy_torus(48, 20, 2.0, 0.6, 0.4, 11), 0.004, 2)
+}
+
+/// A mesh with a boundary (and so feature curves).
+fn sheet() -> IndexedMesh {
+    let g = shapes::height_grid(30, 30, |x, y| 0.1 * (5.0 * x).sin() * (3.0 * y).cos());
+    shapes::noisy(&g, 0.003, 8)
+}
+
+/// The full level is the input (same positions, same faces with the same
+/// corner order, in input ids), and every level in between is a valid
+/// mesh whose vertices sit at input positions.
+fn assert_replays(pm: &ProgressiveMesh, src: &IndexedMesh) {
+    pm.validate().expect("valid progressive mesh");
+    let n = pm.records.len();
+    for k in (0..n).step_by(5).chain([n]) {
+        let level = pm.level(k);
+        Mesh::from_indexed(&level)
+            .unwrap_or_else(|e| panic!("level {k} of {n} is not a valid mesh: {e}"));
+        for (id, p) in level.positions.iter().enumerate() {
+            assert_eq!(*p, src.positions[pm.vertex_order[id] as usize], "level {k}");
+        }
+    }
+    let fine = pm.level(n);
+    let mut got: Vec<Vec<u32>> = fine
+        .faces()
+        .map(|f| f.iter().map(|&v| pm.vertex_order[v as usize]).collect())
+        .collect();
+    let mut want: Vec<Vec<u32>> = src.faces().map(|f| f.to_vec()).collect();
+    got.sort();
+    want.sort();
+    assert_eq!(got, want);
+    assert!(
+        pm.level_error.windows(2).all(|w| w[0] >= w[1]),
+        "the error bound never grows with the level"
+    );
+}
+
+#[test]
+fn rounds_replay_to_the_input() {
+    for (src, target) in [(torus(), 150), (sheet(), 80)] {
+        for r in [0.05, 0.2, 1.0] {
+            let c = coarsener(&src, target, Some(r));
+            assert!(c.in_rounds());
+            let (rounds, steps, _) = c.round_stats().expect("in rounds");
+            assert!(
+                steps > 100 && rounds * 3 < steps,
+                "rounds hold several steps: {rounds} rounds of {steps} steps"
+            );
+            let borrowed = c.to_progressive();
+            assert!(borrowed.records.len() > 100);
+            assert_replays(&borrowed, &src);
+            let consumed = c.into_progressive();
+            assert!(consumed == borrowed, "into_progressive = to_progressive");
+        }
+    }
+}
+
+#[test]
+fn rounds_are_deterministic() {
+    let src = torus();
+    let a = coarsener(&src, 150, Some(0.1)).into_progressive();
+    let b = coarsener(&src, 150, Some(0.1)).into_progressive();
+    assert!(a == b);
+}
+
+#[test]
+fn rounds_only_apply_to_subset_placement() {
+    let src = torus();
+    let run = |rounds| {
+        let mesh = Mesh::from_indexed(&src).expect("valid quad mesh");
+        let opts = CoarsenOptions {
+            target_faces: Some(300),
+            round_fraction: rounds,
+            ..Default::default()
+        };
+        let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
+        c.run(&mut |_| {});
+        assert!(!c.in_rounds());
+        c.into_progressive()
+    };
+    assert!(run(Some(0.1)) == run(None));
+}
+
+/// The vertex a record's compact form anchors on, as the key promises:
+/// a qvMerge's inverse keeps the survivor, the corner of the appended quad
+/// opposite the new vertex; a qeMerge's inverse names the endpoints of the
+/// edge, the two old vertices in three of its four appended quads.
+fn anchors(pm: &ProgressiveMesh) -> Vec<Option<Vec<u32>>> {
+    let mut v = pm.base.positions.len() as u32;
+    let mut out = Vec::new();
+    for r in &pm.records {
+        let v0 = v;
+        v += r.new_vertices.len() as u32;
+        out.push(match r.op {
+            OpKind::QvMerge if r.appended_faces.len() == 1 && r.new_vertices.len() == 1 => {
+                let q = r.appended_faces[0];
+                q.iter()
+                    .position(|&x| x == v0)
+                    .map(|k| vec![q[(k + 2) % 4]])
+            }
+            OpKind::QeMerge => {
+                let mut ends: Vec<u32> = Vec::new();
+                for q in &r.appended_faces {
+                    for &x in q {
+                        if x < v0
+                            && !ends.contains(&x)
+                            && r.appended_faces.iter().filter(|q| q.contains(&x)).count() >= 3
+                        {
+                            ends.push(x);
+                        }
+                    }
+                }
+                (ends.len() == 2).then_some(ends)
+            }
+            _ => None,
+        });
+    }
+    out
+}
+
+#[test]
+fn anchors_ascend_within_each_round() {
+    for (src, target) in [(torus(), 150), (sheet(), 80)] {
+        let c = coarsener(&src, target, Some(0.1));
+        let (pm, keys) = c.to_progressive_with_keys();
+        assert_eq!(keys.len(), pm.records.len());
+        let anchors = anchors(&pm);
+        let mut checked = 0;
+        for (k, a) in anchors.iter().enumerate() {
+            if let Some(a) = a {
+                // the key is the anchor (qvMerge) or the smaller endpoint
+                assert_eq!(
+                    keys[k].1,
+                    *a.iter().min().unwrap(),
+                    "record {k} ({:?})",
+                    pm.records[k].op
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked * 2 > pm.records.len(), "{checked} anchors checked");
+        // non-decreasing within a round; a round is a run of equal numbers
+        let mut longest = 0;
+        let mut run = 1;
+        for k in 1..keys.len() {
+            if keys[k].0 == keys[k - 1].0 {
+                assert!(
+                    keys[k].1 >= keys[k - 1].1,
+                    "records {} and {k}: keys {:?} then {:?}",
+                    k - 1,
+                    keys[k - 1],
+                    keys[k]
+                );
+                run += 1;
+                longest = longest.max(run);
+            } else {
+                run = 1;
+            }
+        }
+        assert!(longest >= 10, "some round holds many records: {longest}");
+    }
+}

@@ -1,0 +1,57 @@
+//! Files of a coarsening in rounds (`CoarsenOptions::round_fraction`, what
+//! `pqm encode` can use): every level decodes to the progressive mesh's
+//! level exactly, and the sorted anchors make the `refs` stream smaller.
+
+use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
+use pqm_core::{shapes, Mesh, ProgressiveMesh};
+use pqm_format::*;
+
+fn progressive(rounds: Option<f64>) -> ProgressiveMesh {
+    let src = shapes::noisy(&shapes::bumpy_torus(48, 24, 3.0, 1.0, 0.3, 5), 0.003, 4);
+    let mesh = Mesh::from_indexed(&src).unwrap();
+    let opts = CoarsenOptions {
+        placement: Placement::Subset,
+        round_fraction: rounds,
+        ..Default::default()
+    };
+    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
+    c.run(&mut |_| {});
+    c.into_progressive()
+}
+
+#[test]
+fn every_level_of_a_file_in_rounds_decodes_exactly() {
+    let pm = progressive(Some(0.1));
+    let n = pm.records.len();
+    assert!(n > 300, "{n} records");
+    let opts = EncodeOptions {
+        chunk_records: Some(97),
+        ..EncodeOptions::default()
+    };
+    let (bytes, _) = write_to_vec(&pm, &opts).unwrap();
+    let mut dec = decode_all(&bytes, Limits::default()).unwrap();
+    let q = dec.quantizer().unwrap();
+    for k in (0..=n).rev().chain(0..=n) {
+        dec.set_level(Target::Level(k)).unwrap();
+        let (pos, quads) = pm.level_quads(k);
+        assert_eq!(dec.quads(), &quads[..], "level {k}");
+        let want: Vec<[u32; 3]> = pos.iter().map(|p| q.quantize(*p)).collect();
+        assert_eq!(dec.position_codes(), &want[..], "level {k}");
+    }
+}
+
+#[test]
+fn rounds_make_vertex_references_cheaper() {
+    let per_record = |pm: &ProgressiveMesh| {
+        let (_, report) = write_to_vec(pm, &EncodeOptions::default()).unwrap();
+        report.stream_raw_bytes[2] as f64 / pm.records.len() as f64
+    };
+    let (one, rounds) = (
+        per_record(&progressive(None)),
+        per_record(&progressive(Some(0.1))),
+    );
+    assert!(
+        rounds < one,
+        "refs bytes per record: {rounds:.2} in rounds, {one:.2} one step at a time"
+    );
+}
