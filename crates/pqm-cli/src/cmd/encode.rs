@@ -26,8 +26,11 @@ use std::time::Instant;
 /// box; decoding the full level gives exactly the quantized input. Non-quad
 /// input is split into quads first (see `pqm coarsen --help`).
 /// `pqm encode`'s round fraction when neither `--round-fraction` nor
-/// `--no-rounds` is given (see `CoarsenOptions::round_fraction`).
-pub const DEFAULT_ROUND_FRACTION: Option<f64> = None;
+/// `--no-rounds` is given (see `CoarsenOptions::round_fraction`): files are
+/// what `pqm encode` optimizes for, and 0.005 took 1.1–7.1 % off the bench
+/// files' geometry for 0.3–1.4 points of ideal vertices at a quarter of the
+/// faces (`docs/figures-history.md`, session 14).
+pub const DEFAULT_ROUND_FRACTION: Option<f64> = Some(0.005);
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
@@ -59,10 +62,10 @@ pub struct Args {
     /// Coarsen in rounds of independent steps, each round committing up to
     /// R × its starting face count steps, so that the records of a round are
     /// stored in ascending order of their anchor vertices (smaller vertex
-    /// references, same file format). With R = 0.005: 1.4–7 % smaller
+    /// references, same file format). With R = 0.005: 1.1–7.1 % smaller
     /// geometry, encoding up to a third slower, intermediate levels with
     /// up to 1.4 points fewer ideal vertices; larger R: smaller files,
-    /// worse levels. Only with `--placement subset`. Default: off.
+    /// worse levels. Only with `--placement subset`. Default: 0.005.
     #[arg(long, value_name = "R", value_parser = parse_ratio, conflicts_with = "no_rounds", help_heading = "Coarsener")]
     pub round_fraction: Option<f64>,
     /// One step at a time in the priority queue's order (no rounds; see
