@@ -63,7 +63,7 @@ pub struct Args {
     /// R × its starting face count steps, so that the records of a round are
     /// stored in ascending order of their anchor vertices (smaller vertex
     /// references, same file format). With R = 0.005: 1.1–7.1 % smaller
-    /// geometry, encoding up to a third slower, intermediate levels with
+    /// geometry, encoding up to 40 % slower, intermediate levels with
     /// up to 1.4 points fewer ideal vertices; larger R: smaller files,
     /// worse levels. Only with `--placement subset`. Default: 0.005.
     #[arg(long, value_name = "R", value_parser = parse_ratio, conflicts_with = "no_rounds", help_heading = "Coarsener")]
