@@ -245,10 +245,12 @@ pub struct CoarsenOptions {
     /// stream: bunny 8.4 → 6.0 / 5.5 / 4.9 / 4.4 bits per refined vertex);
     /// but the level at a quarter of the faces has 0.3–1.4 (0.005), 0.7–2.5
     /// (0.01) up to 8–23 (0.1) points fewer ideal vertices, encoding takes
-    /// 10–45 % longer, and decoding (`decode_loop`) is unchanged within
-    /// noise but on makehuman, 15–20 % slower at every fraction. Rounds
-    /// rarely reach a quota above 0.05: they end when every candidate left
-    /// would change a locked face. Off by default.
+    /// 10–45 % longer. Decoding does the same work (callgrind: the same
+    /// instructions within 0.5 %); `decode_loop` times moved with the heap
+    /// layout (makehuman 15–20 % slower in one window, even in another).
+    /// Rounds rarely reach a quota above 0.05: they end when every candidate
+    /// left would change a locked face. Off by default here; `pqm encode`
+    /// uses 0.005.
     pub round_fraction: Option<f64>,
 }
 
