@@ -887,6 +887,10 @@ fn demo_writes_three_glb_levels() {
     }
     assert!(faces[0] < faces[1] && faces[1] < faces[2], "{faces:?}");
     assert_eq!(faces[2], 2928);
+    // the demo's file is what `pqm encode` writes by default
+    let plain = d.path().join("plain.pqm");
+    json_ok(&["encode", s(&spot()), "-o", s(&plain)]);
+    assert!(std::fs::read(&plain).unwrap() == std::fs::read(dir.join("spot.pqm")).unwrap());
     // the text form says where the files are
     pqm()
         .args(["demo", "--out-dir", s(&dir)])

@@ -88,8 +88,10 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         no_subdivide: false,
         repair: false,
     };
+    // as `pqm encode` does by default
     let opts = CoarsenOptions {
         placement: Placement::Subset,
+        round_fraction: super::encode::DEFAULT_ROUND_FRACTION,
         ..Default::default()
     };
     let mut p = prepare(&fixture, &cargs, opts, ctx)?;
