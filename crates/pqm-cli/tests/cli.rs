@@ -106,6 +106,16 @@ fn every_command_has_help_with_an_example() {
             .stdout(predicate::str::contains("Example"))
             .stdout(predicate::str::contains(format!("pqm {c}")));
     }
+    // a command's help opens with its own description (a doc comment
+    // between it and its struct would hand that place to the flattened
+    // coarsener options' doc)
+    pqm()
+        .args(["encode", "--help"])
+        .assert()
+        .success()
+        .stdout(predicate::str::starts_with(
+            "Encode meshes as progressive .pqm files",
+        ));
 }
 
 #[test]

@@ -13,6 +13,13 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// `pqm encode`'s round fraction when neither `--round-fraction` nor
+/// `--no-rounds` is given (see `CoarsenOptions::round_fraction`): files are
+/// what `pqm encode` optimizes for, and 0.005 took 1.1–7.1 % off the bench
+/// files' geometry for 0.3–1.4 points of ideal vertices at a quarter of the
+/// faces (`docs/figures-history.md`, session 14).
+pub const DEFAULT_ROUND_FRACTION: Option<f64> = Some(0.005);
+
 /// Encode meshes as progressive .pqm files (coarse base + refinement records).
 ///
 /// Each input is coarsened to a base mesh (by default as far as the quality
@@ -25,13 +32,6 @@ use std::time::Instant;
 /// any failed). Positions are quantized to --bits per axis over the bounding
 /// box; decoding the full level gives exactly the quantized input. Non-quad
 /// input is split into quads first (see `pqm coarsen --help`).
-/// `pqm encode`'s round fraction when neither `--round-fraction` nor
-/// `--no-rounds` is given (see `CoarsenOptions::round_fraction`): files are
-/// what `pqm encode` optimizes for, and 0.005 took 1.1–7.1 % off the bench
-/// files' geometry for 0.3–1.4 points of ideal vertices at a quarter of the
-/// faces (`docs/figures-history.md`, session 14).
-pub const DEFAULT_ROUND_FRACTION: Option<f64> = Some(0.005);
-
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
   pqm encode spot.obj -o spot.pqm
