@@ -605,10 +605,15 @@ struct RoundState {
     hit_lock: bool,
     /// Step and round boundaries of the logs.
     marks: record::Rounds,
-    /// Rounds ended (for reports).
-    rounds: usize,
     /// Candidates set aside, counted each time.
     deferrals: usize,
+}
+
+impl RoundState {
+    /// Steps a round starting at `faces` faces commits at most (≥ 1).
+    fn quota(fraction: f64, faces: usize) -> usize {
+        ((fraction * faces as f64).ceil() as usize).max(1)
+    }
 }
 
 /// Reused buffers of [`Coarsener::cost`], indexed by a touched vertex's
@@ -940,7 +945,7 @@ impl Coarsener {
             if r > 0.0 {
                 self.round = Some(RoundState {
                     fraction: r,
-                    quota: ((r * self.mesh.face_count() as f64).ceil() as usize).max(1),
+                    quota: RoundState::quota(r, self.mesh.face_count()),
                     locked: vec![false; self.mesh.face_capacity()],
                     ..Default::default()
                 });
@@ -977,10 +982,9 @@ impl Coarsener {
         let deferred = std::mem::take(&mut r.deferred);
         if r.committed > 0 {
             r.number += 1;
-            r.rounds += 1;
         }
         r.committed = 0;
-        r.quota = ((r.fraction * faces as f64).ceil() as usize).max(1);
+        r.quota = RoundState::quota(r.fraction, faces);
         for e in deferred {
             self.queue.push(e);
         }

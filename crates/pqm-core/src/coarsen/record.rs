@@ -433,10 +433,6 @@ struct StepMark {
 }
 
 impl Rounds {
-    /// No steps.
-    pub fn new() -> Rounds {
-        Rounds::default()
-    }
     /// Appends a step of `logs` logs in round `round` (rounds numbered in
     /// commit order; consecutive steps with the same number form a round).
     pub fn push(&mut self, logs: usize, key: [VertexId; 2], round: u32) {
@@ -456,21 +452,12 @@ impl Rounds {
     }
     /// Number of rounds.
     pub fn round_count(&self) -> usize {
-        let mut n = 0;
-        for (i, s) in self.steps.iter().enumerate() {
-            if i == 0 || self.steps[i - 1].round != s.round {
-                n += 1;
-            }
-        }
-        n
+        let changes = self.steps.windows(2).filter(|w| w[0].round != w[1].round);
+        changes.count() + usize::from(!self.steps.is_empty())
     }
     /// Logs covered by the marked steps.
     pub fn log_count(&self) -> usize {
         self.steps.iter().map(|s| s.logs as usize).sum()
-    }
-    /// Bytes held, for memory reports.
-    pub fn heap_bytes(&self) -> usize {
-        self.steps.capacity() * std::mem::size_of::<StepMark>()
     }
 }
 
