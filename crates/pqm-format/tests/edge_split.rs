@@ -10,6 +10,8 @@ use pqm_format::codec::{
 use pqm_format::varint::{put_s, put_u, Reader};
 use pqm_format::*;
 
+mod common;
+
 /// The spec's example mesh: the 5 × 4 grid, vertex `i + 5j` at `(i, j)`,
 /// slot `i + 4j` = `(v(i,j), v(i+1,j), v(i+1,j+1), v(i,j+1))`; codes are
 /// `10 ×` the grid position.
@@ -367,15 +369,7 @@ fn coarsener_qe_merges_use_the_edge_split_form_and_decode_exactly() {
         v2.len()
     );
     let mut dec = decode_all(&bytes, Limits::default()).unwrap();
-    let q = dec.quantizer().unwrap();
-    let n = pm.records.len();
-    for k in (0..=n).rev().chain(0..=n) {
-        dec.set_level(Target::Level(k)).unwrap();
-        let (pos, quads) = pm.level_quads(k);
-        assert_eq!(dec.quads(), &quads[..], "level {k}");
-        let want: Vec<[u32; 3]> = pos.iter().map(|p| q.quantize(*p)).collect();
-        assert_eq!(dec.position_codes(), &want[..], "level {k}");
-    }
+    common::assert_every_level_down_and_up(&mut dec, &pm);
 }
 
 /// The generator of the edge-split vector and proptests

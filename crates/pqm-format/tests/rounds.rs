@@ -6,6 +6,8 @@ use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
 use pqm_core::{shapes, Mesh, ProgressiveMesh};
 use pqm_format::*;
 
+mod common;
+
 fn progressive(rounds: Option<f64>) -> ProgressiveMesh {
     let src = shapes::noisy(&shapes::bumpy_torus(48, 24, 3.0, 1.0, 0.3, 5), 0.003, 4);
     let mesh = Mesh::from_indexed(&src).unwrap();
@@ -30,14 +32,7 @@ fn every_level_of_a_file_in_rounds_decodes_exactly() {
     };
     let (bytes, _) = write_to_vec(&pm, &opts).unwrap();
     let mut dec = decode_all(&bytes, Limits::default()).unwrap();
-    let q = dec.quantizer().unwrap();
-    for k in (0..=n).rev().chain(0..=n) {
-        dec.set_level(Target::Level(k)).unwrap();
-        let (pos, quads) = pm.level_quads(k);
-        assert_eq!(dec.quads(), &quads[..], "level {k}");
-        let want: Vec<[u32; 3]> = pos.iter().map(|p| q.quantize(*p)).collect();
-        assert_eq!(dec.position_codes(), &want[..], "level {k}");
-    }
+    common::assert_every_level_down_and_up(&mut dec, &pm);
 }
 
 #[test]
