@@ -1878,23 +1878,30 @@ fn predict_split(
 }
 
 /// `floor(sum / n)` per axis, clamped to the grid (spec §7.6's mean of
-/// `n > 0` parallelograms). `div_euclid` by a positive count, which for
-/// the usual 1, 2 or 4 parallelograms is an arithmetic shift (the same
-/// value; a 64-bit division costs tens of cycles).
+/// `n > 0` parallelograms).
 #[inline(always)]
 fn floor_mean(sum: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
     let qmax = qmax as i64;
-    let floor = |s: i64| match n {
+    [
+        floor_div(sum[0], n).clamp(0, qmax) as u32,
+        floor_div(sum[1], n).clamp(0, qmax) as u32,
+        floor_div(sum[2], n).clamp(0, qmax) as u32,
+    ]
+}
+
+/// `s.div_euclid(n)` for `n > 0` (then the floor of `s / n`): for the
+/// usual 1, 2 or 4 parallelograms an arithmetic shift (the same value; a
+/// 64-bit division costs tens of cycles), else one inlined division (the
+/// library's `div_euclid` by a variable is a call).
+#[inline(always)]
+fn floor_div(s: i64, n: i64) -> i64 {
+    debug_assert!(n > 0);
+    match n {
         1 => s,
         2 => s >> 1,
         4 => s >> 2,
-        _ => s.div_euclid(n),
-    };
-    [
-        floor(sum[0]).clamp(0, qmax) as u32,
-        floor(sum[1]).clamp(0, qmax) as u32,
-        floor(sum[2]).clamp(0, qmax) as u32,
-    ]
+        _ => s / n - ((s % n) < 0) as i64,
+    }
 }
 
 /// The prediction of spec §7.6 for new vertex `x`, given the record quads
@@ -2068,14 +2075,18 @@ impl<'a> Prediction<'a> {
 }
 
 /// `pred` plus the next three residuals of `rd`, which must stay on the
-/// grid (a negative sum is a huge `u64`: one test per axis).
+/// grid (a negative sum is a huge `u64`: one test per axis). The sum
+/// wraps: `pred < 2^32`, so only a residual near `i64::MAX` overflows,
+/// and then the wrapped sum is negative and refused as the true one is
+/// (the error names the saturated sum, as before).
 #[inline(always)]
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
     let mut out = [0u32; 3];
     for t in 0..3 {
-        let v = (pred[t] as i64).saturating_add(rd.s()?);
+        let d = rd.s()?;
+        let v = (pred[t] as i64).wrapping_add(d);
         if v as u64 > qmax as u64 {
-            return Err(off_grid(v, qmax));
+            return Err(off_grid((pred[t] as i64).saturating_add(d), qmax));
         }
         out[t] = v as u32;
     }
@@ -2393,7 +2404,7 @@ fn decode_apply_split(
         }
         let mean = |s: usize, a: usize| {
             if n[s] > 0 {
-                sum[s][a].div_euclid(n[s])
+                floor_div(sum[s][a], n[s])
             } else {
                 m_old[a] as i64
             }
@@ -2703,8 +2714,11 @@ pub type Kept<'a> = Option<(&'a mut Vec<[u32; 3]>, &'a mut Vec<[u32; 4]>)>;
 /// record in another order), the same records refused before anything is
 /// applied — on error `st` is unchanged; where several slots of a record
 /// break a rule the message may name another of them (star order, not
-/// slot order; found by the fuzz target).
+/// slot order; found by the fuzz target). Always inlined: in the decoder's
+/// chunk loop, its one caller there, the call and its eleven arguments
+/// were a fixed cost per record.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub fn decode_apply_record(
     st: &mut MeshState,
     rd: &mut [Reader; 5],
@@ -3626,9 +3640,19 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_distinct, MeshState, QRecord, Star, INLINE, MAX_SPLIT_STAR, STAR_SMALL};
+    use super::{
+        floor_div, sort_distinct, MeshState, QRecord, Star, INLINE, MAX_SPLIT_STAR, STAR_SMALL,
+    };
     use pqm_core::OpKind;
     use proptest::prelude::*;
+
+    proptest! {
+        /// `floor_div` is `div_euclid` for every positive divisor.
+        #[test]
+        fn floor_div_is_div_euclid(s in any::<i64>(), n in 1i64..1000) {
+            prop_assert_eq!(floor_div(s, n), s.div_euclid(n));
+        }
+    }
 
     /// A fan of `n` quads `[0, a_i, a_i + 1, a_{i+1}]` around vertex 0
     /// (closed, or open when `open`: the last quad left out), quad `i` in
