@@ -1694,9 +1694,13 @@ const ONE_PASS_DEFERRED: usize = 12;
 pub(crate) struct OnePass {
     sum: [[i64; 3]; ONE_PASS_NEW],
     cnt: [i64; ONE_PASS_NEW],
-    /// (quad, corner of its largest new vertex, that vertex's index).
-    later: [([u32; 4], u8, u8); ONE_PASS_DEFERRED],
+    /// (quad, corner of its largest new vertex).
+    later: [([u32; 4], u8); ONE_PASS_DEFERRED],
     n_later: usize,
+    /// Per new vertex (index below [`ONE_PASS_NEW`]), bit `i` set where
+    /// `later[i]` goes to it: [`OnePass::finish`] visits each deferred
+    /// quad once, not each once per new vertex.
+    later_of: [u16; ONE_PASS_NEW],
     /// More quads to defer than there is room for: use the scans.
     overflow: bool,
 }
@@ -1708,6 +1712,7 @@ impl OnePass {
         self.sum = [[0; 3]; ONE_PASS_NEW];
         self.cnt = [0; ONE_PASS_NEW];
         self.n_later = 0;
+        self.later_of = [0; ONE_PASS_NEW];
         self.overflow = false;
     }
 
@@ -1759,8 +1764,7 @@ impl OnePass {
             self.overflow = true;
             return;
         }
-        self.later[self.n_later] = (*quad, k as u8, t as u8);
-        self.n_later += 1;
+        self.push_later(quad, k, t);
     }
 
     /// A quad with new corners `mask` (two or more), kept for its largest.
@@ -1780,7 +1784,18 @@ impl OnePass {
                 k = j;
             }
         }
-        self.later[self.n_later] = (*quad, k as u8, d[k] as u8);
+        self.push_later(quad, k, d[k] as usize);
+    }
+
+    /// Defers `quad` (room checked by the caller) to new vertex `t`,
+    /// its corner `k`. (A vertex index past [`ONE_PASS_NEW`] is never
+    /// predicted: its quad is kept but goes to none.)
+    #[inline(always)]
+    fn push_later(&mut self, quad: &[u32; 4], k: usize, t: usize) {
+        if let Some(bits) = self.later_of.get_mut(t) {
+            *bits |= 1 << self.n_later;
+        }
+        self.later[self.n_later] = (*quad, k as u8);
         self.n_later += 1;
     }
 
@@ -1802,10 +1817,11 @@ impl OnePass {
         }
         let (v0, q) = (st.q.len() as u32, &st.q);
         for t in 0..n_new {
-            for &(quad, k, lt) in &self.later[..self.n_later] {
-                if lt as usize != t {
-                    continue;
-                }
+            // Its deferred quads, in the order they came.
+            let mut bits = self.later_of.get(t).copied().unwrap_or(0);
+            while bits != 0 {
+                let (quad, k) = self.later[bits.trailing_zeros() as usize];
+                bits &= bits - 1;
                 let k = k as usize;
                 // The other new corners are below `v0 + t`: decoded.
                 let code = |u: u32| {
