@@ -313,6 +313,12 @@ pub(crate) struct FastStar {
     pub(crate) nx: [u32; 8],
 }
 
+impl Default for FastStar {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
 impl FastStar {
     /// A buffer for [`MeshState::star_fast_into`].
     pub(crate) const EMPTY: FastStar = FastStar {
@@ -682,14 +688,34 @@ impl MeshState {
     }
 
     /// The last step of applying a record: its appended quads, at the next
-    /// slots.
+    /// slots. The corners go to their blocks through one slice of them, so that
+    /// its address and length stay in registers (through `self.inline`
+    /// each link loaded them again after the previous one's stores); the
+    /// rare corner whose block is full or flagged goes to
+    /// [`MeshState::link_overflow`] after them (another vertex's list: the
+    /// order does not matter).
     #[inline(always)]
     fn append_quads(&mut self, appended: &[[u32; 4]]) {
         for &quad in appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
+            let blocks = &mut self.inline[..];
+            let mut full = 0u32;
             for (k, &v) in quad.iter().enumerate() {
-                self.link(4 * s + k as u32, v);
+                let b = &mut blocks[v as usize].0;
+                let n = b[0] as usize;
+                // `n < INLINE` also means "no overflow flag", as in `link`.
+                if n < INLINE {
+                    b[n + 1] = 4 * s + k as u32;
+                    b[0] += 1;
+                } else {
+                    full |= 1 << k;
+                }
+            }
+            while full != 0 {
+                let k = full.trailing_zeros() as usize;
+                full &= full - 1;
+                self.link_overflow(4 * s + k as u32, quad[k]);
             }
         }
     }
@@ -2233,6 +2259,10 @@ pub struct DecodeScratch {
     nf: NewFaces,
     /// Star of the current split-form vertex.
     star: Star,
+    /// The fused split's star, the fused edge split's two (here, not on
+    /// the stack: no 72-byte fill per star; entries past a star's `n` are
+    /// stale, which nothing reads).
+    fast: [FastStar; 2],
     /// Stars and lists of the edge-split form.
     edge: crate::edge_split::Scratch,
     /// Fan rotations of the current edge-split record.
@@ -2417,14 +2447,14 @@ fn decode_apply_split(
     let sym = rd[OPS].byte()?;
     r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
     let m = read_anchor(st, rd, cur, max_v, max_f, 1, "split")?;
-    let mut s = FastStar::EMPTY;
-    if !st.star_fast_into(m, &mut s) {
+    if !st.star_fast_into(m, &mut sc.fast[0]) {
         r.clear_parts();
         split_after_anchor(st, rd, m, sym, major, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
         keep(r, kept);
         return Ok(());
     }
+    let s = &sc.fast[0];
     let l = s.n;
     let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
     let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
@@ -2858,19 +2888,18 @@ fn decode_apply_edge_split(
         st.apply_delta_logged(r, moved, rw);
         Ok(())
     };
-    let mut sa = FastStar::EMPTY;
-    if !st.star_fast_into(a, &mut sa) {
+    if !st.star_fast_into(a, &mut sc.fast[0]) {
         let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
         let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
         return slow(st, rd, r, sc, link);
     }
-    let link = rd[CONN].u_max(sa.n as u64 - 1, "edge-split link index")? as usize;
-    let d = sa.nx[link];
-    let mut sd = FastStar::EMPTY;
-    if !st.star_fast_into(d, &mut sd) {
-        sa.write_into(&mut sc.edge.stars[0]);
+    let link = rd[CONN].u_max(sc.fast[0].n as u64 - 1, "edge-split link index")? as usize;
+    let d = sc.fast[0].nx[link];
+    if !st.star_fast_into(d, &mut sc.fast[1]) {
+        sc.fast[0].write_into(&mut sc.edge.stars[0]);
         return slow(st, rd, r, sc, link);
     }
+    let [sa, sd] = &sc.fast;
     // `A` in `D`'s link (the fast path's links are distinct).
     let live = (1u32 << sd.n) - 1;
     let hit = eq_mask8(&sd.nx, a) & live;
@@ -2879,22 +2908,25 @@ fn decode_apply_edge_split(
     }
     let rda = hit.trailing_zeros() as usize;
     let (ends, rho, fs) = if a < d {
-        ([a, d], [link, rda], [&sa, &sd])
+        ([a, d], [link, rda], [sa, sd])
     } else {
-        ([d, a], [rda, link], [&sd, &sa])
+        ([d, a], [rda, link], [sd, sa])
     };
     let (n1, m, p, ra) = edge_split_fields(rd, ends, [fs[0].n, fs[1].n], &mut sc.rots)?;
-    let mut rws = [(0u32, [0u32; 4]); crate::edge_split::FAST_REWRITES];
     let mut app = [[0u32; 4]; 4];
-    let pred = &mut sc.edge.pred;
+    let crate::edge_split::Scratch { pred, rws, .. } = &mut sc.edge;
     let n = crate::edge_split::build_fast(
-        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, &mut rws, &mut app,
+        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, rws, &mut app,
     )?;
     // Every new vertex has a parallelogram of three old corners (`T_x`
     // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most
     // 2 + INLINE quads are deferred, so `finish` never falls back to the
     // scans, which would read `r`'s quads (here only the appended ones).
-    r.appended.extend_from_slice(&app);
+    // Element by element (`extend_from_slice` of 64 bytes is a call to
+    // `memcpy`).
+    for q in app {
+        r.appended.push(q);
+    }
     pred.finish(st, r, 4, major, &mut rd[POS])?;
     st.apply_parts_logged(&r.new_pos, &rws[..n], &r.appended, rw);
     Ok(())
