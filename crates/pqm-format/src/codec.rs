@@ -313,6 +313,12 @@ pub(crate) struct FastStar {
     pub(crate) nx: [u32; 8],
 }
 
+impl Default for FastStar {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
 impl FastStar {
     /// A buffer for [`MeshState::star_fast_into`].
     pub(crate) const EMPTY: FastStar = FastStar {
@@ -682,14 +688,34 @@ impl MeshState {
     }
 
     /// The last step of applying a record: its appended quads, at the next
-    /// slots.
+    /// slots. The corners go to their blocks through one slice of them, so that
+    /// its address and length stay in registers (through `self.inline`
+    /// each link loaded them again after the previous one's stores); the
+    /// rare corner whose block is full or flagged goes to
+    /// [`MeshState::link_overflow`] after them (another vertex's list: the
+    /// order does not matter).
     #[inline(always)]
     fn append_quads(&mut self, appended: &[[u32; 4]]) {
         for &quad in appended {
             let s = self.quads.len() as u32;
             self.quads.push(quad);
+            let blocks = &mut self.inline[..];
+            let mut full = 0u32;
             for (k, &v) in quad.iter().enumerate() {
-                self.link(4 * s + k as u32, v);
+                let b = &mut blocks[v as usize].0;
+                let n = b[0] as usize;
+                // `n < INLINE` also means "no overflow flag", as in `link`.
+                if n < INLINE {
+                    b[n + 1] = 4 * s + k as u32;
+                    b[0] += 1;
+                } else {
+                    full |= 1 << k;
+                }
+            }
+            while full != 0 {
+                let k = full.trailing_zeros() as usize;
+                full &= full - 1;
+                self.link_overflow(4 * s + k as u32, quad[k]);
             }
         }
     }
@@ -1210,6 +1236,50 @@ pub(crate) fn eq_mask8(v: &[u32; 8], key: u32) -> u32 {
     }
 }
 
+/// Bit `h` in `1..=n` (`n <= 7`) set where exactly `rank` of `v[1..=n]`
+/// are smaller than `v[h]` (the face split's corner of a given rank in a
+/// vertex's block; `v[0]` and `v[n + 1..]` take no part). On x86-64 the
+/// counts of all eight lanes at once, one SSE2 compare and subtract per
+/// entry (unsigned order: sign bits flipped), where the scalar double loop
+/// took ~140 instructions per face split.
+#[inline(always)]
+pub(crate) fn rank_mask8(v: &[u32; 8], n: usize, rank: u32) -> u32 {
+    let live = (2u32 << n) - 2;
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the unaligned loads
+        // read 16 bytes inside `v` (32 bytes) each.
+        unsafe {
+            let sign = _mm_set1_epi32(i32::MIN);
+            let lo = _mm_xor_si128(_mm_loadu_si128(v.as_ptr().cast::<__m128i>()), sign);
+            let hi = _mm_xor_si128(_mm_loadu_si128(v.as_ptr().add(4).cast::<__m128i>()), sign);
+            let (mut cl, mut ch) = (_mm_setzero_si128(), _mm_setzero_si128());
+            for &x in &v[1..=n.min(7)] {
+                // Lanes greater than `x` count one more smaller entry.
+                let k = _mm_set1_epi32((x ^ 0x8000_0000) as i32);
+                cl = _mm_sub_epi32(cl, _mm_cmpgt_epi32(lo, k));
+                ch = _mm_sub_epi32(ch, _mm_cmpgt_epi32(hi, k));
+            }
+            let r = _mm_set1_epi32(rank as i32);
+            let ml = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(cl, r)));
+            let mh = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(ch, r)));
+            (ml | (mh << 4)) as u32 & live
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let cs = &v[1..=n.min(7)];
+        let mut mask = 0u32;
+        for (h, &c) in cs.iter().enumerate() {
+            if cs.iter().map(|&o| (o < c) as u32).sum::<u32>() == rank {
+                mask |= 2 << h;
+            }
+        }
+        mask & live
+    }
+}
+
 /// Bit `h` set where `a[h] == b[h]` (two SSE2 compares on x86-64).
 #[inline(always)]
 fn eq_mask8x8(a: &[u32; 8], b: &[u32; 8]) -> u32 {
@@ -1650,9 +1720,13 @@ const ONE_PASS_DEFERRED: usize = 12;
 pub(crate) struct OnePass {
     sum: [[i64; 3]; ONE_PASS_NEW],
     cnt: [i64; ONE_PASS_NEW],
-    /// (quad, corner of its largest new vertex, that vertex's index).
-    later: [([u32; 4], u8, u8); ONE_PASS_DEFERRED],
+    /// (quad, corner of its largest new vertex).
+    later: [([u32; 4], u8); ONE_PASS_DEFERRED],
     n_later: usize,
+    /// Per new vertex (index below [`ONE_PASS_NEW`]), bit `i` set where
+    /// `later[i]` goes to it: [`OnePass::finish`] visits each deferred
+    /// quad once, not each once per new vertex.
+    later_of: [u16; ONE_PASS_NEW],
     /// More quads to defer than there is room for: use the scans.
     overflow: bool,
 }
@@ -1664,6 +1738,7 @@ impl OnePass {
         self.sum = [[0; 3]; ONE_PASS_NEW];
         self.cnt = [0; ONE_PASS_NEW];
         self.n_later = 0;
+        self.later_of = [0; ONE_PASS_NEW];
         self.overflow = false;
     }
 
@@ -1715,8 +1790,7 @@ impl OnePass {
             self.overflow = true;
             return;
         }
-        self.later[self.n_later] = (*quad, k as u8, t as u8);
-        self.n_later += 1;
+        self.push_later(quad, k, t);
     }
 
     /// A quad with new corners `mask` (two or more), kept for its largest.
@@ -1736,7 +1810,18 @@ impl OnePass {
                 k = j;
             }
         }
-        self.later[self.n_later] = (*quad, k as u8, d[k] as u8);
+        self.push_later(quad, k, d[k] as usize);
+    }
+
+    /// Defers `quad` (room checked by the caller) to new vertex `t`,
+    /// its corner `k`. (A vertex index past [`ONE_PASS_NEW`] is never
+    /// predicted: its quad is kept but goes to none.)
+    #[inline(always)]
+    fn push_later(&mut self, quad: &[u32; 4], k: usize, t: usize) {
+        if let Some(bits) = self.later_of.get_mut(t) {
+            *bits |= 1 << self.n_later;
+        }
+        self.later[self.n_later] = (*quad, k as u8);
         self.n_later += 1;
     }
 
@@ -1758,10 +1843,11 @@ impl OnePass {
         }
         let (v0, q) = (st.q.len() as u32, &st.q);
         for t in 0..n_new {
-            for &(quad, k, lt) in &self.later[..self.n_later] {
-                if lt as usize != t {
-                    continue;
-                }
+            // Its deferred quads, in the order they came.
+            let mut bits = self.later_of.get(t).copied().unwrap_or(0);
+            while bits != 0 {
+                let (quad, k) = self.later[bits.trailing_zeros() as usize];
+                bits &= bits - 1;
                 let k = k as usize;
                 // The other new corners are below `v0 + t`: decoded.
                 let code = |u: u32| {
@@ -1878,23 +1964,30 @@ fn predict_split(
 }
 
 /// `floor(sum / n)` per axis, clamped to the grid (spec §7.6's mean of
-/// `n > 0` parallelograms). `div_euclid` by a positive count, which for
-/// the usual 1, 2 or 4 parallelograms is an arithmetic shift (the same
-/// value; a 64-bit division costs tens of cycles).
+/// `n > 0` parallelograms).
 #[inline(always)]
 fn floor_mean(sum: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
     let qmax = qmax as i64;
-    let floor = |s: i64| match n {
+    [
+        floor_div(sum[0], n).clamp(0, qmax) as u32,
+        floor_div(sum[1], n).clamp(0, qmax) as u32,
+        floor_div(sum[2], n).clamp(0, qmax) as u32,
+    ]
+}
+
+/// `s.div_euclid(n)` for `n > 0` (then the floor of `s / n`): for the
+/// usual 1, 2 or 4 parallelograms an arithmetic shift (the same value; a
+/// 64-bit division costs tens of cycles), else one inlined division (the
+/// library's `div_euclid` by a variable is a call).
+#[inline(always)]
+fn floor_div(s: i64, n: i64) -> i64 {
+    debug_assert!(n > 0);
+    match n {
         1 => s,
         2 => s >> 1,
         4 => s >> 2,
-        _ => s.div_euclid(n),
-    };
-    [
-        floor(sum[0]).clamp(0, qmax) as u32,
-        floor(sum[1]).clamp(0, qmax) as u32,
-        floor(sum[2]).clamp(0, qmax) as u32,
-    ]
+        _ => s / n - ((s % n) < 0) as i64,
+    }
 }
 
 /// The prediction of spec §7.6 for new vertex `x`, given the record quads
@@ -2068,14 +2161,18 @@ impl<'a> Prediction<'a> {
 }
 
 /// `pred` plus the next three residuals of `rd`, which must stay on the
-/// grid (a negative sum is a huge `u64`: one test per axis).
+/// grid (a negative sum is a huge `u64`: one test per axis). The sum
+/// wraps: `pred < 2^32`, so only a residual near `i64::MAX` overflows,
+/// and then the wrapped sum is negative and refused as the true one is
+/// (the error names the saturated sum, as before).
 #[inline(always)]
 fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
     let mut out = [0u32; 3];
     for t in 0..3 {
-        let v = (pred[t] as i64).saturating_add(rd.s()?);
+        let d = rd.s()?;
+        let v = (pred[t] as i64).wrapping_add(d);
         if v as u64 > qmax as u64 {
-            return Err(off_grid(v, qmax));
+            return Err(off_grid((pred[t] as i64).saturating_add(d), qmax));
         }
         out[t] = v as u32;
     }
@@ -2162,6 +2259,10 @@ pub struct DecodeScratch {
     nf: NewFaces,
     /// Star of the current split-form vertex.
     star: Star,
+    /// The fused split's star, the fused edge split's two (here, not on
+    /// the stack: no 72-byte fill per star; entries past a star's `n` are
+    /// stale, which nothing reads).
+    fast: [FastStar; 2],
     /// Stars and lists of the edge-split form.
     edge: crate::edge_split::Scratch,
     /// Fan rotations of the current edge-split record.
@@ -2346,14 +2447,14 @@ fn decode_apply_split(
     let sym = rd[OPS].byte()?;
     r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
     let m = read_anchor(st, rd, cur, max_v, max_f, 1, "split")?;
-    let mut s = FastStar::EMPTY;
-    if !st.star_fast_into(m, &mut s) {
+    if !st.star_fast_into(m, &mut sc.fast[0]) {
         r.clear_parts();
         split_after_anchor(st, rd, m, sym, major, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
         keep(r, kept);
         return Ok(());
     }
+    let s = &sc.fast[0];
     let l = s.n;
     let i = rd[CONN].u_max(l as u64 - 1, "first wing index")? as usize;
     let e = rd[CONN].u_max(l as u64 - 2, "second wing offset")? as usize;
@@ -2393,7 +2494,7 @@ fn decode_apply_split(
         }
         let mean = |s: usize, a: usize| {
             if n[s] > 0 {
-                sum[s][a].div_euclid(n[s])
+                floor_div(sum[s][a], n[s])
             } else {
                 m_old[a] as i64
             }
@@ -2555,14 +2656,14 @@ fn decode_apply_face_split(
     let x = rd[CONN].u_max(2 * n as u64 - 1, "face-split index")?;
     let rank = (x >> 1) as u32;
     // The corner whose id has `rank` smaller ones among the block's `n`
-    // (distinct ids: exactly one).
-    let cs = &b[1..=n];
-    let mut ct = cs[0];
-    for &c in cs {
-        if cs.iter().map(|&o| (o < c) as u32).sum::<u32>() == rank {
-            ct = c;
-        }
-    }
+    // (distinct ids, `rank < n`: exactly one; were there none, the first,
+    // as the scalar loop this replaced).
+    let hit = rank_mask8(&b, n, rank);
+    let ct = b[if hit == 0 {
+        1
+    } else {
+        hit.trailing_zeros() as usize
+    }];
     let (s, k) = (ct >> 2, (ct & 3) as usize);
     let f = st.quads[s as usize];
     let c = v0;
@@ -2703,8 +2804,11 @@ pub type Kept<'a> = Option<(&'a mut Vec<[u32; 3]>, &'a mut Vec<[u32; 4]>)>;
 /// record in another order), the same records refused before anything is
 /// applied — on error `st` is unchanged; where several slots of a record
 /// break a rule the message may name another of them (star order, not
-/// slot order; found by the fuzz target).
+/// slot order; found by the fuzz target). Always inlined: in the decoder's
+/// chunk loop, its one caller there, the call and its eleven arguments
+/// were a fixed cost per record.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub fn decode_apply_record(
     st: &mut MeshState,
     rd: &mut [Reader; 5],
@@ -2784,19 +2888,18 @@ fn decode_apply_edge_split(
         st.apply_delta_logged(r, moved, rw);
         Ok(())
     };
-    let mut sa = FastStar::EMPTY;
-    if !st.star_fast_into(a, &mut sa) {
+    if !st.star_fast_into(a, &mut sc.fast[0]) {
         let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
         let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
         return slow(st, rd, r, sc, link);
     }
-    let link = rd[CONN].u_max(sa.n as u64 - 1, "edge-split link index")? as usize;
-    let d = sa.nx[link];
-    let mut sd = FastStar::EMPTY;
-    if !st.star_fast_into(d, &mut sd) {
-        sa.write_into(&mut sc.edge.stars[0]);
+    let link = rd[CONN].u_max(sc.fast[0].n as u64 - 1, "edge-split link index")? as usize;
+    let d = sc.fast[0].nx[link];
+    if !st.star_fast_into(d, &mut sc.fast[1]) {
+        sc.fast[0].write_into(&mut sc.edge.stars[0]);
         return slow(st, rd, r, sc, link);
     }
+    let [sa, sd] = &sc.fast;
     // `A` in `D`'s link (the fast path's links are distinct).
     let live = (1u32 << sd.n) - 1;
     let hit = eq_mask8(&sd.nx, a) & live;
@@ -2805,22 +2908,25 @@ fn decode_apply_edge_split(
     }
     let rda = hit.trailing_zeros() as usize;
     let (ends, rho, fs) = if a < d {
-        ([a, d], [link, rda], [&sa, &sd])
+        ([a, d], [link, rda], [sa, sd])
     } else {
-        ([d, a], [rda, link], [&sd, &sa])
+        ([d, a], [rda, link], [sd, sa])
     };
     let (n1, m, p, ra) = edge_split_fields(rd, ends, [fs[0].n, fs[1].n], &mut sc.rots)?;
-    let mut rws = [(0u32, [0u32; 4]); crate::edge_split::FAST_REWRITES];
     let mut app = [[0u32; 4]; 4];
-    let pred = &mut sc.edge.pred;
+    let crate::edge_split::Scratch { pred, rws, .. } = &mut sc.edge;
     let n = crate::edge_split::build_fast(
-        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, &mut rws, &mut app,
+        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, rws, &mut app,
     )?;
     // Every new vertex has a parallelogram of three old corners (`T_x`
     // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most
     // 2 + INLINE quads are deferred, so `finish` never falls back to the
     // scans, which would read `r`'s quads (here only the appended ones).
-    r.appended.extend_from_slice(&app);
+    // Element by element (`extend_from_slice` of 64 bytes is a call to
+    // `memcpy`).
+    for q in app {
+        r.appended.push(q);
+    }
     pred.finish(st, r, 4, major, &mut rd[POS])?;
     st.apply_parts_logged(&r.new_pos, &rws[..n], &r.appended, rw);
     Ok(())
@@ -3626,9 +3732,46 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_distinct, MeshState, QRecord, Star, INLINE, MAX_SPLIT_STAR, STAR_SMALL};
+    use super::{
+        floor_div, rank_mask8, sort_distinct, MeshState, QRecord, Star, INLINE, MAX_SPLIT_STAR,
+        STAR_SMALL,
+    };
     use pqm_core::OpKind;
     use proptest::prelude::*;
+
+    proptest! {
+        /// The vector rank selection of the face split marks exactly the
+        /// entry of `v[1..=n]` with `rank` smaller ones, as the scalar
+        /// double loop it replaced, whatever the count word and the stale
+        /// entries past `n` hold (ids across the whole `u32` range: the
+        /// order is unsigned).
+        #[test]
+        fn rank_mask_selects_the_entry_of_that_rank(
+            ids in proptest::collection::hash_set(any::<u32>(), 1..=INLINE),
+            junk in any::<[u32; 8]>(),
+            pick in any::<usize>(),
+        ) {
+            let ids: Vec<u32> = ids.into_iter().collect();
+            let n = ids.len();
+            let mut v = junk;
+            v[1..=n].copy_from_slice(&ids);
+            let rank = (pick % n) as u32;
+            let mut want = 0u32;
+            for (h, &c) in ids.iter().enumerate() {
+                if ids.iter().filter(|&&o| o < c).count() as u32 == rank {
+                    want |= 2 << h;
+                }
+            }
+            prop_assert_eq!(want.count_ones(), 1);
+            prop_assert_eq!(rank_mask8(&v, n, rank), want);
+        }
+
+        /// `floor_div` is `div_euclid` for every positive divisor.
+        #[test]
+        fn floor_div_is_div_euclid(s in any::<i64>(), n in 1i64..1000) {
+            prop_assert_eq!(floor_div(s, n), s.div_euclid(n));
+        }
+    }
 
     /// A fan of `n` quads `[0, a_i, a_i + 1, a_{i+1}]` around vertex 0
     /// (closed, or open when `open`: the last quad left out), quad `i` in

@@ -87,6 +87,9 @@ pub struct Scratch {
     /// The predictions of the four new vertices (spec §7.6), gathered by
     /// [`build`] from the quads it makes (the decoder reads them).
     pub(crate) pred: OnePass,
+    /// [`build_fast`]'s rewritten slots (here, not on the stack: 280 bytes
+    /// that a stack array cleared with a `memset` call per record).
+    pub(crate) rws: [(u32, [u32; 4]); FAST_REWRITES],
 }
 
 /// The star of anchor `a` into `sc.stars[0]`; an error when §7.5 rejects
@@ -161,6 +164,7 @@ pub fn build(
         entries,
         fan,
         pred,
+        ..
     } = sc;
     entries.clear();
     fan.clear();
@@ -352,7 +356,10 @@ pub(crate) fn build_fast(
     // `U_t` of a sector face (`t < 4`), or `4 + j` for fan quad `j`,
     // whose rotated quad is `fan[x][j]`.
     let mut role = [[0u8; 8]; 2];
-    let mut fan = [[[0u32; 4]; 8]; 2];
+    // At most five fan quads per endpoint (`n1 + m + 2 <= k`, checked
+    // below, and a fast star has `k <= INLINE = 7` faces): a smaller
+    // array to clear per record than eight.
+    let mut fan = [[[0u32; 4]; 5]; 2];
     let mut tri = [[0u32; 4]; 2];
     let mut rot_i = 0usize;
     for x in 0..2 {

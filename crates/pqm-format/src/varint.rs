@@ -199,10 +199,15 @@ impl<'a> Reader<'a> {
     /// without consuming it (`None` past the end or malformed).
     #[inline(always)]
     fn peek_s_at(&self, mut pos: usize) -> Option<(i64, usize)> {
-        // One-byte values (most anchors' deltas) first.
+        // One- and two-byte values (nearly all anchors' deltas) first.
         let &b = self.buf.get(pos)?;
         if b < 0x80 {
             return Some((unzigzag(b as u64), pos + 1));
+        }
+        if let Some(&b1) = self.buf.get(pos + 1) {
+            if b1 < 0x80 {
+                return Some((unzigzag((b & 0x7f) as u64 | (b1 as u64) << 7), pos + 2));
+            }
         }
         let mut v: u64 = 0;
         for i in 0..10 {
