@@ -1179,3 +1179,79 @@ fn encode_in_rounds_decodes_to_the_input_and_rounds_are_the_default() {
         .assert()
         .code(2);
 }
+
+/// `--corner-order`: the default (`diagonal`) lets quads start at their
+/// opposite corner and writes a smaller file; both decode to the input's
+/// quads with the same diagonals (the same triangles), and `input` keeps
+/// every quad's first corner.
+#[test]
+fn corner_order_diagonal_is_the_default_and_keeps_the_triangles() {
+    let d = TempDir::new().unwrap();
+    let (default, diagonal, input) = (
+        d.path().join("default.pqm"),
+        d.path().join("diagonal.pqm"),
+        d.path().join("input.pqm"),
+    );
+    json_ok(&["encode", s(&spot()), "-o", s(&default)]);
+    json_ok(&[
+        "encode",
+        s(&spot()),
+        "-o",
+        s(&diagonal),
+        "--corner-order",
+        "diagonal",
+    ]);
+    json_ok(&[
+        "encode",
+        s(&spot()),
+        "-o",
+        s(&input),
+        "--corner-order",
+        "input",
+    ]);
+    let bytes = |p: &Path| std::fs::read(p).unwrap();
+    assert_eq!(bytes(&default), bytes(&diagonal));
+    assert!(
+        bytes(&diagonal).len() < bytes(&input).len(),
+        "diagonal {} bytes, input {}",
+        bytes(&diagonal).len(),
+        bytes(&input).len()
+    );
+    let want = io::read_mesh(&spot()).unwrap();
+    // Each face from the smaller of its two starts that keep the diagonal.
+    let by_diagonal = |m: &IndexedMesh| {
+        let mut out: Vec<Vec<u32>> = m
+            .faces()
+            .map(|f| {
+                let turned: Vec<u32> = f[2..].iter().chain(&f[..2]).copied().collect();
+                f.to_vec().min(turned)
+            })
+            .collect();
+        out.sort();
+        out
+    };
+    let exact = |m: &IndexedMesh| {
+        let mut out: Vec<Vec<u32>> = m.faces().map(|f| f.to_vec()).collect();
+        out.sort();
+        out
+    };
+    let (full_d, full_i) = (d.path().join("d.obj"), d.path().join("i.obj"));
+    json_ok(&["decode", s(&diagonal), "-o", s(&full_d)]);
+    json_ok(&["decode", s(&input), "-o", s(&full_i)]);
+    let (got_d, _) = load_valid(&full_d);
+    let (got_i, _) = load_valid(&full_i);
+    assert_eq!(by_diagonal(&got_d), by_diagonal(&want));
+    assert_ne!(exact(&got_d), exact(&want), "no quad starts elsewhere");
+    assert_eq!(exact(&got_i), exact(&want));
+    pqm()
+        .args([
+            "encode",
+            s(&spot()),
+            "-o",
+            "x.pqm",
+            "--corner-order",
+            "first",
+        ])
+        .assert()
+        .code(2);
+}

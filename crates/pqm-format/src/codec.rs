@@ -3348,12 +3348,33 @@ pub fn encode_record(
     s: &mut [Vec<u8>; 5],
     coding: Coding,
 ) -> u8 {
+    encode_record_rotations(st, r, cur, s, coding, &mut Vec::new())
+}
+
+/// [`encode_record`] that also tells, in `built` (cleared first), each
+/// quad the chosen form builds with a 2-bit rotation field, as `(slot,
+/// rotation)`: the split form's appended quad, the face split's rewritten
+/// and appended quads, the edge split's four appended quads and its fan
+/// quads. Rotating such a quad by 2 before encoding changes only that
+/// field, by 2 (what `crate::encoder`'s [`crate::CornerOrder::Diagonal`]
+/// does); no other field or form choice depends on a quad's first corner.
+pub fn encode_record_rotations(
+    st: &MeshState,
+    r: &QRecord,
+    cur: &mut Cursors,
+    s: &mut [Vec<u8>; 5],
+    coding: Coding,
+    built: &mut Vec<(u32, u8)>,
+) -> u8 {
+    built.clear();
     let v0 = st.q.len() as u32;
+    let f0 = st.quads.len() as u32;
     let op = r.op as u8;
     let major = coding.major;
     let mut nf = NewFaces::default();
     if coding.split {
         if let Some(SplitParams { m, star, i, j, rot }) = split_params(st, r) {
+            built.push((f0, rot as u8));
             let l = star.link.len();
             let m_old = st.q[m as usize];
             let a = r.moved.first().map_or(m_old, |mv| mv.1);
@@ -3392,6 +3413,8 @@ pub fn encode_record(
     }
     if coding.face_split && major >= 2 {
         if let Some((m, x, rot_bits)) = face_split_params(st, r, cur) {
+            built.push((r.rewritten[0].0, (rot_bits >> 4) & 3));
+            built.push((f0, rot_bits >> 6));
             s[OPS].push(op | (3 << 2) | rot_bits);
             put_s(&mut s[REFS], m as i64 - cur.vref as i64);
             cur.vref = m;
@@ -3410,6 +3433,11 @@ pub fn encode_record(
     if coding.edge_split && major >= 3 {
         let mut sc = crate::edge_split::Scratch::default();
         if let Some(e) = crate::edge_split::derive(st, r, cur.vref, &mut sc) {
+            let pf = crate::edge_split::PERMS[e.p % 24];
+            for (i, &j) in pf.iter().enumerate() {
+                built.push((f0 + j as u32, (e.ra >> (2 * i)) & 3));
+            }
+            built.extend(sc.fan_slots.iter().copied().zip(e.rots.iter().copied()));
             s[OPS].push(op | 0x10);
             put_s(&mut s[REFS], e.a as i64 - cur.vref as i64);
             cur.vref = e.a;

@@ -90,6 +90,10 @@ pub struct Scratch {
     /// [`build_fast`]'s rewritten slots (here, not on the stack: 280 bytes
     /// that a stack array cleared with a `memset` call per record).
     pub(crate) rws: [(u32, [u32; 4]); FAST_REWRITES],
+    /// After [`derive()`]: the slot of each fan quad, in the order of
+    /// [`EdgeSplit::rots`] (what an encoder that re-rotates the quads a
+    /// record builds needs, `crate::encoder`'s corner order).
+    pub fan_slots: Vec<u32>,
 }
 
 /// The star of anchor `a` into `sc.stars[0]`; an error when §7.5 rejects
@@ -576,6 +580,7 @@ pub fn derive(st: &MeshState, r: &QRecord, cursor: u32, sc: &mut Scratch) -> Opt
         return None;
     }
     // Fan slots in the order `build` reads their rotations.
+    sc.fan_slots.clear();
     for x in 0..2 {
         let s = &sc.stars[x];
         let k = s.faces.len();
@@ -583,6 +588,7 @@ pub fn derive(st: &MeshState, r: &QRecord, cursor: u32, sc: &mut Scratch) -> Opt
             let slot = s.faces[(rho[x] + n1[x] + 1 + j) % k];
             let i = canon.rewritten.binary_search_by_key(&slot, |w| w.0).ok()?;
             rots.push(rotation(canon.rewritten[i].1, new_of(slot)?)?);
+            sc.fan_slots.push(slot);
         }
     }
     let mut pf = [u8::MAX; 4];

@@ -140,4 +140,8 @@ pub enum EncodeError {
     /// Writing failed, or zstd reported an error.
     #[error("I/O error while writing .pqm data: {0}")]
     Io(#[from] std::io::Error),
+    /// The encoder contradicted itself: a bug in this crate, not in the
+    /// input.
+    #[error("internal error in the .pqm encoder (please report it): {0}")]
+    Internal(String),
 }

@@ -105,7 +105,11 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let pqm = args.out_dir.join("spot.pqm");
     let mut enc = None;
     write_atomic(&pqm, |w| {
-        enc = Some(pqm_format::write(&pm, &EncodeOptions::default(), w)?);
+        let eopts = EncodeOptions {
+            corner_order: super::encode::DEFAULT_CORNER_ORDER.into(),
+            ..Default::default()
+        };
+        enc = Some(pqm_format::write(&pm, &eopts, w)?);
         Ok(())
     })?;
     let enc = enc.context("encoder produced no report")?;
