@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # Prints the README's encode table: `pqm encode --json` with default options
 # on the shared meshes (../shared/meshes beside the repository), one Markdown
-# row per mesh. Needs a release build: cargo build --release -p pqm-cli
+# row per mesh. Needs a release build: cargo build --release -p pqm-cli (or
+# PQM=path/to/pqm).
 #
 # Usage: scripts/encode-table.sh [--large]   (--large adds the two large/ meshes)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=../shared/meshes
-pqm=target/release/pqm
+pqm=${PQM:-target/release/pqm}
 [ -x "$pqm" ] || { echo "build first: cargo build --release -p pqm-cli" >&2; exit 1; }
 meshes=(quad/spot_control_mesh.obj quad/fandisk_quads.off quad/suzanne.obj
     quad/spot_quadrangulated.obj quad/makehuman_base.obj tri/fertility.off quad/loki.obj

@@ -3,12 +3,13 @@
 # client must read to show the base mesh and to reach 10 % and 50 % of the final
 # faces (at chunk granularity, from `pqm info --json`'s level rows), with
 # `pqm encode`'s default options. Needs a release build: cargo build --release -p pqm-cli
+# (or PQM=path/to/pqm).
 #
 # Usage: scripts/stream-table.sh [MESH ...]   (paths under ../shared/meshes; default: four)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=../shared/meshes
-pqm=target/release/pqm
+pqm=${PQM:-target/release/pqm}
 [ -x "$pqm" ] || { echo "build first: cargo build --release -p pqm-cli" >&2; exit 1; }
 meshes=("$@")
 [ ${#meshes[@]} -eq 0 ] && meshes=(quad/spot_quadrangulated.obj quad/makehuman_base.obj quad/loki.obj tri/bunny.off)

@@ -88,7 +88,7 @@ pub enum CornerOrder {
     /// rotation by 2), whichever makes its rotation field 0 or 1, and keeps
     /// that start until a later record builds the slot again. Every quad
     /// keeps its diagonal, so every level splits into exactly the same
-    /// triangles as with `Input`; the file is 1.8–2.3 % smaller (session
+    /// triangles as with `Input`; the file is 2.2–2.5 % smaller (session
     /// 15: spot, makehuman, loki, the split bunny). The finest level equals
     /// the input up to where each quad's corner list starts;
     /// [`write_stored`] returns the progressive mesh the file holds.

@@ -21,7 +21,7 @@ use std::time::Instant;
 pub const DEFAULT_ROUND_FRACTION: Option<f64> = Some(0.005);
 
 /// `pqm encode`'s corner order when `--corner-order` is not given: every
-/// level draws the same triangles either way, and `diagonal` took 1.8–2.3 %
+/// level draws the same triangles either way, and `diagonal` took 2.2–2.5 %
 /// off the bench files (`docs/figures-history.md`, session 15).
 pub const DEFAULT_CORNER_ORDER: CornerArg = CornerArg::Diagonal;
 
