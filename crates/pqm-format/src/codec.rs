@@ -768,6 +768,61 @@ impl MeshState {
         self.append_quads(appended);
     }
 
+    /// [`MeshState::apply_delta_logged`] of an edge split decoded on the
+    /// fast path (`edge_split::build_fast`), given as its parts: the
+    /// rewritten quads in star order (not by slot: the log's entries of
+    /// one record name distinct slots, and each delta is applied on its
+    /// own, so their order changes no level), the appended quads, the
+    /// four new codes, and the corner changes of the six vertices whose
+    /// every corner the record decides written whole (the split form's
+    /// way, `decode_apply_split`): `blocks` = the corner blocks of `ends =
+    /// [X0, X1]` and of the four new vertices after the rewrites. The
+    /// endpoints' blocks held exactly their fast stars, every one of those
+    /// faces is rewritten, and every corner of the new vertices is in a
+    /// rewritten quad, so `blocks` hold their corners as one unlink and
+    /// one link per changed corner left them (the order of a block's
+    /// corners carries no meaning, see [`MeshState`]). Only the other
+    /// vertices' changed corners (in the fan quads: `masks`, bits 0–3 to
+    /// unlink, 4–7 to link, per rewritten slot) are moved one by one; the
+    /// appended quads then link as in any record.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) fn apply_edge_split_parts(
+        &mut self,
+        ends: [u32; 2],
+        blocks: &[[u32; 8]; 6],
+        new_pos: &[[u32; 3]],
+        rewritten: &[(u32, [u32; 4])],
+        masks: &[u8],
+        appended: &[[u32; 4]],
+        rw: &mut RewriteDeltas,
+    ) {
+        debug_assert_eq!(new_pos.len(), 4);
+        for (&p, &b) in new_pos.iter().zip(&blocks[2..]) {
+            self.q.push(p);
+            self.inline.push(Block(b));
+        }
+        self.inline[ends[0] as usize] = Block(blocks[0]);
+        self.inline[ends[1] as usize] = Block(blocks[1]);
+        for (&(s, quad), &mk) in rewritten.iter().zip(masks) {
+            let old = std::mem::replace(&mut self.quads[s as usize], quad);
+            let mut un = (mk & 15) as u32;
+            while un != 0 {
+                let k = un.trailing_zeros() as usize;
+                un &= un - 1;
+                self.unlink(4 * s + k as u32, old[k]);
+            }
+            let mut ln = (mk >> 4) as u32;
+            while ln != 0 {
+                let k = ln.trailing_zeros() as usize;
+                ln &= ln - 1;
+                self.link(4 * s + k as u32, quad[k]);
+            }
+            rw.push((s, xor4(quad, old)));
+        }
+        self.append_quads(appended);
+    }
+
     /// Undoes one record applied by [`MeshState::apply_delta_logged`] with
     /// these log entries: removes the slots from `f_before` on and the
     /// vertices from `v_before` on, and restores the old quads of `rw` and
@@ -1330,7 +1385,7 @@ fn eq_mask4(q: &[u32; 4], key: u32) -> u32 {
 
 /// Bit `k` set where `a[k] == b[k]` (one SSE2 compare on x86-64).
 #[inline(always)]
-fn eq_mask4x4(a: &[u32; 4], b: &[u32; 4]) -> u32 {
+pub(crate) fn eq_mask4x4(a: &[u32; 4], b: &[u32; 4]) -> u32 {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;
@@ -2914,9 +2969,15 @@ fn decode_apply_edge_split(
     };
     let (n1, m, p, ra) = edge_split_fields(rd, ends, [fs[0].n, fs[1].n], &mut sc.rots)?;
     let mut app = [[0u32; 4]; 4];
-    let crate::edge_split::Scratch { pred, rws, .. } = &mut sc.edge;
+    let crate::edge_split::Scratch {
+        pred,
+        rws,
+        blocks,
+        masks,
+        ..
+    } = &mut sc.edge;
     let n = crate::edge_split::build_fast(
-        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, rws, &mut app,
+        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, rws, &mut app, blocks, masks,
     )?;
     // Every new vertex has a parallelogram of three old corners (`T_x`
     // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most
@@ -2928,7 +2989,7 @@ fn decode_apply_edge_split(
         r.appended.push(q);
     }
     pred.finish(st, r, 4, major, &mut rd[POS])?;
-    st.apply_parts_logged(&r.new_pos, &rws[..n], &r.appended, rw);
+    st.apply_edge_split_parts(ends, blocks, &r.new_pos, &rws[..n], masks, &r.appended, rw);
     Ok(())
 }
 

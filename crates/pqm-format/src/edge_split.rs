@@ -13,7 +13,7 @@
 //! level check the two against each other).
 
 use crate::codec::{
-    check_distinct, eq_mask8, rotl, FastStar, MeshState, OnePass, QRecord, Star, NIL,
+    check_distinct, eq_mask4x4, eq_mask8, rotl, FastStar, MeshState, OnePass, QRecord, Star, NIL,
 };
 
 /// The 24 permutations of `0..4` in lexicographic order (spec §7.10 step 5:
@@ -94,6 +94,14 @@ pub struct Scratch {
     /// [`EdgeSplit::rots`] (what an encoder that re-rotates the quads a
     /// record builds needs, `crate::encoder`'s corner order).
     pub fan_slots: Vec<u32>,
+    /// [`build_fast`]'s corner blocks after the record's rewrites (before
+    /// its appended quads), each `[n, c_1 … c_n, stale…]`: `X0`, `X1`,
+    /// then the new vertices `V … V+3` by id.
+    pub(crate) blocks: [[u32; 8]; 6],
+    /// Per entry of `rws`: the changed corners that are neither an
+    /// endpoint's nor a new vertex's (bits 0–3: to unlink from the old
+    /// vertex, 4–7: to link to the new one; [`build_fast`]).
+    pub(crate) masks: [u8; FAST_REWRITES],
 }
 
 /// The star of anchor `a` into `sc.stars[0]`; an error when §7.5 rejects
@@ -333,8 +341,15 @@ pub(crate) const FAST_REWRITES: usize = 2 * crate::codec::INLINE;
 /// the same records rejected, in a decoder's state (every stored quad has
 /// four distinct corners: each passed `check_distinct`), as `build`
 /// followed by sorting by slot (test `fused_edge_split_equals_build`, and
-/// every real-mesh level). The decoder then applies `rw` and `app` itself
-/// ([`MeshState::apply_parts_logged`]): the explicit record is never made.
+/// every real-mesh level). Also the corner blocks of the six vertices whose
+/// every corner the record decides, into `blocks` (`[X0, X1, V, V+1, V+2,
+/// V+3]`, each `[n, corners…]`, as [`Scratch::blocks`]): an endpoint's
+/// corners in its rewritten fan quads (its block held exactly its fast
+/// star: the sector faces lose it, no other face has it), a new vertex's
+/// where its sector faces had the endpoint (the same corner ids) and, for
+/// `u2`, in the last fan quad. The decoder then applies `rw`, `app` and
+/// `blocks` itself ([`MeshState::apply_edge_split_parts`]): the explicit
+/// record is never made.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn build_fast(
     st: &MeshState,
@@ -349,6 +364,8 @@ pub(crate) fn build_fast(
     pred: &mut OnePass,
     rw: &mut [(u32, [u32; 4]); FAST_REWRITES],
     app: &mut [[u32; 4]; 4],
+    blocks: &mut [[u32; 8]; 6],
+    masks: &mut [u8; FAST_REWRITES],
 ) -> Result<usize, String> {
     let v0 = st.q.len() as u32;
     let pv = PERMS[p / 24];
@@ -364,6 +381,9 @@ pub(crate) fn build_fast(
     // below, and a fast star has `k <= INLINE = 7` faces): a smaller
     // array to clear per record than eight.
     let mut fan = [[[0u32; 4]; 5]; 2];
+    // Per fan quad: its changed corners whose old vertex is not `X` (bits
+    // 0–3) and whose new one is neither `X` nor new (bits 4–7).
+    let mut fmask = [[0u8; 5]; 2];
     let mut tri = [[0u32; 4]; 2];
     let mut rot_i = 0usize;
     for x in 0..2 {
@@ -377,11 +397,26 @@ pub(crate) fn build_fast(
         }
         // `(rho + i) mod k`: `rho < k`, `i < k`.
         let wrap = |i: usize| if rho + i < k { rho + i } else { rho + i - k };
+        // The new vertices' blocks: where the sector faces had `X` (at
+        // most `k - 2 <= 5` and `k - 1 <= 6` corners, with `u2`'s in the
+        // last fan quad below: within a block; the `& 7` only spare the
+        // bounds checks).
+        let (b1, b2) = (
+            2 + (pv[2 * x] & 3) as usize,
+            2 + (pv[2 * x + 1] & 3) as usize,
+        );
         for i in 0..=n1 {
-            role[x][wrap(i)] = 2 * x as u8;
+            let w = wrap(i) & 7;
+            role[x][w] = 2 * x as u8;
+            blocks[b1][(1 + i) & 7] = s.c[w];
         }
+        blocks[b1][0] = n1 as u32 + 1;
+        let mut nb2 = 0usize;
         for i in n1 + m + 1..k {
-            role[x][wrap(i)] = 2 * x as u8 + 1;
+            let w = wrap(i) & 7;
+            role[x][w] = 2 * x as u8 + 1;
+            nb2 += 1;
+            blocks[b2][nb2 & 7] = s.c[w];
         }
         let lam = |i: usize| s.nx[wrap(i)];
         // Corner opposite X in fan face j (P_{2j+1}): the corner id gives
@@ -405,9 +440,29 @@ pub(crate) fn build_fast(
             };
             let t = *rots.get(rot_i).ok_or("edge split: too few fan rotations")?;
             rot_i += 1;
-            role[x][wrap(n1 + 1 + j)] = 4 + j as u8;
-            fan[x][j] = rotl(fq, t);
+            let w = wrap(n1 + 1 + j) & 7;
+            role[x][w] = 4 + j as u8;
+            let fq = rotl(fq, t);
+            fan[x][j] = fq;
+            // `X` is corner 0 of the fan quad before its rotation (`u2`
+            // corner 3 of the last): after it, corner `-t` (`3 - t`).
+            let c = s.c[w];
+            let kx = 0u32.wrapping_sub(t as u32) & 3;
+            blocks[x][(1 + j) & 7] = c & !3 | kx;
+            // The other changed corners: the fan's far vertices, linked
+            // and unlinked one by one (`apply_edge_split_parts`).
+            let changed = !eq_mask4x4(&quads[(c >> 2) as usize], &fq) & 15;
+            let mut keep_new = 1 << kx;
+            if j + 1 == m {
+                let ku = 3u32.wrapping_sub(t as u32) & 3;
+                nb2 += 1;
+                blocks[b2][nb2 & 7] = c & !3 | ku;
+                keep_new |= 1 << ku;
+            }
+            fmask[x][j] = (changed & !(1 << (c & 3)) | (changed & !keep_new) << 4) as u8;
         }
+        blocks[x][0] = m as u32;
+        blocks[b2][0] = nb2 as u32;
     }
     // The faces of both endpoints: X1's faces whose slot is in X0's star.
     let mut slots0 = [NIL; 8];
@@ -448,18 +503,20 @@ pub(crate) fn build_fast(
         // Two distinct corners of a stored quad replaced by two distinct
         // new vertices: still four distinct corners.
         rw[n] = (slot, qd);
+        masks[n] = 0;
         n += 1;
     }
     for x in 0..2 {
         let s = fs[x];
         for (&c, &r) in s.c[..s.n].iter().zip(&role[x]) {
             let slot = c >> 2;
-            let qd = if r == u8::MAX {
+            let (qd, mk) = if r == u8::MAX {
                 continue;
             } else if r >= 4 {
-                let qd = fan[x][(r - 4) as usize];
+                let j = (r - 4) as usize;
+                let qd = fan[x][j];
                 check_distinct(&qd, || format!("edge split: rewritten slot {slot}"))?;
-                qd
+                (qd, fmask[x][j])
             } else {
                 // One new corner, where X was: a stored quad (four
                 // distinct corners) with one replaced by a new vertex
@@ -469,9 +526,10 @@ pub(crate) fn build_fast(
                 qd[k] = u(r as usize);
                 let (a, o, e) = (qd[(k + 1) & 3], qd[(k + 2) & 3], qd[(k + 3) & 3]);
                 pred.add_single(q, pv[r as usize] as usize, a, o, e);
-                qd
+                (qd, 0)
             };
             rw[n] = (slot, qd);
+            masks[n] = mk;
             n += 1;
         }
     }
