@@ -624,23 +624,27 @@ fn write_impl(
                 *quad = codec::rotl(*quad, turn[*slot as usize]);
             }
         }
-        let cursors_before = cursors;
-        let mut form = codec::encode_record_rotations(
-            &state,
-            &q,
-            &mut cursors,
-            &mut streams,
-            coding,
-            &mut built,
-        );
-        // Start those quads at their opposite corner and encode the record
-        // again: their rotation fields change by 2, to 0 or 1. The turn
-        // can make another form apply (a face split's turned rewritten
+        // With CornerOrder::Diagonal, a quad the record's form builds with
+        // a rotation field of 2 or 3 is started at its opposite corner and
+        // the record encoded again: its field changes by 2, to 0 or 1. The
+        // turn can make another form apply (a face split's turned rewritten
         // quad can make the record a plain split, tried first), whose own
-        // fields are then turned the same way; a few rounds settle it,
-        // and any turn is a valid file (only smaller or not).
+        // fields are then turned the same way; a few rounds settle it, and
+        // any turn is a valid file (only smaller or not).
+        let cursors_before = cursors;
         let mut rounds = 0;
-        while diagonal && rounds < 4 && built.iter().any(|&(_, r)| r & 2 != 0) {
+        let form = loop {
+            let form = codec::encode_record_rotations(
+                &state,
+                &q,
+                &mut cursors,
+                &mut streams,
+                coding,
+                &mut built,
+            );
+            if !diagonal || rounds == 4 || built.iter().all(|&(_, r)| r & 2 == 0) {
+                break form;
+            }
             rounds += 1;
             let f0 = state.quads.len() as u32;
             for &(slot, r) in &built {
@@ -667,15 +671,7 @@ fn write_impl(
                 s.truncate(before[t]);
             }
             cursors = cursors_before;
-            form = codec::encode_record_rotations(
-                &state,
-                &q,
-                &mut cursors,
-                &mut streams,
-                coding,
-                &mut built,
-            );
-        }
+        };
         if let Some(out) = stored.as_deref_mut() {
             let mut r = rec.clone();
             for (dst, src) in r.rewritten.iter_mut().zip(&q.rewritten) {

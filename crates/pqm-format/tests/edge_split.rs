@@ -453,13 +453,9 @@ fn fused_face_split_equals_explicit() {
     assert!(n_ok > 300 && n_err > 300, "{n_ok} built, {n_err} refused");
 }
 
-/// Random record streams (every form, fields mostly small and in range,
-/// sometimes not; the edge split's fields often valid) on a real level —
-/// the coarsened torus, vertices of valence 3 to 8 — through the decoder's
-/// fused path and through the explicit record: the same result or the
-/// same error, the same state, never a panic.
-#[test]
-fn random_records_fused_equals_explicit() {
+/// A decoder of a bumpy torus coarsened to 150 quads (vertices of valence
+/// 3 to 8 on its levels): the real levels the fused-path tests run on.
+fn coarsened_torus() -> Decoder {
     let src = shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
     let mesh = Mesh::from_indexed(&src).unwrap();
     let opts = CoarsenOptions {
@@ -470,7 +466,17 @@ fn random_records_fused_equals_explicit() {
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
     c.run(&mut |_| {});
     let (bytes, _) = write_to_vec(&c.to_progressive(), &EncodeOptions::default()).unwrap();
-    let mut dec = decode_all(&bytes, Limits::default()).unwrap();
+    decode_all(&bytes, Limits::default()).unwrap()
+}
+
+/// Random record streams (every form, fields mostly small and in range,
+/// sometimes not; the edge split's fields often valid) on a real level —
+/// the coarsened torus, vertices of valence 3 to 8 — through the decoder's
+/// fused path and through the explicit record: the same result or the
+/// same error, the same state, never a panic.
+#[test]
+fn random_records_fused_equals_explicit() {
+    let mut dec = coarsened_torus();
     dec.set_level(Target::Level(40)).unwrap();
     let st = MeshState::new(
         (1 << 14) - 1,
@@ -641,17 +647,7 @@ fn sweep_edge_splits(st: &MeshState, anchors: &[u32], deeper: bool, n: &mut [u32
 /// nothing applied.
 #[test]
 fn fused_edge_split_equals_build_on_every_edge_of_real_levels() {
-    let src = shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
-    let mesh = Mesh::from_indexed(&src).unwrap();
-    let opts = CoarsenOptions {
-        target_faces: Some(150),
-        placement: Placement::Subset,
-        ..Default::default()
-    };
-    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
-    c.run(&mut |_| {});
-    let (bytes, _) = write_to_vec(&c.to_progressive(), &EncodeOptions::default()).unwrap();
-    let mut dec = decode_all(&bytes, Limits::default()).unwrap();
+    let mut dec = coarsened_torus();
     let mut n = [0u32; 3];
     for level in [0, 40] {
         dec.set_level(Target::Level(level)).unwrap();
