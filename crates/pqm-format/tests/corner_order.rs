@@ -5,9 +5,8 @@
 //! its diagonal, so every level splits into the same triangles); and the
 //! file is smaller on real coarsener output.
 
-use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
 use pqm_core::progressive::testgen;
-use pqm_core::{shapes, Mesh, ProgressiveMesh};
+use pqm_core::ProgressiveMesh;
 use pqm_format::*;
 use proptest::prelude::*;
 
@@ -119,24 +118,10 @@ proptest! {
     }
 }
 
-/// A coarsener run on a noisy bumpy torus (every operator, rounds as
-/// `pqm encode` runs them).
-fn coarsened() -> ProgressiveMesh {
-    let src = shapes::noisy(&shapes::bumpy_torus(48, 24, 3.0, 1.0, 0.3, 5), 0.003, 4);
-    let mesh = Mesh::from_indexed(&src).unwrap();
-    let opts = CoarsenOptions {
-        placement: Placement::Subset,
-        round_fraction: Some(0.005),
-        ..Default::default()
-    };
-    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
-    c.run(&mut |_| {});
-    c.into_progressive()
-}
-
 #[test]
 fn coarsener_output_is_smaller_and_draws_the_same_triangles() {
-    let pm = coarsened();
+    // every operator, rounds as `pqm encode` runs them
+    let pm = common::coarsened_torus(Some(0.005));
     assert!(pm.records.len() > 500, "{} records", pm.records.len());
     let (input, _, _) = decode_stored(&pm, &EncodeOptions::default());
     let (bytes, stored, mut dec) = decode_stored(&pm, &diagonal());

@@ -2,28 +2,14 @@
 //! `pqm encode` can use): every level decodes to the progressive mesh's
 //! level exactly, and the sorted anchors make the `refs` stream smaller.
 
-use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
-use pqm_core::{shapes, Mesh, ProgressiveMesh};
+use pqm_core::ProgressiveMesh;
 use pqm_format::*;
 
 mod common;
 
-fn progressive(rounds: Option<f64>) -> ProgressiveMesh {
-    let src = shapes::noisy(&shapes::bumpy_torus(48, 24, 3.0, 1.0, 0.3, 5), 0.003, 4);
-    let mesh = Mesh::from_indexed(&src).unwrap();
-    let opts = CoarsenOptions {
-        placement: Placement::Subset,
-        round_fraction: rounds,
-        ..Default::default()
-    };
-    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
-    c.run(&mut |_| {});
-    c.into_progressive()
-}
-
 #[test]
 fn every_level_of_a_file_in_rounds_decodes_exactly() {
-    let pm = progressive(Some(0.1));
+    let pm = common::coarsened_torus(Some(0.1));
     let n = pm.records.len();
     assert!(n > 300, "{n} records");
     let opts = EncodeOptions {
@@ -42,8 +28,8 @@ fn rounds_make_vertex_references_cheaper() {
         report.stream_raw_bytes[2] as f64 / pm.records.len() as f64
     };
     let (one, rounds) = (
-        per_record(&progressive(None)),
-        per_record(&progressive(Some(0.1))),
+        per_record(&common::coarsened_torus(None)),
+        per_record(&common::coarsened_torus(Some(0.1))),
     );
     assert!(
         rounds < one,

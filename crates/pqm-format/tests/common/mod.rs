@@ -1,7 +1,26 @@
 //! Helpers shared by the integration tests of this crate.
+// Each test crate that includes this module uses only some of them.
+#![allow(dead_code)]
 
-use pqm_core::ProgressiveMesh;
+use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
+use pqm_core::{shapes, Mesh, ProgressiveMesh};
 use pqm_format::{Decoder, Target};
+
+/// A noisy bumpy torus (48 × 24 quads) coarsened as `pqm encode` does
+/// (subset placement), in rounds of `rounds` when given: every operator,
+/// a few hundred records.
+pub fn coarsened_torus(rounds: Option<f64>) -> ProgressiveMesh {
+    let src = shapes::noisy(&shapes::bumpy_torus(48, 24, 3.0, 1.0, 0.3, 5), 0.003, 4);
+    let mesh = Mesh::from_indexed(&src).unwrap();
+    let opts = CoarsenOptions {
+        placement: Placement::Subset,
+        round_fraction: rounds,
+        ..Default::default()
+    };
+    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
+    c.run(&mut |_| {});
+    c.into_progressive()
+}
 
 /// Walks `dec` (a decoder of the whole file of `pm`) from the finest level
 /// down to level 0 and back up, one level at a time, and asserts that each
