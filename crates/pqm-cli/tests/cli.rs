@@ -50,6 +50,15 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// `pqm --json encode` of the bundled cow into `out`, `flags` after the
+/// output; its report.
+fn encode_spot(out: &Path, flags: &[&str]) -> Value {
+    let spot = spot();
+    let mut args = vec!["encode", s(&spot), "-o", s(out)];
+    args.extend_from_slice(flags);
+    json_ok(&args)
+}
+
 /// Reads a mesh and checks every structural invariant of the half-edge mesh.
 fn load_valid(path: &Path) -> (IndexedMesh, Mesh) {
     let im = io::read_mesh(path).unwrap_or_else(|e| panic!("{e}"));
@@ -1135,24 +1144,10 @@ fn encode_in_rounds_decodes_to_the_input_and_rounds_are_the_default() {
         d.path().join("rounds.pqm"),
     );
     let default = d.path().join("default.pqm");
-    json_ok(&["encode", s(&spot()), "-o", s(&plain)]);
-    json_ok(&["encode", s(&spot()), "-o", s(&off), "--no-rounds"]);
-    json_ok(&[
-        "encode",
-        s(&spot()),
-        "-o",
-        s(&default),
-        "--round-fraction",
-        "0.005",
-    ]);
-    let e = json_ok(&[
-        "encode",
-        s(&spot()),
-        "-o",
-        s(&rounds),
-        "--round-fraction",
-        "0.05",
-    ]);
+    encode_spot(&plain, &[]);
+    encode_spot(&off, &["--no-rounds"]);
+    encode_spot(&default, &["--round-fraction", "0.005"]);
+    let e = encode_spot(&rounds, &["--round-fraction", "0.05"]);
     let bytes = |p: &Path| std::fs::read(p).unwrap();
     assert_eq!(bytes(&plain), bytes(&default));
     assert_ne!(bytes(&plain), bytes(&off));
@@ -1192,23 +1187,9 @@ fn corner_order_diagonal_is_the_default_and_keeps_the_triangles() {
         d.path().join("diagonal.pqm"),
         d.path().join("input.pqm"),
     );
-    json_ok(&["encode", s(&spot()), "-o", s(&default)]);
-    json_ok(&[
-        "encode",
-        s(&spot()),
-        "-o",
-        s(&diagonal),
-        "--corner-order",
-        "diagonal",
-    ]);
-    json_ok(&[
-        "encode",
-        s(&spot()),
-        "-o",
-        s(&input),
-        "--corner-order",
-        "input",
-    ]);
+    encode_spot(&default, &[]);
+    encode_spot(&diagonal, &["--corner-order", "diagonal"]);
+    encode_spot(&input, &["--corner-order", "input"]);
     let bytes = |p: &Path| std::fs::read(p).unwrap();
     assert_eq!(bytes(&default), bytes(&diagonal));
     assert!(
