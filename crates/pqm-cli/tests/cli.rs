@@ -59,6 +59,15 @@ fn encode_spot(out: &Path, flags: &[&str]) -> Value {
     json_ok(&args)
 }
 
+/// `pqm encode` of the bundled cow into `out` with `flags` is a usage
+/// error (exit code 2).
+fn encode_spot_refused(out: &Path, flags: &[&str]) {
+    let spot = spot();
+    let mut args = vec!["encode", s(&spot), "-o", s(out)];
+    args.extend_from_slice(flags);
+    pqm().args(&args).assert().code(2);
+}
+
 /// Reads a mesh and checks every structural invariant of the half-edge mesh.
 fn load_valid(path: &Path) -> (IndexedMesh, Mesh) {
     let im = io::read_mesh(path).unwrap_or_else(|e| panic!("{e}"));
@@ -606,16 +615,7 @@ fn quiet_prints_nothing_and_pipes_get_no_progress_bars() {
 fn encode_info_decode_levels_prefixes_and_full_equality() {
     let d = TempDir::new().unwrap();
     let file = d.path().join("spot.pqm");
-    let e = json_ok(&[
-        "encode",
-        s(&spot()),
-        "-o",
-        s(&file),
-        "--base-ratio",
-        "0.4",
-        "--chunk-bytes",
-        "4096",
-    ]);
+    let e = encode_spot(&file, &["--base-ratio", "0.4", "--chunk-bytes", "4096"]);
     let f = &e["files"][0];
     for k in [
         "input",
@@ -908,7 +908,7 @@ fn demo_writes_three_glb_levels() {
     assert_eq!(faces[2], 2928);
     // the demo's file is what `pqm encode` writes by default
     let plain = d.path().join("plain.pqm");
-    json_ok(&["encode", s(&spot()), "-o", s(&plain)]);
+    encode_spot(&plain, &[]);
     assert!(std::fs::read(&plain).unwrap() == std::fs::read(dir.join("spot.pqm")).unwrap());
     // the text form says where the files are
     pqm()
@@ -947,14 +947,8 @@ fn checked_in_procedural_fixtures_are_what_the_command_generates() {
 fn vertex_order_deltas_writes_a_3_0_file_with_the_same_full_level() {
     let d = TempDir::new().unwrap();
     let (nbr, deltas) = (d.path().join("a.pqm"), d.path().join("b.pqm"));
-    let a = json_ok(&["encode", s(&spot()), "-o", s(&nbr)]);
-    let b = json_ok(&[
-        "encode",
-        s(&spot()),
-        "-o",
-        s(&deltas),
-        "--vertex-order-deltas",
-    ]);
+    let a = encode_spot(&nbr, &[]);
+    let b = encode_spot(&deltas, &["--vertex-order-deltas"]);
     let (ba, bb) = (
         a["files"][0]["bytes"].as_u64().unwrap(),
         b["files"][0]["bytes"].as_u64().unwrap(),
@@ -970,17 +964,7 @@ fn vertex_order_deltas_writes_a_3_0_file_with_the_same_full_level() {
     json_ok(&["decode", s(&deltas), "-o", s(&ob)]);
     assert_eq!(std::fs::read(&oa).unwrap(), std::fs::read(&ob).unwrap());
     // with --no-vertex-order the flag is a usage error (nothing to write)
-    pqm()
-        .args([
-            "encode",
-            s(&spot()),
-            "-o",
-            s(&nbr),
-            "--no-vertex-order",
-            "--vertex-order-deltas",
-        ])
-        .assert()
-        .code(2);
+    encode_spot_refused(&nbr, &["--no-vertex-order", "--vertex-order-deltas"]);
 }
 
 /// `--zstd-blocks`: `auto` (the default) is smaller than `single` on spot
@@ -998,14 +982,7 @@ fn zstd_blocks_modes_decode_alike_and_auto_beats_one_block() {
             d.path().join(format!("{mode}.pqm")),
             d.path().join(format!("{mode}.obj")),
         );
-        let r = json_ok(&[
-            "encode",
-            s(&spot()),
-            "-o",
-            s(&pqm_file),
-            "--zstd-blocks",
-            mode,
-        ]);
+        let r = encode_spot(&pqm_file, &["--zstd-blocks", mode]);
         sizes.push(r["files"][0]["bytes"].as_u64().unwrap());
         json_ok(&["decode", s(&pqm_file), "-o", s(&obj)]);
         objs.push(std::fs::read(&obj).unwrap());
@@ -1030,25 +1007,15 @@ fn zstd_blocks_modes_decode_alike_and_auto_beats_one_block() {
         sizes[2]
     );
     assert!(objs[0] == objs[1] && objs[0] == objs[2]);
-    pqm()
-        .args([
-            "encode",
-            s(&spot()),
-            "-o",
-            s(&d.path().join("x.pqm")),
-            "--zstd-blocks",
-            "many",
-        ])
-        .assert()
-        .code(2);
+    encode_spot_refused(&d.path().join("x.pqm"), &["--zstd-blocks", "many"]);
 }
 
 #[test]
 fn encode_without_vertex_order_is_smaller_and_the_same_mesh_up_to_renumbering() {
     let d = TempDir::new().unwrap();
     let (with, without) = (d.path().join("a.pqm"), d.path().join("b.pqm"));
-    let a = json_ok(&["encode", s(&spot()), "-o", s(&with)]);
-    let b = json_ok(&["encode", s(&spot()), "-o", s(&without), "--no-vertex-order"]);
+    let a = encode_spot(&with, &[]);
+    let b = encode_spot(&without, &["--no-vertex-order"]);
     let (ba, bb) = (
         a["files"][0]["bytes"].as_u64().unwrap(),
         b["files"][0]["bytes"].as_u64().unwrap(),
@@ -1161,18 +1128,10 @@ fn encode_in_rounds_decodes_to_the_input_and_rounds_are_the_default() {
     // the same faces (each from its smallest vertex: the corner a face
     // starts at is not kept) over the input's vertex ids
     assert_eq!(face_set(&got), face_set(&want));
-    pqm()
-        .args([
-            "encode",
-            s(&spot()),
-            "-o",
-            "x.pqm",
-            "--round-fraction",
-            "0.1",
-            "--no-rounds",
-        ])
-        .assert()
-        .code(2);
+    encode_spot_refused(
+        Path::new("x.pqm"),
+        &["--round-fraction", "0.1", "--no-rounds"],
+    );
 }
 
 /// `--corner-order`: the default (`diagonal`) lets quads start at their
@@ -1224,15 +1183,5 @@ fn corner_order_diagonal_is_the_default_and_keeps_the_triangles() {
     assert_eq!(by_diagonal(&got_d), by_diagonal(&want));
     assert_ne!(exact(&got_d), exact(&want), "no quad starts elsewhere");
     assert_eq!(exact(&got_i), exact(&want));
-    pqm()
-        .args([
-            "encode",
-            s(&spot()),
-            "-o",
-            "x.pqm",
-            "--corner-order",
-            "first",
-        ])
-        .assert()
-        .code(2);
+    encode_spot_refused(Path::new("x.pqm"), &["--corner-order", "first"]);
 }
