@@ -3,7 +3,7 @@
 //! coarsener coded in it and decoded back exactly.
 
 use pqm_core::coarsen::{CoarsenOptions, Coarsener, Placement};
-use pqm_core::{shapes, Mesh, OpKind};
+use pqm_core::{shapes, Mesh, OpKind, ProgressiveMesh};
 use pqm_format::codec::{
     decode_apply_record, decode_record, Cursors, DecodeScratch, MeshState, QRecord,
 };
@@ -323,11 +323,9 @@ fn a_fan_face_shared_with_the_other_endpoint_is_refused() {
     assert!(run(&[0, 0, 0, 0, 0, 0, 0, 0, 0]).is_ok());
 }
 
-/// Real qeMerge records (the coarsener on a closed surface, subset
-/// placement as `pqm encode`) are coded in the edge-split form, and every
-/// level decodes to the progressive mesh's level id for id.
-#[test]
-fn coarsener_qe_merges_use_the_edge_split_form_and_decode_exactly() {
+/// A bumpy torus coarsened to 150 quads as `pqm encode` does (subset
+/// placement): every operator, vertices of valence 3 to 8 on its levels.
+fn coarsened_torus_mesh() -> ProgressiveMesh {
     let src = shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
     let mesh = Mesh::from_indexed(&src).unwrap();
     let opts = CoarsenOptions {
@@ -337,7 +335,15 @@ fn coarsener_qe_merges_use_the_edge_split_form_and_decode_exactly() {
     };
     let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
     c.run(&mut |_| {});
-    let pm = c.to_progressive();
+    c.into_progressive()
+}
+
+/// Real qeMerge records (the coarsener on a closed surface, subset
+/// placement as `pqm encode`) are coded in the edge-split form, and every
+/// level decodes to the progressive mesh's level id for id.
+#[test]
+fn coarsener_qe_merges_use_the_edge_split_form_and_decode_exactly() {
+    let pm = coarsened_torus_mesh();
     let qe = pm
         .records
         .iter()
@@ -453,19 +459,10 @@ fn fused_face_split_equals_explicit() {
     assert!(n_ok > 300 && n_err > 300, "{n_ok} built, {n_err} refused");
 }
 
-/// A decoder of a bumpy torus coarsened to 150 quads (vertices of valence
-/// 3 to 8 on its levels): the real levels the fused-path tests run on.
+/// A decoder of [`coarsened_torus_mesh`]: the real levels the fused-path
+/// tests run on.
 fn coarsened_torus() -> Decoder {
-    let src = shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
-    let mesh = Mesh::from_indexed(&src).unwrap();
-    let opts = CoarsenOptions {
-        target_faces: Some(150),
-        placement: Placement::Subset,
-        ..Default::default()
-    };
-    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
-    c.run(&mut |_| {});
-    let (bytes, _) = write_to_vec(&c.to_progressive(), &EncodeOptions::default()).unwrap();
+    let (bytes, _) = write_to_vec(&coarsened_torus_mesh(), &EncodeOptions::default()).unwrap();
     decode_all(&bytes, Limits::default()).unwrap()
 }
 

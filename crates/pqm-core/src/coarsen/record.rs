@@ -884,22 +884,28 @@ mod tests {
         )
     }
 
+    /// `src` coarsened to `faces` quads as `pqm encode` does (subset
+    /// placement, default rules).
+    fn coarsened(src: &IndexedMesh, faces: usize) -> ProgressiveMesh {
+        use crate::coarsen::{CoarsenOptions, Coarsener, Placement};
+        let opts = CoarsenOptions {
+            target_faces: Some(faces),
+            placement: Placement::Subset,
+            ..Default::default()
+        };
+        let mesh = Mesh::from_indexed(src).unwrap();
+        let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
+        c.run(&mut |_| {});
+        c.into_progressive()
+    }
+
     /// Every qeMerge record of a real coarsening comes out in the canonical
     /// order (recomputing it from the record finds the identity), and the
     /// progressive mesh still replays to the input.
     #[test]
     fn qe_merge_records_are_in_canonical_order() {
-        use crate::coarsen::{CoarsenOptions, Coarsener, Placement};
         let src = crate::shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
-        let mesh = Mesh::from_indexed(&src).unwrap();
-        let opts = CoarsenOptions {
-            target_faces: Some(150),
-            placement: Placement::Subset,
-            ..Default::default()
-        };
-        let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
-        c.run(&mut |_| {});
-        let pm = c.to_progressive();
+        let pm = coarsened(&src, 150);
         pm.validate().unwrap();
         let mut v = pm.base.positions.len() as u32;
         let (mut qe, mut checked) = (0, 0);
@@ -1005,22 +1011,13 @@ mod tests {
     /// it to the input, id for id through `vertex_order`.
     #[test]
     fn base_is_numbered_in_traversal_order() {
-        use crate::coarsen::{CoarsenOptions, Coarsener, Placement};
         let torus = crate::shapes::bumpy_torus(40, 24, 3.0, 1.0, 0.05, 7);
         let mut grid = crate::shapes::noisy(&crate::shapes::grid(24, 16, 3.0, 2.0), 0.01, 3);
         for p in &mut grid.positions {
             p.x += 10.0;
         }
         let src = crate::shapes::concat(&[torus, grid]);
-        let mesh = Mesh::from_indexed(&src).unwrap();
-        let opts = CoarsenOptions {
-            target_faces: Some(200),
-            placement: Placement::Subset,
-            ..Default::default()
-        };
-        let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).unwrap();
-        c.run(&mut |_| {});
-        let pm = c.into_progressive();
+        let pm = coarsened(&src, 200);
         pm.validate().unwrap();
         assert!(!pm.records.is_empty());
         assert_eq!(assert_traversal_order(&pm.base), 2);
