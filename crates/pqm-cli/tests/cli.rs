@@ -940,15 +940,15 @@ fn checked_in_procedural_fixtures_are_what_the_command_generates() {
     }
 }
 
-/// `--vertex-order-deltas` writes 3.0's VORD section instead of 3.1's VNBR;
-/// both decode to the same full level, in the input's order, and VNBR is the
-/// smaller file.
+/// `--vertex-order-deltas` writes 3.0's VORD section instead of 3.1's VNBR
+/// (with the box grid, which needs no 3.2 header); both decode to the same
+/// full level, in the input's order, and VNBR is the smaller file.
 #[test]
 fn vertex_order_deltas_writes_a_3_0_file_with_the_same_full_level() {
     let d = TempDir::new().unwrap();
     let (nbr, deltas) = (d.path().join("a.pqm"), d.path().join("b.pqm"));
-    let a = encode_spot(&nbr, &[]);
-    let b = encode_spot(&deltas, &["--vertex-order-deltas"]);
+    let a = encode_spot(&nbr, &["--grid", "box"]);
+    let b = encode_spot(&deltas, &["--vertex-order-deltas", "--grid", "box"]);
     let (ba, bb) = (
         a["files"][0]["bytes"].as_u64().unwrap(),
         b["files"][0]["bytes"].as_u64().unwrap(),
@@ -1132,6 +1132,71 @@ fn encode_in_rounds_decodes_to_the_input_and_rounds_are_the_default() {
         Path::new("x.pqm"),
         &["--round-fraction", "0.1", "--no-rounds"],
     );
+}
+
+/// `--grid`: the default (`cube`) gives every axis one step and writes a
+/// 3.2 file with the exact bounds in its header, smaller than `box` (the
+/// pre-3.2 grid, one step per axis); both decode to the same quads, within
+/// half a cube step of each other, inside the stored bounds.
+#[test]
+fn grid_cube_is_the_default_and_stores_the_bounds() {
+    let d = TempDir::new().unwrap();
+    let (default, cube, boxed) = (
+        d.path().join("default.pqm"),
+        d.path().join("cube.pqm"),
+        d.path().join("box.pqm"),
+    );
+    encode_spot(&default, &[]);
+    let c = encode_spot(&cube, &["--grid", "cube"]);
+    let b = encode_spot(&boxed, &["--grid", "box"]);
+    let bytes = |p: &Path| std::fs::read(p).unwrap();
+    assert_eq!(bytes(&default), bytes(&cube));
+    let (bc, bb) = (
+        c["files"][0]["bytes"].as_u64().unwrap(),
+        b["files"][0]["bytes"].as_u64().unwrap(),
+    );
+    assert!(bc < bb, "cube {bc} bytes, box {bb}");
+    let (ic, ib) = (json_ok(&["info", s(&cube)]), json_ok(&["info", s(&boxed)]));
+    assert_eq!(ic["version"], "3.2");
+    assert_eq!(ic["bounds_stored"], true);
+    assert_eq!(ib["bounds_stored"], false);
+    assert_eq!(ib["bounds_min"], ib["bbox_min"]);
+    let v3 = |v: &Value| [0, 1, 2].map(|k| v[k].as_f64().unwrap());
+    let step = v3(&ic["quant_step"]);
+    assert!(
+        step.iter().all(|&t| (t - step[0]).abs() <= 1e-12 * step[0]),
+        "{step:?}"
+    );
+    // the box grid's bounds are the cube file's bounds, up to rounding
+    let (lo, hi) = (v3(&ic["bounds_min"]), v3(&ic["bounds_max"]));
+    for k in 0..3 {
+        assert!(
+            (lo[k] - v3(&ib["bounds_min"])[k]).abs() <= step[0],
+            "axis {k}"
+        );
+        assert!(
+            (hi[k] - v3(&ib["bounds_max"])[k]).abs() <= step[0],
+            "axis {k}"
+        );
+        assert!(v3(&ic["bbox_min"])[k] <= lo[k] && hi[k] <= v3(&ic["bbox_max"])[k]);
+    }
+    let (oc, ob) = (d.path().join("c.obj"), d.path().join("b.obj"));
+    json_ok(&["decode", s(&cube), "-o", s(&oc)]);
+    json_ok(&["decode", s(&boxed), "-o", s(&ob)]);
+    let ((mc, _), (mb, _)) = (load_valid(&oc), load_valid(&ob));
+    assert!(mc.faces().eq(mb.faces()));
+    for (p, q) in mc.positions.iter().zip(&mb.positions) {
+        assert!((*p - *q).abs().max_element() <= step[0], "{p} vs {q}");
+        for k in 0..3 {
+            // f32 OBJ output: a little slack on the bounds
+            let slack = 1e-6 * (hi[k] - lo[k]).abs().max(1.0);
+            assert!(
+                lo[k] - slack <= p[k] && p[k] <= hi[k] + slack,
+                "{p} outside the bounds"
+            );
+        }
+    }
+    encode_spot_refused(Path::new("x.pqm"), &["--grid", "sphere"]);
 }
 
 /// `--corner-order`: the default (`diagonal`) lets quads start at their

@@ -899,6 +899,18 @@ impl Decoder {
                 return bad(format!("bounding box axis {k} is [{lo}, {hi}]"));
             }
         }
+        if h.flags & FLAG_BOUNDS != 0 {
+            let Some([lo, hi]) = h.bounds else {
+                return bad(format!(
+                    "flag bit 2 (bounds) set but header_len {len} < {HEADER_LEN_BOUNDS}"
+                ));
+            };
+            for k in 0..3 {
+                if !lo[k].is_finite() || !hi[k].is_finite() || lo[k] > hi[k] {
+                    return bad(format!("bounds axis {k} is [{}, {}]", lo[k], hi[k]));
+                }
+            }
+        }
         if h.base_vertex_count > h.final_vertex_count || h.base_face_count > h.final_face_count {
             return bad("base counts exceed final counts".into());
         }
@@ -1945,6 +1957,15 @@ impl Decoder {
     /// The quantization grid (after the header).
     pub fn quantizer(&self) -> Option<Quantizer> {
         self.quant
+    }
+
+    /// A bounding box `[min, max]` of every level's positions (after the
+    /// header): the header's exact bounds when it has them (version 3.2,
+    /// spec §3), else the grid, which holds every position too (exact for
+    /// files with the box grid, §5).
+    pub fn bounds(&self) -> Option<[[f64; 3]; 2]> {
+        let h = self.header.as_ref()?;
+        Some(h.bounds.unwrap_or([h.bbox_min, h.bbox_max]))
     }
 
     /// Positions of the current level as f32 (dequantized in f64, then

@@ -15,7 +15,7 @@
 use crate::codec::{self, Coding, Cursors, MeshState, QRecord, CONN, OPS, POS, REFS, SLOTS};
 use crate::error::EncodeError;
 use crate::layout::*;
-use crate::quant::Quantizer;
+use crate::quant::{Grid, Quantizer};
 use crate::varint::put_s;
 use pqm_core::ProgressiveMesh;
 use std::io::Write;
@@ -68,6 +68,10 @@ pub struct EncodeOptions {
     /// [`CornerOrder::Input`]; `pqm encode` writes
     /// [`CornerOrder::Diagonal`]).
     pub corner_order: CornerOrder,
+    /// The quantization grid (default [`Grid::Cube`], as Draco; spec §5).
+    /// With `Cube` and major version 3 the header also carries the
+    /// positions' exact bounds (a 3.2 file).
+    pub grid: Grid,
 }
 
 /// Where each stored quad's corner list starts.
@@ -152,6 +156,7 @@ impl Default for EncodeOptions {
             vertex_order_code: VertexOrderCode::Smaller,
             zstd_blocks: ZstdBlocks::Auto,
             corner_order: CornerOrder::Input,
+            grid: Grid::Cube,
         }
     }
 }
@@ -500,6 +505,7 @@ fn write_impl(
             }
         }
     }
+    let (lo, hi) = opts.grid.over(lo, hi);
     if (0..3).any(|k| !(hi[k] - lo[k]).is_finite()) {
         return Err(EncodeError::InvalidMesh(
             "bounding box extent is not finite".into(),
@@ -507,6 +513,30 @@ fn write_impl(
     }
     let quant = Quantizer::new(lo, hi, opts.bits);
     let qp = |p: &glam::DVec3| quant.quantize(*p);
+    // The header's bounds (3.2): what a decoder's positions span, so the
+    // dequantized codes, not the input. A mesh without positions has none
+    // to give (the grid is then all zeros).
+    let any_position = !mesh.base.positions.is_empty()
+        || mesh
+            .records
+            .iter()
+            .any(|r| !r.new_vertices.is_empty() || !r.moved.is_empty());
+    let bounds = (opts.grid == Grid::Cube && opts.version_major >= 3 && any_position).then(|| {
+        let mut b = [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]];
+        let all = mesh.base.positions.iter().chain(
+            mesh.records
+                .iter()
+                .flat_map(|r| r.new_vertices.iter().chain(r.moved.iter().map(|m| &m.1))),
+        );
+        for p in all {
+            let d = quant.dequantize(qp(p));
+            for k in 0..3 {
+                b[0][k] = b[0][k].min(d[k]);
+                b[1][k] = b[1][k].max(d[k]);
+            }
+        }
+        b
+    });
 
     let base_q: Vec<[u32; 3]> = mesh.base.positions.iter().map(qp).collect();
     let base_quads: Vec<[u32; 4]> = mesh
@@ -792,8 +822,14 @@ fn write_impl(
         }
     }
 
+    let header_len = if bounds.is_some() {
+        minor = VERSION_MINOR_BOUNDS;
+        HEADER_LEN_BOUNDS
+    } else {
+        HEADER_LEN
+    };
     let table_len = chunks.len() as u64 * CHUNK_ENTRY_LEN as u64 + 4;
-    let mut offset = HEADER_LEN as u64 + table_len + base_bytes.len() as u64;
+    let mut offset = header_len as u64 + table_len + base_bytes.len() as u64;
     let mut table = Vec::with_capacity(table_len as usize);
     for c in &mut chunks {
         c.info.offset = offset;
@@ -806,7 +842,7 @@ fn write_impl(
     let header = Header {
         version_major: opts.version_major,
         version_minor: minor,
-        header_len: HEADER_LEN,
+        header_len,
         flags,
         quant_bits: opts.bits,
         chunk_entry_len: CHUNK_ENTRY_LEN,
@@ -823,6 +859,7 @@ fn write_impl(
         bbox_min: lo,
         bbox_max: hi,
         base_error: error_at(0),
+        bounds,
     };
     w.write_all(&header.to_bytes())?;
     w.write_all(&table)?;
@@ -833,7 +870,7 @@ fn write_impl(
     w.write_all(&sections)?;
     w.flush()?;
 
-    report.header_bytes = HEADER_LEN as u64;
+    report.header_bytes = header_len as u64;
     report.table_bytes = table_len;
     report.base_bytes = base_bytes.len() as u64;
     report.chunk_bytes = chunks.iter().map(|c| c.bytes.len() as u64).sum();

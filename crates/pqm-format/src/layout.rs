@@ -8,8 +8,12 @@ pub const MAGIC: [u8; 8] = [0x89, b'P', b'Q', b'M', 0x0D, 0x0A, 0x1A, 0x0A];
 /// Major version this crate writes by default, and the newest it reads.
 pub const VERSION_MAJOR: u16 = 3;
 /// Minor version this crate writes with [`VERSION_MAJOR`] when the file
-/// holds a `VNBR` section (3.1, spec §8.2); files without one are 3.0.
+/// holds a `VNBR` section but no header bounds (3.1, spec §8.2); files
+/// with neither are 3.0.
 pub const VERSION_MINOR: u16 = 1;
+/// Minor version this crate writes with [`VERSION_MAJOR`] when the header
+/// holds the positions' bounds (3.2, spec §3: flag bit 2).
+pub const VERSION_MINOR_BOUNDS: u16 = 2;
 /// Oldest major version this crate reads (and can write, for tests and old
 /// readers: 1.1, spec §9).
 pub const MIN_VERSION_MAJOR: u16 = 1;
@@ -17,6 +21,10 @@ pub const MIN_VERSION_MAJOR: u16 = 1;
 pub const VERSION_1_MINOR: u16 = 1;
 /// Header length written by v1.0 (readers accept longer headers).
 pub const HEADER_LEN: u32 = 120;
+/// Header length written with the 3.2 bounds (flag bit 2).
+pub const HEADER_LEN_BOUNDS: u32 = 168;
+/// Header flag: the header holds `bounds_min` / `bounds_max` (version 3.2).
+pub const FLAG_BOUNDS: u32 = 4;
 /// Bytes of the header needed to learn `header_len`.
 pub const HEADER_PREFIX: usize = 16;
 /// Chunk table entry length written by v1.0 (readers accept longer entries).
@@ -77,6 +85,11 @@ pub struct Header {
     pub bbox_max: [f64; 3],
     /// Geometric error of level 0.
     pub base_error: f32,
+    /// The positions' exact bounds `[min, max]` (flag bit 2, version 3.2):
+    /// per axis the smallest and largest §5 coordinate any level shows.
+    /// `None` when the header has no bounds (the grid is then the bounding
+    /// volume).
+    pub bounds: Option<[[f64; 3]; 2]>,
 }
 
 /// One chunk table entry (spec §4).
@@ -106,14 +119,22 @@ pub fn crc32(data: &[u8]) -> u32 {
 }
 
 impl Header {
-    /// Serializes a v1.0 header (`HEADER_LEN` bytes, CRC included).
+    /// Serializes the header: [`HEADER_LEN`] bytes, CRC included, or
+    /// [`HEADER_LEN_BOUNDS`] with `bounds` (and then flag bit 2 set,
+    /// whatever `flags` says; `header_len` is likewise written from
+    /// `bounds`).
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = vec![0u8; HEADER_LEN as usize];
+        let len = self.bounds.map_or(HEADER_LEN, |_| HEADER_LEN_BOUNDS);
+        let flags = match self.bounds {
+            Some(_) => self.flags | FLAG_BOUNDS,
+            None => self.flags & !FLAG_BOUNDS,
+        };
+        let mut b = vec![0u8; len as usize];
         b[..8].copy_from_slice(&MAGIC);
         LE::write_u16(&mut b[8..], self.version_major);
         LE::write_u16(&mut b[10..], self.version_minor);
-        LE::write_u32(&mut b[12..], HEADER_LEN);
-        LE::write_u32(&mut b[16..], self.flags);
+        LE::write_u32(&mut b[12..], len);
+        LE::write_u32(&mut b[16..], flags);
         b[20] = self.quant_bits;
         b[21] = 0;
         LE::write_u16(&mut b[22..], self.chunk_entry_len);
@@ -137,20 +158,32 @@ impl Header {
             LE::write_f64(&mut b[88 + 8 * k..], self.bbox_max[k]);
         }
         LE::write_f32(&mut b[112..], self.base_error);
-        let crc = crc32(&b[..116]);
-        LE::write_u32(&mut b[116..], crc);
+        if let Some([lo, hi]) = self.bounds {
+            for k in 0..3 {
+                LE::write_f64(&mut b[116 + 8 * k..], lo[k]);
+                LE::write_f64(&mut b[140 + 8 * k..], hi[k]);
+            }
+        }
+        let n = len as usize - 4;
+        let crc = crc32(&b[..n]);
+        LE::write_u32(&mut b[n..], crc);
         b
     }
 
     /// Parses the fields of a full header `b` (`b.len() == header_len >= 120`,
-    /// magic, version and CRC already checked by the caller).
+    /// magic, version and CRC already checked by the caller). The bounds
+    /// are read when flag bit 2 is set and `b` is long enough for them (a
+    /// shorter header with the flag is the caller's error to report).
     pub fn parse(b: &[u8]) -> Header {
         let w = |i: usize| LE::read_u32(&b[24 + 4 * i..]);
+        let flags = LE::read_u32(&b[16..]);
+        let bounds = (flags & FLAG_BOUNDS != 0 && b.len() >= HEADER_LEN_BOUNDS as usize)
+            .then(|| [116, 140].map(|at| [0, 1, 2].map(|k| LE::read_f64(&b[at + 8 * k..]))));
         Header {
             version_major: LE::read_u16(&b[8..]),
             version_minor: LE::read_u16(&b[10..]),
             header_len: LE::read_u32(&b[12..]),
-            flags: LE::read_u32(&b[16..]),
+            flags,
             quant_bits: b[20],
             chunk_entry_len: LE::read_u16(&b[22..]),
             base_vertex_count: w(0),
@@ -166,6 +199,7 @@ impl Header {
             bbox_min: [0, 1, 2].map(|k| LE::read_f64(&b[64 + 8 * k..])),
             bbox_max: [0, 1, 2].map(|k| LE::read_f64(&b[88 + 8 * k..])),
             base_error: LE::read_f32(&b[112..]),
+            bounds,
         }
     }
 }

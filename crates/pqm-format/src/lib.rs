@@ -68,6 +68,6 @@ pub use encoder::{
 };
 pub use error::{DecodeError, EncodeError, FormatError, Section};
 pub use layout::{ChunkInfo, Header};
-pub use quant::Quantizer;
+pub use quant::{Grid, Quantizer};
 #[doc(hidden)]
 pub mod vectors;

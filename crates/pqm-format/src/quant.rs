@@ -10,6 +10,40 @@
 
 use glam::DVec3;
 
+/// Which grid a writer lays over the positions (spec §5). Both are
+/// ordinary `.pqm` grids: every 3.x reader decodes either.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Grid {
+    /// Every axis spans the positions' largest extent, so all three steps
+    /// are that extent over `2^bits − 1` — Draco's and gltfpack's
+    /// quantization: `bits` bounds the error by half a step of the largest
+    /// extent on every axis. The header then carries the positions' exact
+    /// bounds (spec §3, version 3.2). 0.6–3.1 bits per vertex smaller
+    /// than [`Grid::Box`] on the bench meshes (flat meshes the most).
+    #[default]
+    Cube,
+    /// Each axis spans its own extent (the only grid before 3.2): finer
+    /// steps on the shorter axes, so more bits per coordinate there.
+    Box,
+}
+
+impl Grid {
+    /// The grid's `(bbox_min, bbox_max)` for positions whose exact box is
+    /// `lo ..= hi` (finite, `lo <= hi`). For [`Grid::Cube`] each axis's
+    /// maximum is `max(hi, lo + e)` with `e` the largest extent, so the
+    /// grid holds every position whatever the rounding of `lo + e`; the
+    /// result may be infinite if `lo + e` overflows (callers check).
+    pub fn over(self, lo: [f64; 3], hi: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        match self {
+            Grid::Box => (lo, hi),
+            Grid::Cube => {
+                let e = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f64, f64::max);
+                (lo, [0, 1, 2].map(|k| hi[k].max(lo[k] + e)))
+            }
+        }
+    }
+}
+
 /// Quantization grid: bounding box and bit count.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Quantizer {

@@ -187,19 +187,27 @@ pub fn add_edge_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
     }
 }
 
-/// Every vector, generated deterministically. All but `edge_split` and
-/// `box_vnbr` are written as 2.0 (a 3.0 file without edge splits differs
-/// only in its version field), so they keep their bytes and 2.0 readers
-/// keep reading them (`box_vord` keeps the 3.0 `VORD` section);
-/// `edge_split` is the 3.0 vector, `box_vnbr` the 3.1 one (a `VNBR`
-/// section).
+/// Every vector, generated deterministically. All but `edge_split`,
+/// `box_vnbr`, `zstd_blocks` and `cube_grid` are written as 2.0 (a 3.0
+/// file without edge splits differs only in its version field), so they
+/// keep their bytes and 2.0 readers keep reading them (`box_vord` keeps
+/// the 3.0 `VORD` section); `edge_split` is the 3.0 vector, `box_vnbr` the
+/// 3.1 one (a `VNBR` section), `cube_grid` the 3.2 one (the cube grid and
+/// the header's bounds, spec §3, §5). Every other vector keeps the box
+/// grid, as before 3.2, so its bytes stay as they were.
 pub fn all() -> Vec<Vector> {
     let make = |name, gen: GenOptions, opts: EncodeOptions| {
         let opts = EncodeOptions {
-            version_major: if name == "edge_split" || name == "box_vnbr" || name == "zstd_blocks" {
+            version_major: if ["edge_split", "box_vnbr", "zstd_blocks", "cube_grid"].contains(&name)
+            {
                 opts.version_major
             } else {
                 opts.version_major.min(2)
+            },
+            grid: if name == "cube_grid" {
+                crate::Grid::Cube
+            } else {
+                crate::Grid::Box
             },
             ..opts
         };
@@ -215,6 +223,10 @@ pub fn all() -> Vec<Vector> {
         }
         if name == "box_vnbr" {
             coherent_vertex_order(&mut pm, 8, 6);
+        }
+        if name == "cube_grid" {
+            // a flat, off-centre box: the cube grid is far from the bounds
+            stretch(&mut pm, [1.5, 0.375, 0.125], [0.25, -3.0, 7.0]);
         }
         let n = pm.records.len();
         let (bytes, r) = write_to_vec(&pm, &opts).expect("vector encodes");
@@ -351,11 +363,36 @@ pub fn all() -> Vec<Vector> {
                 ..EncodeOptions::default()
             },
         ),
+        // A 3.2 file: the cube grid (every axis the step of the largest
+        // extent) and the positions' exact bounds in the header.
+        make(
+            "cube_grid",
+            GenOptions {
+                base: BaseShape::Box { n: 2 },
+                ..GenOptions::new(12, 40)
+            },
+            EncodeOptions {
+                chunk_records: Some(10),
+                ..EncodeOptions::default()
+            },
+        ),
         // A 1.1 file (version-1 prediction, no face-split form): the bytes
         // of `mixed_bits24` before format 2.0, kept so that every decoder
         // keeps testing the 1.x rules (spec §9).
         make("v1_1_mixed_bits24", mixed_gen(), mixed_encode(1)),
     ]
+}
+
+/// Scales every position of `pm` per axis by `scale`, then adds `offset`.
+pub fn stretch(pm: &mut ProgressiveMesh, scale: [f64; 3], offset: [f64; 3]) {
+    let f = |p: &mut glam::DVec3| {
+        *p = *p * glam::DVec3::from_array(scale) + glam::DVec3::from_array(offset);
+    };
+    pm.base.positions.iter_mut().for_each(f);
+    for r in &mut pm.records {
+        r.new_vertices.iter_mut().for_each(f);
+        r.moved.iter_mut().for_each(|m| f(&mut m.1));
+    }
 }
 
 /// FNV-1a 64 of `bytes`.
@@ -439,6 +476,13 @@ pub fn digest_json(name: &str, dec: &mut Decoder, levels: &[usize], file_len: us
     );
     // A bad vertex-order section leaves the digest out (tests comparing
     // digests then fail on the missing field).
+    if let Some([lo, hi]) = dec.header().and_then(|h| h.bounds) {
+        let _ = writeln!(
+            s,
+            "  \"bounds_min\": [{:?}, {:?}, {:?}],\n  \"bounds_max\": [{:?}, {:?}, {:?}],",
+            lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
+        );
+    }
     if let Ok(Some(o)) = dec.vertex_order() {
         let _ = writeln!(
             s,

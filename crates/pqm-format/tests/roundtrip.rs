@@ -12,8 +12,9 @@ fn encode(pm: &ProgressiveMesh, opts: &EncodeOptions) -> Vec<u8> {
     write_to_vec(pm, opts).expect("encode").0
 }
 
-/// The grid every file must use: the bounding box of every position.
-fn expected_quantizer(pm: &ProgressiveMesh, bits: u8) -> Quantizer {
+/// The grid every file must use (spec §5): the bounding box of every
+/// position, for the cube grid with every axis as long as the longest.
+fn expected_quantizer(pm: &ProgressiveMesh, bits: u8, grid: Grid) -> Quantizer {
     let mut all: Vec<DVec3> = pm.base.positions.clone();
     for r in &pm.records {
         all.extend(&r.new_vertices);
@@ -21,6 +22,10 @@ fn expected_quantizer(pm: &ProgressiveMesh, bits: u8) -> Quantizer {
     }
     let lo = all.iter().fold(DVec3::INFINITY, |a, p| a.min(*p));
     let hi = all.iter().fold(DVec3::NEG_INFINITY, |a, p| a.max(*p));
+    let hi = match grid {
+        Grid::Box => hi,
+        Grid::Cube => hi.max(lo + DVec3::splat((hi - lo).max_element())),
+    };
     Quantizer::new(lo.to_array(), hi.to_array(), bits)
 }
 
@@ -113,6 +118,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
         1u16..=3,
         any::<bool>(),
         0usize..3,
+        any::<bool>(),
     )
         .prop_map(
             |(
@@ -126,6 +132,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
                 version_major,
                 edge_split_form,
                 blocks,
+                cube,
             )| {
                 EncodeOptions {
                     bits,
@@ -139,6 +146,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
                     version_major,
                     zstd_blocks: [ZstdBlocks::Single, ZstdBlocks::Auto, ZstdBlocks::PerPart]
                         [blocks],
+                    grid: if cube { Grid::Cube } else { Grid::Box },
                     ..EncodeOptions::default()
                 }
             },
@@ -189,8 +197,27 @@ proptest! {
         prop_assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), opts.version_major);
         let (mut dec, events) = push_in_pieces(&bytes, &sizes);
         prop_assert_eq!(events.last(), Some(&Event::Finished));
-        let q = expected_quantizer(&pm, opts.bits);
+        let q = expected_quantizer(&pm, opts.bits, opts.grid);
         prop_assert_eq!(dec.quantizer(), Some(q));
+        // The 3.2 bounds: with the cube grid (major 3), exactly the box of
+        // the dequantized positions of every level; else none.
+        let want_bounds = (opts.grid == Grid::Cube && opts.version_major >= 3).then(|| {
+            let mut b = [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]];
+            let all = pm.base.positions.iter().chain(
+                pm.records.iter().flat_map(|r| r.new_vertices.iter().chain(r.moved.iter().map(|m| &m.1))),
+            );
+            for p in all {
+                let d = q.dequantize(q.quantize(*p));
+                for k in 0..3 {
+                    b[0][k] = b[0][k].min(d[k]);
+                    b[1][k] = b[1][k].max(d[k]);
+                }
+            }
+            b
+        });
+        prop_assert_eq!(dec.header().unwrap().bounds, want_bounds);
+        prop_assert_eq!(header_len(&bytes), if want_bounds.is_some() { 168 } else { 120 });
+        prop_assert_eq!(dec.bounds(), Some(want_bounds.unwrap_or([q.min, q.max])));
         for k in 0..=pm.records.len() {
             dec.set_level(Target::Level(k)).unwrap();
             assert_level(&dec, &pm, &q, k);
@@ -214,7 +241,7 @@ proptest! {
         let opts = EncodeOptions { chunk_records: Some(17), split_form, local_form, version_major, ..EncodeOptions::default() };
         let bytes = encode(&pm, &opts);
         let mut dec = decode_all(&bytes, Limits::default()).unwrap();
-        let q = expected_quantizer(&pm, opts.bits);
+        let q = expected_quantizer(&pm, opts.bits, opts.grid);
         let mut shadow = Shadow { pos: dec.positions().to_vec(), tris: dec.triangle_indices() };
         for &t in &walk {
             let k = t.min(pm.records.len());
@@ -315,7 +342,7 @@ proptest! {
         prop_assert!(forward.to_progressive_mesh().is_none());
         if flip.is_none() {
             prop_assert_eq!(forward.level(), pm.records.len());
-            let q = expected_quantizer(&pm, opts.bits);
+            let q = expected_quantizer(&pm, opts.bits, opts.grid);
             assert_level(&forward, &pm, &q, pm.records.len());
         }
     }
@@ -346,7 +373,7 @@ fn replays_below_the_deepest_level_while_streaming() {
             ..EncodeOptions::default()
         };
         let bytes = encode(&pm, &opts);
-        let q = expected_quantizer(&pm, opts.bits);
+        let q = expected_quantizer(&pm, opts.bits, opts.grid);
         let mut dec = Decoder::new(Limits::default());
         let mut shadow: Option<Shadow> = None;
         let mut rng = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
@@ -406,7 +433,7 @@ fn undo_logs_are_rebuilt_on_the_first_move_below_the_deepest_level() {
             let i = bytes.len() / 2 + (seed as usize * 7919) % (bytes.len() / 2);
             bytes[i] ^= 0x5a;
         }
-        let q = expected_quantizer(&pm, opts.bits);
+        let q = expected_quantizer(&pm, opts.bits, opts.grid);
         let mut dec = Decoder::new(Limits::default());
         // Seeds 1, 5, 9 ask for the logs before any byte (written while
         // decoding), seeds 3, 7, 11 at a push of their own (decoded again
@@ -678,11 +705,105 @@ fn crc_mismatch_names_the_chunk() {
     ));
 }
 
+/// `header_len` of `bytes` (120, or 168 with the 3.2 bounds).
+fn header_len(bytes: &[u8]) -> usize {
+    u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize
+}
+
 /// Rewrites the header of `bytes` through `f`, fixing its CRC.
 fn patch_header(bytes: &mut [u8], f: impl FnOnce(&mut [u8])) {
-    f(&mut bytes[..120]);
-    let crc = crc32fast::hash(&bytes[..116]);
-    bytes[116..120].copy_from_slice(&crc.to_le_bytes());
+    let n = header_len(bytes);
+    f(&mut bytes[..n]);
+    let crc = crc32fast::hash(&bytes[..n - 4]);
+    bytes[n - 4..n].copy_from_slice(&crc.to_le_bytes());
+}
+
+/// Spec §3: the 3.2 bounds are read only with flag bit 2, which needs a
+/// 168-byte header and finite, ordered values.
+#[test]
+fn header_bounds_are_checked() {
+    let pm = testgen::generate(9, 40);
+    let cube = encode(&pm, &EncodeOptions::default());
+    let boxed = encode(
+        &pm,
+        &EncodeOptions {
+            grid: Grid::Box,
+            ..EncodeOptions::default()
+        },
+    );
+    let refused = |b: &[u8], what: &str| match Decoder::new(Limits::default()).push(b) {
+        Err(DecodeError::Format(FormatError::Invalid {
+            section: Section::Header,
+            message,
+        })) => assert!(message.contains(what), "{message}"),
+        other => panic!("{what}: {other:?}"),
+    };
+    // The flag on a 120-byte header.
+    let mut b = boxed.clone();
+    patch_header(&mut b, |h| h[16] |= 4);
+    refused(&b, "flag bit 2");
+    // A NaN, an infinity, a reversed axis.
+    for (at, value, what) in [
+        (116 + 8, f64::NAN, "bounds axis 1"),
+        (140 + 16, f64::INFINITY, "bounds axis 2"),
+        (140, -1e300, "bounds axis 0"),
+    ] {
+        let mut b = cube.clone();
+        patch_header(&mut b, |h| {
+            h[at..at + 8].copy_from_slice(&value.to_le_bytes())
+        });
+        refused(&b, what);
+    }
+    // Without the flag the same 168 bytes are a newer minor's: ignored, and
+    // the grid is the bounding volume.
+    let mut b = cube.clone();
+    patch_header(&mut b, |h| h[16] &= !4);
+    let dec = decode_all(&b, Limits::default()).unwrap();
+    let h = dec.header().unwrap();
+    assert_eq!(h.bounds, None);
+    assert_eq!(dec.bounds(), Some([h.bbox_min, h.bbox_max]));
+    let mut want = decode_all(&cube, Limits::default()).unwrap();
+    let mut got = dec;
+    want.set_level(Target::Level(usize::MAX)).unwrap();
+    got.set_level(Target::Level(usize::MAX)).unwrap();
+    assert_eq!(got.position_codes(), want.position_codes());
+    // Both grids decode the same mesh, within half a step of the cube grid.
+    let mut d = decode_all(&boxed, Limits::default()).unwrap();
+    d.set_level(Target::Level(usize::MAX)).unwrap();
+    assert_eq!(d.quads(), want.quads());
+    let half = 0.5 * want.quantizer().unwrap().step()[0] * (1.0 + 1e-9);
+    for (a, c) in d.positions_f64().iter().zip(want.positions_f64()) {
+        assert!((*a - c).abs().max_element() <= 2.0 * half, "{a} vs {c}");
+    }
+}
+
+/// Spec §5: the cube grid has one step on every axis (that of the largest
+/// extent), and on a flat mesh it codes smaller than the box grid, which
+/// spends more bits on the short axes.
+#[test]
+fn the_cube_grid_has_one_step_and_codes_flat_meshes_smaller() {
+    let mut pm = testgen::generate(21, 300);
+    pqm_format::vectors::stretch(&mut pm, [1.0, 0.25, 0.125], [3.0, -2.0, 0.5]);
+    let size = |grid| {
+        let opts = EncodeOptions {
+            grid,
+            ..EncodeOptions::default()
+        };
+        let bytes = encode(&pm, &opts);
+        let dec = decode_all(&bytes, Limits::default()).unwrap();
+        (bytes.len(), dec.quantizer().unwrap().step())
+    };
+    let (cube, s) = size(Grid::Cube);
+    let (boxed, t) = size(Grid::Box);
+    for k in 0..3 {
+        assert!((s[k] - s[0]).abs() <= 1e-12 * s[0], "{s:?}");
+        assert!(t[k] <= s[k] * (1.0 + 1e-12), "{t:?} vs {s:?}");
+    }
+    assert!(
+        t[2] < 0.2 * s[2],
+        "the box grid is finer on the short axis: {t:?}"
+    );
+    assert!(cube < boxed, "cube {cube} bytes, box {boxed}");
 }
 
 #[test]
@@ -708,19 +829,25 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
             ..
         }))
     ));
-    // The writer writes 3.1 with a VNBR section (the mesh has a vertex
-    // order), 3.0 where VORD is the smaller (the default picks) and 2.0 or
+    // The writer writes 3.2 with the cube grid's bounds (the default),
+    // 3.1 with a VNBR section (the mesh has a vertex order) and the box
+    // grid, 3.0 where VORD is the smaller (the default picks) and 2.0 or
     // 1.1 on request; all read back to the same levels.
-    let vnbr = encode(
-        &pm,
-        &EncodeOptions {
-            vertex_order_code: VertexOrderCode::Neighbours,
-            ..EncodeOptions::default()
-        },
-    );
+    assert_eq!(&bytes[8..12], &[3, 0, 2, 0]);
+    assert_eq!(header_len(&bytes), 168);
+    let boxed = |vertex_order_code| EncodeOptions {
+        vertex_order_code,
+        grid: Grid::Box,
+        ..EncodeOptions::default()
+    };
+    let vnbr = encode(&pm, &boxed(VertexOrderCode::Neighbours));
     assert_eq!(&vnbr[8..12], &[3, 0, 1, 0]);
-    assert!(bytes[8..12] == [3, 0, 1, 0] || bytes[8..12] == [3, 0, 0, 0]);
-    assert!(bytes.len() <= vnbr.len());
+    assert_eq!(header_len(&vnbr), 120);
+    let smaller = encode(&pm, &boxed(VertexOrderCode::Smaller));
+    assert!(smaller[8..12] == [3, 0, 1, 0] || smaller[8..12] == [3, 0, 0, 0]);
+    assert!(smaller.len() <= vnbr.len());
+    let vord = encode(&pm, &boxed(VertexOrderCode::Deltas));
+    assert_eq!(&vord[8..12], &[3, 0, 0, 0]);
     let v2 = encode(
         &pm,
         &EncodeOptions {
@@ -759,14 +886,15 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
     .is_err());
 
     // Newer minor: a longer header, longer chunk entries, an unknown section.
-    let h = Header::parse(&bytes[..120]);
+    let hl = header_len(&bytes);
+    let h = Header::parse(&bytes[..hl]);
     let extra_h = 8usize;
     let extra_e = 4usize;
     let n = h.chunk_count as usize;
     let shift = (extra_h + n * extra_e) as u64;
-    let mut out = bytes[..116].to_vec();
+    let mut out = bytes[..hl - 4].to_vec();
     out[10..12].copy_from_slice(&7u16.to_le_bytes());
-    out[12..16].copy_from_slice(&(120 + extra_h as u32).to_le_bytes());
+    out[12..16].copy_from_slice(&((hl + extra_h) as u32).to_le_bytes());
     out[22..24].copy_from_slice(&(36 + extra_e as u16).to_le_bytes());
     out[48..52].copy_from_slice(&(h.section_count + 1).to_le_bytes());
     out.extend_from_slice(&[0xEE; 8]);
@@ -782,7 +910,7 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
     let tcrc = crc32fast::hash(&table);
     out.extend_from_slice(&table);
     out.extend_from_slice(&tcrc.to_le_bytes());
-    out.extend_from_slice(&bytes[120 + n * 36 + 4..]);
+    out.extend_from_slice(&bytes[hl + n * 36 + 4..]);
     let payload = b"future data";
     out.extend_from_slice(b"XTRA");
     out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
@@ -822,7 +950,10 @@ fn limits_are_checked_from_the_header_before_allocating() {
     ] {
         let mut dec = Decoder::new(limits);
         assert!(
-            matches!(dec.push(&bytes[..120]), Err(DecodeError::LimitsExceeded(_))),
+            matches!(
+                dec.push(&bytes[..header_len(&bytes)]),
+                Err(DecodeError::LimitsExceeded(_))
+            ),
             "{limits:?}"
         );
     }
@@ -962,7 +1093,7 @@ fn local_form_is_used_and_never_larger() {
         b.len()
     );
     let mut dec = decode_all(&a, Limits::default()).unwrap();
-    let q = expected_quantizer(&pm, 14);
+    let q = expected_quantizer(&pm, 14, Grid::Cube);
     for k in [n / 2, n] {
         dec.set_level(Target::Level(k)).unwrap();
         assert_level(&dec, &pm, &q, k);
@@ -1228,6 +1359,9 @@ fn empty_and_record_free_meshes() {
     let bytes = encode(&empty, &EncodeOptions::default());
     let dec = decode_all(&bytes, Limits::default()).unwrap();
     assert!(dec.quads().is_empty() && dec.positions().is_empty());
+    // no positions, no bounds to store (a 3.0 file)
+    assert_eq!(dec.header().unwrap().bounds, None);
+    assert_eq!(&bytes[8..12], &[3, 0, 0, 0]);
 }
 
 /// Rebuilds `bytes` with chunk `i`'s uncompressed payload changed by `f`
@@ -1244,11 +1378,12 @@ fn repack_chunk_with(
     f: impl FnOnce(&mut Vec<u8>),
     z: impl FnOnce(&[u8]) -> Vec<u8>,
 ) -> Vec<u8> {
-    let h = Header::parse(&bytes[..120]);
+    let hl = header_len(bytes);
+    let h = Header::parse(&bytes[..hl]);
     let n = h.chunk_count as usize;
-    let table_end = 120 + n * 36 + 4;
+    let table_end = hl + n * 36 + 4;
     let mut chunks: Vec<ChunkInfo> = (0..n)
-        .map(|c| ChunkInfo::parse(&bytes[120 + c * 36..]))
+        .map(|c| ChunkInfo::parse(&bytes[hl + c * 36..]))
         .collect();
     let body = |c: &ChunkInfo| {
         bytes[c.offset as usize..(c.offset + c.compressed_len as u64) as usize].to_vec()
@@ -1263,7 +1398,7 @@ fn repack_chunk_with(
     chunks[i].compressed_len = bodies[i].len() as u32;
     chunks[i].crc32 = crc32fast::hash(&bodies[i]);
     let mut off = chunks[0].offset;
-    let mut out = bytes[..120].to_vec();
+    let mut out = bytes[..hl].to_vec();
     let mut table = Vec::new();
     for c in chunks.iter_mut() {
         c.offset = off;
@@ -1359,7 +1494,7 @@ fn a_failing_record_discards_its_whole_chunk() {
         ..EncodeOptions::default()
     };
     let bytes = encode(&pm, &opts);
-    let q = expected_quantizer(&pm, opts.bits);
+    let q = expected_quantizer(&pm, opts.bits, opts.grid);
     for (chunk, record, level) in [(0usize, 1usize, 0usize), (1, 7, 20)] {
         let bad = break_record(&bytes, chunk, record);
         let mut dec = Decoder::new(Limits::default());
@@ -1618,7 +1753,7 @@ proptest! {
         }
         let pm = testgen::generate(seed, 30);
         let (pos, quads) = pm.level_quads(pm.records.len());
-        let q = expected_quantizer(&pm, 14);
+        let q = expected_quantizer(&pm, 14, Grid::Cube);
         let mut st = MeshState::new(q.qmax(), pos.iter().map(|p| q.quantize(*p)).collect(), quads);
         let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&streams[k], "s"));
         let mut cur = Cursors::default();

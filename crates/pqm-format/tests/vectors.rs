@@ -43,6 +43,23 @@ fn checked_in_vectors_match_the_generator_and_their_digests() {
             "{} vertex order",
             v.name
         );
+        // The 3.2 header bounds (only `cube_grid` has them) are listed
+        // exactly, and are the box of every position the levels show.
+        let listed = |key: &str| {
+            json[key]
+                .as_array()
+                .map(|a| [0, 1, 2].map(|k| a[k].as_f64().unwrap()))
+        };
+        let bounds = dec.header().unwrap().bounds;
+        assert_eq!(
+            bounds,
+            listed("bounds_min")
+                .zip(listed("bounds_max"))
+                .map(|(lo, hi)| [lo, hi]),
+            "{} bounds",
+            v.name
+        );
+        assert_eq!(bounds.is_some(), v.name == "cube_grid", "{}", v.name);
         let levels = json["levels"].as_array().unwrap();
         assert_eq!(levels.len(), v.levels.len());
         for l in levels {

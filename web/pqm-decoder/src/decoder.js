@@ -29,11 +29,14 @@ import { decodeVnbr } from './vertex-order.js';
 import { PqmError, crcMismatch, invalid, limitsExceeded } from './errors.js';
 
 const MAGIC = [0x89, 0x50, 0x51, 0x4d, 0x0d, 0x0a, 0x1a, 0x0a];
-/** The `version_major`s this decoder reads (spec §3, §9): 1.x, 2.0 and 3.0 files, each with its own rules. */
+/** The `version_major`s this decoder reads (spec §3, §9): 1.x, 2.0 and 3.x files, each with its own rules. */
 const VERSION_MAJORS = [1, 2, 3];
 const VERSION_MAJOR = 3;
 const HEADER_PREFIX = 16;
 const HEADER_LEN = 120;
+/** The shortest header holding `bounds_min` / `bounds_max` (flag bit 2, spec §3, version 3.2). */
+const HEADER_LEN_BOUNDS = 168;
+const FLAG_BOUNDS = 4;
 const MAX_HEADER_LEN = 65536;
 const CHUNK_ENTRY_LEN = 36;
 const MAX_CHUNK_ENTRY_LEN = 4096;
@@ -460,7 +463,20 @@ export class PqmDecoder {
     };
     // flag bit 0 announces a VORD section, bit 1 a VNBR one (spec §3, §8)
     h.hasVertexOrder = (h.flags & 3) !== 0;
+    // flag bit 2: the exact bounds of every position any level shows (spec §3,
+    // version 3.2); without it the grid is the bounding volume
+    h.hasBounds = (h.flags & FLAG_BOUNDS) !== 0;
     const bad = (m) => invalid('header', m);
+    if (h.hasBounds) {
+      if (len < HEADER_LEN_BOUNDS) {
+        throw bad(`flag bit 2 (bounds) set but header_len ${len} < ${HEADER_LEN_BOUNDS}`);
+      }
+      h.boundsMin = [dv.getFloat64(116, true), dv.getFloat64(124, true), dv.getFloat64(132, true)];
+      h.boundsMax = [dv.getFloat64(140, true), dv.getFloat64(148, true), dv.getFloat64(156, true)];
+    } else {
+      h.boundsMin = h.bboxMin.slice();
+      h.boundsMax = h.bboxMax.slice();
+    }
     if (h.quantBits < 8 || h.quantBits > 24) throw bad(`quantization bits ${h.quantBits} outside 8..=24`);
     if (h.chunkEntryLen < CHUNK_ENTRY_LEN || h.chunkEntryLen > MAX_CHUNK_ENTRY_LEN) {
       throw bad(`chunk entry length ${h.chunkEntryLen} outside ${CHUNK_ENTRY_LEN}..=${MAX_CHUNK_ENTRY_LEN}`);
@@ -470,6 +486,15 @@ export class PqmDecoder {
       const hi = h.bboxMax[k];
       if (!Number.isFinite(lo) || !Number.isFinite(hi) || lo > hi || !Number.isFinite(hi - lo)) {
         throw bad(`bounding box axis ${k} is [${lo}, ${hi}]`);
+      }
+    }
+    if (h.hasBounds) {
+      for (let k = 0; k < 3; k++) {
+        const lo = h.boundsMin[k];
+        const hi = h.boundsMax[k];
+        if (!Number.isFinite(lo) || !Number.isFinite(hi) || lo > hi) {
+          throw bad(`bounds axis ${k} is [${lo}, ${hi}]`);
+        }
       }
     }
     if (h.baseVertexCount > h.finalVertexCount || h.baseFaceCount > h.finalFaceCount) {
@@ -1250,7 +1275,14 @@ export class PqmDecoder {
 
   // ---- access ----------------------------------------------------------------
 
-  /** The header (after `headerReady`), or null. Field names are the spec's, in camelCase. */
+  /**
+   * The header (after `headerReady`), or null. Field names are the spec's, in
+   * camelCase (`bboxMin`, `bboxMax`: the quantization grid). `boundsMin` /
+   * `boundsMax` (3 numbers each) bound every position of every level: the
+   * header's bounds when `hasBounds` (flag bit 2, version 3.2; exact), else
+   * copies of the grid box (which `min + q × step` can pass by an ulp at the
+   * max end, spec §5). `hasVertexOrder`: flag bit 0 or 1.
+   */
   get header() {
     return this._header;
   }

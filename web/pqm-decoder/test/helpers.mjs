@@ -53,6 +53,29 @@ export function meshOf(dec) {
   return { positions: dec.positionsF64(), quads: dec.quads.slice() };
 }
 
+/**
+ * The box of every position any decoded level shows (the f64 of spec §5),
+ * `[min, max]` of 3 numbers each (what a 3.2 header's bounds must be, spec
+ * §3); `null` if no level has a vertex. Visits every level from 0 to the
+ * deepest and leaves the decoder at the deepest.
+ */
+export function positionBounds(dec) {
+  const min = [Infinity, Infinity, Infinity];
+  const max = [-Infinity, -Infinity, -Infinity];
+  let any = false;
+  for (let l = 0; l <= dec.deepestLevel; l++) {
+    dec.setLevel({ level: l });
+    const p = dec.positionsF64();
+    for (let i = 0; i < p.length; i++) {
+      const k = i % 3;
+      if (p[i] < min[k]) min[k] = p[i];
+      if (p[i] > max[k]) max[k] = p[i];
+      any = true;
+    }
+  }
+  return any ? [min, max] : null;
+}
+
 /** Parses the OBJ files of spec/vectors: `v x y z` and `f a b c d` (1-based). */
 export function parseObj(text) {
   const pos = [];

@@ -135,3 +135,53 @@ export function setEntry(parts, i, offset, type, value) {
   dv[`set${type}`](offset, value, true);
   return parts;
 }
+
+/**
+ * A copy of a valid file whose header is rewritten to `headerLen` bytes
+ * (default 168) with flag bit 2 set and `min` / `max` (3 numbers each) as
+ * `bounds_min` / `bounds_max` at offsets 116 / 140 (spec §3, version 3.2;
+ * they are written only if the header is long enough, so a short header
+ * with the flag can be made). A 2.x or 3.x file becomes a 3.2 file (a 3.0
+ * file differs from a 2.0 one only in `version_major`, spec §9). Unlike
+ * `pack`, the payloads are kept byte for byte: only the chunk table's
+ * offsets move (by the change of the header length) and the table and
+ * header CRCs are recomputed. `grid` ([min, max]) replaces the grid box.
+ */
+export function withBounds(bytes, min, max, { headerLen = 168, flag = true, grid = null } = {}) {
+  const dv = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+  const oldLen = dv.getUint32(12, true);
+  const entryLen = dv.getUint16(22, true);
+  const chunkCount = dv.getUint32(44, true);
+  const tableLen = chunkCount * entryLen + 4;
+  const delta = headerLen - oldLen;
+  const header = new Uint8Array(headerLen);
+  header.set(bytes.subarray(0, Math.min(116, headerLen - 4)));
+  const hv = new DataView(header.buffer);
+  if (hv.getUint16(8, true) >= 2) {
+    hv.setUint16(8, 3, true);
+    hv.setUint16(10, 2, true);
+  }
+  hv.setUint32(12, headerLen, true);
+  if (flag) hv.setUint32(16, hv.getUint32(16, true) | 4, true);
+  if (grid) {
+    for (let k = 0; k < 3; k++) {
+      hv.setFloat64(64 + 8 * k, grid[0][k], true);
+      hv.setFloat64(88 + 8 * k, grid[1][k], true);
+    }
+  }
+  if (headerLen >= 168) {
+    for (let k = 0; k < 3; k++) {
+      hv.setFloat64(116 + 8 * k, min[k], true);
+      hv.setFloat64(140 + 8 * k, max[k], true);
+    }
+  }
+  hv.setUint32(headerLen - 4, crc32(header, 0, headerLen - 4), true);
+  const table = bytes.slice(oldLen, oldLen + tableLen);
+  const tv = new DataView(table.buffer);
+  for (let i = 0; i < chunkCount; i++) {
+    const o = i * entryLen;
+    tv.setBigUint64(o, tv.getBigUint64(o, true) + BigInt(delta), true);
+  }
+  tv.setUint32(tableLen - 4, crc32(table, 0, tableLen - 4), true);
+  return concat([header, table, bytes.subarray(oldLen + tableLen)]);
+}

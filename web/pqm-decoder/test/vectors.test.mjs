@@ -5,15 +5,17 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { PqmDecoder, decodeAll } from '../src/index.js';
-import { testFiles, levelDigests, parseObj, meshOf, rng, randomPieces } from './helpers.mjs';
+import { testFiles, levelDigests, parseObj, meshOf, rng, randomPieces, positionBounds } from './helpers.mjs';
 
 const files = testFiles();
 
 test('the test files are there', () => {
   const names = files.map((f) => f.name);
-  for (const n of ['grid_small', 'box_vord', 'general_bits8', 'mixed_bits24', 'spot']) {
+  for (const n of ['grid_small', 'box_vord', 'general_bits8', 'mixed_bits24', 'cube_grid', 'spot']) {
     assert.ok(names.includes(n), `missing test file ${n}`);
   }
+  // the header-bounds checks below see at least one 3.2 file with bounds
+  assert.ok(files.some((f) => 'bounds_min' in f.digest), 'no test file with bounds_min in its JSON');
 });
 
 /** Checks every level listed in the digest; returns the meshes by level. */
@@ -75,6 +77,41 @@ for (const file of files) {
         assert.deepEqual([...t.subarray(6 * f, 6 * f + 6)], [a, b, c, a, c, d], `slot ${f}`);
         assert.equal(new Set([a, b, c, d]).size, 4);
         for (const v of [a, b, c, d]) assert.ok(v < dec.vertexCount);
+      }
+    }
+  });
+
+  test(`${file.name}: header bounds (spec §3 flag bit 2) equal the JSON's and the box of every level`, () => {
+    const dec = decodeAll(file.bytes);
+    const h = dec.header;
+    const got = positionBounds(dec);
+    if ('bounds_min' in file.digest) {
+      // a 3.2 file with bounds: exactly the JSON's numbers (Rust's shortest
+      // round-trip f64, which parse back to the same doubles), and exactly the
+      // box of the positions every level shows
+      assert.equal(h.hasBounds, true, 'hasBounds');
+      assert.equal(h.flags & 4, 4, 'flag bit 2');
+      assert.ok(h.headerLen >= 168);
+      assert.equal(h.versionMinor, 2);
+      assert.deepEqual(h.boundsMin, file.digest.bounds_min, 'boundsMin = JSON bounds_min');
+      assert.deepEqual(h.boundsMax, file.digest.bounds_max, 'boundsMax = JSON bounds_max');
+      assert.deepEqual(got, [h.boundsMin, h.boundsMax], 'bounds = box of every level');
+    } else {
+      assert.ok(!('bounds_max' in file.digest));
+      assert.equal(h.hasBounds, false, 'hasBounds');
+      assert.equal(h.flags & 4, 0, 'flag bit 2');
+      assert.deepEqual(h.boundsMin, h.bboxMin);
+      assert.deepEqual(h.boundsMax, h.bboxMax);
+    }
+    // either way, the bounds hold every level — the grid box only up to the
+    // rounding of `min + q × step` (spec §5), which can pass `bbox_max` by an ulp
+    if (got) {
+      for (let k = 0; k < 3; k++) {
+        const lo = h.boundsMin[k];
+        const hi = h.boundsMax[k];
+        const tol = h.hasBounds ? 0 : 4 * Number.EPSILON * Math.max(Math.abs(lo), Math.abs(hi));
+        const where = `axis ${k}: [${got[0][k]}, ${got[1][k]}] in [${lo}, ${hi}]`;
+        assert.ok(lo - tol <= got[0][k] && got[1][k] <= hi + tol, where);
       }
     }
   });

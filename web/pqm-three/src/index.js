@@ -137,8 +137,11 @@ export class PQMProgressiveMesh {
     index.setUsage(DynamicDrawUsage);
     const lines = new BufferAttribute(new Uint32Array(8 * h.finalFaceCount), 1);
     lines.setUsage(DynamicDrawUsage);
-    // The quantization grid is the exact bounding box of every level.
-    const box = new Box3(new Vector3(...h.bboxMin), new Vector3(...h.bboxMax));
+    // The header's bounds: the exact box of every position of every level
+    // (spec §3, flag bit 2); without them the decoder gives the quantization
+    // grid, which holds every level too. The grid itself need not be tight
+    // (the cube grid of spec §5), so it is not used when bounds are present.
+    const box = new Box3(new Vector3(...h.boundsMin), new Vector3(...h.boundsMax));
     const sphere = box.getBoundingSphere(new Sphere());
     const g = new BufferGeometry();
     g.setAttribute('position', pos);

@@ -7,8 +7,10 @@ import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import http from 'node:http';
 import { PQMProgressiveMesh, PQMLoader, coalesce } from '../src/index.js';
+import { Box3, Vector3 } from 'three';
 import { PqmDecoder, decodeAll } from 'pqm-decoder';
 import { testFiles, rng, randomPieces, serveBytes } from '../../pqm-decoder/test/helpers.mjs';
+import { withBounds } from '../../pqm-decoder/test/repack.mjs';
 
 const files = testFiles();
 
@@ -115,7 +117,7 @@ for (const file of files) {
     pm.decoder.end();
     const final = pm.decoder.deepestLevel;
     assert.equal(pm.level, final);
-    // the bounding box of the header contains every level
+    // the header's bounds contain every level
     const box = pm.geometry.boundingBox;
     const rand = rng(final + 1);
     for (let s = 0; s < 30; s++) {
@@ -129,7 +131,7 @@ for (const file of files) {
       gpu.render(pm);
       assert.equal(gpu.elementsUploaded - before, expect, `${file.name}: level ${c.fromLevel} → ${c.toLevel}`);
       gpu.check(pm, `${file.name} level ${pm.level}`);
-      // the header's box (the quantization grid) holds every level, up to f32 rounding
+      // the header's bounds (or the quantization grid) hold every level, up to f32 rounding
       const p = pm.decoder.positions;
       const tol = 1e-6 * (box.max.distanceTo(box.min) + 1);
       const lo = [box.min.x - tol, box.min.y - tol, box.min.z - tol];
@@ -146,6 +148,58 @@ for (const file of files) {
     gpu.check(pm, `${file.name} accumulated`);
   });
 }
+
+/** Asserts that both geometries' bounding volumes are the header's bounds. */
+function assertBoundsVolumes(pm, where) {
+  const h = pm.decoder.header;
+  for (const g of [pm.geometry, pm.wireframeGeometry]) {
+    const box = g.boundingBox;
+    assert.deepEqual([box.min.x, box.min.y, box.min.z], h.boundsMin, `${where}: box min`);
+    assert.deepEqual([box.max.x, box.max.y, box.max.z], h.boundsMax, `${where}: box max`);
+    const c = box.getCenter(new Vector3());
+    assert.deepEqual(g.boundingSphere.center.toArray(), c.toArray(), `${where}: sphere centre`);
+    assert.equal(g.boundingSphere.radius, box.getSize(new Vector3()).length() / 2, `${where}: sphere radius`);
+  }
+}
+
+test('the geometries\' bounding box and sphere are the header\'s bounds, for every file', () => {
+  for (const file of files) {
+    const pm = new PQMProgressiveMesh(new PqmDecoder());
+    pm.push(file.bytes);
+    pm.decoder.end();
+    assertBoundsVolumes(pm, file.name);
+    // bounds in the file (cube_grid): inside the grid, tighter on some axis
+    if (pm.decoder.header.hasBounds) {
+      const h = pm.decoder.header;
+      const box = pm.geometry.boundingBox;
+      const grid = new Box3(new Vector3(...h.bboxMin), new Vector3(...h.bboxMax));
+      assert.ok(grid.containsBox(box), `${file.name}: bounds inside the grid`);
+      assert.ok(!grid.equals(box), `${file.name}: the grid is not the box`);
+    }
+    // no bounds in the file: the grid box
+    if (!pm.decoder.header.hasBounds) {
+      const box = pm.geometry.boundingBox;
+      assert.deepEqual(box.min.toArray(), pm.decoder.header.bboxMin, file.name);
+      assert.deepEqual(box.max.toArray(), pm.decoder.header.bboxMax, file.name);
+    }
+  }
+});
+
+test('with header bounds (flag bit 2) the bounding box is the bounds, not the grid', () => {
+  const grid = files.find((f) => f.name === 'grid_small');
+  const g = decodeAll(grid.bytes).header;
+  // any bounds inside the grid (the decoder takes them as written)
+  const min = [0, 1, 2].map((k) => g.bboxMin[k] + 0.25 * (g.bboxMax[k] - g.bboxMin[k]));
+  const max = [0, 1, 2].map((k) => g.bboxMin[k] + 0.5 * (g.bboxMax[k] - g.bboxMin[k]));
+  const pm = new PQMProgressiveMesh(new PqmDecoder());
+  pm.push(withBounds(grid.bytes, min, max));
+  pm.decoder.end();
+  assert.equal(pm.decoder.header.hasBounds, true);
+  assertBoundsVolumes(pm, 'grid_small with bounds');
+  assert.deepEqual(pm.geometry.boundingBox.min.toArray(), min);
+  assert.deepEqual(pm.geometry.boundingBox.max.toArray(), max);
+  assert.equal(pm.level, pm.decoder.deepestLevel, 'decodes as before');
+});
 
 test('maxGap merges nearby ranges but never misses one', () => {
   const file = files.find((f) => f.name === 'spot');

@@ -94,7 +94,7 @@ const surfaceMaterial = new THREE.MeshStandardMaterial({
 });
 const wireMaterial = new THREE.LineBasicMaterial({ color: 0x10131a });
 
-/** Points the camera at a box (the header's, which holds every level). */
+/** Points the camera at a box (the header's bounds, which hold every level). */
 function frame(box) {
   const sphere = box.getBoundingSphere(new THREE.Sphere());
   const r = sphere.radius || 1;

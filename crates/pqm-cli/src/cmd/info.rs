@@ -47,8 +47,15 @@ struct Report {
     flags: u32,
     quant_bits: u8,
     quant_step: [f64; 3],
+    /// The quantization grid (spec §5).
     bbox_min: [f64; 3],
     bbox_max: [f64; 3],
+    /// Every level's bounding box: the header's exact bounds (3.2) or else
+    /// the grid.
+    bounds_min: [f64; 3],
+    bounds_max: [f64; 3],
+    /// Whether the header holds the exact bounds (format 3.2).
+    bounds_stored: bool,
     base_vertices: u32,
     base_faces: u32,
     final_vertices: u32,
@@ -127,6 +134,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     };
     let status = dec.status();
     let step = dec.quantizer().map_or([0.0; 3], |q| q.step());
+    let bounds = dec.bounds().unwrap_or([h.bbox_min, h.bbox_max]);
     let report = Report {
         file: args.input.display().to_string(),
         file_bytes: n,
@@ -137,6 +145,9 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         quant_step: step,
         bbox_min: h.bbox_min,
         bbox_max: h.bbox_max,
+        bounds_min: bounds[0],
+        bounds_max: bounds[1],
+        bounds_stored: h.bounds.is_some(),
         base_vertices: h.base_vertex_count,
         base_faces: h.base_face_count,
         final_vertices: h.final_vertex_count,
@@ -175,18 +186,24 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             "records       {} in {} chunks\n",
             r.records, r.chunks
         ));
+        let range = |lo: &[f64; 3], hi: &[f64; 3]| {
+            format!(
+                "[{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]",
+                lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
+            )
+        };
         s.push_str(&format!(
-            "bbox          [{:.6}, {:.6}, {:.6}] .. [{:.6}, {:.6}, {:.6}]\n",
-            r.bbox_min[0],
-            r.bbox_min[1],
-            r.bbox_min[2],
-            r.bbox_max[0],
-            r.bbox_max[1],
-            r.bbox_max[2]
+            "bounds        {}{}\n",
+            range(&r.bounds_min, &r.bounds_max),
+            if r.bounds_stored { "" } else { " (the grid)" }
         ));
         s.push_str(&format!(
-            "quantization  {} bits per axis, step [{:.3e}, {:.3e}, {:.3e}]\n",
-            r.quant_bits, r.quant_step[0], r.quant_step[1], r.quant_step[2]
+            "quantization  {} bits per axis, step [{:.3e}, {:.3e}, {:.3e}], grid {}\n",
+            r.quant_bits,
+            r.quant_step[0],
+            r.quant_step[1],
+            r.quant_step[2],
+            range(&r.bbox_min, &r.bbox_max)
         ));
         s.push_str(&format!(
             "vertex order  {}\n\n",
