@@ -15,11 +15,18 @@ fn encode(pm: &ProgressiveMesh, opts: &EncodeOptions) -> Vec<u8> {
     write_to_vec(pm, opts).expect("encode").0
 }
 
-fn deltas() -> EncodeOptions {
+/// The box grid (no 3.2 header bounds), so that the version fields say
+/// which vertex-order section a file holds: 3.1 with `VNBR`, 3.0 without.
+fn boxed(vertex_order_code: VertexOrderCode) -> EncodeOptions {
     EncodeOptions {
-        vertex_order_code: VertexOrderCode::Deltas,
+        vertex_order_code,
+        grid: Grid::Box,
         ..EncodeOptions::default()
     }
+}
+
+fn deltas() -> EncodeOptions {
+    boxed(VertexOrderCode::Deltas)
 }
 
 /// Offset of the first optional section (right after the last chunk).
@@ -29,10 +36,16 @@ fn sections_start(bytes: &[u8]) -> usize {
     (c.offset + c.compressed_len as u64) as usize
 }
 
+/// `header_len` of `bytes` (120, or 168 with the 3.2 bounds).
+fn header_len(bytes: &[u8]) -> usize {
+    u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize
+}
+
 fn patch_header(bytes: &mut [u8], f: impl FnOnce(&mut [u8])) {
-    f(&mut bytes[..120]);
-    let crc = crc32fast::hash(&bytes[..116]);
-    bytes[116..120].copy_from_slice(&crc.to_le_bytes());
+    let n = header_len(bytes);
+    f(&mut bytes[..n]);
+    let crc = crc32fast::hash(&bytes[..n - 4]);
+    bytes[n - 4..n].copy_from_slice(&crc.to_le_bytes());
 }
 
 /// One optional section: `tag`, a zstd frame of `payload` (stated length
@@ -50,10 +63,12 @@ fn section(tag: &[u8; 4], payload: &[u8], ulen: u32) -> Vec<u8> {
     s
 }
 
-/// `bytes` with its sections replaced by `sections`, header flags `flags`.
+/// `bytes` with its sections replaced by `sections`, header flags `flags`
+/// (the bounds flag, bit 2, kept as it was).
 fn with_sections(bytes: &[u8], flags: u32, sections: &[Vec<u8>]) -> Vec<u8> {
     let mut b = bytes[..sections_start(bytes)].to_vec();
     patch_header(&mut b, |h| {
+        let flags = flags | (h[16] as u32 & 4);
         h[16..20].copy_from_slice(&flags.to_le_bytes());
         h[48..52].copy_from_slice(&(sections.len() as u32).to_le_bytes());
     });
@@ -115,10 +130,7 @@ proptest! {
         coherent in prop::option::of(0usize..40),
     ) {
         let pm = gen(seed, splits, coherent);
-        let v = encode(&pm, &EncodeOptions {
-            vertex_order_code: VertexOrderCode::Neighbours,
-            ..EncodeOptions::default()
-        });
+        let v = encode(&pm, &boxed(VertexOrderCode::Neighbours));
         assert_order(&v, &pm, b"VNBR");
         prop_assert_eq!(&v[8..12], &[3, 0, 1, 0]);
         prop_assert_eq!(Header::parse(&v[..120]).flags, 2);
@@ -131,7 +143,14 @@ proptest! {
         prop_assert_eq!(&v[20..116], &d[20..116]);
         prop_assert_eq!(&v[120..sv], &d[120..sd]);
         let smaller = if d.len() <= v.len() { &d } else { &v };
-        prop_assert_eq!(&encode(&pm, &EncodeOptions::default()), smaller);
+        prop_assert_eq!(&encode(&pm, &boxed(VertexOrderCode::Smaller)), smaller);
+        // With the default cube grid: a 3.2 file, the same section choice,
+        // the bounds flag beside the section's.
+        let cube = encode(&pm, &EncodeOptions::default());
+        prop_assert_eq!(&cube[8..12], &[3, 0, 2, 0]);
+        let section_flag = if d.len() <= v.len() { 1 } else { 2 };
+        prop_assert_eq!(Header::parse(&cube[..168]).flags, section_flag | 4);
+        assert_order(&cube, &pm, if section_flag == 1 { b"VORD" } else { b"VNBR" });
         // 2.0 and 1.1 files keep VORD (their minors have no VNBR).
         for major in [1, 2] {
             let old = encode(&pm, &EncodeOptions { version_major: major, ..EncodeOptions::default() });
@@ -235,7 +254,7 @@ fn one_byte_at_a_time_equals_all_at_once_and_every_prefix_is_safe() {
 fn hostile_vnbr_sections_are_rejected() {
     let pm = gen(6, 40, Some(5));
     let bytes = encode(&pm, &EncodeOptions::default());
-    let h = Header::parse(&bytes[..120]);
+    let h = Header::parse(&bytes[..header_len(&bytes)]);
     let n = h.final_vertex_count;
     let base = h.base_vertex_count;
     assert!(base > 0 && base < n);
