@@ -1,6 +1,6 @@
 // Differential fuzzing of the JavaScript decoder against the Rust reference
-// decoder: mutates the decompressed payloads, header fields (flag bit 0
-// included), chunk table entries, optional sections (dropped, duplicated,
+// decoder: mutates the decompressed payloads, header fields (flag bits 0
+// and 2, the 3.2 bounds included), chunk table entries, optional sections (dropped, duplicated,
 // renamed) and the zstd framing of one section (trailing bytes or frames,
 // skippable frames, no content size, a checksum) of the test files, repacks
 // them (raw zstd frames, CRCs recomputed, so the mutations reach the
@@ -60,7 +60,26 @@ function mutateSections(parts) {
 }
 
 function mutate(parts) {
-  const what = pick(13);
+  const what = pick(15);
+  if (what === 13) {
+    // spec §3 (3.2): flag bit 2 says the header holds bounds; both
+    // decoders must refuse it on a 120-byte header and ignore a 168-byte
+    // header's bounds without it
+    const dv = new DataView(parts.header.buffer);
+    dv.setUint32(16, dv.getUint32(16, true) ^ 4, true);
+    return { what: `header flag bit 2 toggled (header_len ${parts.header.length})` };
+  }
+  if (what === 14 && parts.header.length >= 168) {
+    // one bounds value: NaN, infinite, past the other end, or one ulp off
+    const dv = new DataView(parts.header.buffer);
+    const off = 116 + 8 * pick(6);
+    const v = dv.getFloat64(off, true);
+    const other = dv.getFloat64(off < 140 ? off + 24 : off - 24, true);
+    const how = pick(4);
+    const bad = [NaN, (how & 1 ? -1 : 1) * Infinity, off < 140 ? other + Math.abs(other) + 1 : other - Math.abs(other) - 1, v * (1 + Number.EPSILON)][how];
+    dv.setFloat64(off, bad, true);
+    return { what: `bounds value at ${off} → ${bad}` };
+  }
   if (what === 10) {
     const dv = new DataView(parts.header.buffer);
     dv.setUint32(16, dv.getUint32(16, true) ^ 1, true);
