@@ -1961,8 +1961,9 @@ impl Decoder {
 
     /// A bounding box `[min, max]` of every level's positions (after the
     /// header): the header's exact bounds when it has them (version 3.2,
-    /// spec §3), else the grid, which holds every position too (exact for
-    /// files with the box grid, §5).
+    /// spec §3), else the grid, which holds every position too (tight for
+    /// files with the box grid, §5, up to the rounding of `min + q × step`,
+    /// which can pass the grid's maximum by an ulp).
     pub fn bounds(&self) -> Option<[[f64; 3]; 2]> {
         let h = self.header.as_ref()?;
         Some(h.bounds.unwrap_or([h.bbox_min, h.bbox_max]))

@@ -18,7 +18,7 @@ pub enum Grid {
     /// are that extent over `2^bits − 1` — Draco's and gltfpack's
     /// quantization: `bits` bounds the error by half a step of the largest
     /// extent on every axis. The header then carries the positions' exact
-    /// bounds (spec §3, version 3.2). 0.6–3.1 bits per vertex smaller
+    /// bounds (spec §3, version 3.2). 0.6–3.0 bits per vertex smaller
     /// than [`Grid::Box`] on the bench meshes (flat meshes the most).
     #[default]
     Cube,
