@@ -13,7 +13,7 @@
  *
  * Requests:
  * 1. `Range: bytes=0-(firstBytes − 1)` — the header and usually the whole
- *    chunk table (header 120 bytes + 36 bytes per chunk); if the table is
+ *    chunk table (header 120 bytes, 168 with the 3.2 bounds, + 36 bytes per chunk); if the table is
  *    longer, one more request for exactly the bytes it still needs (and one
  *    for the rest of a header longer than `firstBytes`).
  * 2. `Range: bytes=loaded-(end − 1)` where `end = decoder.bytesFor(target)`
