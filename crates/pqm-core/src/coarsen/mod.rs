@@ -565,6 +565,13 @@ pub struct Coarsener {
     /// The current round, when coarsening in rounds
     /// ([`CoarsenOptions::round_fraction`]).
     round: Option<RoundState>,
+    /// EXPERIMENT (session 16, env `PQM_REORDER_WINDOW`): step marks of a
+    /// sequential run, for reordering the records in windows.
+    seq_marks: Option<record::Rounds>,
+    /// EXPERIMENT: the reorder window (steps), with or without rounds.
+    window: Option<usize>,
+    /// EXPERIMENT: the reorder window as a fraction of the face count.
+    window_fraction: Option<f64>,
 }
 
 /// A round of independent steps ([`CoarsenOptions::round_fraction`]).
@@ -935,6 +942,9 @@ impl Coarsener {
             end_phase: true,
             end_steps: 0,
             round: None,
+            seq_marks: None,
+            window: None,
+            window_fraction: None,
         }
         .with_rounds()
     }
@@ -951,7 +961,28 @@ impl Coarsener {
                 });
             }
         }
+        if self.opts.placement == Placement::Subset {
+            let env = std::env::var("PQM_REORDER_WINDOW").unwrap_or_default();
+            self.window = env.parse::<usize>().ok().filter(|&w| w > 0);
+            self.window_fraction = env.parse::<f64>().ok().filter(|&f| f > 0.0 && f < 1.0);
+            if (self.window.is_some() || self.window_fraction.is_some()) && self.round.is_none() {
+                self.seq_marks = Some(record::Rounds::default());
+            }
+        }
         self
+    }
+
+    /// The step marks to build the records with (rounds' or the sequential
+    /// ones), the window set.
+    fn marks(&self) -> Option<record::Rounds> {
+        let mut m = match (&self.round, &self.seq_marks) {
+            (Some(r), _) => r.marks.clone(),
+            (None, Some(m)) => m.clone(),
+            (None, None) => return None,
+        };
+        m.set_window(self.window);
+        m.set_window_fraction(self.window_fraction);
+        Some(m)
     }
 
     /// Whether it coarsens in rounds ([`CoarsenOptions::round_fraction`]).
@@ -1201,10 +1232,8 @@ impl Coarsener {
 
     /// The coarsest mesh plus refinement records in canonical numbering.
     pub fn to_progressive(&self) -> ProgressiveMesh {
-        match &self.round {
-            Some(r) => {
-                record::to_progressive_in_rounds(&self.mesh, &self.logs, &self.errors, &r.marks).0
-            }
+        match self.marks() {
+            Some(r) => record::to_progressive_in_rounds(&self.mesh, &self.logs, &self.errors, &r).0,
             None => record::to_progressive(&self.mesh, &self.logs, &self.errors),
         }
     }
@@ -1213,10 +1242,8 @@ impl Coarsener {
     /// step's sort key ([`record::to_progressive_in_rounds`]; empty when
     /// not coarsening in rounds).
     pub fn to_progressive_with_keys(&self) -> (ProgressiveMesh, Vec<(u32, u32)>) {
-        match &self.round {
-            Some(r) => {
-                record::to_progressive_in_rounds(&self.mesh, &self.logs, &self.errors, &r.marks)
-            }
+        match self.marks() {
+            Some(r) => record::to_progressive_in_rounds(&self.mesh, &self.logs, &self.errors, &r),
             None => (self.to_progressive(), Vec::new()),
         }
     }
@@ -1228,7 +1255,7 @@ impl Coarsener {
     pub fn into_progressive(mut self) -> ProgressiveMesh {
         let logs = std::mem::take(&mut self.logs);
         let errors = std::mem::take(&mut self.errors);
-        let rounds = self.round.take().map(|r| r.marks);
+        let rounds = self.marks();
         let base = record::Base::of(&self.mesh);
         // everything else (mesh, queue, attributes, quadrics, features) is
         // freed before the records are built, not at the end of this scope
@@ -2822,7 +2849,7 @@ impl Coarsener {
         for log in &step_logs {
             self.logs.push(log);
         }
-        if self.round.is_some() {
+        if self.round.is_some() || self.seq_marks.is_some() {
             // the key vertices: a qvMerge's survivor, a qeMerge's edge
             // (the survivors of its two groups), the corners of any other
             // step's first rewritten face
@@ -2852,7 +2879,9 @@ impl Coarsener {
             for ((d, _), a) in doublet_logs.iter().zip(&undo_stack[1..]) {
                 lock.extend(a.faces.iter().take(d.add.len()).copied());
             }
-            if self.round_step(step_logs.len(), key, &lock) {
+            if let Some(m) = self.seq_marks.as_mut() {
+                m.push(step_logs.len(), key, 0);
+            } else if self.round_step(step_logs.len(), key, &lock) {
                 self.end_round();
             }
         }
@@ -3276,6 +3305,9 @@ impl Coarsener {
                 let q = a.old_faces.first().map_or([v, v], |f| [f[0], f[1]]);
                 r.marks.push(1, q, r.number);
                 r.number += 1;
+            } else if let Some(m) = self.seq_marks.as_mut() {
+                let q = a.old_faces.first().map_or([v, v], |f| [f[0], f[1]]);
+                m.push(1, q, 0);
             }
             let more: Vec<VertexId> = d.add.iter().flatten().copied().collect();
             for x in ops::find_doublets(&self.mesh, &more) {
