@@ -423,13 +423,10 @@ pub fn into_progressive(
 #[derive(Clone, Debug, Default)]
 pub struct Rounds {
     steps: Vec<StepMark>,
-    /// EXPERIMENT (session 16): reorder within windows of this many steps
-    /// (in coarse-to-fine order, from the coarse end), layer by layer by
-    /// face-id conflicts, instead of sorting each round.
-    window: Option<usize>,
-    /// EXPERIMENT: or windows of this fraction of the face count at their
-    /// coarse end (at least one step).
-    window_fraction: Option<f64>,
+    /// Reorder the records in windows of this fraction of the face count
+    /// at each window's coarse end ([`super::CoarsenOptions::reorder_window`]);
+    /// the round grouping is then not used.
+    window: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -453,16 +450,11 @@ impl Rounds {
     pub fn len(&self) -> usize {
         self.steps.len()
     }
-    /// EXPERIMENT: reorder in windows of `w` steps (see the field).
-    pub fn set_window(&mut self, w: Option<usize>) {
-        self.window = w.filter(|&w| w > 0);
-    }
-    /// EXPERIMENT: reorder in windows of `f ×` the face count (see the field).
-    pub fn set_window_fraction(&mut self, f: Option<f64>) {
-        self.window_fraction = f.filter(|&f| f > 0.0);
-        if self.window_fraction.is_some() {
-            self.window = Some(usize::MAX);
-        }
+    /// Reorder the records in windows of `f ×` the face count (see
+    /// [`super::CoarsenOptions::reorder_window`]); `None` or `f <= 0`: no
+    /// windows.
+    pub fn set_window(&mut self, f: Option<f64>) {
+        self.window = f.filter(|&f| f > 0.0);
     }
     /// Whether no step is marked.
     pub fn is_empty(&self) -> bool {
@@ -593,9 +585,10 @@ struct Numbering {
 /// (covering every log), the steps of each round are sorted by their keys
 /// (stable: equal keys keep the coarse-to-fine order) before their records
 /// are built, each step's records kept together and in order, and every
-/// level inside a round gets the error bound of the round's coarse end.
-/// Returns, per record, its round and its step's key (`(0, u32::MAX)`
-/// without rounds).
+/// level inside a round gets the error bound of the round's coarse end;
+/// with a window set ([`Rounds::set_window`]), the steps are reordered in
+/// windows instead ([`build_windows`]). Returns, per record, its round (or
+/// sweep) and its step's key (none without rounds or windows).
 fn build(
     start: Base,
     n: usize,
@@ -625,7 +618,7 @@ fn build(
                 records.push(record_of(log, &mut num));
             }
         }
-        Some(r) if r.window.is_some() || r.window_fraction.is_some() => {
+        Some(r) if r.window.is_some() => {
             keys.reserve(n);
             build_windows(
                 r,
@@ -695,15 +688,12 @@ fn build(
     (pm, keys)
 }
 
-/// EXPERIMENT (session 16): the steps in windows of `r.window` steps,
-/// taken coarse to fine from the coarse end. Within a window each step gets
-/// a layer: 1 + the largest layer of the window's earlier (coarser) steps
-/// whose face-id sets (`faces_before` ids of its logs) intersect its own,
-/// 0 if none. The layers are emitted in order, each layer's steps sorted by
-/// key (the smaller canonical id of the key vertices, evaluated just before
-/// the layer is emitted; `NONE` sorts last), each step's logs together and
-/// in order. Levels strictly inside a window get its coarse-end error.
-#[allow(clippy::too_many_arguments)]
+/// The steps in windows ([`super::CoarsenOptions::reorder_window`]):
+/// windows cut coarse to fine from the coarse end, each of `f ×` the face
+/// count at its coarse end (at least one step); each window in sweeps
+/// ([`sweep_window`]). Levels strictly inside a window get the error bound
+/// of its coarse end. `keys` gets, per record, its sweep (numbered over the
+/// whole run) and its step's key.
 fn build_windows(
     r: &Rounds,
     n: usize,
@@ -713,23 +703,12 @@ fn build_windows(
     keys: &mut Vec<(u32, u32)>,
     num: &mut Numbering,
 ) {
-    let w = r.window.unwrap_or(usize::MAX).max(1);
-    let mode = std::env::var("PQM_WINDOW_MODE").unwrap_or_default();
-    let sweep = mode == "sweep" || mode == "zigzag";
-    let zigzag = mode == "zigzag";
+    let f = r.window.unwrap_or(1.0);
     let mut end = r.steps.len();
     let mut log_end = n;
-    let mut window_no = 0u32;
-    let mut last_layer: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
-    let key_of = |m: &StepMark, cv: &[u32]| {
-        let c = |v: u32| cv.get(v as usize).copied().unwrap_or(NONE);
-        c(m.key[0]).min(c(m.key[1]))
-    };
+    let mut sweeps = 0u32;
     while end > 0 {
-        let w = match r.window_fraction {
-            Some(f) => ((f * num.n_faces as f64).ceil() as usize).max(1),
-            None => w,
-        };
+        let w = ((f * num.n_faces as f64).ceil() as usize).max(1);
         let begin = end.saturating_sub(w);
         let marks = &r.steps[begin..end];
         let n_logs: usize = marks.iter().map(|m| m.logs as usize).sum();
@@ -738,82 +717,30 @@ fn build_windows(
             let e = errors[log_end];
             errors.to_mut()[log_begin + 1..log_end].fill(e);
         }
-        if sweep {
-            window_no += sweep_window(marks, &mut logs, records, keys, num, window_no, zigzag);
-            end = begin;
-            log_end = log_begin;
-            continue;
-        }
-        // the window's steps coarse to fine, with their layers
-        last_layer.clear();
-        let mut steps: Vec<(u32, &StepMark, Vec<StepLog>)> = Vec::with_capacity(marks.len());
-        let mut n_layers = 0u32;
-        for m in marks.iter().rev() {
-            let ls: Vec<StepLog> = logs.by_ref().take(m.logs as usize).collect();
-            let layer = ls
-                .iter()
-                .flat_map(|l| l.faces_before.iter())
-                .filter_map(|(f, _)| last_layer.get(&f.0).map(|&l| l + 1))
-                .max()
-                .unwrap_or(0);
-            for l in &ls {
-                for (f, _) in &l.faces_before {
-                    let e = last_layer.entry(f.0).or_insert(layer);
-                    *e = (*e).max(layer);
-                }
-            }
-            n_layers = n_layers.max(layer + 1);
-            steps.push((layer, m, ls));
-        }
-        // emit layer by layer (stable: the coarse-to-fine order within a
-        // layer before the key sort)
-        steps.sort_by_key(|s| s.0);
-        let mut i = 0;
-        while i < steps.len() {
-            let layer = steps[i].0;
-            let mut j = i;
-            while j < steps.len() && steps[j].0 == layer {
-                j += 1;
-            }
-            let mut batch: Vec<(u32, Vec<StepLog>)> = steps[i..j]
-                .iter_mut()
-                .map(|s| (key_of(s.1, &num.cv), std::mem::take(&mut s.2)))
-                .collect();
-            batch.sort_by_key(|b| b.0);
-            for (key, ls) in batch {
-                for log in ls {
-                    records.push(record_of(log, num));
-                    keys.push((window_no, key));
-                }
-            }
-            i = j;
-        }
-        if std::env::var_os("PQM_WINDOW_DEBUG").is_some() {
-            let mut sizes = vec![0usize; n_layers as usize];
-            for s in &steps {
-                sizes[s.0 as usize] += 1;
-            }
-            let head: Vec<usize> = sizes.iter().take(12).copied().collect();
-            eprintln!(
-                "window {window_no}: {} steps, {} layers, sizes {:?}{}",
-                steps.len(),
-                n_layers,
-                head,
-                if sizes.len() > 12 { " …" } else { "" }
-            );
-        }
-        window_no += 1;
+        sweeps += sweep_window(marks, &mut logs, records, keys, num, sweeps);
         end = begin;
         log_end = log_begin;
     }
 }
 
-/// EXPERIMENT (session 16): one window in *sweeps*: a step is ready once
-/// every earlier (coarser) step of the window it conflicts with (shares a
-/// face id) is emitted; emit the ready step of the smallest key at or above
-/// the last emitted key, or, when there is none, start a new sweep at the
-/// smallest ready key. Returns the number of sweeps (the `keys`' first
-/// number counts sweeps).
+/// One window of steps (`marks`, in commit order) in *sweeps*. Two steps
+/// conflict when their face-id sets (the `faces_before` ids of their logs)
+/// intersect; steps that do not conflict commute (see [`Rounds`]). A step
+/// is *ready* once every coarser step of the window it conflicts with has
+/// its records built; the next step is the ready one of the smallest key at
+/// or above the last one's, or, when there is none, the ready one of the
+/// smallest key (a new sweep). A step's key is taken when it becomes ready:
+/// its key vertices exist by then (one created inside the window was
+/// created by a conflicting coarser step). Each step's logs stay together
+/// and in order. Returns the number of sweeps; `keys` gets
+/// `(first_sweep + sweep, key)` per record.
+///
+/// Why sweeps and not layers (each step one layer after the latest
+/// conflicting one, each layer sorted): the sequential coarsener's steps
+/// form long conflict chains (loki, 1000-step windows: 30–130 layers), and
+/// every layer restarts the ascent; a sweep takes a step as soon as its
+/// dependencies are in, so a window needs about half as many (15–67), and
+/// files were 0.4–1 % smaller (session 16, docs/s16-window-experiment.md).
 fn sweep_window(
     marks: &[StepMark],
     logs: &mut impl Iterator<Item = StepLog>,
@@ -821,25 +748,27 @@ fn sweep_window(
     keys: &mut Vec<(u32, u32)>,
     num: &mut Numbering,
     first_sweep: u32,
-    zigzag: bool,
 ) -> u32 {
     use std::collections::{BTreeSet, HashMap};
     let key_of = |m: &StepMark, cv: &[u32]| {
         let c = |v: u32| cv.get(v as usize).copied().unwrap_or(NONE);
         c(m.key[0]).min(c(m.key[1]))
     };
-    // coarse to fine
+    // coarse to fine (last committed first)
     let mut steps: Vec<(&StepMark, Vec<StepLog>)> = marks
         .iter()
         .rev()
         .map(|m| (m, logs.by_ref().take(m.logs as usize).collect()))
         .collect();
     let n = steps.len();
+    // the dependencies: per face, the latest step touching it (steps
+    // touching one face form a chain, so the latest one suffices)
     let mut last: HashMap<u32, usize> = HashMap::new();
     let mut succ: Vec<Vec<usize>> = vec![Vec::new(); n];
     let mut indeg = vec![0u32; n];
+    let mut preds: Vec<usize> = Vec::new();
     for (i, (_, ls)) in steps.iter().enumerate() {
-        let mut preds: Vec<usize> = Vec::new();
+        preds.clear();
         for l in ls {
             for (f, _) in &l.faces_before {
                 if let Some(j) = last.insert(f.0, i) {
@@ -852,47 +781,22 @@ fn sweep_window(
         preds.sort_unstable();
         preds.dedup();
         indeg[i] = preds.len() as u32;
-        for j in preds {
+        for &j in &preds {
             succ[j].push(i);
         }
     }
-    let mut ready: BTreeSet<(u32, usize)> = BTreeSet::new();
-    for i in 0..n {
-        if indeg[i] == 0 {
-            ready.insert((key_of(steps[i].0, &num.cv), i));
-        }
-    }
-    let records_at_start = keys.len();
-    let mut cursor = 0u32;
-    let mut sweeps = 0u32;
-    let mut started = false;
-    let mut down = false;
-    loop {
-        let up_next = ready.range((cursor, 0)..).next().copied();
-        let down_next = ready.range(..=(cursor, usize::MAX)).next_back().copied();
-        let mut flipped = false;
-        let pick = if zigzag {
-            let (ahead, back) = if down {
-                (down_next, up_next)
-            } else {
-                (up_next, down_next)
-            };
-            match ahead {
-                Some(x) => Some(x),
-                None => {
-                    down = !down;
-                    flipped = true;
-                    back
-                }
-            }
-        } else {
-            up_next.or_else(|| ready.iter().next().copied())
-        };
-        let Some((k, i)) = pick else { break };
-        let turned = if zigzag { flipped } else { k < cursor };
-        if !started || turned {
+    let mut ready: BTreeSet<(u32, usize)> = (0..n)
+        .filter(|&i| indeg[i] == 0)
+        .map(|i| (key_of(steps[i].0, &num.cv), i))
+        .collect();
+    let (mut cursor, mut sweeps) = (0u32, 0u32);
+    while let Some(&(k, i)) = ready
+        .range((cursor, 0)..)
+        .next()
+        .or_else(|| ready.iter().next())
+    {
+        if sweeps == 0 || k < cursor {
             sweeps += 1;
-            started = true;
         }
         ready.remove(&(k, i));
         cursor = k;
@@ -906,13 +810,6 @@ fn sweep_window(
                 ready.insert((key_of(steps[j].0, &num.cv), j));
             }
         }
-    }
-    if std::env::var_os("PQM_WINDOW_DEBUG").is_some() {
-        let none = keys[records_at_start..]
-            .iter()
-            .filter(|k| k.1 == NONE)
-            .count();
-        eprintln!("window: {n} steps, {sweeps} sweeps, {none} records with a NONE key");
     }
     sweeps
 }
