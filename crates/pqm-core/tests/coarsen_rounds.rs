@@ -183,3 +183,77 @@ fn anchors_ascend_within_each_round() {
         assert!(longest >= 10, "some round holds many records: {longest}");
     }
 }
+
+/// [`coarsener`] with the records reordered in windows
+/// (`CoarsenOptions::reorder_window`).
+fn coarsener_in_windows(
+    src: &IndexedMesh,
+    target: usize,
+    rounds: Option<f64>,
+    window: Option<f64>,
+) -> Coarsener {
+    let mesh = Mesh::from_indexed(src).expect("valid quad mesh");
+    let opts = CoarsenOptions {
+        target_faces: Some(target),
+        placement: Placement::Subset,
+        round_fraction: rounds,
+        reorder_window: window,
+        ..Default::default()
+    };
+    let mut c = Coarsener::with_defaults(mesh, 60.0, &[], opts).expect("features");
+    c.run(&mut |_| {});
+    c
+}
+
+/// Windows reorder the records only: the same base and the same number of
+/// records as without them, the records still replay to the input, and
+/// the consuming build is the borrowing one.
+#[test]
+fn windows_replay_to_the_input() {
+    for (src, target) in [(torus(), 150), (sheet(), 80)] {
+        for rounds in [None, Some(0.05)] {
+            let plain = coarsener_in_windows(&src, target, rounds, None).into_progressive();
+            for w in [0.02, 0.1, 1.0] {
+                let c = coarsener_in_windows(&src, target, rounds, Some(w));
+                let borrowed = c.to_progressive();
+                assert!(borrowed.base == plain.base, "window {w}: same base");
+                assert_eq!(borrowed.records.len(), plain.records.len());
+                assert!(borrowed.records != plain.records, "window {w}: reordered");
+                assert_replays(&borrowed, &src);
+                let consumed = c.into_progressive();
+                assert!(consumed == borrowed, "into_progressive = to_progressive");
+            }
+        }
+    }
+}
+
+/// In windows, each step's key is its anchor and the keys ascend within
+/// each sweep; with windows large enough, sweeps hold many records.
+#[test]
+fn anchors_ascend_within_each_sweep() {
+    for (src, target) in [(torus(), 150), (sheet(), 80)] {
+        for rounds in [None, Some(0.05)] {
+            let c = coarsener_in_windows(&src, target, rounds, Some(0.2));
+            let (pm, keys) = c.to_progressive_with_keys();
+            assert_eq!(keys.len(), pm.records.len());
+            for (k, a) in anchors(&pm).iter().enumerate() {
+                if let Some(a) = a {
+                    assert_eq!(keys[k].1, *a.iter().min().unwrap(), "record {k}");
+                }
+            }
+            let mut longest = 0;
+            let mut run = 1;
+            for k in 1..keys.len() {
+                assert!(keys[k].0 >= keys[k - 1].0, "sweeps are numbered in order");
+                if keys[k].0 == keys[k - 1].0 {
+                    assert!(keys[k].1 >= keys[k - 1].1, "records {} and {k}", k - 1);
+                    run += 1;
+                    longest = longest.max(run);
+                } else {
+                    run = 1;
+                }
+            }
+            assert!(longest >= 10, "some sweep holds many records: {longest}");
+        }
+    }
+}

@@ -78,6 +78,16 @@ pub struct Args {
     /// --round-fraction).
     #[arg(long, help_heading = "Coarsener")]
     pub no_rounds: bool,
+    /// Reorder the records in windows of F × the face count (cut from the
+    /// coarse end): within a window, records that commute are put in
+    /// ascending sweeps of their anchor vertices (smaller vertex
+    /// references, same file format). The coarsening is unchanged, so the
+    /// levels at window ends are exactly the coarsener's; inside a window a
+    /// level has part of the window's steps. With F = 0.05: 0.6–1.3 bits
+    /// per vertex less geometry on top of rounds, or 0.1–4.2 without them;
+    /// below ≈ 0.02 files grow. Only with `--placement subset`. Default: off.
+    #[arg(long, value_name = "F", value_parser = parse_ratio, help_heading = "Coarsener")]
+    pub reorder_window: Option<f64>,
     /// Quantization bits per axis, 8..=24 (with the default `--grid cube`,
     /// over the largest extent, as Draco's and gltfpack's bits).
     #[arg(long, value_name = "N", default_value_t = 14, value_parser = clap::value_parser!(u8).range(8..=24), help_heading = "File")]
@@ -338,6 +348,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         } else {
             args.round_fraction.or(DEFAULT_ROUND_FRACTION)
         },
+        reorder_window: args.reorder_window,
         ..Default::default()
     };
     let mut p = prepare(input, &args.coarsener, opts, ctx)?;

@@ -423,6 +423,10 @@ pub fn into_progressive(
 #[derive(Clone, Debug, Default)]
 pub struct Rounds {
     steps: Vec<StepMark>,
+    /// Reorder the records in windows of this fraction of the face count
+    /// at each window's coarse end ([`super::CoarsenOptions::reorder_window`]);
+    /// the round grouping is then not used.
+    window: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -445,6 +449,12 @@ impl Rounds {
     /// Number of steps.
     pub fn len(&self) -> usize {
         self.steps.len()
+    }
+    /// Reorder the records in windows of `f ×` the face count (see
+    /// [`super::CoarsenOptions::reorder_window`]); `None` or `f <= 0`: no
+    /// windows.
+    pub fn set_window(&mut self, f: Option<f64>) {
+        self.window = f.filter(|&f| f > 0.0);
     }
     /// Whether no step is marked.
     pub fn is_empty(&self) -> bool {
@@ -575,9 +585,10 @@ struct Numbering {
 /// (covering every log), the steps of each round are sorted by their keys
 /// (stable: equal keys keep the coarse-to-fine order) before their records
 /// are built, each step's records kept together and in order, and every
-/// level inside a round gets the error bound of the round's coarse end.
-/// Returns, per record, its round and its step's key (`(0, u32::MAX)`
-/// without rounds).
+/// level inside a round gets the error bound of the round's coarse end;
+/// with a window set ([`Rounds::set_window`]), the steps are reordered in
+/// windows instead ([`build_windows`]). Returns, per record, its round (or
+/// sweep) and its step's key (none without rounds or windows).
 fn build(
     start: Base,
     n: usize,
@@ -606,6 +617,18 @@ fn build(
             for log in coarse_to_fine {
                 records.push(record_of(log, &mut num));
             }
+        }
+        Some(r) if r.window.is_some() => {
+            keys.reserve(n);
+            build_windows(
+                r,
+                n,
+                coarse_to_fine,
+                &mut errors,
+                &mut records,
+                &mut keys,
+                &mut num,
+            );
         }
         Some(r) => {
             keys.reserve(n);
@@ -663,6 +686,132 @@ fn build(
         level_error,
     };
     (pm, keys)
+}
+
+/// The steps in windows ([`super::CoarsenOptions::reorder_window`]):
+/// windows cut coarse to fine from the coarse end, each of `f ×` the face
+/// count at its coarse end (at least one step); each window in sweeps
+/// ([`sweep_window`]). Levels strictly inside a window get the error bound
+/// of its coarse end. `keys` gets, per record, its sweep (numbered over the
+/// whole run) and its step's key.
+fn build_windows(
+    r: &Rounds,
+    n: usize,
+    mut logs: impl Iterator<Item = StepLog>,
+    errors: &mut std::borrow::Cow<'_, [f64]>,
+    records: &mut Vec<SplitRecord>,
+    keys: &mut Vec<(u32, u32)>,
+    num: &mut Numbering,
+) {
+    let f = r.window.unwrap_or(1.0);
+    let mut end = r.steps.len();
+    let mut log_end = n;
+    let mut sweeps = 0u32;
+    while end > 0 {
+        let w = ((f * num.n_faces as f64).ceil() as usize).max(1);
+        let begin = end.saturating_sub(w);
+        let marks = &r.steps[begin..end];
+        let n_logs: usize = marks.iter().map(|m| m.logs as usize).sum();
+        let log_begin = log_end - n_logs;
+        if log_end < errors.len() && log_begin + 1 < log_end {
+            let e = errors[log_end];
+            errors.to_mut()[log_begin + 1..log_end].fill(e);
+        }
+        sweeps += sweep_window(marks, &mut logs, records, keys, num, sweeps);
+        end = begin;
+        log_end = log_begin;
+    }
+}
+
+/// One window of steps (`marks`, in commit order) in *sweeps*. Two steps
+/// conflict when their face-id sets (the `faces_before` ids of their logs)
+/// intersect; steps that do not conflict commute (see [`Rounds`]). A step
+/// is *ready* once every coarser step of the window it conflicts with has
+/// its records built; the next step is the ready one of the smallest key at
+/// or above the last one's, or, when there is none, the ready one of the
+/// smallest key (a new sweep). A step's key is taken when it becomes ready:
+/// its key vertices exist by then (one created inside the window was
+/// created by a conflicting coarser step). Each step's logs stay together
+/// and in order. Returns the number of sweeps; `keys` gets
+/// `(first_sweep + sweep, key)` per record.
+///
+/// Why sweeps and not layers (each step one layer after the latest
+/// conflicting one, each layer sorted): the sequential coarsener's steps
+/// form long conflict chains (loki, 1000-step windows: 30–130 layers), and
+/// every layer restarts the ascent; a sweep takes a step as soon as its
+/// dependencies are in, so a window needs about half as many (15–67), and
+/// files were 0.4–1 % smaller (session 16, docs/s16-window-experiment.md).
+fn sweep_window(
+    marks: &[StepMark],
+    logs: &mut impl Iterator<Item = StepLog>,
+    records: &mut Vec<SplitRecord>,
+    keys: &mut Vec<(u32, u32)>,
+    num: &mut Numbering,
+    first_sweep: u32,
+) -> u32 {
+    use std::collections::{BTreeSet, HashMap};
+    let key_of = |m: &StepMark, cv: &[u32]| {
+        let c = |v: u32| cv.get(v as usize).copied().unwrap_or(NONE);
+        c(m.key[0]).min(c(m.key[1]))
+    };
+    // coarse to fine (last committed first)
+    let mut steps: Vec<(&StepMark, Vec<StepLog>)> = marks
+        .iter()
+        .rev()
+        .map(|m| (m, logs.by_ref().take(m.logs as usize).collect()))
+        .collect();
+    let n = steps.len();
+    // the dependencies: per face, the latest step touching it (steps
+    // touching one face form a chain, so the latest one suffices)
+    let mut last: HashMap<u32, usize> = HashMap::new();
+    let mut succ: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut indeg = vec![0u32; n];
+    let mut preds: Vec<usize> = Vec::new();
+    for (i, (_, ls)) in steps.iter().enumerate() {
+        preds.clear();
+        for l in ls {
+            for (f, _) in &l.faces_before {
+                if let Some(j) = last.insert(f.0, i) {
+                    if j != i {
+                        preds.push(j);
+                    }
+                }
+            }
+        }
+        preds.sort_unstable();
+        preds.dedup();
+        indeg[i] = preds.len() as u32;
+        for &j in &preds {
+            succ[j].push(i);
+        }
+    }
+    let mut ready: BTreeSet<(u32, usize)> = (0..n)
+        .filter(|&i| indeg[i] == 0)
+        .map(|i| (key_of(steps[i].0, &num.cv), i))
+        .collect();
+    let (mut cursor, mut sweeps) = (0u32, 0u32);
+    while let Some(&(k, i)) = ready
+        .range((cursor, 0)..)
+        .next()
+        .or_else(|| ready.iter().next())
+    {
+        if sweeps == 0 || k < cursor {
+            sweeps += 1;
+        }
+        ready.remove(&(k, i));
+        cursor = k;
+        for log in std::mem::take(&mut steps[i].1) {
+            records.push(record_of(log, num));
+            keys.push((first_sweep + sweeps - 1, k));
+        }
+        for &j in &succ[i] {
+            indeg[j] -= 1;
+            if indeg[j] == 0 {
+                ready.insert((key_of(steps[j].0, &num.cv), j));
+            }
+        }
+    }
+    sweeps
 }
 
 /// The record of one log, numbering what it re-inserts.
