@@ -1099,38 +1099,49 @@ fn smoothing_with_subset_placement_is_a_usage_error() {
     assert!(out.exists());
 }
 
-/// `--round-fraction` (rounds of independent steps) writes a file whose
-/// full level is the input, like any; the default is `--round-fraction
-/// 0.005` byte for byte, and `--no-rounds` writes another file.
+/// `--round-fraction` (rounds of independent steps) and `--reorder-window`
+/// (records reordered in windows of steps) write files whose full level
+/// is the input, like any; the default is `--round-fraction 0.005
+/// --reorder-window 0.05` byte for byte (smaller than either off), and
+/// `--no-rounds` / `--no-reorder-window` write other files.
 #[test]
-fn encode_in_rounds_decodes_to_the_input_and_rounds_are_the_default() {
+fn encode_in_rounds_and_windows_decodes_to_the_input_and_both_are_the_default() {
     let d = TempDir::new().unwrap();
-    let (plain, off, rounds) = (
-        d.path().join("plain.pqm"),
-        d.path().join("off.pqm"),
-        d.path().join("rounds.pqm"),
-    );
-    let default = d.path().join("default.pqm");
-    encode_spot(&plain, &[]);
-    encode_spot(&off, &["--no-rounds"]);
-    encode_spot(&default, &["--round-fraction", "0.005"]);
-    let e = encode_spot(&rounds, &["--round-fraction", "0.05"]);
+    let p = |name: &str| d.path().join(name);
     let bytes = |p: &Path| std::fs::read(p).unwrap();
-    assert_eq!(bytes(&plain), bytes(&default));
-    assert_ne!(bytes(&plain), bytes(&off));
-    assert_ne!(bytes(&plain), bytes(&rounds));
+    encode_spot(&p("plain.pqm"), &[]);
+    encode_spot(&p("off.pqm"), &["--no-rounds"]);
+    encode_spot(&p("no_window.pqm"), &["--no-reorder-window"]);
+    encode_spot(
+        &p("default.pqm"),
+        &["--round-fraction", "0.005", "--reorder-window", "0.05"],
+    );
+    let e = encode_spot(&p("rounds.pqm"), &["--round-fraction", "0.05"]);
+    assert_eq!(bytes(&p("plain.pqm")), bytes(&p("default.pqm")));
+    for other in ["off.pqm", "no_window.pqm", "rounds.pqm"] {
+        assert_ne!(bytes(&p("plain.pqm")), bytes(&p(other)), "{other}");
+    }
+    for other in ["off.pqm", "no_window.pqm"] {
+        assert!(bytes(&p("plain.pqm")).len() < bytes(&p(other)).len(), "{other}");
+    }
     assert_eq!(e["files"][0]["faces"], 2928);
-    let full = d.path().join("full.obj");
-    json_ok(&["decode", s(&rounds), "-o", s(&full)]);
-    let (got, _) = load_valid(&full);
     let want = io::read_mesh(&spot()).unwrap();
-    assert_eq!(got.vertex_count(), want.vertex_count());
-    // the same faces (each from its smallest vertex: the corner a face
-    // starts at is not kept) over the input's vertex ids
-    assert_eq!(face_set(&got), face_set(&want));
+    for file in ["rounds.pqm", "plain.pqm"] {
+        let full = d.path().join("full.obj");
+        json_ok(&["decode", s(&p(file)), "-o", s(&full)]);
+        let (got, _) = load_valid(&full);
+        assert_eq!(got.vertex_count(), want.vertex_count());
+        // the same faces (each from its smallest vertex: the corner a face
+        // starts at is not kept) over the input's vertex ids
+        assert_eq!(face_set(&got), face_set(&want), "{file}");
+    }
     encode_spot_refused(
         Path::new("x.pqm"),
         &["--round-fraction", "0.1", "--no-rounds"],
+    );
+    encode_spot_refused(
+        Path::new("x.pqm"),
+        &["--reorder-window", "0.1", "--no-reorder-window"],
     );
 }
 

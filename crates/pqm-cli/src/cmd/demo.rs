@@ -92,6 +92,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let opts = CoarsenOptions {
         placement: Placement::Subset,
         round_fraction: super::encode::DEFAULT_ROUND_FRACTION,
+        reorder_window: super::encode::DEFAULT_REORDER_WINDOW,
         ..Default::default()
     };
     let mut p = prepare(&fixture, &cargs, opts, ctx)?;

@@ -20,6 +20,14 @@ use std::time::Instant;
 /// faces (`docs/figures-history.md`, session 14).
 pub const DEFAULT_ROUND_FRACTION: Option<f64> = Some(0.005);
 
+/// `pqm encode`'s record window when neither `--reorder-window` nor
+/// `--no-reorder-window` is given (see `CoarsenOptions::reorder_window`):
+/// on top of the rounds, 0.05 took 0.6–1.3 bits per vertex off the bench
+/// files' geometry, with the same Hausdorff distances and within about a
+/// point of ideal vertices at 10–70 % of the faces
+/// (`docs/s16-window-experiment.md`, session 16).
+pub const DEFAULT_REORDER_WINDOW: Option<f64> = Some(0.05);
+
 /// `pqm encode`'s corner order when `--corner-order` is not given: every
 /// level draws the same triangles either way, and `diagonal` took 2.2–2.5 %
 /// off the bench files (`docs/figures-history.md`, session 15).
@@ -85,9 +93,15 @@ pub struct Args {
     /// levels at window ends are exactly the coarsener's; inside a window a
     /// level has part of the window's steps. With F = 0.05: 0.6–1.3 bits
     /// per vertex less geometry on top of rounds, or 0.1–4.2 without them;
-    /// below ≈ 0.02 files grow. Only with `--placement subset`. Default: off.
-    #[arg(long, value_name = "F", value_parser = parse_ratio, help_heading = "Coarsener")]
+    /// below ≈ 0.02 files grow. The levels inside a window get the error
+    /// bound of its coarse end. Only with `--placement subset`. Default:
+    /// 0.05.
+    #[arg(long, value_name = "F", value_parser = parse_ratio, conflicts_with = "no_reorder_window", help_heading = "Coarsener")]
     pub reorder_window: Option<f64>,
+    /// Keep the records in the order of the steps (or of the rounds; see
+    /// --reorder-window).
+    #[arg(long, help_heading = "Coarsener")]
+    pub no_reorder_window: bool,
     /// Quantization bits per axis, 8..=24 (with the default `--grid cube`,
     /// over the largest extent, as Draco's and gltfpack's bits).
     #[arg(long, value_name = "N", default_value_t = 14, value_parser = clap::value_parser!(u8).range(8..=24), help_heading = "File")]
@@ -348,7 +362,11 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         } else {
             args.round_fraction.or(DEFAULT_ROUND_FRACTION)
         },
-        reorder_window: args.reorder_window,
+        reorder_window: if args.no_reorder_window {
+            None
+        } else {
+            args.reorder_window.or(DEFAULT_REORDER_WINDOW)
+        },
         ..Default::default()
     };
     let mut p = prepare(input, &args.coarsener, opts, ctx)?;
