@@ -1122,7 +1122,10 @@ fn encode_in_rounds_and_windows_decodes_to_the_input_and_both_are_the_default() 
         assert_ne!(bytes(&p("plain.pqm")), bytes(&p(other)), "{other}");
     }
     for other in ["off.pqm", "no_window.pqm"] {
-        assert!(bytes(&p("plain.pqm")).len() < bytes(&p(other)).len(), "{other}");
+        assert!(
+            bytes(&p("plain.pqm")).len() < bytes(&p(other)).len(),
+            "{other}"
+        );
     }
     assert_eq!(e["files"][0]["faces"], 2928);
     let want = io::read_mesh(&spot()).unwrap();
