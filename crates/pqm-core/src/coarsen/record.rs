@@ -643,25 +643,16 @@ fn build(
                     begin -= 1;
                 }
                 let marks = &r.steps[begin..end];
-                let n_logs: usize = marks.iter().map(|m| m.logs as usize).sum();
                 // levels inside the round: the error of its coarse end
-                let log_begin = log_end - n_logs;
-                if log_end < errors.len() && log_begin + 1 < log_end {
-                    let e = errors[log_end];
-                    errors.to_mut()[log_begin + 1..log_end].fill(e);
-                }
+                let log_begin = coarse_end_error(&mut errors, marks, log_end);
                 // the round's steps coarse to fine (last committed first),
                 // each with its logs coarse to fine
-                let key_of = |m: &StepMark, cv: &[u32]| {
-                    let c = |v: u32| cv.get(v as usize).copied().unwrap_or(NONE);
-                    c(m.key[0]).min(c(m.key[1]))
-                };
                 let mut steps: Vec<(u32, Vec<StepLog>)> = marks
                     .iter()
                     .rev()
                     .map(|m| {
                         let ls: Vec<StepLog> = logs.by_ref().take(m.logs as usize).collect();
-                        (key_of(m, &num.cv), ls)
+                        (m.key_in(&num.cv), ls)
                     })
                     .collect();
                 steps.sort_by_key(|s| s.0);
@@ -688,6 +679,33 @@ fn build(
     (pm, keys)
 }
 
+impl StepMark {
+    /// The step's sort key: the smaller canonical id of its two key
+    /// vertices (`NONE` for one not numbered yet).
+    fn key_in(&self, cv: &[u32]) -> u32 {
+        let c = |v: u32| cv.get(v as usize).copied().unwrap_or(NONE);
+        c(self.key[0]).min(c(self.key[1]))
+    }
+}
+
+/// Gives the levels strictly inside a group of steps (`marks`, whose logs
+/// are the logs `log_begin..log_end` in commit order) the error bound of
+/// the group's coarse end (`errors[log_end]`, after its last commit), since
+/// their records are reordered; returns `log_begin`.
+fn coarse_end_error(
+    errors: &mut std::borrow::Cow<'_, [f64]>,
+    marks: &[StepMark],
+    log_end: usize,
+) -> usize {
+    let n_logs: usize = marks.iter().map(|m| m.logs as usize).sum();
+    let log_begin = log_end - n_logs;
+    if log_end < errors.len() && log_begin + 1 < log_end {
+        let e = errors[log_end];
+        errors.to_mut()[log_begin + 1..log_end].fill(e);
+    }
+    log_begin
+}
+
 /// The steps in windows ([`super::CoarsenOptions::reorder_window`]):
 /// windows cut coarse to fine from the coarse end, each of `f ×` the face
 /// count at its coarse end (at least one step); each window in sweeps
@@ -711,12 +729,7 @@ fn build_windows(
         let w = ((f * num.n_faces as f64).ceil() as usize).max(1);
         let begin = end.saturating_sub(w);
         let marks = &r.steps[begin..end];
-        let n_logs: usize = marks.iter().map(|m| m.logs as usize).sum();
-        let log_begin = log_end - n_logs;
-        if log_end < errors.len() && log_begin + 1 < log_end {
-            let e = errors[log_end];
-            errors.to_mut()[log_begin + 1..log_end].fill(e);
-        }
+        let log_begin = coarse_end_error(errors, marks, log_end);
         sweeps += sweep_window(marks, &mut logs, records, keys, num, sweeps);
         end = begin;
         log_end = log_begin;
@@ -750,10 +763,6 @@ fn sweep_window(
     first_sweep: u32,
 ) -> u32 {
     use std::collections::{BTreeSet, HashMap};
-    let key_of = |m: &StepMark, cv: &[u32]| {
-        let c = |v: u32| cv.get(v as usize).copied().unwrap_or(NONE);
-        c(m.key[0]).min(c(m.key[1]))
-    };
     // coarse to fine (last committed first)
     let mut steps: Vec<(&StepMark, Vec<StepLog>)> = marks
         .iter()
@@ -787,7 +796,7 @@ fn sweep_window(
     }
     let mut ready: BTreeSet<(u32, usize)> = (0..n)
         .filter(|&i| indeg[i] == 0)
-        .map(|i| (key_of(steps[i].0, &num.cv), i))
+        .map(|i| (steps[i].0.key_in(&num.cv), i))
         .collect();
     let (mut cursor, mut sweeps) = (0u32, 0u32);
     while let Some(&(k, i)) = ready
@@ -807,7 +816,7 @@ fn sweep_window(
         for &j in &succ[i] {
             indeg[j] -= 1;
             if indeg[j] == 0 {
-                ready.insert((key_of(steps[j].0, &num.cv), j));
+                ready.insert((steps[j].0.key_in(&num.cv), j));
             }
         }
     }
