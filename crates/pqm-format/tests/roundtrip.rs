@@ -2,6 +2,9 @@
 //! every level, with random push sizes, random level walks, truncations and
 //! corruptions.
 
+mod common;
+
+use common::{header_len, patch_header};
 use glam::DVec3;
 use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
 use pqm_core::ProgressiveMesh;
@@ -703,19 +706,6 @@ fn crc_mismatch_names_the_chunk() {
         Decoder::new(Limits::default()).push(&bad),
         Err(DecodeError::Format(FormatError::BadMagic))
     ));
-}
-
-/// `header_len` of `bytes` (120, or 168 with the 3.2 bounds).
-fn header_len(bytes: &[u8]) -> usize {
-    u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize
-}
-
-/// Rewrites the header of `bytes` through `f`, fixing its CRC.
-fn patch_header(bytes: &mut [u8], f: impl FnOnce(&mut [u8])) {
-    let n = header_len(bytes);
-    f(&mut bytes[..n]);
-    let crc = crc32fast::hash(&bytes[..n - 4]);
-    bytes[n - 4..n].copy_from_slice(&crc.to_le_bytes());
 }
 
 /// Spec §3: the 3.2 bounds are read only with flag bit 2, which needs a

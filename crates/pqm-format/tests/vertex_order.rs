@@ -5,6 +5,9 @@
 //! (the cheap rules when the section arrives, the payload's when the order
 //! is first asked for: the levels stay usable then, spec §8).
 
+mod common;
+
+use common::{header_len, patch_header};
 use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
 use pqm_core::ProgressiveMesh;
 use pqm_format::varint::{put_s, put_u};
@@ -34,18 +37,6 @@ fn sections_start(bytes: &[u8]) -> usize {
     let dec = decode_all(bytes, Limits::default()).unwrap();
     let c = dec.chunks().last().unwrap();
     (c.offset + c.compressed_len as u64) as usize
-}
-
-/// `header_len` of `bytes` (120, or 168 with the 3.2 bounds).
-fn header_len(bytes: &[u8]) -> usize {
-    u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize
-}
-
-fn patch_header(bytes: &mut [u8], f: impl FnOnce(&mut [u8])) {
-    let n = header_len(bytes);
-    f(&mut bytes[..n]);
-    let crc = crc32fast::hash(&bytes[..n - 4]);
-    bytes[n - 4..n].copy_from_slice(&crc.to_le_bytes());
 }
 
 /// One optional section: `tag`, a zstd frame of `payload` (stated length

@@ -37,3 +37,16 @@ pub fn assert_every_level_down_and_up(dec: &mut Decoder, pm: &ProgressiveMesh) {
         assert_eq!(dec.position_codes(), &want[..], "level {k}");
     }
 }
+
+/// `header_len` of a file's bytes (120, or 168 with the 3.2 bounds).
+pub fn header_len(bytes: &[u8]) -> usize {
+    u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize
+}
+
+/// Rewrites the header of `bytes` through `f`, fixing its CRC.
+pub fn patch_header(bytes: &mut [u8], f: impl FnOnce(&mut [u8])) {
+    let n = header_len(bytes);
+    f(&mut bytes[..n]);
+    let crc = crc32fast::hash(&bytes[..n - 4]);
+    bytes[n - 4..n].copy_from_slice(&crc.to_le_bytes());
+}
