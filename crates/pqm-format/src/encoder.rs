@@ -494,7 +494,9 @@ fn write_impl(
             .flat_map(|r| r.new_vertices.iter().chain(r.moved.iter().map(|m| &m.1))),
     );
     let (mut lo, mut hi) = ([0.0f64; 3], [0.0f64; 3]);
+    let mut any_position = false;
     for (i, p) in all.enumerate() {
+        any_position = true;
         let p = p.to_array();
         for k in 0..3 {
             if i == 0 || p[k] < lo[k] {
@@ -505,38 +507,20 @@ fn write_impl(
             }
         }
     }
-    let (lo, hi) = opts.grid.over(lo, hi);
-    if (0..3).any(|k| !(hi[k] - lo[k]).is_finite()) {
+    let (grid_lo, grid_hi) = opts.grid.over(lo, hi);
+    if (0..3).any(|k| !(grid_hi[k] - grid_lo[k]).is_finite()) {
         return Err(EncodeError::InvalidMesh(
             "bounding box extent is not finite".into(),
         ));
     }
-    let quant = Quantizer::new(lo, hi, opts.bits);
+    let quant = Quantizer::new(grid_lo, grid_hi, opts.bits);
     let qp = |p: &glam::DVec3| quant.quantize(*p);
     // The header's bounds (3.2): what a decoder's positions span, so the
-    // dequantized codes, not the input. A mesh without positions has none
-    // to give (the grid is then all zeros).
-    let any_position = !mesh.base.positions.is_empty()
-        || mesh
-            .records
-            .iter()
-            .any(|r| !r.new_vertices.is_empty() || !r.moved.is_empty());
-    let bounds = (opts.grid == Grid::Cube && opts.version_major >= 3 && any_position).then(|| {
-        let mut b = [[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]];
-        let all = mesh.base.positions.iter().chain(
-            mesh.records
-                .iter()
-                .flat_map(|r| r.new_vertices.iter().chain(r.moved.iter().map(|m| &m.1))),
-        );
-        for p in all {
-            let d = quant.dequantize(qp(p));
-            for k in 0..3 {
-                b[0][k] = b[0][k].min(d[k]);
-                b[1][k] = b[1][k].max(d[k]);
-            }
-        }
-        b
-    });
+    // dequantized codes, not the input. Quantizing and dequantizing are
+    // monotone per axis, so those of the input's box are the box of every
+    // dequantized code. A mesh without positions has none to give.
+    let bounds = (opts.grid == Grid::Cube && opts.version_major >= 3 && any_position)
+        .then(|| [lo, hi].map(|p| quant.dequantize(qp(&glam::DVec3::from_array(p)))));
 
     let base_q: Vec<[u32; 3]> = mesh.base.positions.iter().map(qp).collect();
     let base_quads: Vec<[u32; 4]> = mesh
@@ -856,8 +840,8 @@ fn write_impl(
         base_compressed_len: base_bytes.len() as u32,
         base_uncompressed_len: base_payload.len() as u32,
         base_crc32: crc32(&base_bytes),
-        bbox_min: lo,
-        bbox_max: hi,
+        bbox_min: grid_lo,
+        bbox_max: grid_hi,
         base_error: error_at(0),
         bounds,
     };
