@@ -969,10 +969,13 @@ impl Coarsener {
     fn with_rounds(mut self) -> Self {
         if let (Some(r), Placement::Subset) = (self.opts.round_fraction, self.opts.placement) {
             if r > 0.0 {
+                let mut marks = record::Rounds::default();
+                marks.set_window(self.opts.reorder_window);
                 self.round = Some(RoundState {
                     fraction: r,
                     quota: RoundState::quota(r, self.mesh.face_count()),
                     locked: vec![false; self.mesh.face_capacity()],
+                    marks,
                     ..Default::default()
                 });
             }
@@ -981,23 +984,20 @@ impl Coarsener {
             && self.round.is_none()
             && self.opts.reorder_window.is_some_and(|f| f > 0.0)
         {
-            self.seq_marks = Some(record::Rounds::default());
+            let mut marks = record::Rounds::default();
+            marks.set_window(self.opts.reorder_window);
+            self.seq_marks = Some(marks);
         }
         self
     }
 
-    /// The step marks to build the records with (rounds' or the sequential
-    /// ones), the window set.
-    fn marks(&self) -> Option<record::Rounds> {
-        let mut m = match (&self.round, &self.seq_marks) {
-            (Some(r), _) => r.marks.clone(),
-            (None, Some(m)) => m.clone(),
-            (None, None) => return None,
-        };
-        if self.opts.placement == Placement::Subset {
-            m.set_window(self.opts.reorder_window);
-        }
-        Some(m)
+    /// The step marks to build the records with: the rounds' or the
+    /// sequential ones (each with its window, if any, set).
+    fn marks(&self) -> Option<&record::Rounds> {
+        self.round
+            .as_ref()
+            .map(|r| &r.marks)
+            .or(self.seq_marks.as_ref())
     }
 
     /// Whether it coarsens in rounds ([`CoarsenOptions::round_fraction`]).
@@ -1248,7 +1248,7 @@ impl Coarsener {
     /// The coarsest mesh plus refinement records in canonical numbering.
     pub fn to_progressive(&self) -> ProgressiveMesh {
         match self.marks() {
-            Some(r) => record::to_progressive_in_rounds(&self.mesh, &self.logs, &self.errors, &r).0,
+            Some(r) => record::to_progressive_in_rounds(&self.mesh, &self.logs, &self.errors, r).0,
             None => record::to_progressive(&self.mesh, &self.logs, &self.errors),
         }
     }
@@ -1259,7 +1259,7 @@ impl Coarsener {
     /// neither in rounds nor in windows).
     pub fn to_progressive_with_keys(&self) -> (ProgressiveMesh, Vec<(u32, u32)>) {
         match self.marks() {
-            Some(r) => record::to_progressive_in_rounds(&self.mesh, &self.logs, &self.errors, &r),
+            Some(r) => record::to_progressive_in_rounds(&self.mesh, &self.logs, &self.errors, r),
             None => (self.to_progressive(), Vec::new()),
         }
     }
@@ -1271,7 +1271,7 @@ impl Coarsener {
     pub fn into_progressive(mut self) -> ProgressiveMesh {
         let logs = std::mem::take(&mut self.logs);
         let errors = std::mem::take(&mut self.errors);
-        let rounds = self.marks();
+        let rounds = self.round.take().map(|r| r.marks).or(self.seq_marks.take());
         let base = record::Base::of(&self.mesh);
         // everything else (mesh, queue, attributes, quadrics, features) is
         // freed before the records are built, not at the end of this scope
@@ -3316,13 +3316,12 @@ impl Coarsener {
             ));
             self.errors.push(self.error);
             self.report.doublets += 1;
+            let q = a.old_faces.first().map_or([v, v], |f| [f[0], f[1]]);
             if let Some(r) = self.round.as_mut() {
                 // a round of its own (these need not be independent)
-                let q = a.old_faces.first().map_or([v, v], |f| [f[0], f[1]]);
                 r.marks.push(1, q, r.number);
                 r.number += 1;
             } else if let Some(m) = self.seq_marks.as_mut() {
-                let q = a.old_faces.first().map_or([v, v], |f| [f[0], f[1]]);
                 m.push(1, q, 0);
             }
             let more: Vec<VertexId> = d.add.iter().flatten().copied().collect();
