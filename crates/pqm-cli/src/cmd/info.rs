@@ -129,12 +129,11 @@ pub fn level_error(rows: &[LevelRow], k: usize) -> f64 {
 /// Runs the command.
 pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let (dec, n) = open(&args.input, None)?;
-    let Some(h) = dec.header() else {
+    let (Some(h), Some(bounds)) = (dec.header(), dec.bounds()) else {
         bail!("{}: no header", args.input.display());
     };
     let status = dec.status();
     let step = dec.quantizer().map_or([0.0; 3], |q| q.step());
-    let bounds = dec.bounds().unwrap_or([h.bbox_min, h.bbox_max]);
     let report = Report {
         file: args.input.display().to_string(),
         file_bytes: n,
