@@ -83,6 +83,17 @@ fn study(f: &str) -> Result<(), String> {
         .collect();
     let (mut z_today, mut z_sel, mut z_mean) = (0usize, 0usize, 0usize);
     let (mut z_snap, mut z_blend) = (0usize, 0usize);
+    const WS: [i64; 5] = [1, 2, 3, 5, 6];
+    let mut z_w = [0usize; 5];
+    let mut s_w: [Vec<u8>; 5] = Default::default();
+    // per-quad stencils (a (n1 + n3) - b o) / (d c) over §7.6's quads
+    const ST: [(i64, i64, i64); 5] = [(1, 0, 2), (9, 2, 16), (5, 2, 8), (11, 6, 16), (1, 1, 1)];
+    let mut z_st = [0usize; 5];
+    let mut s_st: [Vec<u8>; 5] = Default::default();
+    let mut g_plain = models::Gamma::default();
+    let mut g_scale = models::Gamma::default();
+    let mut g_scale2 = models::Gamma::default();
+    let (mut c_plain, mut c_scale, mut c_scale2) = (0f64, 0f64, 0f64);
     let (mut s_snap, mut s_blend) = (Vec::new(), Vec::new());
     let (mut s_today, mut s_sel, mut s_res, mut s_mean) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
@@ -93,6 +104,12 @@ fn study(f: &str) -> Result<(), String> {
             z_mean += models::zstd19(&[&s_mean]);
             z_snap += models::zstd19(&[&s_snap]);
             z_blend += models::zstd19(&[&s_blend]);
+            for i in 0..5 {
+                z_w[i] += models::zstd19(&[&s_w[i]]);
+                s_w[i].clear();
+                z_st[i] += models::zstd19(&[&s_st[i]]);
+                s_st[i].clear();
+            }
             s_snap.clear();
             s_blend.clear();
             s_today.clear();
@@ -117,6 +134,7 @@ fn study(f: &str) -> Result<(), String> {
             let xc = c.map(|t| t as i64);
             let known = |u: u32| u < x;
             let mut par = [0i64; 3];
+            let mut stp = [[0i64; 3]; 5];
             let mut npar = 0;
             let mut e: Vec<u32> = Vec::new();
             let mut kn: Vec<u32> = Vec::new();
@@ -128,6 +146,9 @@ fn study(f: &str) -> Result<(), String> {
                 if known(n1) && known(o) && known(n3) {
                     for t in 0..3 {
                         par[t] += code[n1 as usize][t] + code[n3 as usize][t] - code[o as usize][t];
+                        for (i, &(a, b, _)) in ST.iter().enumerate() {
+                            stp[i][t] += a * (code[n1 as usize][t] + code[n3 as usize][t]) - b * code[o as usize][t];
+                        }
                     }
                     npar += 1;
                 }
@@ -168,9 +189,32 @@ fn study(f: &str) -> Result<(), String> {
                     choice = (bm, 1, p);
                 }
             }
+            let mut prev_b = 0u64;
             for t in 0..3 {
                 put_s(&mut s_today, xc[t] - today[t]);
                 put_s(&mut s_mean, xc[t] - mean_of(&e).unwrap_or(today)[t]);
+                let em = mean_of(&e).unwrap_or(today)[t];
+                for (i, &(_, _, d)) in ST.iter().enumerate() {
+                    let p = if npar > 0 { stp[i][t].div_euclid(d * npar) } else { today[t] };
+                    put_s(&mut s_st[i], xc[t] - p);
+                }
+                let pb = (2 * today[t] + 6 * em).div_euclid(8);
+                let pb = if npar > 0 { pb } else { today[t] };
+                let mut sc = 0i64;
+                for &u in &e {
+                    sc += (0..3).map(|a| (code[u as usize][a] - mean_of(&e).unwrap_or(today)[a]).abs()).sum::<i64>();
+                }
+                let sc = if e.is_empty() { 0 } else { sc / e.len() as i64 };
+                let sb = models::bucket(sc as u64) as u64;
+                let r = xc[t] - pb;
+                c_plain += g_plain.cost_signed_m(t as u64, r);
+                c_scale += g_scale.cost_signed_m((t as u64) << 6 | sb, r);
+                c_scale2 += g_scale2.cost_signed_m((t as u64) << 12 | sb << 6 | prev_b.min(15), r);
+                prev_b = if t == 2 { 0 } else { models::bucket(r.unsigned_abs()) as u64 };
+                for i in 0..5 {
+                    let p = (WS[i] * today[t] + (8 - WS[i]) * em).div_euclid(8);
+                    put_s(&mut s_w[i], xc[t] - if npar > 0 { p } else { today[t] });
+                }
             }
             // snap: the pair mean (or edge mean) nearest to `today`
             {
@@ -241,6 +285,13 @@ fn study(f: &str) -> Result<(), String> {
     z_snap += models::zstd19(&[&s_snap]);
     z_blend += models::zstd19(&[&s_blend]);
     let nf = n.max(1) as f64;
+    println!("  adaptive gamma, blend 2/8: plain {:.2}, scale ctx {:.2}, scale+prev axis {:.2}", c_plain / nf, c_scale / nf, c_scale2 / nf);
+    for i in 0..5 {
+        z_st[i] += models::zstd19(&[&s_st[i]]);
+        println!("  stencil {:?}: {:.2}", ST[i], z_st[i] as f64 * 8.0 / nf);
+        z_w[i] += models::zstd19(&[&s_w[i]]);
+        println!("  blend {}/8 today: {:.2}", WS[i], z_w[i] as f64 * 8.0 / nf);
+    }
     println!(
         "  zstd-19: snap to the pair mean nearest today's prediction {:.2}, half way there {:.2}",
         z_snap as f64 * 8.0 / nf,

@@ -59,7 +59,7 @@ impl Gamma {
             let bit = (((a + 1) >> (b - 2)) & 1) as usize;
             bits += self
                 .ctx
-                .entry(ctx << 8 | 0x80 | b as u64)
+                .entry(1 << 63 | ctx << 8 | 0x80 | b as u64)
                 .or_insert_with(|| Freq::new(2))
                 .cost(bit);
             bits += (b - 2) as f64;
