@@ -1089,8 +1089,14 @@ impl Decoder {
         Self::check_crc(Section::BaseMesh, b, h.base_crc32)?;
         let payload = self.decompress(Section::BaseMesh, b, h.base_uncompressed_len)?;
         let qmax = self.quant.map_or(0, |q| q.qmax());
-        let mut st = codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
-            .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
+        let mut st = crate::base::decode(
+            &payload,
+            h.base_vertex_count,
+            h.base_face_count,
+            qmax,
+            h.version_major,
+        )
+        .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
         if !self.forward_only && !self.logs {
             // Room for the chunks as the table states them (growing the
             // list copied it ~log2(chunks) times), never past the
@@ -1616,8 +1622,14 @@ impl Decoder {
             &mut payload,
         )?;
         let qmax = self.quant.map_or(0, |q| q.qmax());
-        codec::decode_base(&payload, h.base_vertex_count, h.base_face_count, qmax)
-            .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))
+        crate::base::decode(
+            &payload,
+            h.base_vertex_count,
+            h.base_face_count,
+            qmax,
+            h.version_major,
+        )
+        .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))
     }
 
     /// Every record decoded so far, its undo logs included, decoded again
@@ -2356,7 +2368,7 @@ mod tests {
             seed in any::<u64>(),
             walk in proptest::collection::vec(prop_oneof![0usize..200, Just(usize::MAX)], 1..10),
             cut in 0.3f64..1.0,
-            version_major in 1u16..=3,
+            version_major in 1u16..=4,
         ) {
             let mut pm = testgen::generate(seed, 120);
             crate::vectors::add_face_splits(&mut pm, 30, seed);

@@ -528,16 +528,32 @@ fn write_impl(
         .faces()
         .map(|f| [f[0], f[1], f[2], f[3]])
         .collect();
-    let base_payload = codec::encode_base(&base_q, &base_quads);
-    // the corner deltas and the code deltas in blocks of their own, if
-    // that pays (see compress_best)
-    let faces_len = codec::encode_base(&[], &base_quads).len();
-    let mut base_layouts = vec![Vec::new()];
-    if 0 < faces_len && faces_len < base_payload.len() {
-        base_layouts.push(vec![faces_len]);
+    // The base section (spec §6): from version 4 the traversal layout when
+    // the base can be written in it and it is the smaller, else the deltas.
+    let mut base_frames = Vec::with_capacity(2);
+    for candidate in [
+        Some(crate::base::encode_delta(&base_q, &base_quads, opts.version_major)),
+        (opts.version_major >= 4)
+            .then(|| crate::base::encode_traversal(&base_q, &base_quads, quant.qmax()))
+            .flatten(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        let mut layouts = vec![Vec::new()];
+        if !candidate.cuts.is_empty() {
+            layouts.push(candidate.cuts.clone());
+        }
+        let layouts = select_layouts(layouts, opts.zstd_blocks);
+        let frame = compress_best(&candidate.payload, layouts, opts)?.frame;
+        base_frames.push((frame, candidate.payload.len()));
     }
-    let base_layouts = select_layouts(base_layouts, opts.zstd_blocks);
-    let base_bytes = compress_best(&base_payload, base_layouts, opts)?.frame;
+    // the smaller; on a tie the later (the traversal layout)
+    let (base_bytes, base_payload_len) = base_frames
+        .into_iter()
+        .rev()
+        .min_by_key(|f| f.0.len())
+        .expect("the delta layout is always a candidate");
     let mut state = MeshState::new(quant.qmax(), base_q, base_quads);
 
     let error_at = |k: usize| -> f32 {
@@ -767,7 +783,7 @@ fn write_impl(
             }
             payload
         };
-        let code = if opts.version_major == VERSION_MAJOR {
+        let code = if opts.version_major >= 3 {
             opts.vertex_order_code
         } else {
             VertexOrderCode::Deltas
@@ -800,14 +816,18 @@ fn write_impl(
         section_count += 1;
         if neighbours {
             flags |= FLAG_VERTEX_NEIGHBOURS;
-            minor = VERSION_MINOR;
+            if opts.version_major == 3 {
+                minor = VERSION_MINOR;
+            }
         } else {
             flags |= FLAG_VERTEX_ORDER;
         }
     }
 
     let header_len = if bounds.is_some() {
-        minor = VERSION_MINOR_BOUNDS;
+        if opts.version_major == 3 {
+            minor = VERSION_MINOR_BOUNDS;
+        }
         HEADER_LEN_BOUNDS
     } else {
         HEADER_LEN
@@ -838,7 +858,7 @@ fn write_impl(
         chunk_count: chunks.len() as u32,
         section_count,
         base_compressed_len: base_bytes.len() as u32,
-        base_uncompressed_len: base_payload.len() as u32,
+        base_uncompressed_len: base_payload_len as u32,
         base_crc32: crc32(&base_bytes),
         bbox_min: grid_lo,
         bbox_max: grid_hi,

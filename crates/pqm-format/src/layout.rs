@@ -6,12 +6,12 @@ use byteorder::{ByteOrder, LittleEndian as LE};
 /// newline-mangling transfers).
 pub const MAGIC: [u8; 8] = [0x89, b'P', b'Q', b'M', 0x0D, 0x0A, 0x1A, 0x0A];
 /// Major version this crate writes by default, and the newest it reads.
-pub const VERSION_MAJOR: u16 = 3;
-/// Minor version this crate writes with [`VERSION_MAJOR`] when the file
+pub const VERSION_MAJOR: u16 = 4;
+/// Minor version this crate writes with major version 3 when the file
 /// holds a `VNBR` section but no header bounds (3.1, spec §8.2); files
-/// with neither are 3.0.
+/// with neither are 3.0. (Every 4.x file so far is 4.0.)
 pub const VERSION_MINOR: u16 = 1;
-/// Minor version this crate writes with [`VERSION_MAJOR`] when the header
+/// Minor version this crate writes with major version 3 when the header
 /// holds the positions' bounds (3.2, spec §3: flag bit 2).
 pub const VERSION_MINOR_BOUNDS: u16 = 2;
 /// Oldest major version this crate reads (and can write, for tests and old

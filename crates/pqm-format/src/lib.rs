@@ -51,6 +51,7 @@
 //! with the logs asked for up front they are written while decoding
 //! instead. A client that only ever refines uses [`Decoder::forward_only`].
 
+pub mod base;
 pub mod codec;
 pub mod decoder;
 pub mod edge_split;

@@ -515,27 +515,38 @@ impl Base {
     }
 }
 
-/// The order the base's faces and vertices are numbered in.
+/// The order the base's faces and vertices are numbered in: the walk of
+/// the `.pqm` base section's traversal layout (spec §6.1), so that a writer
+/// can code the base in a few bits per face.
 ///
-/// Invariant: faces are in breadth-first order — start at the lowest-id
-/// face not yet reached; visiting a face appends it; then, for each of its
-/// corners in order, the faces around that corner not yet queued are queued
-/// in ascending face id; repeat per connected component. Vertices are
-/// numbered by first appearance along that face order (corners in order
-/// within a face); live vertices in no face (there should be none) come
-/// last, in id order. So each face after the first of its component shares
-/// a vertex with an earlier face, and the first appearances of vertex ids
-/// along the faces are `0, 1, 2, …`.
+/// Invariant: faces are in breadth-first order across edges — start at the
+/// lowest-id face not yet reached (a *component start*); visiting a face
+/// `f`, for each corner `k` in order, with `a = f[k]`, `b = f[k + 1]`, the
+/// face holding the half-edge `b → a` (the one across that edge) is queued
+/// if it is not yet; repeat per connected component. Vertices are numbered
+/// by first appearance in the walk: a component start's corners in order;
+/// a face queued across `(a, b)`, with `b` at its corner `r`, its corners
+/// `r + 2` then `r + 3` (`a` and `b` are already numbered). Live vertices
+/// in no face (there should be none) come last, in id order.
 ///
-/// Why: the base section of a `.pqm` file (spec §6) stores each corner as a
-/// delta of the previous corner and each vertex's position as a delta of the
-/// previous vertex's; when ids follow a traversal both deltas are small
-/// (the coarsener's own ids follow no order). Deterministic: the only
-/// orders used are face ids, corner order and the queue's.
+/// Why: the base section (spec §6.1) codes each face queued across an edge
+/// as a rotation and its two far corners, each mostly "new" (the next id)
+/// or the vertex that closes the fan, which only works when ids and slots
+/// follow this walk (the coarsener's own ids follow no order).
+/// Deterministic: the only orders used are face ids, corner order and the
+/// queue's.
 fn traversal_order(m: &Mesh) -> (Vec<FaceId>, Vec<VertexId>) {
     let mut queued = vec![false; m.face_capacity()];
+    let mut numbered = vec![false; m.vertex_capacity()];
     let mut faces: Vec<FaceId> = Vec::with_capacity(m.face_count());
-    let mut around: Vec<FaceId> = Vec::new();
+    let mut vertices: Vec<VertexId> = Vec::with_capacity(m.vertex_count());
+    let mut number = |v: VertexId, vertices: &mut Vec<VertexId>| {
+        if !numbered[v.idx()] {
+            numbered[v.idx()] = true;
+            vertices.push(v);
+        }
+    };
+    let corners = |f: FaceId| -> Vec<VertexId> { m.face_vertices(f).collect() };
     // `faces` is the queue itself: faces are visited in the order queued
     let mut head = 0;
     for start in m.faces() {
@@ -544,32 +555,37 @@ fn traversal_order(m: &Mesh) -> (Vec<FaceId>, Vec<VertexId>) {
         }
         queued[start.idx()] = true;
         faces.push(start);
+        for v in m.face_vertices(start) {
+            number(v, &mut vertices);
+        }
         while head < faces.len() {
-            let f = faces[head];
+            let f = corners(faces[head]);
             head += 1;
-            for v in m.face_vertices(f) {
-                around.clear();
-                around.extend(m.vertex_faces(v).filter(|g| !queued[g.idx()]));
-                around.sort_unstable();
-                around.dedup();
-                for &g in &around {
-                    queued[g.idx()] = true;
-                    faces.push(g);
+            let n = f.len();
+            for k in 0..n {
+                let (a, b) = (f[k], f[(k + 1) % n]);
+                // the face across: the one holding `b → a`
+                let across = m.vertex_faces(b).find_map(|g| {
+                    let gv = corners(g);
+                    let r = gv.iter().position(|&v| v == b)?;
+                    (gv[(r + 1) % gv.len()] == a).then_some((g, gv, r))
+                });
+                if let Some((g, gv, r)) = across {
+                    if !queued[g.idx()] {
+                        queued[g.idx()] = true;
+                        faces.push(g);
+                        let len = gv.len();
+                        for t in 2..len {
+                            number(gv[(r + t) % len], &mut vertices);
+                        }
+                    }
                 }
             }
         }
     }
-    let mut numbered = vec![false; m.vertex_capacity()];
-    let mut vertices: Vec<VertexId> = Vec::with_capacity(m.vertex_count());
-    for &f in &faces {
-        for v in m.face_vertices(f) {
-            if !numbered[v.idx()] {
-                numbered[v.idx()] = true;
-                vertices.push(v);
-            }
-        }
+    for v in m.vertices() {
+        number(v, &mut vertices);
     }
-    vertices.extend(m.vertices().filter(|v| !numbered[v.idx()]));
     (faces, vertices)
 }
 
@@ -1113,54 +1129,59 @@ mod tests {
     /// queued, does the corner of it that queued them. Returns the number
     /// of components.
     fn assert_traversal_order(base: &IndexedMesh) -> usize {
+        // The walk of `traversal_order`, written again over the indexed
+        // faces: it must visit faces `0, 1, …` and number vertices `0, 1, …`.
         let faces: Vec<&[u32]> = base.faces().collect();
-        let mut next = 0u32;
-        for f in &faces {
-            for &v in *f {
-                assert!(v <= next, "vertex {v} appears before {next}");
-                next = next.max(v + 1);
-            }
-        }
-        assert_eq!(next as usize, base.vertex_count(), "a vertex in no face");
-        // earliest earlier face sharing a vertex with each face
-        let mut first_face = vec![usize::MAX; base.vertex_count()];
-        let (mut components, mut start) = (0, 0);
-        let mut last: Option<(usize, usize)> = None;
+        let mut across = std::collections::HashMap::new();
         for (i, f) in faces.iter().enumerate() {
-            let parent = f
-                .iter()
-                .map(|&v| first_face[v as usize])
-                .filter(|&p| p < i)
-                .min();
-            match parent {
-                None => {
-                    components += 1;
-                    start = i;
-                    last = None;
-                }
-                Some(p) => {
-                    // components are contiguous: nothing reaches back into
-                    // an earlier one
-                    assert!(p >= start, "face {i} touches an earlier component");
-                    // the first corner of `p` that is also in `f`
-                    let corner = faces[p]
-                        .iter()
-                        .position(|v| f.contains(v))
-                        .expect("shares a vertex");
-                    if let Some(prev) = last {
-                        assert!(
-                            prev <= (p, corner),
-                            "face {i}: queued by {p}/{corner} after {prev:?}"
-                        );
-                    }
-                    last = Some((p, corner));
-                }
-            }
-            for &v in *f {
-                let e = &mut first_face[v as usize];
-                *e = (*e).min(i);
+            for k in 0..f.len() {
+                across.insert((f[k], f[(k + 1) % f.len()]), i);
             }
         }
+        let mut queued = vec![false; faces.len()];
+        let mut order: Vec<usize> = Vec::new();
+        let mut next = 0u32;
+        let mut seen = vec![false; base.vertex_count()];
+        let mut number = |v: u32| {
+            if !seen[v as usize] {
+                assert_eq!(v, next, "vertex {v} is first seen where {next} is due");
+                seen[v as usize] = true;
+                next += 1;
+            }
+        };
+        let (mut head, mut components) = (0, 0);
+        for start in 0..faces.len() {
+            if queued[start] {
+                continue;
+            }
+            components += 1;
+            queued[start] = true;
+            order.push(start);
+            faces[start].iter().for_each(|&v| number(v));
+            while head < order.len() {
+                let f = faces[order[head]];
+                head += 1;
+                for k in 0..f.len() {
+                    let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                    if let Some(&g) = across.get(&(b, a)) {
+                        if !queued[g] {
+                            queued[g] = true;
+                            order.push(g);
+                            let gv = faces[g];
+                            let r = gv.iter().position(|&v| v == b).unwrap();
+                            for t in 2..gv.len() {
+                                number(gv[(r + t) % gv.len()]);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            order.iter().enumerate().all(|(i, &f)| i == f),
+            "faces are not in the walk's order"
+        );
+        assert_eq!(next as usize, base.vertex_count(), "a vertex in no face");
         components
     }
 

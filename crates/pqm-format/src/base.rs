@@ -1,0 +1,435 @@
+//! The base mesh section's payload (spec §6): the delta layout of versions
+//! 1–3 and, from version 4, a layout byte and the traversal layout (§6.1).
+//!
+//! The traversal layout codes the faces in slot order as a breadth-first
+//! walk across edges: a face attached to an open edge of an earlier face
+//! costs a gate byte (its rotation) and two corner symbols, each mostly
+//! "a new vertex" or "the vertex that closes the fan" — a few bits per
+//! face where the delta layout spends 20–30 bits per base vertex. The
+//! positions follow in id order, each predicted by §7.6's version-4
+//! stencil over the base faces whose other corners come earlier.
+//!
+//! Invariants a decoded traversal base keeps (checked, else the payload
+//! is invalid): every face has 4 distinct corners, no half-edge is in two
+//! faces, no vertex is in more than [`MAX_FACES_PER_VERTEX`] faces, every
+//! vertex is in a face, and vertex ids are in the walk's order of first
+//! appearance.
+
+use crate::codec::{self, MeshState};
+use crate::varint::{put_s, put_u, Reader};
+
+/// Layout byte (version ≥ 4): the delta layout follows.
+pub const LAYOUT_DELTA: u8 = 0;
+/// Layout byte (version ≥ 4): the traversal layout (§6.1) follows.
+pub const LAYOUT_TRAVERSAL: u8 = 1;
+/// Most faces one vertex may be in, in the traversal layout: bounds the
+/// per-vertex lists a decoder scans (spec §6.1).
+pub const MAX_FACES_PER_VERTEX: usize = 255;
+
+/// A candidate payload for the base section and the offsets where a writer
+/// may end a zstd block (after each part whose statistics differ).
+pub struct BasePayload {
+    pub payload: Vec<u8>,
+    pub cuts: Vec<usize>,
+}
+
+/// The delta layout (§6) — for `major ≥ 4` behind the layout byte.
+pub fn encode_delta(q: &[[u32; 3]], quads: &[[u32; 4]], major: u16) -> BasePayload {
+    let mut payload = Vec::new();
+    if major >= 4 {
+        payload.push(LAYOUT_DELTA);
+    }
+    let head = payload.len();
+    payload.extend_from_slice(&codec::encode_base(q, quads));
+    // the corner deltas and the code deltas in blocks of their own, if
+    // that pays (the writer's `compress_best` chooses)
+    let faces_len = head + codec::encode_base(&[], quads).len();
+    let mut cuts = Vec::new();
+    if head < faces_len && faces_len < payload.len() {
+        cuts.push(faces_len);
+    }
+    BasePayload { payload, cuts }
+}
+
+/// Decoded half-edges around each vertex, with whether each one's reverse
+/// is decoded too (the walk's open edges are those whose reverse is not).
+#[derive(Default)]
+struct HalfEdges {
+    /// Per vertex: `(target, open)` of its outgoing half-edges, in decode order.
+    out: Vec<Vec<(u32, bool)>>,
+    /// Per vertex: `(source, open)` of its incoming half-edges, in decode order.
+    inc: Vec<Vec<(u32, bool)>>,
+}
+
+impl HalfEdges {
+    fn new(nv: usize) -> Self {
+        let mut out = Vec::new();
+        out.resize_with(nv, Vec::new);
+        let mut inc = Vec::new();
+        inc.resize_with(nv, Vec::new);
+        HalfEdges { out, inc }
+    }
+
+    fn has(&self, u: u32, v: u32) -> bool {
+        self.out[u as usize].iter().any(|&(t, _)| t == v)
+    }
+
+    /// Adds face `g`'s half-edges; `Err` names the problem.
+    fn add_face(&mut self, g: [u32; 4]) -> Result<(), String> {
+        for t in 0..4 {
+            let (u, v) = (g[t], g[(t + 1) & 3]);
+            if self.has(u, v) {
+                return Err(format!("half-edge {u} -> {v} is in two faces"));
+            }
+            if self.out[u as usize].len() >= MAX_FACES_PER_VERTEX {
+                return Err(format!(
+                    "vertex {u} is in more than {MAX_FACES_PER_VERTEX} faces"
+                ));
+            }
+        }
+        for t in 0..4 {
+            let (u, v) = (g[t], g[(t + 1) & 3]);
+            let reverse = self.has(v, u);
+            if reverse {
+                for e in self.out[v as usize].iter_mut() {
+                    if e.0 == u {
+                        e.1 = false;
+                    }
+                }
+                for e in self.inc[u as usize].iter_mut() {
+                    if e.0 == v {
+                        e.1 = false;
+                    }
+                }
+            }
+            self.out[u as usize].push((v, !reverse));
+            self.inc[v as usize].push((u, !reverse));
+        }
+        Ok(())
+    }
+
+    /// `X` of §6.1: sources `w` of open half-edges `w → a`, in decode order.
+    fn open_in(&self, a: u32, out: &mut Vec<u32>) {
+        out.clear();
+        out.extend(
+            self.inc[a as usize]
+                .iter()
+                .filter(|e| e.1)
+                .map(|e| e.0),
+        );
+    }
+
+    /// `Y` of §6.1: targets `z` of open half-edges `b → z`, in decode order.
+    fn open_out(&self, b: u32, out: &mut Vec<u32>) {
+        out.clear();
+        out.extend(
+            self.out[b as usize]
+                .iter()
+                .filter(|e| e.1)
+                .map(|e| e.0),
+        );
+    }
+}
+
+/// The rotation `r` with `g[r] = b` and `g[r + 1] = a`, if `g` holds the
+/// half-edge `b → a`.
+fn across(g: &[u32; 4], a: u32, b: u32) -> Option<usize> {
+    (0..4).find(|&r| g[r] == b && g[(r + 1) & 3] == a)
+}
+
+/// The traversal layout (§6.1) of a base, or `None` when the base cannot
+/// be written in it (a vertex in no face or in too many, a half-edge in
+/// two faces, ids not in the walk's order of first appearance).
+pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option<BasePayload> {
+    let nv = q.len();
+    let nf = quads.len();
+    let mut he = HalfEdges::new(nv);
+    let (mut gates, mut corners, mut escapes) = (Vec::new(), Vec::new(), Vec::new());
+    let mut cands = Vec::new();
+    let mut s = 0u32;
+    // One corner symbol; `None` when `v` comes before its turn.
+    let mut corner = |v: u32, cands: &[u32], s: &mut u32| -> Option<()> {
+        if v == *s {
+            corners.push(0);
+            *s += 1;
+        } else if v > *s {
+            return None;
+        } else if let Some(i) = cands.iter().position(|&c| c == v).filter(|&i| i < 254) {
+            corners.push(1 + i as u8);
+        } else {
+            corners.push(255);
+            put_u(&mut escapes, (*s - 1 - v) as u64);
+        }
+        Some(())
+    };
+    let (mut n, mut h) = (0usize, 0usize);
+    while n < nf {
+        if h == n {
+            let g = quads[n];
+            for &v in &g {
+                corner(v, &[], &mut s)?;
+            }
+            he.add_face(g).ok()?;
+            n += 1;
+            continue;
+        }
+        let f = quads[h];
+        h += 1;
+        for k in 0..4 {
+            if n >= nf {
+                break;
+            }
+            let (a, b) = (f[k], f[(k + 1) & 3]);
+            if he.has(b, a) {
+                continue;
+            }
+            let g = quads[n];
+            match across(&g, a, b) {
+                Some(r) => {
+                    gates.push(1 + r as u8);
+                    he.open_in(a, &mut cands);
+                    corner(g[(r + 2) & 3], &cands, &mut s)?;
+                    he.open_out(b, &mut cands);
+                    corner(g[(r + 3) & 3], &cands, &mut s)?;
+                    he.add_face(g).ok()?;
+                    n += 1;
+                }
+                None => gates.push(0),
+            }
+        }
+    }
+    if s as usize != nv {
+        return None;
+    }
+    let pos = encode_positions(q, quads, qmax);
+    let mut payload = vec![LAYOUT_TRAVERSAL];
+    let mut cuts = Vec::new();
+    for part in [&gates, &corners, &escapes, &pos] {
+        put_u(&mut payload, part.len() as u64);
+        payload.extend_from_slice(part);
+        cuts.push(payload.len());
+    }
+    cuts.pop();
+    Some(BasePayload { payload, cuts })
+}
+
+/// Faces around each vertex, as a compressed-row table over `quads`.
+fn vertex_faces(nv: usize, quads: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; nv + 1];
+    for g in quads {
+        for &v in g {
+            start[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..nv {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut faces = vec![0u32; start[nv] as usize];
+    for (i, g) in quads.iter().enumerate() {
+        for &v in g {
+            faces[fill[v as usize] as usize] = i as u32;
+            fill[v as usize] += 1;
+        }
+    }
+    (start, faces)
+}
+
+/// `P(v)` of §6.1 from the codes of the vertices before `v`.
+fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], around: &[u32], qmax: u32) -> [u32; 3] {
+    let (mut sum, mut c) = ([0i64; 3], 0i64);
+    let (mut esum, mut e) = ([0i64; 3], 0i64);
+    for &fi in around {
+        let g = quads[fi as usize];
+        let Some(k) = g.iter().position(|&u| u as usize == v) else {
+            continue;
+        };
+        let (n1, o, n3) = (
+            g[(k + 1) & 3] as usize,
+            g[(k + 2) & 3] as usize,
+            g[(k + 3) & 3] as usize,
+        );
+        if n1 < v && o < v && n3 < v {
+            for t in 0..3 {
+                sum[t] += 5 * (q[n1][t] as i64 + q[n3][t] as i64) - 2 * q[o][t] as i64;
+            }
+            c += 1;
+        }
+        for u in [n1, n3] {
+            if u < v {
+                for t in 0..3 {
+                    esum[t] += q[u][t] as i64;
+                }
+                e += 1;
+            }
+        }
+    }
+    let qm = qmax as i64;
+    if c > 0 {
+        sum.map(|x| x.div_euclid(8 * c).clamp(0, qm) as u32)
+    } else if e > 0 {
+        esum.map(|x| x.div_euclid(e).clamp(0, qm) as u32)
+    } else if v > 0 {
+        q[v - 1]
+    } else {
+        [0; 3]
+    }
+}
+
+fn encode_positions(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Vec<u8> {
+    let (start, faces) = vertex_faces(q.len(), quads);
+    let mut out = Vec::with_capacity(3 * q.len());
+    for v in 0..q.len() {
+        let around = &faces[start[v] as usize..start[v + 1] as usize];
+        // the prediction reads only the codes below `v`, as a decoder has them
+        let p = predict(v, q, quads, around, qmax);
+        for t in 0..3 {
+            put_s(&mut out, q[v][t] as i64 - p[t] as i64);
+        }
+    }
+    out
+}
+
+/// Decodes a base payload of a file of major version `major` with `nv`
+/// vertices and `nf` quads (spec §6).
+pub fn decode(buf: &[u8], nv: u32, nf: u32, qmax: u32, major: u16) -> Result<MeshState, String> {
+    if major < 4 {
+        return codec::decode_base(buf, nv, nf, qmax);
+    }
+    match buf.first() {
+        Some(&LAYOUT_DELTA) => codec::decode_base(&buf[1..], nv, nf, qmax),
+        Some(&LAYOUT_TRAVERSAL) => decode_traversal(&buf[1..], nv, nf, qmax),
+        Some(&l) => Err(format!("unknown base layout {l}")),
+        None => Err("the base payload is empty (no layout byte)".into()),
+    }
+}
+
+fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState, String> {
+    // Every vertex takes at least three bytes of `pos`, every face at
+    // least two corner bytes: check the counts before allocating.
+    if (nv as u64) * 3 + (nf as u64) * 2 > buf.len() as u64 {
+        return Err(format!(
+            "{nv} vertices and {nf} faces cannot fit in {} bytes",
+            buf.len()
+        ));
+    }
+    let mut r = Reader::new(buf, "base");
+    let mut part = |name: &'static str| -> Result<Reader<'_>, String> {
+        let len = r.u()?;
+        let len = usize::try_from(len).map_err(|_| format!("{name}: {len} bytes"))?;
+        let bytes = r.bytes(len)?;
+        Ok(Reader::new(bytes, name))
+    };
+    let mut gates = part("base gates")?;
+    let mut corners = part("base corners")?;
+    let mut escapes = part("base escapes")?;
+    let mut pos = part("base positions")?;
+    if r.remaining() != 0 {
+        return Err(format!("{} bytes after the last base stream", r.remaining()));
+    }
+    let nfu = nf as usize;
+    let mut quads: Vec<[u32; 4]> = Vec::with_capacity(nfu);
+    let mut he = HalfEdges::new(nv as usize);
+    let mut cands = Vec::new();
+    let mut s = 0u32;
+    let mut corner = |cands: &[u32], s: &mut u32, face: usize| -> Result<u32, String> {
+        let sym = corners.byte()?;
+        match sym {
+            0 => {
+                if *s >= nv {
+                    return Err(format!(
+                        "face {face} has a new vertex but all {nv} vertices are seen"
+                    ));
+                }
+                *s += 1;
+                Ok(*s - 1)
+            }
+            255 => {
+                let u = escapes.u()?;
+                if u >= *s as u64 {
+                    return Err(format!(
+                        "face {face} escapes to vertex {} before vertex 0",
+                        *s as i64 - 1 - u.min(u32::MAX as u64) as i64
+                    ));
+                }
+                Ok(*s - 1 - u as u32)
+            }
+            i => cands.get(i as usize - 1).copied().ok_or_else(|| {
+                format!(
+                    "face {face} names candidate {i} of {} (spec §6.1)",
+                    cands.len()
+                )
+            }),
+        }
+    };
+    let (mut n, mut h) = (0usize, 0usize);
+    while n < nfu {
+        if h == n {
+            let mut g = [0u32; 4];
+            for c in g.iter_mut() {
+                *c = corner(&[], &mut s, n)?;
+            }
+            codec::check_distinct(&g, || format!("face {n}"))?;
+            he.add_face(g).map_err(|m| format!("face {n}: {m}"))?;
+            quads.push(g);
+            n += 1;
+            continue;
+        }
+        let f = quads[h];
+        h += 1;
+        for k in 0..4 {
+            if n >= nfu {
+                break;
+            }
+            let (a, b) = (f[k], f[(k + 1) & 3]);
+            if he.has(b, a) {
+                continue;
+            }
+            let gate = gates.byte()?;
+            match gate {
+                0 => {}
+                1..=4 => {
+                    let r = (gate - 1) as usize;
+                    let mut g = [0u32; 4];
+                    g[r] = b;
+                    g[(r + 1) & 3] = a;
+                    he.open_in(a, &mut cands);
+                    g[(r + 2) & 3] = corner(&cands, &mut s, n)?;
+                    he.open_out(b, &mut cands);
+                    g[(r + 3) & 3] = corner(&cands, &mut s, n)?;
+                    codec::check_distinct(&g, || format!("face {n}"))?;
+                    he.add_face(g).map_err(|m| format!("face {n}: {m}"))?;
+                    quads.push(g);
+                    n += 1;
+                }
+                _ => return Err(format!("gate byte {gate} before face {n} (spec §6.1)")),
+            }
+        }
+    }
+    if s != nv {
+        return Err(format!("the faces use {s} of the {nv} base vertices"));
+    }
+    for (rd, name) in [(&gates, "gates"), (&corners, "corners"), (&escapes, "escapes")] {
+        if rd.remaining() != 0 {
+            return Err(format!("{} unused bytes in the base {name}", rd.remaining()));
+        }
+    }
+    drop(he);
+    let (start, around) = vertex_faces(nv as usize, &quads);
+    let mut q: Vec<[u32; 3]> = Vec::with_capacity(nv as usize);
+    for v in 0..nv as usize {
+        let p = predict(
+            v,
+            &q,
+            &quads,
+            &around[start[v] as usize..start[v + 1] as usize],
+            qmax,
+        );
+        let code = codec::add_residual(p, &mut pos, qmax)?;
+        q.push(code);
+    }
+    if pos.remaining() != 0 {
+        return Err(format!("{} unused bytes in the base positions", pos.remaining()));
+    }
+    Ok(MeshState::new(qmax, q, quads))
+}
