@@ -5,6 +5,8 @@
 //!
 //! `cargo run --release -p pqm-format --example ctx_study -- FILE.pqm...`
 
+#![allow(clippy::needless_range_loop)] // per-context loops over parallel arrays read best indexed
+
 use pqm_format::codec::{self, Coding, Cursors, QRecord, CONN, OPS, POS, REFS};
 use pqm_format::varint::{unzigzag, Reader};
 
@@ -99,7 +101,12 @@ fn study(f: &str) -> Result<(), String> {
                         a as u64,
                         (a as u64) << 4 | within,
                         (a as u64) << 8 | within << 4 | (prev_max.min(15) as u64),
-                        (a as u64) << 4 | if a == 0 { prev_max.min(15) as u64 } else { bx[0].min(15) as u64 },
+                        (a as u64) << 4
+                            | if a == 0 {
+                                prev_max.min(15) as u64
+                            } else {
+                                bx[0].min(15) as u64
+                            },
                     ];
                     for (ci, &cx) in ctxs.iter().enumerate() {
                         pos[mi][ci] += m.pos[ci].cost_signed(cx, v);
@@ -142,16 +149,32 @@ fn study(f: &str) -> Result<(), String> {
     for (mi, name) in ["reset", "carried"].iter().enumerate() {
         println!(
             "  {name:7} pos gamma  {}",
-            pos[mi].iter().map(|&x| format!("{:.2}", b(x))).collect::<Vec<_>>().join(" ")
+            pos[mi]
+                .iter()
+                .map(|&x| format!("{:.2}", b(x)))
+                .collect::<Vec<_>>()
+                .join(" ")
         );
         println!(
             "  {name:7} pos gamma+ {}",
-            pos_m[mi].iter().map(|&x| format!("{:.2}", b(x))).collect::<Vec<_>>().join(" ")
+            pos_m[mi]
+                .iter()
+                .map(|&x| format!("{:.2}", b(x)))
+                .collect::<Vec<_>>()
+                .join(" ")
         );
         println!(
             "  {name:7} refs {}   ops {}",
-            refs[mi].iter().map(|&x| format!("{:.2}", b(x))).collect::<Vec<_>>().join(" "),
-            ops[mi].iter().map(|&x| format!("{:.2}", b(x))).collect::<Vec<_>>().join(" ")
+            refs[mi]
+                .iter()
+                .map(|&x| format!("{:.2}", b(x)))
+                .collect::<Vec<_>>()
+                .join(" "),
+            ops[mi]
+                .iter()
+                .map(|&x| format!("{:.2}", b(x)))
+                .collect::<Vec<_>>()
+                .join(" ")
         );
     }
     Ok(())

@@ -147,7 +147,8 @@ fn study(f: &str) -> Result<(), String> {
                     for t in 0..3 {
                         par[t] += code[n1 as usize][t] + code[n3 as usize][t] - code[o as usize][t];
                         for (i, &(a, b, _)) in ST.iter().enumerate() {
-                            stp[i][t] += a * (code[n1 as usize][t] + code[n3 as usize][t]) - b * code[o as usize][t];
+                            stp[i][t] += a * (code[n1 as usize][t] + code[n3 as usize][t])
+                                - b * code[o as usize][t];
                         }
                     }
                     npar += 1;
@@ -195,14 +196,20 @@ fn study(f: &str) -> Result<(), String> {
                 put_s(&mut s_mean, xc[t] - mean_of(&e).unwrap_or(today)[t]);
                 let em = mean_of(&e).unwrap_or(today)[t];
                 for (i, &(_, _, d)) in ST.iter().enumerate() {
-                    let p = if npar > 0 { stp[i][t].div_euclid(d * npar) } else { today[t] };
+                    let p = if npar > 0 {
+                        stp[i][t].div_euclid(d * npar)
+                    } else {
+                        today[t]
+                    };
                     put_s(&mut s_st[i], xc[t] - p);
                 }
                 let pb = (2 * today[t] + 6 * em).div_euclid(8);
                 let pb = if npar > 0 { pb } else { today[t] };
                 let mut sc = 0i64;
                 for &u in &e {
-                    sc += (0..3).map(|a| (code[u as usize][a] - mean_of(&e).unwrap_or(today)[a]).abs()).sum::<i64>();
+                    sc += (0..3)
+                        .map(|a| (code[u as usize][a] - mean_of(&e).unwrap_or(today)[a]).abs())
+                        .sum::<i64>();
                 }
                 let sc = if e.is_empty() { 0 } else { sc / e.len() as i64 };
                 let sb = models::bucket(sc as u64) as u64;
@@ -210,7 +217,11 @@ fn study(f: &str) -> Result<(), String> {
                 c_plain += g_plain.cost_signed_m(t as u64, r);
                 c_scale += g_scale.cost_signed_m((t as u64) << 6 | sb, r);
                 c_scale2 += g_scale2.cost_signed_m((t as u64) << 12 | sb << 6 | prev_b.min(15), r);
-                prev_b = if t == 2 { 0 } else { models::bucket(r.unsigned_abs()) as u64 };
+                prev_b = if t == 2 {
+                    0
+                } else {
+                    models::bucket(r.unsigned_abs()) as u64
+                };
                 for i in 0..5 {
                     let p = (WS[i] * today[t] + (8 - WS[i]) * em).div_euclid(8);
                     put_s(&mut s_w[i], xc[t] - if npar > 0 { p } else { today[t] });
@@ -285,7 +296,12 @@ fn study(f: &str) -> Result<(), String> {
     z_snap += models::zstd19(&[&s_snap]);
     z_blend += models::zstd19(&[&s_blend]);
     let nf = n.max(1) as f64;
-    println!("  adaptive gamma, blend 2/8: plain {:.2}, scale ctx {:.2}, scale+prev axis {:.2}", c_plain / nf, c_scale / nf, c_scale2 / nf);
+    println!(
+        "  adaptive gamma, blend 2/8: plain {:.2}, scale ctx {:.2}, scale+prev axis {:.2}",
+        c_plain / nf,
+        c_scale / nf,
+        c_scale2 / nf
+    );
     for i in 0..5 {
         z_st[i] += models::zstd19(&[&s_st[i]]);
         println!("  stencil {:?}: {:.2}", ST[i], z_st[i] as f64 * 8.0 / nf);

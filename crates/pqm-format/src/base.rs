@@ -111,23 +111,13 @@ impl HalfEdges {
     /// `X` of §6.1: sources `w` of open half-edges `w → a`, in decode order.
     fn open_in(&self, a: u32, out: &mut Vec<u32>) {
         out.clear();
-        out.extend(
-            self.inc[a as usize]
-                .iter()
-                .filter(|e| e.1)
-                .map(|e| e.0),
-        );
+        out.extend(self.inc[a as usize].iter().filter(|e| e.1).map(|e| e.0));
     }
 
     /// `Y` of §6.1: targets `z` of open half-edges `b → z`, in decode order.
     fn open_out(&self, b: u32, out: &mut Vec<u32>) {
         out.clear();
-        out.extend(
-            self.out[b as usize]
-                .iter()
-                .filter(|e| e.1)
-                .map(|e| e.0),
-        );
+        out.extend(self.out[b as usize].iter().filter(|e| e.1).map(|e| e.0));
     }
 }
 
@@ -325,7 +315,10 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
     let mut escapes = part("base escapes")?;
     let mut pos = part("base positions")?;
     if r.remaining() != 0 {
-        return Err(format!("{} bytes after the last base stream", r.remaining()));
+        return Err(format!(
+            "{} bytes after the last base stream",
+            r.remaining()
+        ));
     }
     let nfu = nf as usize;
     let mut quads: Vec<[u32; 4]> = Vec::with_capacity(nfu);
@@ -409,9 +402,16 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
     if s != nv {
         return Err(format!("the faces use {s} of the {nv} base vertices"));
     }
-    for (rd, name) in [(&gates, "gates"), (&corners, "corners"), (&escapes, "escapes")] {
+    for (rd, name) in [
+        (&gates, "gates"),
+        (&corners, "corners"),
+        (&escapes, "escapes"),
+    ] {
         if rd.remaining() != 0 {
-            return Err(format!("{} unused bytes in the base {name}", rd.remaining()));
+            return Err(format!(
+                "{} unused bytes in the base {name}",
+                rd.remaining()
+            ));
         }
     }
     drop(he);
@@ -429,7 +429,10 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
         q.push(code);
     }
     if pos.remaining() != 0 {
-        return Err(format!("{} unused bytes in the base positions", pos.remaining()));
+        return Err(format!(
+            "{} unused bytes in the base positions",
+            pos.remaining()
+        ));
     }
     Ok(MeshState::new(qmax, q, quads))
 }

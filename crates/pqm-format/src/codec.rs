@@ -2241,11 +2241,7 @@ impl<'a> Prediction<'a> {
 /// and then the wrapped sum is negative and refused as the true one is
 /// (the error names the saturated sum, as before).
 #[inline(always)]
-pub(crate) fn add_residual(
-    pred: [u32; 3],
-    rd: &mut Reader,
-    qmax: u32,
-) -> Result<[u32; 3], String> {
+pub(crate) fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
     let mut out = [0u32; 3];
     for t in 0..3 {
         let d = rd.s()?;

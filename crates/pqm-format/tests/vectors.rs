@@ -1,7 +1,7 @@
 //! The checked-in vectors of `spec/vectors/` are what the generator writes
 //! today, byte for byte, and decode to their recorded digests and OBJs.
 
-use pqm_format::{decode_all, vectors, Limits, Target};
+use pqm_format::{base, decode_all, vectors, Limits, Target};
 use std::path::PathBuf;
 
 fn dir() -> PathBuf {
@@ -105,6 +105,23 @@ fn both_vertex_order_sections_have_a_vector() {
     };
     assert_eq!(tag("box_vord"), (b"VORD".to_vec(), vec![2, 0, 0, 0]));
     assert_eq!(tag("box_vnbr"), (b"VNBR".to_vec(), vec![3, 0, 1, 0]));
+}
+
+/// The 4.0 vectors cover both base layouts (spec §6): the traversal
+/// layout, and the delta layout behind its layout byte.
+#[test]
+fn the_4_0_vectors_hold_both_base_layouts() {
+    let all = vectors::all();
+    let layout = |name: &str| {
+        let v = all.iter().find(|v| v.name == name).unwrap();
+        assert_eq!(&v.bytes[8..12], &[4, 0, 0, 0], "{name}");
+        let dec = decode_all(&v.bytes, Limits::default()).unwrap();
+        let h = dec.header().unwrap();
+        let at = h.header_len as usize + h.chunk_count as usize * h.chunk_entry_len as usize + 4;
+        zstd::stream::decode_all(&v.bytes[at..at + h.base_compressed_len as usize]).unwrap()[0]
+    };
+    assert_eq!(layout("v4_traversal"), base::LAYOUT_TRAVERSAL);
+    assert_eq!(layout("v4_delta_base"), base::LAYOUT_DELTA);
 }
 
 #[test]
