@@ -33,6 +33,29 @@
 //! 0.7–3.0 bits per new vertex (3–13 % of the positions, ≈ 1–6 % of a
 //! file). Worth taking in a future major version together with other
 //! changes, not alone.
+//!
+//! ## Session 17: blends and stencils (session 16's files, 3.2; 2026-12-06)
+//!
+//! zstd-19 per chunk, bits per new vertex, of residuals against: `today`;
+//! the blend `w · today + (1 − w) · edge mean` (`blend w`, the edge mean
+//! over all known edge neighbours, distinct); the per-quad stencil
+//! `(a (n1 + n3) − b o) / (d c)` over §7.6's qualifying quads only (`(1, 0,
+//! 2)` = their edge mean, `(5, 2, 8)` = w = 1/4, the version-4 rule); and
+//! adaptive Elias-gamma costs of the blend-1/4 residuals with the local
+//! scale (the mean L1 distance of the edge neighbours to their mean, its
+//! bucket) as context:
+//!
+//! | file | today | edge mean | blend 1/4 | stencil (1,0,2) | stencil (5,2,8) | adaptive, scale context |
+//! |---|---|---|---|---|---|---|
+//! | spot_quadrangulated | 30.86 | 30.48 | 30.25 | 30.79 | 30.55 | 27.84 |
+//! | makehuman_base | 23.86 | 23.12 | 22.99 | 23.55 | 23.30 | 21.16 |
+//! | loki | 23.59 | 22.51 | 22.43 | 23.03 | 22.79 | 20.74 |
+//! | bunny (split) | 22.48 | 19.57 | 20.39 | 19.76 | 20.48 | 19.17 |
+//!
+//! The stencil is what a decoder's existing parallelogram loops compute
+//! with other weights, so format 4.0 took it (§7.6 version 4); the blend
+//! over distinct edge neighbours would save 0.2–0.4 more but needs their
+//! deduplication in every fast path.
 
 #![allow(clippy::needless_range_loop)] // per-axis loops over three arrays read best indexed
 
