@@ -2078,8 +2078,14 @@ fn floor_mean(sum: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
 #[inline(always)]
 fn stencil_mean(nb: [i64; 3], op: [i64; 3], n: i64, major: u16, qmax: u32) -> [u32; 3] {
     if major >= 4 {
+        // Per axis by hand: `[0, 1, 2].map(…)` was an out-of-line array
+        // drain (3 M instructions of a loki decode), a closure a call.
         let qmax = qmax as i64;
-        [0, 1, 2].map(|t| (floor_div(5 * nb[t] - 2 * op[t], n) >> 3).clamp(0, qmax) as u32)
+        [
+            (floor_div(5 * nb[0] - 2 * op[0], n) >> 3).clamp(0, qmax) as u32,
+            (floor_div(5 * nb[1] - 2 * op[1], n) >> 3).clamp(0, qmax) as u32,
+            (floor_div(5 * nb[2] - 2 * op[2], n) >> 3).clamp(0, qmax) as u32,
+        ]
     } else {
         floor_mean([nb[0] - op[0], nb[1] - op[1], nb[2] - op[2]], n, qmax)
     }
