@@ -1800,9 +1800,9 @@ const ONE_PASS_DEFERRED: usize = 12;
 pub(crate) struct OnePass {
     /// Per new vertex, the sums of [`stencil_mean`]: its quads' edge
     /// neighbours, their opposite corners, and the count of quads.
-    nb: [[i64; 3]; ONE_PASS_NEW],
-    op: [[i64; 3]; ONE_PASS_NEW],
-    cnt: [i64; ONE_PASS_NEW],
+    /// (One row per vertex, `[nb; 3], count, [op; 3], unused`: one base
+    /// address per update.)
+    acc: [[i64; 8]; ONE_PASS_NEW],
     /// (quad, corner of its largest new vertex).
     later: [([u32; 4], u8); ONE_PASS_DEFERRED],
     n_later: usize,
@@ -1818,9 +1818,7 @@ impl OnePass {
     /// Empty sums.
     #[inline]
     pub(crate) fn clear(&mut self) {
-        self.nb = [[0; 3]; ONE_PASS_NEW];
-        self.op = [[0; 3]; ONE_PASS_NEW];
-        self.cnt = [0; ONE_PASS_NEW];
+        self.acc = [[0; 8]; ONE_PASS_NEW];
         self.n_later = 0;
         self.later_of = [0; ONE_PASS_NEW];
         self.overflow = false;
@@ -1833,13 +1831,12 @@ impl OnePass {
     #[inline(always)]
     pub(crate) fn add_single(&mut self, q: &[[u32; 3]], t: usize, a: u32, o: u32, e: u32) {
         let (a, o, e) = (q[a as usize], q[o as usize], q[e as usize]);
-        let t = t & (ONE_PASS_NEW - 1);
-        let (nb, op) = (&mut self.nb[t], &mut self.op[t]);
+        let row = &mut self.acc[t & (ONE_PASS_NEW - 1)];
         for c in 0..3 {
-            nb[c] += a[c] as i64 + e[c] as i64;
-            op[c] += o[c] as i64;
+            row[c] += a[c] as i64 + e[c] as i64;
+            row[4 + c] += o[c] as i64;
         }
-        self.cnt[t] += 1;
+        row[3] += 1;
     }
 
     /// Any record quad, new vertices `v0 .. v0 + nn` (`nn <=`
@@ -1928,6 +1925,24 @@ impl OnePass {
         if self.overflow {
             return scan_new_positions(st, r, n_new, major, pos);
         }
+        // The rule chosen once per record: a loop for each.
+        if major >= 4 {
+            self.finish_rule::<true>(st, r, n_new, major, pos)
+        } else {
+            self.finish_rule::<false>(st, r, n_new, major, pos)
+        }
+    }
+
+    /// [`OnePass::finish`] with version 4's rule (`V4`) or the earlier one.
+    #[inline(always)]
+    fn finish_rule<const V4: bool>(
+        &mut self,
+        st: &MeshState,
+        r: &mut QRecord,
+        n_new: usize,
+        major: u16,
+        pos: &mut Reader,
+    ) -> Result<(), String> {
         let (v0, q) = (st.q.len() as u32, &st.q);
         for t in 0..n_new {
             // Its deferred quads, in the order they came.
@@ -1949,14 +1964,17 @@ impl OnePass {
                     code(quad[(k + 2) & 3]),
                     code(quad[(k + 3) & 3]),
                 );
+                let row = &mut self.acc[t];
                 for c in 0..3 {
-                    self.nb[t][c] += a[c] as i64 + e[c] as i64;
-                    self.op[t][c] += o[c] as i64;
+                    row[c] += a[c] as i64 + e[c] as i64;
+                    row[4 + c] += o[c] as i64;
                 }
-                self.cnt[t] += 1;
+                row[3] += 1;
             }
-            let pred = if self.cnt[t] > 0 {
-                stencil_mean(self.nb[t], self.op[t], self.cnt[t], major, st.qmax)
+            let row = &self.acc[t];
+            let pred = if row[3] > 0 {
+                let (nb, op) = ([row[0], row[1], row[2]], [row[4], row[5], row[6]]);
+                stencil_mean_rule::<V4>(nb, op, row[3], st.qmax)
             } else {
                 predict_scan(st, r, v0, v0 + t as u32, major)
             };
@@ -2078,6 +2096,16 @@ fn floor_mean(sum: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
 #[inline(always)]
 fn stencil_mean(nb: [i64; 3], op: [i64; 3], n: i64, major: u16, qmax: u32) -> [u32; 3] {
     if major >= 4 {
+        stencil_mean_rule::<true>(nb, op, n, qmax)
+    } else {
+        stencil_mean_rule::<false>(nb, op, n, qmax)
+    }
+}
+
+/// [`stencil_mean`] with version 4's rule (`V4`) or the earlier one.
+#[inline(always)]
+fn stencil_mean_rule<const V4: bool>(nb: [i64; 3], op: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
+    if V4 {
         // Per axis by hand: `[0, 1, 2].map(…)` was an out-of-line array
         // drain (3 M instructions of a loki decode), a closure a call.
         let qmax = qmax as i64;
