@@ -118,7 +118,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
         1i32..20,
         any::<bool>(),
         any::<bool>(),
-        1u16..=3,
+        1u16..=4,
         any::<bool>(),
         0usize..3,
         any::<bool>(),
@@ -236,7 +236,7 @@ proptest! {
         walk in prop::collection::vec(0usize..200, 1..12),
         split_form in any::<bool>(),
         local_form in any::<bool>(),
-        version_major in 1u16..=3,
+        version_major in 1u16..=4,
     ) {
         let mut pm = testgen::generate(seed, 120);
         pqm_format::vectors::add_face_splits(&mut pm, 30, seed);
@@ -299,7 +299,7 @@ proptest! {
         sizes in prop::collection::vec(1usize..400, 1..6),
         refine_every in 1usize..4,
         flip in prop::option::of((any::<prop::sample::Index>(), any::<u8>())),
-        version_major in 1u16..=3,
+        version_major in 1u16..=4,
         detour in any::<prop::sample::Index>(),
     ) {
         let mut pm = testgen::generate(seed, 120);
@@ -1758,7 +1758,7 @@ proptest! {
     fn random_record_streams_never_panic(
         seed in 0u64..50,
         streams in prop::collection::vec(prop::collection::vec(any::<u8>(), 0..48), 5),
-        major in 1u16..=3,
+        major in 1u16..=4,
         edge_symbol in any::<bool>(),
     ) {
         use pqm_format::codec::{decode_record, Cursors, MeshState};
