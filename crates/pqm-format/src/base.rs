@@ -57,14 +57,14 @@ pub fn encode_delta(q: &[[u32; 3]], quads: &[[u32; 4]], major: u16) -> BasePaylo
 /// each vertex lists its outgoing and its incoming half-edges in decode
 /// order (linked through `next_out` / `next_in`); no allocation per vertex.
 struct HalfEdges {
+    /// Half-edge `4 f + t`, for the `len` decoded so far.
     he: Vec<HalfEdge>,
-    /// Per vertex: first and last outgoing, first and last incoming half-edge.
-    ends: Vec<[u32; 4]>,
-    /// Per vertex: faces decoded around it.
-    faces: Vec<u8>,
+    len: usize,
+    /// Per vertex: its lists' ends and its face count.
+    at: Vec<VertexLists>,
 }
 
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct HalfEdge {
     src: u32,
     dst: u32,
@@ -76,12 +76,39 @@ struct HalfEdge {
 
 const NIL: u32 = u32::MAX;
 
+/// Which candidate list a corner symbol may name (spec §6.1).
+#[derive(Clone, Copy)]
+enum Cands {
+    /// A component start's corner: none.
+    None,
+    /// `X`: the open half-edges into `a`.
+    Into(u32),
+    /// `Y`: the open half-edges out of `b`.
+    OutOf(u32),
+}
+
+/// First and last outgoing and incoming half-edge of a vertex ([`NIL`]:
+/// none), and the faces decoded around it.
+#[derive(Clone, Copy)]
+struct VertexLists {
+    out: [u32; 2],
+    inc: [u32; 2],
+    faces: u32,
+}
+
 impl HalfEdges {
     fn new(nv: usize, nf: usize) -> Self {
         HalfEdges {
-            he: Vec::with_capacity(4 * nf),
-            ends: vec![[NIL; 4]; nv],
-            faces: vec![0; nv],
+            he: vec![HalfEdge::default(); 4 * nf],
+            len: 0,
+            at: vec![
+                VertexLists {
+                    out: [NIL; 2],
+                    inc: [NIL; 2],
+                    faces: 0,
+                };
+                nv
+            ],
         }
     }
 
@@ -100,10 +127,11 @@ impl HalfEdges {
         let mut rev = [NIL; 4];
         for t in 0..4 {
             let (w, next, prev) = (g[t], g[(t + 1) & 3], g[(t + 3) & 3]);
-            if self.faces[w as usize] as usize >= MAX_FACES_PER_VERTEX {
+            let at = self.at[w as usize];
+            if at.faces as usize >= MAX_FACES_PER_VERTEX {
                 return Err(crowded(w));
             }
-            let mut e = self.ends[w as usize][0];
+            let mut e = at.out[0];
             while e != NIL {
                 let h = self.he[e as usize];
                 if h.dst == next {
@@ -116,43 +144,93 @@ impl HalfEdges {
                 e = h.next_out;
             }
         }
-        let first = self.he.len() as u32;
+        let first = self.len as u32;
+        if self.len + 4 > self.he.len() {
+            return Err("more faces than the base has".into());
+        }
         for t in 0..4 {
             let (u, v) = (g[t], g[(t + 1) & 3]);
             let e = first + t as u32;
             if rev[t] != NIL {
                 self.he[rev[t] as usize].open = false;
             }
-            self.he.push(HalfEdge {
+            self.he[e as usize] = HalfEdge {
                 src: u,
                 dst: v,
                 next_out: NIL,
                 next_in: NIL,
                 open: rev[t] == NIL,
-            });
-            let out_last = self.ends[u as usize][1];
+            };
+            let au = &mut self.at[u as usize];
+            au.faces += 1;
+            let out_last = au.out[1];
+            au.out[1] = e;
             if out_last == NIL {
-                self.ends[u as usize][0] = e;
+                au.out[0] = e;
             } else {
                 self.he[out_last as usize].next_out = e;
             }
-            self.ends[u as usize][1] = e;
-            let in_last = self.ends[v as usize][3];
+            let av = &mut self.at[v as usize];
+            let in_last = av.inc[1];
+            av.inc[1] = e;
             if in_last == NIL {
-                self.ends[v as usize][2] = e;
+                av.inc[0] = e;
             } else {
                 self.he[in_last as usize].next_in = e;
             }
-            self.ends[v as usize][3] = e;
-            self.faces[u as usize] += 1;
         }
+        self.len += 4;
         Ok(())
+    }
+
+    /// The half-edges leaving `v` (as `4 f + k`: `v` is face `f`'s corner `k`).
+    fn out_corners(&self, v: u32) -> impl Iterator<Item = u32> + Clone + '_ {
+        let mut e = self.at[v as usize].out[0];
+        std::iter::from_fn(move || {
+            (e != NIL).then(|| {
+                let here = e;
+                e = self.he[e as usize].next_out;
+                here
+            })
+        })
+    }
+
+    /// Entry `i` of [`HalfEdges::open_in`]'s list, without building it.
+    fn nth_open_in(&self, a: u32, mut i: usize) -> Option<u32> {
+        let mut e = self.at[a as usize].inc[0];
+        while e != NIL {
+            let h = self.he[e as usize];
+            if h.open {
+                if i == 0 {
+                    return Some(h.src);
+                }
+                i -= 1;
+            }
+            e = h.next_in;
+        }
+        None
+    }
+
+    /// Entry `i` of [`HalfEdges::open_out`]'s list, without building it.
+    fn nth_open_out(&self, b: u32, mut i: usize) -> Option<u32> {
+        let mut e = self.at[b as usize].out[0];
+        while e != NIL {
+            let h = self.he[e as usize];
+            if h.open {
+                if i == 0 {
+                    return Some(h.dst);
+                }
+                i -= 1;
+            }
+            e = h.next_out;
+        }
+        None
     }
 
     /// `X` of §6.1: sources `w` of open half-edges `w → a`, in decode order.
     fn open_in(&self, a: u32, out: &mut Vec<u32>) {
         out.clear();
-        let mut e = self.ends[a as usize][2];
+        let mut e = self.at[a as usize].inc[0];
         while e != NIL {
             let h = self.he[e as usize];
             if h.open {
@@ -165,7 +243,7 @@ impl HalfEdges {
     /// `Y` of §6.1: targets `z` of open half-edges `b → z`, in decode order.
     fn open_out(&self, b: u32, out: &mut Vec<u32>) {
         out.clear();
-        let mut e = self.ends[b as usize][0];
+        let mut e = self.at[b as usize].out[0];
         while e != NIL {
             let h = self.he[e as usize];
             if h.open {
@@ -294,11 +372,17 @@ fn vertex_corners(nv: usize, quads: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
 }
 
 /// `P(v)` of §6.1 from the codes of the vertices before `v` (`around`:
-/// `v`'s corners, as [`vertex_corners`] lists them).
-fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], around: &[u32], qmax: u32) -> [u32; 3] {
+/// `v`'s corners `4 f + k`, any order).
+fn predict(
+    v: usize,
+    q: &[[u32; 3]],
+    quads: &[[u32; 4]],
+    around: impl Iterator<Item = u32> + Clone,
+    qmax: u32,
+) -> [u32; 3] {
     let qm = qmax as i64;
     let (mut sum, mut c) = ([0i64; 3], 0i64);
-    for &fk in around {
+    for fk in around.clone() {
         let g = quads[(fk >> 2) as usize];
         let k = (fk & 3) as usize;
         let (n1, o, n3) = (
@@ -319,7 +403,7 @@ fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], around: &[u32], qmax: u
     }
     // no face with three earlier corners: the earlier edge neighbours' mean
     let (mut esum, mut e) = ([0i64; 3], 0i64);
-    for &fk in around {
+    for fk in around {
         let g = quads[(fk >> 2) as usize];
         let k = (fk & 3) as usize;
         for u in [g[(k + 1) & 3] as usize, g[(k + 3) & 3] as usize] {
@@ -347,7 +431,7 @@ fn encode_positions(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Vec<u8> {
     for v in 0..q.len() {
         let around = &faces[start[v] as usize..start[v + 1] as usize];
         // the prediction reads only the codes below `v`, as a decoder has them
-        let p = predict(v, q, quads, around, qmax);
+        let p = predict(v, q, quads, around.iter().copied(), qmax);
         for t in 0..3 {
             put_s(&mut out, q[v][t] as i64 - p[t] as i64);
         }
@@ -398,9 +482,10 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
     let nfu = nf as usize;
     let mut quads: Vec<[u32; 4]> = Vec::with_capacity(nfu);
     let mut he = HalfEdges::new(nv as usize, nfu);
-    let mut cands = Vec::new();
     let mut s = 0u32;
-    let mut corner = |cands: &[u32], s: &mut u32, face: usize| -> Result<u32, String> {
+    // A corner symbol (§6.1); the candidates are looked up only for a
+    // symbol that names one (most are "new").
+    let mut corner = |he: &HalfEdges, cands: Cands, s: &mut u32, face: usize| {
         let sym = corners.byte()?;
         match sym {
             0 => {
@@ -422,12 +507,17 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
                 }
                 Ok(*s - 1 - u as u32)
             }
-            i => cands.get(i as usize - 1).copied().ok_or_else(|| {
-                format!(
-                    "face {face} names candidate {i} of {} (spec §6.1)",
-                    cands.len()
-                )
-            }),
+            i => {
+                let nth = i as usize - 1;
+                match cands {
+                    Cands::None => None,
+                    Cands::Into(a) => he.nth_open_in(a, nth),
+                    Cands::OutOf(b) => he.nth_open_out(b, nth),
+                }
+                .ok_or_else(|| {
+                    format!("face {face} names candidate {i}, a list has fewer (spec §6.1)")
+                })
+            }
         }
     };
     let (mut n, mut h) = (0usize, 0usize);
@@ -435,7 +525,7 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
         if h == n {
             let mut g = [0u32; 4];
             for c in g.iter_mut() {
-                *c = corner(&[], &mut s, n)?;
+                *c = corner(&he, Cands::None, &mut s, n)?;
             }
             codec::check_distinct(&g, || format!("face {n}"))?;
             he.add_face(g).map_err(|m| format!("face {n}: {m}"))?;
@@ -463,10 +553,8 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
                     let mut g = [0u32; 4];
                     g[r] = b;
                     g[(r + 1) & 3] = a;
-                    he.open_in(a, &mut cands);
-                    g[(r + 2) & 3] = corner(&cands, &mut s, n)?;
-                    he.open_out(b, &mut cands);
-                    g[(r + 3) & 3] = corner(&cands, &mut s, n)?;
+                    g[(r + 2) & 3] = corner(&he, Cands::Into(a), &mut s, n)?;
+                    g[(r + 3) & 3] = corner(&he, Cands::OutOf(b), &mut s, n)?;
                     codec::check_distinct(&g, || format!("face {n}"))?;
                     he.add_face(g).map_err(|m| format!("face {n}: {m}"))?;
                     quads.push(g);
@@ -491,17 +579,11 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
             ));
         }
     }
-    drop(he);
-    let (start, around) = vertex_corners(nv as usize, &quads);
+    // Each vertex's outgoing half-edges are its corners: half-edge
+    // `4 f + k` leaves face `f`'s corner `k`.
     let mut q: Vec<[u32; 3]> = Vec::with_capacity(nv as usize);
     for v in 0..nv as usize {
-        let p = predict(
-            v,
-            &q,
-            &quads,
-            &around[start[v] as usize..start[v + 1] as usize],
-            qmax,
-        );
+        let p = predict(v, &q, &quads, he.out_corners(v as u32), qmax);
         let code = codec::add_residual(p, &mut pos, qmax)?;
         q.push(code);
     }
