@@ -940,11 +940,11 @@ fn checked_in_procedural_fixtures_are_what_the_command_generates() {
     }
 }
 
-/// `--vertex-order-deltas` writes 3.0's VORD section instead of 3.1's VNBR
-/// (with the box grid, which needs no 3.2 header); both decode to the same
+/// `--vertex-order-deltas` writes the VORD section (3.0's) instead of
+/// the VNBR section (3.1's), both in a 4.0 file; both decode to the same
 /// full level, in the input's order, and VNBR is the smaller file.
 #[test]
-fn vertex_order_deltas_writes_a_3_0_file_with_the_same_full_level() {
+fn vertex_order_deltas_writes_vord_with_the_same_full_level() {
     let d = TempDir::new().unwrap();
     let (nbr, deltas) = (d.path().join("a.pqm"), d.path().join("b.pqm"));
     let a = encode_spot(&nbr, &["--grid", "box"]);
@@ -954,9 +954,9 @@ fn vertex_order_deltas_writes_a_3_0_file_with_the_same_full_level() {
         b["files"][0]["bytes"].as_u64().unwrap(),
     );
     assert!(ba < bb, "VNBR {ba} bytes, VORD {bb}");
-    for (file, version) in [(&nbr, "3.1"), (&deltas, "3.0")] {
+    for file in [&nbr, &deltas] {
         let info = json_ok(&["info", s(file)]);
-        assert_eq!(info["version"], version);
+        assert_eq!(info["version"], "4.0");
         assert_eq!(info["has_vertex_order"], true);
     }
     let (oa, ob) = (d.path().join("a.obj"), d.path().join("b.obj"));
@@ -1171,7 +1171,7 @@ fn grid_cube_is_the_default_and_stores_the_bounds() {
     );
     assert!(bc < bb, "cube {bc} bytes, box {bb}");
     let (ic, ib) = (json_ok(&["info", s(&cube)]), json_ok(&["info", s(&boxed)]));
-    assert_eq!(ic["version"], "3.2");
+    assert_eq!(ic["version"], "4.0");
     assert_eq!(ic["bounds_stored"], true);
     assert_eq!(ib["bounds_stored"], false);
     assert_eq!(ib["bounds_min"], ib["bbox_min"]);

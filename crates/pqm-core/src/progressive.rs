@@ -280,6 +280,137 @@ impl ProgressiveMesh {
     }
 }
 
+/// The order of the `.pqm` base section's traversal walk (spec §6.1) over
+/// `faces` (with `vertex_count` vertices): returns the faces in walk order
+/// and the vertices by first appearance in it, then the vertices in no
+/// face, in id order. A mesh numbered this way (`faces[i]` becomes slot
+/// `i`, vertex `order[j]` becomes id `j`) is one a 4.0 writer can code in
+/// a few bits per face.
+///
+/// The walk: start at the lowest face not yet reached (a *component
+/// start*, corners numbered in order); visiting face `f`, for each corner
+/// `k`, with `a = f[k]`, `b = f[k + 1]`, the face holding the half-edge
+/// `b → a` (the first such face, if a non-manifold mesh has several) is
+/// queued if it is not yet, its corners after `a` numbered in order
+/// (`b` at its corner `r`: corners `r + 2`, `r + 3`, …). Deterministic.
+pub fn walk_order(faces: &[&[u32]], vertex_count: usize) -> (Vec<u32>, Vec<u32>) {
+    let mut across: std::collections::HashMap<(u32, u32), u32> = Default::default();
+    for (i, f) in faces.iter().enumerate() {
+        for k in 0..f.len() {
+            across
+                .entry((f[k], f[(k + 1) % f.len()]))
+                .or_insert(i as u32);
+        }
+    }
+    let mut queued = vec![false; faces.len()];
+    let mut numbered = vec![false; vertex_count];
+    let mut order: Vec<u32> = Vec::with_capacity(faces.len());
+    let mut vertices: Vec<u32> = Vec::with_capacity(vertex_count);
+    let mut number = |v: u32, vertices: &mut Vec<u32>| {
+        if let Some(n) = numbered.get_mut(v as usize) {
+            if !*n {
+                *n = true;
+                vertices.push(v);
+            }
+        }
+    };
+    let mut head = 0;
+    for start in 0..faces.len() {
+        if queued[start] {
+            continue;
+        }
+        queued[start] = true;
+        order.push(start as u32);
+        for &v in faces[start] {
+            number(v, &mut vertices);
+        }
+        while head < order.len() {
+            let f = faces[order[head] as usize];
+            head += 1;
+            for k in 0..f.len() {
+                let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                let Some(&g) = across.get(&(b, a)) else {
+                    continue;
+                };
+                if queued[g as usize] {
+                    continue;
+                }
+                queued[g as usize] = true;
+                order.push(g);
+                let gv = faces[g as usize];
+                let r = gv.iter().position(|&v| v == b).unwrap_or(0);
+                for t in 2..gv.len() {
+                    number(gv[(r + t) % gv.len()], &mut vertices);
+                }
+            }
+        }
+    }
+    for v in 0..vertex_count as u32 {
+        number(v, &mut vertices);
+    }
+    (order, vertices)
+}
+
+impl ProgressiveMesh {
+    /// Renumbers the base's faces and vertices in [`walk_order`], and the
+    /// records and vertex order with them: the same levels under other ids
+    /// and slots (records' own vertices and quads keep theirs).
+    pub fn renumber_base_in_walk_order(&mut self) {
+        let nb = self.base.vertex_count();
+        let nfb = self.base.face_count() as u32;
+        let faces: Vec<Vec<u32>> = self.base.faces().map(|f| f.to_vec()).collect();
+        let refs: Vec<&[u32]> = faces.iter().map(|f| &f[..]).collect();
+        let (face_order, vertex_order) = walk_order(&refs, nb);
+        let mut vmap = vec![0u32; nb];
+        for (new, &old) in vertex_order.iter().enumerate() {
+            vmap[old as usize] = new as u32;
+        }
+        let mut fmap = vec![0u32; faces.len()];
+        for (new, &old) in face_order.iter().enumerate() {
+            fmap[old as usize] = new as u32;
+        }
+        let v = |x: u32| {
+            if (x as usize) < nb {
+                vmap[x as usize]
+            } else {
+                x
+            }
+        };
+        let mut base = IndexedMesh::new();
+        base.positions = vertex_order
+            .iter()
+            .map(|&o| self.base.positions[o as usize])
+            .collect();
+        for &o in &face_order {
+            let f: Vec<u32> = faces[o as usize].iter().map(|&x| v(x)).collect();
+            base.push_face(&f);
+        }
+        self.base = base;
+        for r in &mut self.records {
+            for m in &mut r.moved {
+                m.0 = v(m.0);
+            }
+            r.moved.sort_by_key(|m| m.0);
+            for (slot, q) in &mut r.rewritten {
+                if *slot < nfb {
+                    *slot = fmap[*slot as usize];
+                }
+                *q = q.map(v);
+            }
+            r.rewritten.sort_by_key(|x| x.0);
+            for q in &mut r.appended_faces {
+                *q = q.map(v);
+            }
+        }
+        if self.vertex_order.len() >= nb {
+            let old: Vec<u32> = self.vertex_order[..nb].to_vec();
+            for (new, &o) in vertex_order.iter().enumerate() {
+                self.vertex_order[new] = old[o as usize];
+            }
+        }
+    }
+}
+
 #[doc(hidden)]
 pub mod testgen;
 

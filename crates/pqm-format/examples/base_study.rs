@@ -95,6 +95,7 @@ fn main() {
 
 fn study(f: &str) -> Result<(), String> {
     let models::Opened { dec, pm, state, .. } = models::open(f)?;
+    let qmax = state.qmax;
     let q: Vec<[i64; 3]> = state.q.iter().map(|c| c.map(|x| x as i64)).collect();
     let quads = state.quads;
     let nv = q.len();
@@ -189,14 +190,12 @@ fn study(f: &str) -> Result<(), String> {
         (zp - zc) as f64 * 8.0 / nv as f64,
         per(zp).1
     );
-    let (gc, gp, gs) = gate_study(&q, &quads);
+    let (gc, gp) = traversal_study(&q, &quads, qmax);
     println!(
-        "  gate coding      conn {:.1} + pos {:.1} bits/base vertex = {:.2} bits/final vertex; corners new/cand/escape {:?}, components {}",
+        "  traversal (4.0)  conn {:.1} + pos {:.1} bits/base vertex = {:.2} bits/final vertex",
         gc as f64 * 8.0 / nv as f64,
         gp as f64 * 8.0 / nv as f64,
         per(gc + gp).1,
-        &gs[..3],
-        gs[3]
     );
     let s1 = models::zstd19(&[&sym, &esc, &pos]);
     let (a, b) = per(s1);
@@ -258,240 +257,29 @@ fn study(f: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// Prototype of a traversal coding of the base connectivity: faces
-/// re-ordered breadth-first across edges, vertices by first appearance;
-/// each face after a component's first is attached to an open edge of
-/// its parent and codes its rotation and its two far corners (new, the
-/// vertex closing the fan at that end, or an escape). Returns the zstd
-/// bytes of (connectivity, stencil-predicted positions).
-pub fn gate_study(q: &[[i64; 3]], quads: &[[u32; 4]]) -> (usize, usize, [usize; 4]) {
-    use std::collections::HashMap;
-    let nf = quads.len();
-    let mut dir: HashMap<(u32, u32), usize> = HashMap::new();
-    for (i, f) in quads.iter().enumerate() {
-        for k in 0..4 {
-            dir.insert((f[k], f[(k + 1) % 4]), i);
-        }
+/// The traversal layout of spec §6.1 (format 4.0) for this base, after
+/// renumbering it in the walk's order (`walk_order`) when it is not (the
+/// bases of 3.x files): zstd-19 bytes of its connectivity streams and of
+/// its positions.
+fn traversal_study(q: &[[i64; 3]], quads: &[[u32; 4]], qmax: u32) -> (usize, usize) {
+    let refs: Vec<&[u32]> = quads.iter().map(|f| &f[..]).collect();
+    let (faces, vertices) = pqm_core::progressive::walk_order(&refs, q.len());
+    let mut id = vec![0u32; q.len()];
+    for (new, &old) in vertices.iter().enumerate() {
+        id[old as usize] = new as u32;
     }
-    // edge BFS
-    let mut queued = vec![false; nf];
-    let mut order = Vec::with_capacity(nf);
-    let mut head = 0;
-    for s in 0..nf {
-        if queued[s] {
-            continue;
-        }
-        queued[s] = true;
-        order.push(s);
-        while head < order.len() {
-            let f = quads[order[head]];
-            head += 1;
-            for k in 0..4 {
-                if let Some(&g) = dir.get(&(f[(k + 1) % 4], f[k])) {
-                    if !queued[g] {
-                        queued[g] = true;
-                        order.push(g);
-                    }
-                }
-            }
-        }
-    }
-    // renumber: first appearance in coding order (a component's first
-    // face: its corners in order; a face attached at its parent's edge:
-    // the far corner after the shared edge, then the other)
-    let nv = q.len();
-    let mut id = vec![u32::MAX; nv];
-    let mut next = 0u32;
-    let mut faces: Vec<[u32; 4]> = Vec::with_capacity(nf);
-    {
-        let mut placed = vec![false; nf];
-        let mut hq = 0usize;
-        let mut num = |v: u32, id: &mut Vec<u32>| {
-            if id[v as usize] == u32::MAX {
-                id[v as usize] = next;
-                next += 1;
-            }
-        };
-        let mut pos_in_order = vec![0usize; nf];
-        for (i, &fi) in order.iter().enumerate() {
-            pos_in_order[fi] = i;
-        }
-        // replay the BFS with the coding order of corners
-        for (i, &fi) in order.iter().enumerate() {
-            let _ = i;
-            if placed[fi] {
-                continue;
-            }
-            placed[fi] = true;
-            for &v in &quads[fi] {
-                num(v, &mut id);
-            }
-            let mut qd = vec![fi];
-            while hq < qd.len() {
-                let f = quads[qd[hq]];
-                hq += 1;
-                for k in 0..4 {
-                    if let Some(&g) = dir.get(&(f[(k + 1) % 4], f[k])) {
-                        if !placed[g] {
-                            placed[g] = true;
-                            let gq = quads[g];
-                            let r = (0..4).find(|&r| gq[r] == f[(k + 1) % 4]).unwrap();
-                            num(gq[(r + 2) % 4], &mut id);
-                            num(gq[(r + 3) % 4], &mut id);
-                            qd.push(g);
-                        }
-                    }
-                }
-            }
-            hq = 0;
-        }
-        for &fi in &order {
-            faces.push(quads[fi].map(|v| id[v as usize]));
-        }
-    }
-    let mut pos_of = vec![[0i64; 3]; nv];
-    for v in 0..nv {
-        if id[v] != u32::MAX {
-            pos_of[id[v] as usize] = q[v];
-        }
-    }
-    // simulate the decoder
-    let mut flags = Vec::new();
-    let mut rots = Vec::new();
-    let mut syms = Vec::new();
-    let mut esc = Vec::new();
-    let mut stats = [0usize; 4];
-    let mut known: HashMap<(u32, u32), usize> = HashMap::new();
-    // open half-edges per vertex: incoming (w -> a) and outgoing (b -> z)
-    let mut seen_v = 0u32;
-    let mut n = 0usize;
-    let mut h = 0usize;
-    let mut dec: Vec<[u32; 4]> = Vec::new();
-    let open_in = |known: &HashMap<(u32, u32), usize>, a: u32| -> Vec<u32> {
-        let mut c: Vec<(usize, u32)> = known
-            .iter()
-            .filter(|(&(w, t), _)| t == a && !known.contains_key(&(a, w)))
-            .map(|(&(w, _), &f)| (f, w))
-            .collect();
-        c.sort();
-        c.into_iter().map(|x| x.1).collect()
-    };
-    let open_out = |known: &HashMap<(u32, u32), usize>, b: u32| -> Vec<u32> {
-        let mut c: Vec<(usize, u32)> = known
-            .iter()
-            .filter(|(&(s, z), _)| s == b && !known.contains_key(&(z, b)))
-            .map(|(&(_, z), &f)| (f, z))
-            .collect();
-        c.sort();
-        c.into_iter().map(|x| x.1).collect()
-    };
-    let mut code_corner = |v: u32, cands: &[u32], seen_v: &mut u32, syms: &mut Vec<u8>, esc: &mut Vec<u8>, stats: &mut [usize; 4]| {
-        if v == *seen_v {
-            syms.push(0);
-            *seen_v += 1;
-            stats[0] += 1;
-        } else if let Some(i) = cands.iter().position(|&c| c == v) {
-            syms.push(1 + i.min(200) as u8);
-            stats[1] += 1;
-        } else {
-            syms.push(255);
-            put_s(esc, (*seen_v as i64) - 1 - v as i64);
-            stats[2] += 1;
-        }
-    };
-    while n < nf {
-        if h == n {
-            // component start
-            let f = faces[n];
-            for &v in &f {
-                code_corner(v, &[], &mut seen_v, &mut syms, &mut esc, &mut stats);
-            }
-            for k in 0..4 {
-                known.insert((f[k], f[(k + 1) % 4]), n);
-            }
-            dec.push(f);
-            n += 1;
-            stats[3] += 1;
-            continue;
-        }
-        let f = dec[h];
-        h += 1;
-        for k in 0..4 {
-            let (a, b) = (f[k], f[(k + 1) % 4]);
-            if known.contains_key(&(b, a)) {
-                continue;
-            }
-            // is the next face the one across (a, b)?
-            let g = faces.get(n).copied();
-            let across = g.and_then(|g| (0..4).find(|&r| g[r] == b && g[(r + 1) % 4] == a));
-            match across {
-                Some(r) => {
-                    flags.push(1);
-                    let g = g.unwrap();
-                    rots.push(r as u8);
-                    let x = g[(r + 2) % 4];
-                    let y = g[(r + 3) % 4];
-                    let cx = open_in(&known, a);
-                    code_corner(x, &cx, &mut seen_v, &mut syms, &mut esc, &mut stats);
-                    let cy = open_out(&known, b);
-                    code_corner(y, &cy, &mut seen_v, &mut syms, &mut esc, &mut stats);
-                    for t in 0..4 {
-                        known.insert((g[t], g[(t + 1) % 4]), n);
-                    }
-                    dec.push(g);
-                    n += 1;
-                }
-                None => flags.push(0),
-            }
-        }
-    }
-    assert_eq!(dec, faces);
-    let conn = models::zstd19(&[&flags, &rots, &syms, &esc]);
-    // positions: stencil over quads with smaller-id corners
-    let mut vf: Vec<Vec<usize>> = vec![Vec::new(); nv];
-    for (i, qd) in faces.iter().enumerate() {
-        for &v in qd {
-            vf[v as usize].push(i);
-        }
-    }
-    let mut pos = Vec::new();
-    let mut prevc = [0i64; 3];
-    for v in 0..nv {
-        let mut sum = [0i64; 3];
-        let mut c = 0;
-        let mut nsum = [0i64; 3];
-        let mut nc = 0;
-        for &fi in &vf[v] {
-            let qd = faces[fi];
-            let k = qd.iter().position(|&u| u as usize == v).unwrap();
-            let (n1, o, n3) = (qd[(k + 1) % 4] as usize, qd[(k + 2) % 4] as usize, qd[(k + 3) % 4] as usize);
-            if n1 < v && o < v && n3 < v {
-                for t in 0..3 {
-                    sum[t] += 5 * (pos_of[n1][t] + pos_of[n3][t]) - 2 * pos_of[o][t];
-                }
-                c += 1;
-            }
-            for nn in [n1, n3] {
-                if nn < v {
-                    for t in 0..3 {
-                        nsum[t] += pos_of[nn][t];
-                    }
-                    nc += 1;
-                }
-            }
-        }
-        let pred = if c > 0 {
-            sum.map(|s| s.div_euclid(8 * c))
-        } else if nc > 0 {
-            nsum.map(|s| s.div_euclid(nc))
-        } else {
-            prevc
-        };
-        for t in 0..3 {
-            put_s(&mut pos, pos_of[v][t] - pred[t]);
-        }
-        prevc = pos_of[v];
-    }
-    let _ = (&rots, &flags);
-    (conn, models::zstd19(&[&pos]), stats)
+    let codes: Vec<[u32; 3]> = vertices
+        .iter()
+        .map(|&o| q[o as usize].map(|x| x as u32))
+        .collect();
+    let quads: Vec<[u32; 4]> = faces
+        .iter()
+        .map(|&f| quads[f as usize].map(|v| id[v as usize]))
+        .collect();
+    let p = pqm_format::base::encode_traversal(&codes, &quads, qmax).expect("walk-ordered");
+    let pos_at = *p.cuts.last().expect("four parts");
+    (
+        models::zstd19(&[&p.payload[..pos_at]]),
+        models::zstd19(&[&p.payload[pos_at..]]),
+    )
 }

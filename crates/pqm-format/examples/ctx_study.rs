@@ -4,6 +4,35 @@
 //! only; no format change.
 //!
 //! `cargo run --release -p pqm-format --example ctx_study -- FILE.pqm...`
+//!
+//! Each stream's values, chunk by chunk (re-encoded as `layout_study`
+//! does), priced by the ideal code length of adaptive models
+//! (`common/models.rs`): `pos` as an adaptive Elias-gamma bucket plus raw
+//! bits (`gamma+`: the first bit under the leading one modelled too) under
+//! five contexts — none, the axis, the axis and the previous coordinate's
+//! bucket in the same vertex, that and the previous vertex's largest
+//! bucket, the axis and one of those; `refs` without and with the previous
+//! reference's bucket as context; `ops` order-0 and order-1. `reset`
+//! starts every chunk with fresh models (chunks stay independent),
+//! `carried` keeps them across chunks.
+//!
+//! ## Figures (session 16's bench files, format 3.2; 2026-12-06)
+//!
+//! Bits per refined vertex, zstd alone → best adaptive model:
+//!
+//! | file | pos | refs | ops |
+//! |---|---|---|---|
+//! | spot_quadrangulated | 30.80 → 28.29 (reset, no context) | 5.35 → 4.82 | 1.74 → 1.71 |
+//! | makehuman_base | 23.83 → 22.24 (carried, axis + previous coordinate) | 5.66 → 5.29 | 1.84 → 1.71 |
+//! | loki | 23.54 → 21.67 (carried, axis + previous coordinate) | 5.73 → 5.25 | 1.68 → 1.53 |
+//! | bunny (split) | 22.39 → 20.79 (carried, axis + previous coordinate) | 6.86 → 6.19 | 1.96 → 1.59 |
+//!
+//! About 2.2–3.2 bits per refined vertex in all, for an adaptive
+//! arithmetic decoder (per symbol, slower than zstd's table-driven
+//! decoding, against issue 4's decode speed): not taken. Geometric
+//! contexts help more (`midpoint_study`: the local scale as context).
+
+#![allow(clippy::needless_range_loop)] // per-context loops over parallel arrays read best indexed
 
 use pqm_format::codec::{self, Coding, Cursors, QRecord, CONN, OPS, POS, REFS};
 use pqm_format::varint::{unzigzag, Reader};
@@ -99,7 +128,12 @@ fn study(f: &str) -> Result<(), String> {
                         a as u64,
                         (a as u64) << 4 | within,
                         (a as u64) << 8 | within << 4 | (prev_max.min(15) as u64),
-                        (a as u64) << 4 | if a == 0 { prev_max.min(15) as u64 } else { bx[0].min(15) as u64 },
+                        (a as u64) << 4
+                            | if a == 0 {
+                                prev_max.min(15) as u64
+                            } else {
+                                bx[0].min(15) as u64
+                            },
                     ];
                     for (ci, &cx) in ctxs.iter().enumerate() {
                         pos[mi][ci] += m.pos[ci].cost_signed(cx, v);
@@ -142,16 +176,32 @@ fn study(f: &str) -> Result<(), String> {
     for (mi, name) in ["reset", "carried"].iter().enumerate() {
         println!(
             "  {name:7} pos gamma  {}",
-            pos[mi].iter().map(|&x| format!("{:.2}", b(x))).collect::<Vec<_>>().join(" ")
+            pos[mi]
+                .iter()
+                .map(|&x| format!("{:.2}", b(x)))
+                .collect::<Vec<_>>()
+                .join(" ")
         );
         println!(
             "  {name:7} pos gamma+ {}",
-            pos_m[mi].iter().map(|&x| format!("{:.2}", b(x))).collect::<Vec<_>>().join(" ")
+            pos_m[mi]
+                .iter()
+                .map(|&x| format!("{:.2}", b(x)))
+                .collect::<Vec<_>>()
+                .join(" ")
         );
         println!(
             "  {name:7} refs {}   ops {}",
-            refs[mi].iter().map(|&x| format!("{:.2}", b(x))).collect::<Vec<_>>().join(" "),
-            ops[mi].iter().map(|&x| format!("{:.2}", b(x))).collect::<Vec<_>>().join(" ")
+            refs[mi]
+                .iter()
+                .map(|&x| format!("{:.2}", b(x)))
+                .collect::<Vec<_>>()
+                .join(" "),
+            ops[mi]
+                .iter()
+                .map(|&x| format!("{:.2}", b(x)))
+                .collect::<Vec<_>>()
+                .join(" ")
         );
     }
     Ok(())

@@ -33,6 +33,29 @@
 //! 0.7–3.0 bits per new vertex (3–13 % of the positions, ≈ 1–6 % of a
 //! file). Worth taking in a future major version together with other
 //! changes, not alone.
+//!
+//! ## Session 17: blends and stencils (session 16's files, 3.2; 2026-12-06)
+//!
+//! zstd-19 per chunk, bits per new vertex, of residuals against: `today`;
+//! the blend `w · today + (1 − w) · edge mean` (`blend w`, the edge mean
+//! over all known edge neighbours, distinct); the per-quad stencil
+//! `(a (n1 + n3) − b o) / (d c)` over §7.6's qualifying quads only (`(1, 0,
+//! 2)` = their edge mean, `(5, 2, 8)` = w = 1/4, the version-4 rule); and
+//! adaptive Elias-gamma costs of the blend-1/4 residuals with the local
+//! scale (the mean L1 distance of the edge neighbours to their mean, its
+//! bucket) as context:
+//!
+//! | file | today | edge mean | blend 1/4 | stencil (1,0,2) | stencil (5,2,8) | adaptive, scale context |
+//! |---|---|---|---|---|---|---|
+//! | spot_quadrangulated | 30.86 | 30.48 | 30.25 | 30.79 | 30.55 | 27.84 |
+//! | makehuman_base | 23.86 | 23.12 | 22.99 | 23.55 | 23.30 | 21.16 |
+//! | loki | 23.59 | 22.51 | 22.43 | 23.03 | 22.79 | 20.74 |
+//! | bunny (split) | 22.48 | 19.57 | 20.39 | 19.76 | 20.48 | 19.17 |
+//!
+//! The stencil is what a decoder's existing parallelogram loops compute
+//! with other weights, so format 4.0 took it (§7.6 version 4); the blend
+//! over distinct edge neighbours would save 0.2–0.4 more but needs their
+//! deduplication in every fast path.
 
 #![allow(clippy::needless_range_loop)] // per-axis loops over three arrays read best indexed
 
@@ -147,7 +170,8 @@ fn study(f: &str) -> Result<(), String> {
                     for t in 0..3 {
                         par[t] += code[n1 as usize][t] + code[n3 as usize][t] - code[o as usize][t];
                         for (i, &(a, b, _)) in ST.iter().enumerate() {
-                            stp[i][t] += a * (code[n1 as usize][t] + code[n3 as usize][t]) - b * code[o as usize][t];
+                            stp[i][t] += a * (code[n1 as usize][t] + code[n3 as usize][t])
+                                - b * code[o as usize][t];
                         }
                     }
                     npar += 1;
@@ -195,14 +219,20 @@ fn study(f: &str) -> Result<(), String> {
                 put_s(&mut s_mean, xc[t] - mean_of(&e).unwrap_or(today)[t]);
                 let em = mean_of(&e).unwrap_or(today)[t];
                 for (i, &(_, _, d)) in ST.iter().enumerate() {
-                    let p = if npar > 0 { stp[i][t].div_euclid(d * npar) } else { today[t] };
+                    let p = if npar > 0 {
+                        stp[i][t].div_euclid(d * npar)
+                    } else {
+                        today[t]
+                    };
                     put_s(&mut s_st[i], xc[t] - p);
                 }
                 let pb = (2 * today[t] + 6 * em).div_euclid(8);
                 let pb = if npar > 0 { pb } else { today[t] };
                 let mut sc = 0i64;
                 for &u in &e {
-                    sc += (0..3).map(|a| (code[u as usize][a] - mean_of(&e).unwrap_or(today)[a]).abs()).sum::<i64>();
+                    sc += (0..3)
+                        .map(|a| (code[u as usize][a] - mean_of(&e).unwrap_or(today)[a]).abs())
+                        .sum::<i64>();
                 }
                 let sc = if e.is_empty() { 0 } else { sc / e.len() as i64 };
                 let sb = models::bucket(sc as u64) as u64;
@@ -210,7 +240,11 @@ fn study(f: &str) -> Result<(), String> {
                 c_plain += g_plain.cost_signed_m(t as u64, r);
                 c_scale += g_scale.cost_signed_m((t as u64) << 6 | sb, r);
                 c_scale2 += g_scale2.cost_signed_m((t as u64) << 12 | sb << 6 | prev_b.min(15), r);
-                prev_b = if t == 2 { 0 } else { models::bucket(r.unsigned_abs()) as u64 };
+                prev_b = if t == 2 {
+                    0
+                } else {
+                    models::bucket(r.unsigned_abs()) as u64
+                };
                 for i in 0..5 {
                     let p = (WS[i] * today[t] + (8 - WS[i]) * em).div_euclid(8);
                     put_s(&mut s_w[i], xc[t] - if npar > 0 { p } else { today[t] });
@@ -285,7 +319,12 @@ fn study(f: &str) -> Result<(), String> {
     z_snap += models::zstd19(&[&s_snap]);
     z_blend += models::zstd19(&[&s_blend]);
     let nf = n.max(1) as f64;
-    println!("  adaptive gamma, blend 2/8: plain {:.2}, scale ctx {:.2}, scale+prev axis {:.2}", c_plain / nf, c_scale / nf, c_scale2 / nf);
+    println!(
+        "  adaptive gamma, blend 2/8: plain {:.2}, scale ctx {:.2}, scale+prev axis {:.2}",
+        c_plain / nf,
+        c_scale / nf,
+        c_scale2 / nf
+    );
     for i in 0..5 {
         z_st[i] += models::zstd19(&[&s_st[i]]);
         println!("  stencil {:?}: {:.2}", ST[i], z_st[i] as f64 * 8.0 / nf);

@@ -53,57 +53,98 @@ pub fn encode_delta(q: &[[u32; 3]], quads: &[[u32; 4]], major: u16) -> BasePaylo
 
 /// Decoded half-edges around each vertex, with whether each one's reverse
 /// is decoded too (the walk's open edges are those whose reverse is not).
-#[derive(Default)]
+/// Flat arrays: half-edge `4 f + t` is face `f`'s `g[t] → g[t + 1]`, and
+/// each vertex lists its outgoing and its incoming half-edges in decode
+/// order (linked through `next_out` / `next_in`); no allocation per vertex.
 struct HalfEdges {
-    /// Per vertex: `(target, open)` of its outgoing half-edges, in decode order.
-    out: Vec<Vec<(u32, bool)>>,
-    /// Per vertex: `(source, open)` of its incoming half-edges, in decode order.
-    inc: Vec<Vec<(u32, bool)>>,
+    he: Vec<HalfEdge>,
+    /// Per vertex: first and last outgoing, first and last incoming half-edge.
+    ends: Vec<[u32; 4]>,
+    /// Per vertex: faces decoded around it.
+    faces: Vec<u8>,
 }
 
+#[derive(Clone, Copy)]
+struct HalfEdge {
+    src: u32,
+    dst: u32,
+    next_out: u32,
+    next_in: u32,
+    /// The reverse half-edge is not decoded (yet).
+    open: bool,
+}
+
+const NIL: u32 = u32::MAX;
+
 impl HalfEdges {
-    fn new(nv: usize) -> Self {
-        let mut out = Vec::new();
-        out.resize_with(nv, Vec::new);
-        let mut inc = Vec::new();
-        inc.resize_with(nv, Vec::new);
-        HalfEdges { out, inc }
+    fn new(nv: usize, nf: usize) -> Self {
+        HalfEdges {
+            he: Vec::with_capacity(4 * nf),
+            ends: vec![[NIL; 4]; nv],
+            faces: vec![0; nv],
+        }
     }
 
-    fn has(&self, u: u32, v: u32) -> bool {
-        self.out[u as usize].iter().any(|&(t, _)| t == v)
+    /// Whether the reverse of decoded half-edge `e` (face `e / 4`'s corner
+    /// `e % 4` to the next) is decoded: O(1), no list walked.
+    fn closed(&self, e: usize) -> bool {
+        !self.he[e].open
     }
 
-    /// Adds face `g`'s half-edges; `Err` names the problem.
+    /// Adds face `g`'s half-edges (as half-edges `4 f .. 4 f + 4` of the
+    /// `f`-th face added); `Err` names the problem.
     fn add_face(&mut self, g: [u32; 4]) -> Result<(), String> {
+        // One walk of each corner's outgoing list finds both what would be
+        // a repeat of the face's half-edge leaving it (`g[t] → g[t + 1]`)
+        // and the reverse of the one entering it (`g[t] → g[t − 1]`).
+        let mut rev = [NIL; 4];
         for t in 0..4 {
-            let (u, v) = (g[t], g[(t + 1) & 3]);
-            if self.has(u, v) {
-                return Err(format!("half-edge {u} -> {v} is in two faces"));
+            let (w, next, prev) = (g[t], g[(t + 1) & 3], g[(t + 3) & 3]);
+            if self.faces[w as usize] as usize >= MAX_FACES_PER_VERTEX {
+                return Err(crowded(w));
             }
-            if self.out[u as usize].len() >= MAX_FACES_PER_VERTEX {
-                return Err(format!(
-                    "vertex {u} is in more than {MAX_FACES_PER_VERTEX} faces"
-                ));
+            let mut e = self.ends[w as usize][0];
+            while e != NIL {
+                let h = self.he[e as usize];
+                if h.dst == next {
+                    return Err(repeated(w, next));
+                }
+                if h.dst == prev {
+                    // the reverse of `prev → w`, the face's half-edge t − 1
+                    rev[(t + 3) & 3] = e;
+                }
+                e = h.next_out;
             }
         }
+        let first = self.he.len() as u32;
         for t in 0..4 {
             let (u, v) = (g[t], g[(t + 1) & 3]);
-            let reverse = self.has(v, u);
-            if reverse {
-                for e in self.out[v as usize].iter_mut() {
-                    if e.0 == u {
-                        e.1 = false;
-                    }
-                }
-                for e in self.inc[u as usize].iter_mut() {
-                    if e.0 == v {
-                        e.1 = false;
-                    }
-                }
+            let e = first + t as u32;
+            if rev[t] != NIL {
+                self.he[rev[t] as usize].open = false;
             }
-            self.out[u as usize].push((v, !reverse));
-            self.inc[v as usize].push((u, !reverse));
+            self.he.push(HalfEdge {
+                src: u,
+                dst: v,
+                next_out: NIL,
+                next_in: NIL,
+                open: rev[t] == NIL,
+            });
+            let out_last = self.ends[u as usize][1];
+            if out_last == NIL {
+                self.ends[u as usize][0] = e;
+            } else {
+                self.he[out_last as usize].next_out = e;
+            }
+            self.ends[u as usize][1] = e;
+            let in_last = self.ends[v as usize][3];
+            if in_last == NIL {
+                self.ends[v as usize][2] = e;
+            } else {
+                self.he[in_last as usize].next_in = e;
+            }
+            self.ends[v as usize][3] = e;
+            self.faces[u as usize] += 1;
         }
         Ok(())
     }
@@ -111,24 +152,38 @@ impl HalfEdges {
     /// `X` of §6.1: sources `w` of open half-edges `w → a`, in decode order.
     fn open_in(&self, a: u32, out: &mut Vec<u32>) {
         out.clear();
-        out.extend(
-            self.inc[a as usize]
-                .iter()
-                .filter(|e| e.1)
-                .map(|e| e.0),
-        );
+        let mut e = self.ends[a as usize][2];
+        while e != NIL {
+            let h = self.he[e as usize];
+            if h.open {
+                out.push(h.src);
+            }
+            e = h.next_in;
+        }
     }
 
     /// `Y` of §6.1: targets `z` of open half-edges `b → z`, in decode order.
     fn open_out(&self, b: u32, out: &mut Vec<u32>) {
         out.clear();
-        out.extend(
-            self.out[b as usize]
-                .iter()
-                .filter(|e| e.1)
-                .map(|e| e.0),
-        );
+        let mut e = self.ends[b as usize][0];
+        while e != NIL {
+            let h = self.he[e as usize];
+            if h.open {
+                out.push(h.dst);
+            }
+            e = h.next_out;
+        }
     }
+}
+
+#[cold]
+fn crowded(v: u32) -> String {
+    format!("vertex {v} is in more than {MAX_FACES_PER_VERTEX} faces")
+}
+
+#[cold]
+fn repeated(u: u32, v: u32) -> String {
+    format!("half-edge {u} -> {v} is in two faces")
 }
 
 /// The rotation `r` with `g[r] = b` and `g[r + 1] = a`, if `g` holds the
@@ -143,7 +198,7 @@ fn across(g: &[u32; 4], a: u32, b: u32) -> Option<usize> {
 pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option<BasePayload> {
     let nv = q.len();
     let nf = quads.len();
-    let mut he = HalfEdges::new(nv);
+    let mut he = HalfEdges::new(nv, nf);
     let (mut gates, mut corners, mut escapes) = (Vec::new(), Vec::new(), Vec::new());
     let mut cands = Vec::new();
     let mut s = 0u32;
@@ -180,7 +235,8 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
                 break;
             }
             let (a, b) = (f[k], f[(k + 1) & 3]);
-            if he.has(b, a) {
+            // face `h − 1`'s half-edge `a → b` is number 4 (h − 1) + k
+            if he.closed(4 * (h - 1) + k) {
                 continue;
             }
             let g = quads[n];
@@ -213,8 +269,10 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     Some(BasePayload { payload, cuts })
 }
 
-/// Faces around each vertex, as a compressed-row table over `quads`.
-fn vertex_faces(nv: usize, quads: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
+/// Corners around each vertex, as a compressed-row table over `quads`:
+/// entries `start[v] .. start[v + 1]` of `corners` are `4 f + k` for each
+/// face `f` holding `v` at its corner `k`.
+fn vertex_corners(nv: usize, quads: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
     let mut start = vec![0u32; nv + 1];
     for g in quads {
         for &v in g {
@@ -225,49 +283,56 @@ fn vertex_faces(nv: usize, quads: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
         start[i + 1] += start[i];
     }
     let mut fill = start.clone();
-    let mut faces = vec![0u32; start[nv] as usize];
+    let mut corners = vec![0u32; start[nv] as usize];
     for (i, g) in quads.iter().enumerate() {
-        for &v in g {
-            faces[fill[v as usize] as usize] = i as u32;
+        for (k, &v) in g.iter().enumerate() {
+            corners[fill[v as usize] as usize] = (4 * i + k) as u32;
             fill[v as usize] += 1;
         }
     }
-    (start, faces)
+    (start, corners)
 }
 
-/// `P(v)` of §6.1 from the codes of the vertices before `v`.
+/// `P(v)` of §6.1 from the codes of the vertices before `v` (`around`:
+/// `v`'s corners, as [`vertex_corners`] lists them).
 fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], around: &[u32], qmax: u32) -> [u32; 3] {
+    let qm = qmax as i64;
     let (mut sum, mut c) = ([0i64; 3], 0i64);
-    let (mut esum, mut e) = ([0i64; 3], 0i64);
-    for &fi in around {
-        let g = quads[fi as usize];
-        let Some(k) = g.iter().position(|&u| u as usize == v) else {
-            continue;
-        };
+    for &fk in around {
+        let g = quads[(fk >> 2) as usize];
+        let k = (fk & 3) as usize;
         let (n1, o, n3) = (
             g[(k + 1) & 3] as usize,
             g[(k + 2) & 3] as usize,
             g[(k + 3) & 3] as usize,
         );
         if n1 < v && o < v && n3 < v {
-            for t in 0..3 {
-                sum[t] += 5 * (q[n1][t] as i64 + q[n3][t] as i64) - 2 * q[o][t] as i64;
-            }
+            let (a, b, m) = (q[n1], q[n3], q[o]);
+            sum[0] += 5 * (a[0] as i64 + b[0] as i64) - 2 * m[0] as i64;
+            sum[1] += 5 * (a[1] as i64 + b[1] as i64) - 2 * m[1] as i64;
+            sum[2] += 5 * (a[2] as i64 + b[2] as i64) - 2 * m[2] as i64;
             c += 1;
         }
-        for u in [n1, n3] {
+    }
+    if c > 0 {
+        return sum.map(|x| x.div_euclid(8 * c).clamp(0, qm) as u32);
+    }
+    // no face with three earlier corners: the earlier edge neighbours' mean
+    let (mut esum, mut e) = ([0i64; 3], 0i64);
+    for &fk in around {
+        let g = quads[(fk >> 2) as usize];
+        let k = (fk & 3) as usize;
+        for u in [g[(k + 1) & 3] as usize, g[(k + 3) & 3] as usize] {
             if u < v {
-                for t in 0..3 {
-                    esum[t] += q[u][t] as i64;
-                }
+                let a = q[u];
+                esum[0] += a[0] as i64;
+                esum[1] += a[1] as i64;
+                esum[2] += a[2] as i64;
                 e += 1;
             }
         }
     }
-    let qm = qmax as i64;
-    if c > 0 {
-        sum.map(|x| x.div_euclid(8 * c).clamp(0, qm) as u32)
-    } else if e > 0 {
+    if e > 0 {
         esum.map(|x| x.div_euclid(e).clamp(0, qm) as u32)
     } else if v > 0 {
         q[v - 1]
@@ -277,7 +342,7 @@ fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], around: &[u32], qmax: u
 }
 
 fn encode_positions(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Vec<u8> {
-    let (start, faces) = vertex_faces(q.len(), quads);
+    let (start, faces) = vertex_corners(q.len(), quads);
     let mut out = Vec::with_capacity(3 * q.len());
     for v in 0..q.len() {
         let around = &faces[start[v] as usize..start[v + 1] as usize];
@@ -325,11 +390,14 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
     let mut escapes = part("base escapes")?;
     let mut pos = part("base positions")?;
     if r.remaining() != 0 {
-        return Err(format!("{} bytes after the last base stream", r.remaining()));
+        return Err(format!(
+            "{} bytes after the last base stream",
+            r.remaining()
+        ));
     }
     let nfu = nf as usize;
     let mut quads: Vec<[u32; 4]> = Vec::with_capacity(nfu);
-    let mut he = HalfEdges::new(nv as usize);
+    let mut he = HalfEdges::new(nv as usize, nfu);
     let mut cands = Vec::new();
     let mut s = 0u32;
     let mut corner = |cands: &[u32], s: &mut u32, face: usize| -> Result<u32, String> {
@@ -382,7 +450,9 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
                 break;
             }
             let (a, b) = (f[k], f[(k + 1) & 3]);
-            if he.has(b, a) {
+            // face `h − 1`'s half-edge `a → b` is number 4 (h − 1) + k:
+            // `b → a` is decoded exactly when that one is closed
+            if he.closed(4 * (h - 1) + k) {
                 continue;
             }
             let gate = gates.byte()?;
@@ -409,13 +479,20 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
     if s != nv {
         return Err(format!("the faces use {s} of the {nv} base vertices"));
     }
-    for (rd, name) in [(&gates, "gates"), (&corners, "corners"), (&escapes, "escapes")] {
+    for (rd, name) in [
+        (&gates, "gates"),
+        (&corners, "corners"),
+        (&escapes, "escapes"),
+    ] {
         if rd.remaining() != 0 {
-            return Err(format!("{} unused bytes in the base {name}", rd.remaining()));
+            return Err(format!(
+                "{} unused bytes in the base {name}",
+                rd.remaining()
+            ));
         }
     }
     drop(he);
-    let (start, around) = vertex_faces(nv as usize, &quads);
+    let (start, around) = vertex_corners(nv as usize, &quads);
     let mut q: Vec<[u32; 3]> = Vec::with_capacity(nv as usize);
     for v in 0..nv as usize {
         let p = predict(
@@ -429,7 +506,10 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
         q.push(code);
     }
     if pos.remaining() != 0 {
-        return Err(format!("{} unused bytes in the base positions", pos.remaining()));
+        return Err(format!(
+            "{} unused bytes in the base positions",
+            pos.remaining()
+        ));
     }
     Ok(MeshState::new(qmax, q, quads))
 }

@@ -1603,10 +1603,13 @@ fn build_face_split(st: &MeshState, m: u32, s: u32, swap: bool, sym: u8) -> ([u3
 /// cuts slot `s`, `[m, p, o, q]` from `m`, into `[m, p, o, c]` and
 /// `[m, c, o, q]` (swapped and rotated by the symbol: rotations keep the
 /// cyclic order, so not the parallelograms). `c` is once in each, its
-/// other corners are old (known), and its parallelograms are `m + o − p`
-/// and `o + m − q`: the mean of the two is `floor((2m + 2o − p − q) / 2)`,
-/// what the scan computes from the same two entries.
-fn predict_face_split(st: &MeshState, m: u32, s: u32) -> [u32; 3] {
+/// other corners are old (known): neighbours `m`, `o` and opposite corner
+/// `p` in one, neighbours `o`, `m` and opposite `q` in the other. So the
+/// neighbour sum is `2 (m + o)` and the opposite sum `p + q` over two
+/// quads: versions 2 and 3 give `floor((2m + 2o − p − q) / 2)`, version 4
+/// `floor((10 (m + o) − 2 (p + q)) / 16)` — what the scan computes from
+/// the same two entries ([`stencil_mean`]).
+fn predict_face_split(st: &MeshState, m: u32, s: u32, major: u16) -> [u32; 3] {
     let f = st.quads[s as usize];
     // The corner `build_face_split` takes as `m` (same fallback).
     let k = f.iter().position(|&x| x == m).unwrap_or(0);
@@ -1617,11 +1620,12 @@ fn predict_face_split(st: &MeshState, m: u32, s: u32) -> [u32; 3] {
         q[f[(k + 2) & 3] as usize],
         q[f[(k + 3) & 3] as usize],
     );
-    let mut sum = [0i64; 3];
+    let (mut nb, mut op) = ([0i64; 3], [0i64; 3]);
     for t in 0..3 {
-        sum[t] = 2 * (pm[t] as i64 + po[t] as i64) - pp[t] as i64 - pq[t] as i64;
+        nb[t] = 2 * (pm[t] as i64 + po[t] as i64);
+        op[t] = pp[t] as i64 + pq[t] as i64;
     }
-    floor_mean(sum, 2, st.qmax)
+    stencil_mean(nb, op, 2, major, st.qmax)
 }
 
 /// Prediction of the split vertex `a` (spec §7.5): `m`'s old code plus a
@@ -1728,7 +1732,8 @@ fn record_quad(r: &QRecord, i: usize) -> [u32; 4] {
 /// sorted by id, and `nf` was built from `r`'s quads. `major` picks the
 /// rule: from version 2 on the mean of every parallelogram around `x`
 /// whose three other corners are known (the curvature errors of opposite
-/// parallelograms cancel), else the version-1 rule on the first quad.
+/// parallelograms cancel; version 4 blends each with its edge neighbours'
+/// mean, [`stencil_mean`]), else the version-1 rule on the first quad.
 fn predict(st: &MeshState, r: &QRecord, v0: u32, x: u32, major: u16, nf: &NewFaces) -> [u32; 3] {
     let head = nf.head.get((x - v0) as usize).copied().unwrap_or(NIL);
     let mut e = head;
@@ -1793,8 +1798,11 @@ const ONE_PASS_DEFERRED: usize = 12;
 /// exactly once.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct OnePass {
-    sum: [[i64; 3]; ONE_PASS_NEW],
-    cnt: [i64; ONE_PASS_NEW],
+    /// Per new vertex, the sums of [`stencil_mean`]: its quads' edge
+    /// neighbours, their opposite corners, and the count of quads.
+    /// (One row per vertex, `[nb; 3], count, [op; 3], unused`: one base
+    /// address per update.)
+    acc: [[i64; 8]; ONE_PASS_NEW],
     /// (quad, corner of its largest new vertex).
     later: [([u32; 4], u8); ONE_PASS_DEFERRED],
     n_later: usize,
@@ -1810,24 +1818,25 @@ impl OnePass {
     /// Empty sums.
     #[inline]
     pub(crate) fn clear(&mut self) {
-        self.sum = [[0; 3]; ONE_PASS_NEW];
-        self.cnt = [0; ONE_PASS_NEW];
+        self.acc = [[0; 8]; ONE_PASS_NEW];
         self.n_later = 0;
         self.later_of = [0; ONE_PASS_NEW];
         self.overflow = false;
     }
 
-    /// The parallelogram `a + e − o` of new vertex `t` (index from `v0`)
-    /// whose neighbours in its quad are the old vertices `a`, `e` and whose
-    /// opposite corner is the old vertex `o`.
+    /// The quad of new vertex `t` (index from `v0`) whose neighbours in
+    /// it are the old vertices `a`, `e` and whose opposite corner is the
+    /// old vertex `o` (its parallelogram `a + e − o`; version 4's stencil
+    /// `5 (a + e) − 2 o`).
     #[inline(always)]
     pub(crate) fn add_single(&mut self, q: &[[u32; 3]], t: usize, a: u32, o: u32, e: u32) {
         let (a, o, e) = (q[a as usize], q[o as usize], q[e as usize]);
-        let s = &mut self.sum[t & (ONE_PASS_NEW - 1)];
+        let row = &mut self.acc[t & (ONE_PASS_NEW - 1)];
         for c in 0..3 {
-            s[c] += a[c] as i64 + e[c] as i64 - o[c] as i64;
+            row[c] += a[c] as i64 + e[c] as i64;
+            row[4 + c] += o[c] as i64;
         }
-        self.cnt[t & (ONE_PASS_NEW - 1)] += 1;
+        row[3] += 1;
     }
 
     /// Any record quad, new vertices `v0 .. v0 + nn` (`nn <=`
@@ -1916,6 +1925,24 @@ impl OnePass {
         if self.overflow {
             return scan_new_positions(st, r, n_new, major, pos);
         }
+        // The rule chosen once per record: a loop for each.
+        if major >= 4 {
+            self.finish_rule::<true>(st, r, n_new, major, pos)
+        } else {
+            self.finish_rule::<false>(st, r, n_new, major, pos)
+        }
+    }
+
+    /// [`OnePass::finish`] with version 4's rule (`V4`) or the earlier one.
+    #[inline(always)]
+    fn finish_rule<const V4: bool>(
+        &mut self,
+        st: &MeshState,
+        r: &mut QRecord,
+        n_new: usize,
+        major: u16,
+        pos: &mut Reader,
+    ) -> Result<(), String> {
         let (v0, q) = (st.q.len() as u32, &st.q);
         for t in 0..n_new {
             // Its deferred quads, in the order they came.
@@ -1937,13 +1964,17 @@ impl OnePass {
                     code(quad[(k + 2) & 3]),
                     code(quad[(k + 3) & 3]),
                 );
+                let row = &mut self.acc[t];
                 for c in 0..3 {
-                    self.sum[t][c] += a[c] as i64 + e[c] as i64 - o[c] as i64;
+                    row[c] += a[c] as i64 + e[c] as i64;
+                    row[4 + c] += o[c] as i64;
                 }
-                self.cnt[t] += 1;
+                row[3] += 1;
             }
-            let pred = if self.cnt[t] > 0 {
-                floor_mean(self.sum[t], self.cnt[t], st.qmax)
+            let row = &self.acc[t];
+            let pred = if row[3] > 0 {
+                let (nb, op) = ([row[0], row[1], row[2]], [row[4], row[5], row[6]]);
+                stencil_mean_rule::<V4>(nb, op, row[3], st.qmax)
             } else {
                 predict_scan(st, r, v0, v0 + t as u32, major)
             };
@@ -2005,7 +2036,8 @@ fn decode_new_positions(
 /// each vertex once: every stored quad passed [`check_distinct`] or is a
 /// star face with `m` replaced), so unmoved. Same entries, same sum, same
 /// count, so the same value as the scan (the sum's order does not matter;
-/// version 1 reads the appended quad only).
+/// version 1 reads the appended quad only; [`stencil_mean`] picks the
+/// rule).
 fn predict_split(
     st: &MeshState,
     r: &QRecord,
@@ -2016,9 +2048,10 @@ fn predict_split(
 ) -> [u32; 3] {
     let q = &st.q;
     let (qb, qd) = (q[b as usize], q[d as usize]);
-    let mut sum = [0i64; 3];
+    let (mut nb, mut op) = ([0i64; 3], [0i64; 3]);
     for t in 0..3 {
-        sum[t] = qb[t] as i64 + qd[t] as i64 - m_new[t] as i64;
+        nb[t] = qb[t] as i64 + qd[t] as i64;
+        op[t] = m_new[t] as i64;
     }
     let mut n = 1i64;
     if major >= 2 {
@@ -2030,12 +2063,13 @@ fn predict_split(
             let o = q[quad[(k + 2) & 3] as usize];
             let e = q[quad[(k + 3) & 3] as usize];
             for t in 0..3 {
-                sum[t] += a[t] as i64 + e[t] as i64 - o[t] as i64;
+                nb[t] += a[t] as i64 + e[t] as i64;
+                op[t] += o[t] as i64;
             }
             n += 1;
         }
     }
-    floor_mean(sum, n, st.qmax)
+    stencil_mean(nb, op, n, major, st.qmax)
 }
 
 /// `floor(sum / n)` per axis, clamped to the grid (spec §7.6's mean of
@@ -2048,6 +2082,41 @@ fn floor_mean(sum: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
         floor_div(sum[1], n).clamp(0, qmax) as u32,
         floor_div(sum[2], n).clamp(0, qmax) as u32,
     ]
+}
+
+/// Spec §7.6's prediction from `n > 0` qualifying quads around a new
+/// vertex, per axis: `nb` is the sum of the codes of their corners next to
+/// it (`n1`, `n3`), `op` of their opposite corners (`o`). Versions 1–3
+/// (version 1 with `n = 1`): the mean parallelogram, `floor((nb − op) /
+/// n)`; version 4: the stencil `floor((5 nb − 2 op) / (8 n))` — taken as
+/// `floor(floor(s / n) / 8)`, the same value (nested floors of positive
+/// divisors), so the usual 1, 2 or 4 quads stay shifts. The rule is
+/// chosen here, once per vertex: the per-quad sums are the same for
+/// every version.
+#[inline(always)]
+fn stencil_mean(nb: [i64; 3], op: [i64; 3], n: i64, major: u16, qmax: u32) -> [u32; 3] {
+    if major >= 4 {
+        stencil_mean_rule::<true>(nb, op, n, qmax)
+    } else {
+        stencil_mean_rule::<false>(nb, op, n, qmax)
+    }
+}
+
+/// [`stencil_mean`] with version 4's rule (`V4`) or the earlier one.
+#[inline(always)]
+fn stencil_mean_rule<const V4: bool>(nb: [i64; 3], op: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
+    if V4 {
+        // Per axis by hand: `[0, 1, 2].map(…)` was an out-of-line array
+        // drain (3 M instructions of a loki decode), a closure a call.
+        let qmax = qmax as i64;
+        [
+            (floor_div(5 * nb[0] - 2 * op[0], n) >> 3).clamp(0, qmax) as u32,
+            (floor_div(5 * nb[1] - 2 * op[1], n) >> 3).clamp(0, qmax) as u32,
+            (floor_div(5 * nb[2] - 2 * op[2], n) >> 3).clamp(0, qmax) as u32,
+        ]
+    } else {
+        floor_mean([nb[0] - op[0], nb[1] - op[1], nb[2] - op[2]], n, qmax)
+    }
 }
 
 /// `s.div_euclid(n)` for `n > 0` (then the floor of `s / n`): for the
@@ -2085,15 +2154,18 @@ fn predict_from(
 
 /// The running state of one prediction (spec §7.6), fed the record quads
 /// containing the new vertex `x` in record quad order, in one pass: the
-/// parallelogram sum and count (from version 2 on) and the first entry,
-/// for the fallbacks.
+/// sums and count of [`stencil_mean`] (from version 2 on) and the first
+/// entry, for the fallbacks.
 struct Prediction<'a> {
     st: &'a MeshState,
     r: &'a QRecord,
     v0: u32,
     x: u32,
     major: u16,
-    sum: [i64; 3],
+    /// Codes of the qualifying quads' corners next to `x` ([`stencil_mean`]).
+    nb: [i64; 3],
+    /// Codes of their corners opposite `x`.
+    op: [i64; 3],
     n: i64,
     first: Option<([u32; 4], usize)>,
 }
@@ -2107,7 +2179,8 @@ impl<'a> Prediction<'a> {
             v0,
             x,
             major,
-            sum: [0; 3],
+            nb: [0; 3],
+            op: [0; 3],
             n: 0,
             first: None,
         }
@@ -2184,19 +2257,21 @@ impl<'a> Prediction<'a> {
             }
         };
         if let Some((a, b, c)) = codes {
-            self.sum[0] += a[0] as i64 + c[0] as i64 - b[0] as i64;
-            self.sum[1] += a[1] as i64 + c[1] as i64 - b[1] as i64;
-            self.sum[2] += a[2] as i64 + c[2] as i64 - b[2] as i64;
+            for t in 0..3 {
+                self.nb[t] += a[t] as i64 + c[t] as i64;
+                self.op[t] += b[t] as i64;
+            }
             self.n += 1;
         }
     }
 
-    /// The prediction: the mean of the parallelograms, else (none had
-    /// three known corners, or version 1) the fallbacks, out of line.
+    /// The prediction: [`stencil_mean`] of the qualifying quads, else
+    /// (none had three known corners, or version 1) the fallbacks, out of
+    /// line.
     #[inline(always)]
     fn finish(&self) -> [u32; 3] {
         if self.n > 0 {
-            return floor_mean(self.sum, self.n, self.st.qmax);
+            return stencil_mean(self.nb, self.op, self.n, self.major, self.st.qmax);
         }
         self.finish_fallback()
     }
@@ -2241,11 +2316,7 @@ impl<'a> Prediction<'a> {
 /// and then the wrapped sum is negative and refused as the true one is
 /// (the error names the saturated sum, as before).
 #[inline(always)]
-pub(crate) fn add_residual(
-    pred: [u32; 3],
-    rd: &mut Reader,
-    qmax: u32,
-) -> Result<[u32; 3], String> {
+pub(crate) fn add_residual(pred: [u32; 3], rd: &mut Reader, qmax: u32) -> Result<[u32; 3], String> {
     let mut out = [0u32; 3];
     for t in 0..3 {
         let d = rd.s()?;
@@ -2452,7 +2523,7 @@ pub fn decode_record_into(
         _ => {
             // Face-split form (spec §7.9).
             let m = read_anchor(st, rd, cur, max_v, max_f, 1, "face split")?;
-            face_split_after_anchor(st, rd, m, sym, r, sc)?;
+            face_split_after_anchor(st, rd, m, sym, major, r, sc)?;
         }
     }
     Ok(())
@@ -2596,9 +2667,10 @@ fn decode_apply_split(
     let mut stay = [0u32; 8];
     let mut n_stay = 0usize;
     let (qb, qd) = (q[b as usize], q[d as usize]);
-    let mut sum = [0i64; 3];
+    let (mut nb, mut op) = ([0i64; 3], [0i64; 3]);
     for t in 0..3 {
-        sum[t] = qb[t] as i64 + qd[t] as i64 - m_new[t] as i64;
+        nb[t] = qb[t] as i64 + qd[t] as i64;
+        op[t] = m_new[t] as i64;
     }
     let mut cnt = 1i64;
     for t in 0..l {
@@ -2619,7 +2691,8 @@ fn decode_apply_split(
                 q[quad[(k + 3) & 3] as usize],
             );
             for t in 0..3 {
-                sum[t] += a[t] as i64 + e[t] as i64 - o[t] as i64;
+                nb[t] += a[t] as i64 + e[t] as i64;
+                op[t] += o[t] as i64;
             }
             cnt += 1;
         }
@@ -2627,7 +2700,7 @@ fn decode_apply_split(
     let pred = if sym & 0x80 != 0 {
         reflect(st, m_old, m_new)
     } else {
-        floor_mean(sum, cnt, st.qmax)
+        stencil_mean(nb, op, cnt, major, st.qmax)
     };
     let p = add_residual(pred, &mut rd[POS], st.qmax)?;
     // Applied: nothing can fail from here. (`r` is left as it was: the
@@ -2676,6 +2749,7 @@ fn face_split_after_anchor(
     rd: &mut [Reader; 5],
     m: u32,
     sym: u8,
+    major: u16,
     r: &mut QRecord,
     sc: &mut DecodeScratch,
 ) -> Result<(), String> {
@@ -2690,7 +2764,7 @@ fn face_split_after_anchor(
     let (rewritten, appended) = build_face_split(st, m, s, x & 1 != 0, sym);
     r.rewritten.push((s, rewritten));
     r.appended.push(appended);
-    let pred = predict_face_split(st, m, s);
+    let pred = predict_face_split(st, m, s, major);
     let p = add_residual(pred, &mut rd[POS], st.qmax)?;
     r.new_pos.push(p);
     Ok(())
@@ -2712,6 +2786,7 @@ fn decode_apply_face_split(
     cur: &mut Cursors,
     max_v: u32,
     max_f: u32,
+    major: u16,
     r: &mut QRecord,
     sc: &mut DecodeScratch,
     moved: &mut MoveDeltas,
@@ -2727,7 +2802,7 @@ fn decode_apply_face_split(
     let n = b[0] as usize;
     if !(1..=INLINE).contains(&n) {
         r.clear_parts();
-        face_split_after_anchor(st, rd, m, sym, r, sc)?;
+        face_split_after_anchor(st, rd, m, sym, major, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
         keep(r, kept);
         return Ok(());
@@ -2759,11 +2834,13 @@ fn decode_apply_face_split(
         pos[o as usize],
         pos[q as usize],
     );
-    let mut sum = [0i64; 3];
+    let (mut nb, mut op) = ([0i64; 3], [0i64; 3]);
     for t in 0..3 {
-        sum[t] = 2 * (pm[t] as i64 + po[t] as i64) - pp[t] as i64 - pq[t] as i64;
+        nb[t] = 2 * (pm[t] as i64 + po[t] as i64);
+        op[t] = pp[t] as i64 + pq[t] as i64;
     }
-    let pc = add_residual(floor_mean(sum, 2, st.qmax), &mut rd[POS], st.qmax)?;
+    let pred = stencil_mean(nb, op, 2, major, st.qmax);
+    let pc = add_residual(pred, &mut rd[POS], st.qmax)?;
     if let Some((new_pos, appended)) = kept {
         new_pos.push(pc);
         appended.push(yq);
@@ -2912,7 +2989,9 @@ pub fn decode_apply_record(
             return decode_apply_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw, kept);
         }
         Some(b) if major >= 2 && b & 0x0c == 0x0c => {
-            return decode_apply_face_split(st, rd, cur, max_v, max_f, r, sc, moved, rw, kept);
+            return decode_apply_face_split(
+                st, rd, cur, max_v, max_f, major, r, sc, moved, rw, kept,
+            );
         }
         _ => {
             decode_record_into(st, rd, cur, max_v, max_f, major, r, sc)?;
@@ -3846,9 +3925,11 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 #[cfg(test)]
 mod tests {
     use super::{
-        floor_div, rank_mask8, sort_distinct, MeshState, QRecord, Star, INLINE, MAX_SPLIT_STAR,
-        STAR_SMALL,
+        build_face_split, decode_new_positions, floor_div, predict, predict_face_split,
+        predict_scan, rank_mask8, sort_distinct, MeshState, NewFaces, OnePass, QRecord, Star,
+        INLINE, MAX_SPLIT_STAR, STAR_SMALL,
     };
+    use crate::varint::{put_s, Reader};
     use pqm_core::OpKind;
     use proptest::prelude::*;
 
@@ -4118,5 +4199,189 @@ mod tests {
             want.sort_unstable();
             prop_assert_eq!(x, want);
         }
+    }
+
+    /// The 3 × 3 patch around a new centre vertex: the ring `E, NE, N, NW,
+    /// W, SW, S, SE` (ids 0–7, counter-clockwise) on a bumped surface, and
+    /// a record appending the centre `x = 8` in four quads `[x, E, NE, N]`,
+    /// `[x, N, NW, W]`, `[x, W, SW, S]`, `[x, S, SE, E]` (`x` at corner 0:
+    /// `n1` the first edge neighbour, `o` the diagonal, `n3` the second).
+    fn bump() -> (MeshState, QRecord) {
+        let ring = vec![
+            [300, 200, 340], // E
+            [300, 300, 290], // NE
+            [200, 300, 345], // N
+            [100, 300, 280], // NW
+            [100, 200, 338], // W
+            [100, 100, 287], // SW
+            [200, 100, 342], // S
+            [300, 100, 291], // SE
+        ];
+        let st = MeshState::new(1023, ring, Vec::new());
+        let r = QRecord {
+            appended: vec![[8, 0, 1, 2], [8, 2, 3, 4], [8, 4, 5, 6], [8, 6, 7, 0]],
+            ..QRecord::default()
+        };
+        (st, r)
+    }
+
+    /// Every path of the decoder's general form on `r`'s new vertices,
+    /// all residuals 0: the predictions themselves. [`predict_scan`],
+    /// [`predict`] (the lists) and [`OnePass`] (`decode_new_positions`)
+    /// must agree; returns the first's.
+    fn all_paths(st: &MeshState, r: &QRecord, n_new: usize, major: u16) -> Vec<[u32; 3]> {
+        let v0 = st.q.len() as u32;
+        let (mut scan, mut listed) = (r.clone(), r.clone());
+        let mut nf = NewFaces::default();
+        nf.build(r, v0, n_new);
+        for t in 0..n_new as u32 {
+            let p = predict_scan(st, &scan, v0, v0 + t, major);
+            scan.new_pos.push(p);
+            let p = predict(st, &listed, v0, v0 + t, major, &nf);
+            listed.new_pos.push(p);
+        }
+        assert_eq!(
+            scan.new_pos, listed.new_pos,
+            "scan and lists, version {major}"
+        );
+        if major >= 2 {
+            let mut buf = Vec::new();
+            for _ in 0..3 * n_new {
+                put_s(&mut buf, 0);
+            }
+            let mut one = r.clone();
+            let mut rd = Reader::new(&buf, "pos");
+            decode_new_positions(st, &mut one, n_new, major, &mut rd, &mut OnePass::default())
+                .unwrap();
+            assert_eq!(
+                scan.new_pos, one.new_pos,
+                "scan and one pass, version {major}"
+            );
+        }
+        scan.new_pos
+    }
+
+    /// Spec §7.6 by hand on [`bump`]: each edge neighbour is in two of the
+    /// centre's quads and each diagonal in one, so per axis the sums are
+    /// `2 E' − D'` over 4 quads (versions 2, 3) and `10 E' − 2 D'` over
+    /// `8 · 4` (version 4), `E'` the sum of the edge neighbours
+    /// (`x`: 800, `y`: 800, `z`: 340 + 345 + 338 + 342 = 1365) and `D'`
+    /// of the diagonals (800, 800, 290 + 280 + 287 + 291 = 1148).
+    #[test]
+    fn version_4_stencil_by_hand_on_a_bump() {
+        let (st, r) = bump();
+        // z: (2730 − 1148) / 4 = 395.5; (13650 − 2296) / 32 = 354.8…
+        assert_eq!(all_paths(&st, &r, 1, 2), vec![[200, 200, 395]]);
+        assert_eq!(all_paths(&st, &r, 1, 3), vec![[200, 200, 395]]);
+        assert_eq!(all_paths(&st, &r, 1, 4), vec![[200, 200, 354]]);
+        // Version 1: the first quad's parallelogram E + N − NE.
+        assert_eq!(all_paths(&st, &r, 1, 1), vec![[200, 200, 395]]);
+        // One quad, `[x, E, NE, N]`: 5 (E + N) − 2 NE = (2500, 2500, 3425)
+        // − (600, 600, 580), over 8: (237.5, 237.5, 355.6…).
+        let one = QRecord {
+            appended: vec![[8, 0, 1, 2]],
+            ..QRecord::default()
+        };
+        assert_eq!(all_paths(&st, &one, 1, 4), vec![[237, 237, 355]]);
+        assert_eq!(all_paths(&st, &one, 1, 2), vec![[200, 200, 395]]);
+    }
+
+    /// The stencil rounds toward −∞ and clamps to the grid: on a steep
+    /// edge the sum goes negative (clamped to 0) or past `qmax`.
+    #[test]
+    fn version_4_stencil_floors_and_clamps() {
+        // x = 3 in [x, 0, 1, 2]: n1 = 0, o = 1, n3 = 2.
+        let st = MeshState::new(
+            1023,
+            vec![[0, 1000, 7], [900, 0, 0], [0, 1023, 9]],
+            Vec::new(),
+        );
+        let r = QRecord {
+            appended: vec![[3, 0, 1, 2]],
+            ..QRecord::default()
+        };
+        // x: 5·0 − 1800 < 0 → 0; y: (5·2023 − 0) / 8 = 1264.4 → 1023;
+        // z: (5·16 − 0) / 8 = 10.
+        assert_eq!(all_paths(&st, &r, 1, 4), vec![[0, 1023, 10]]);
+        // z with an odd sum: NE at 1 → (80 − 2) / 8 = 9.75 → 9.
+        let mut st2 = st.clone();
+        st2.q[1] = [900, 0, 1];
+        assert_eq!(all_paths(&st2, &r, 1, 4), vec![[0, 1023, 9]]);
+    }
+
+    /// Two new vertices, the second in a quad with the first (known once
+    /// decoded): version 4 sums the same quads as version 2, the first
+    /// vertex's decoded code standing in for a corner of the second's.
+    #[test]
+    fn version_4_stencil_reads_earlier_new_vertices() {
+        let (st, _) = bump();
+        // A strip: x = 8 in `[8, 0, 1, 2]`, y = 9 in `[9, 8, 2, 3]` (its
+        // n1 = x, o = N, n3 = NW).
+        let r = QRecord {
+            appended: vec![[8, 0, 1, 2], [9, 8, 2, 3]],
+            ..QRecord::default()
+        };
+        let p = all_paths(&st, &r, 2, 4);
+        assert_eq!(p[0], [237, 237, 355]);
+        // y: 5 (x + NW) − 2 N = 5 (237 + 100, 237 + 300, 355 + 280)
+        // − (400, 600, 690) = (1285, 2085, 2485), over 8: 160.6, 260.6,
+        // 310.6.
+        assert_eq!(p[1], [160, 260, 310]);
+        let p2 = all_paths(&st, &r, 2, 2);
+        // Version 2: x = E + N − NE = (200, 200, 395); y = x + NW − N.
+        assert_eq!(p2, vec![[200, 200, 395], [100, 200, 330]]);
+    }
+
+    /// The face split's closed form ([`predict_face_split`]) equals the
+    /// scan of the record [`build_face_split`] makes, in versions 2–4, for
+    /// every slot, corner, diagonal and rotation of a curved grid.
+    #[test]
+    fn face_split_closed_form_equals_the_scan() {
+        // 4 × 4 vertices, 3 × 3 quads, pseudo-random codes.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let q: Vec<[u32; 3]> = (0..16)
+            .map(|_| {
+                [0; 3].map(|_| {
+                    seed ^= seed << 13;
+                    seed ^= seed >> 7;
+                    seed ^= seed << 17;
+                    (seed % 4096) as u32
+                })
+            })
+            .collect();
+        let v = |i: u32, j: u32| i + 4 * j;
+        let mut quads = Vec::new();
+        for j in 0..3 {
+            for i in 0..3 {
+                quads.push([v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+            }
+        }
+        let st = MeshState::new(4095, q, quads);
+        let mut differ = 0;
+        for s in 0..9u32 {
+            for m in st.quads[s as usize] {
+                for swap in [false, true] {
+                    for sym in [0x0cu8, 0x1c, 0x6c, 0xbc, 0xfc] {
+                        let (xq, yq) = build_face_split(&st, m, s, swap, sym);
+                        let r = QRecord {
+                            rewritten: vec![(s, xq)],
+                            appended: vec![yq],
+                            ..QRecord::default()
+                        };
+                        for major in 2..=4u16 {
+                            assert_eq!(
+                                predict_face_split(&st, m, s, major),
+                                all_paths(&st, &r, 1, major)[0],
+                                "slot {s}, m {m}, swap {swap}, sym {sym:#x}, version {major}"
+                            );
+                        }
+                        differ += (predict_face_split(&st, m, s, 4)
+                            != predict_face_split(&st, m, s, 3))
+                            as u32;
+                    }
+                }
+            }
+        }
+        assert!(differ > 0, "version 4 never differs from version 3");
     }
 }

@@ -532,7 +532,11 @@ fn write_impl(
     // the base can be written in it and it is the smaller, else the deltas.
     let mut base_frames = Vec::with_capacity(2);
     for candidate in [
-        Some(crate::base::encode_delta(&base_q, &base_quads, opts.version_major)),
+        Some(crate::base::encode_delta(
+            &base_q,
+            &base_quads,
+            opts.version_major,
+        )),
         (opts.version_major >= 4)
             .then(|| crate::base::encode_traversal(&base_q, &base_quads, quant.qmax()))
             .flatten(),

@@ -196,15 +196,16 @@ pub fn add_edge_splits(pm: &mut ProgressiveMesh, n: usize, seed: u64) {
 /// the header's bounds, spec §3, §5). Every other vector keeps the box
 /// grid, as before 3.2, so its bytes stay as they were.
 pub fn all() -> Vec<Vector> {
-    let make = |name, gen: GenOptions, opts: EncodeOptions| {
+    let make = |name: &'static str, gen: GenOptions, opts: EncodeOptions| {
         let opts = EncodeOptions {
-            version_major: if ["edge_split", "box_vnbr", "zstd_blocks", "cube_grid"].contains(&name)
-            {
+            version_major: if name.starts_with("v4_") {
                 opts.version_major
+            } else if ["edge_split", "box_vnbr", "zstd_blocks", "cube_grid"].contains(&name) {
+                opts.version_major.min(3)
             } else {
                 opts.version_major.min(2)
             },
-            grid: if name == "cube_grid" {
+            grid: if name == "cube_grid" || name.starts_with("v4_") {
                 crate::Grid::Cube
             } else {
                 crate::Grid::Box
@@ -227,6 +228,14 @@ pub fn all() -> Vec<Vector> {
         if name == "cube_grid" {
             // a flat, off-centre box: the cube grid is far from the bounds
             stretch(&mut pm, [1.5, 0.375, 0.125], [0.25, -3.0, 7.0]);
+        }
+        if name.starts_with("v4_") {
+            // every compact form, each predicting with the stencil
+            add_face_splits(&mut pm, 20, 13);
+            add_edge_splits(&mut pm, 12, 13);
+        }
+        if name == "v4_delta_base" {
+            reverse_base_vertices(&mut pm);
         }
         let n = pm.records.len();
         let (bytes, r) = write_to_vec(&pm, &opts).expect("vector encodes");
@@ -376,11 +385,73 @@ pub fn all() -> Vec<Vector> {
                 ..EncodeOptions::default()
             },
         ),
+        // 4.0 files (spec §6.1, §7.6 version 4): the base in the traversal
+        // layout, then in the delta layout behind its layout byte (its
+        // vertex ids reversed, so not in the walk's order); both with
+        // split, face-split and edge-split records predicted by the stencil.
+        make(
+            "v4_traversal",
+            GenOptions {
+                base: BaseShape::Box { n: 3 },
+                ..GenOptions::new(13, 60)
+            },
+            EncodeOptions {
+                chunk_records: Some(16),
+                ..EncodeOptions::default()
+            },
+        ),
+        make(
+            "v4_delta_base",
+            GenOptions {
+                base: BaseShape::Grid { nx: 4, ny: 3 },
+                ..GenOptions::new(14, 40)
+            },
+            EncodeOptions {
+                chunk_records: Some(16),
+                ..EncodeOptions::default()
+            },
+        ),
         // A 1.1 file (version-1 prediction, no face-split form): the bytes
         // of `mixed_bits24` before format 2.0, kept so that every decoder
         // keeps testing the 1.x rules (spec §9).
         make("v1_1_mixed_bits24", mixed_gen(), mixed_encode(1)),
     ]
+}
+
+/// Renumbers `pm`'s base vertices in reverse (`v → nb − 1 − v`), records
+/// and vertex order with them: the same levels under other ids, which are
+/// not in the walk order of spec §6.1, so a 4.0 writer codes the base in
+/// the delta layout.
+pub fn reverse_base_vertices(pm: &mut ProgressiveMesh) {
+    let nb = pm.base.positions.len() as u32;
+    let map = |v: u32| if v < nb { nb - 1 - v } else { v };
+    pm.base.positions.reverse();
+    let faces: Vec<Vec<u32>> = pm
+        .base
+        .faces()
+        .map(|f| f.iter().map(|&v| map(v)).collect())
+        .collect();
+    let mut base = pqm_core::IndexedMesh::new();
+    base.positions = std::mem::take(&mut pm.base.positions);
+    for f in &faces {
+        base.push_face(f);
+    }
+    pm.base = base;
+    for r in &mut pm.records {
+        for m in &mut r.moved {
+            m.0 = map(m.0);
+        }
+        r.moved.sort_by_key(|m| m.0);
+        for (_, q) in &mut r.rewritten {
+            *q = q.map(map);
+        }
+        for q in &mut r.appended_faces {
+            *q = q.map(map);
+        }
+    }
+    if !pm.vertex_order.is_empty() {
+        pm.vertex_order[..nb as usize].reverse();
+    }
 }
 
 /// Scales every position of `pm` per axis by `scale`, then adds `offset`.

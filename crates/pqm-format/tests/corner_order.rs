@@ -102,7 +102,7 @@ proptest! {
         face_splits in 0usize..40,
         edge_splits in 0usize..12,
         chunk in 3usize..60,
-        version_major in 1u16..=3,
+        version_major in 1u16..=4,
     ) {
         let mut pm = testgen::generate(seed, splits);
         if rotate {

@@ -152,7 +152,11 @@ fn fused_edge_split_equals_build() {
                                 let mut c = vec![r, n1a, ea, n1b, eb, p, ra];
                                 c.extend_from_slice(&rots[..(2 + ea + eb) as usize]);
                                 let s = streams(0x11, &c, anchor, &[1; 12]);
-                                n_ok += run_apply(&st, &s, 24, 16, 3).is_ok() as u32;
+                                // Version 3's parallelograms and version
+                                // 4's stencil (spec §7.6).
+                                for major in [3, 4] {
+                                    n_ok += run_apply(&st, &s, 24, 16, major).is_ok() as u32;
+                                }
                             }
                         }
                     }
@@ -419,7 +423,7 @@ fn fused_split_equals_explicit() {
         for i in 0..5u64 {
             for e in 0..4u64 {
                 for flags in [0x04u8, 0x15, 0x24, 0x35, 0x44, 0x74, 0x84, 0xc5] {
-                    for major in 1..=3u16 {
+                    for major in 1..=4u16 {
                         let n_pos = if flags & 0x40 != 0 { 6 } else { 3 };
                         let pos = [3, -2, 1, 0, 5, -7];
                         let s = streams(flags, &[i, e], anchor, &pos[..n_pos]);
@@ -446,7 +450,7 @@ fn fused_face_split_equals_explicit() {
     for anchor in 0..20i64 {
         for x in 0..9u64 {
             for rot in [0x0cu8, 0x1d, 0x6c, 0xbd, 0xfc] {
-                for major in 1..=3u16 {
+                for major in 1..=4u16 {
                     let s = streams(rot, &[x], anchor, &[4, -3, 2]);
                     match run_apply(&st, &s, 21, 13, major) {
                         Ok(_) => n_ok += 1,
@@ -530,7 +534,7 @@ fn random_records_fused_equals_explicit() {
             rnd() % 14
         };
         (0..npos).for_each(|_| put_s(&mut s[4], (rnd() % 200) as i64 - 100));
-        let major = [1u16, 2, 3, 3][(rnd() % 4) as usize];
+        let major = [1u16, 2, 3, 4][(rnd() % 4) as usize];
         let (max_v, max_f) = (st.q.len() as u32 + 10, st.quads.len() as u32 + 10);
         let mut rd = [0, 1, 2, 3, 4].map(|k| Reader::new(&s[k], "s"));
         let mut fused = st.clone();
@@ -587,8 +591,9 @@ fn random_records_fused_equals_explicit() {
 /// longest the stars allow, several permutations and rotations, through
 /// `run_apply`; `n` counts `[built, refused, built with an endpoint of 7
 /// faces and a fan of 5]`. With `deeper`, each built record that leaves an
-/// endpoint in 7 faces is followed by the same at that endpoint.
-fn sweep_edge_splits(st: &MeshState, anchors: &[u32], deeper: bool, n: &mut [u32; 3]) {
+/// endpoint in 7 faces is followed by the same at that endpoint. `major`
+/// picks the prediction rule (spec §7.6).
+fn sweep_edge_splits(st: &MeshState, anchors: &[u32], deeper: bool, major: u16, n: &mut [u32; 3]) {
     let (max_v, max_f) = (st.q.len() as u32 + 8, st.quads.len() as u32 + 8);
     for &a in anchors {
         let Ok(sa) = st.star(a) else { continue };
@@ -618,14 +623,14 @@ fn sweep_edge_splits(st: &MeshState, anchors: &[u32], deeper: bool, n: &mut [u32
                     conn.extend((0..2 + ea + eb).map(|t| (t + i as u64) % 4));
                     let pos = [3, -1, 2, 0, 1, -4, 2, 2, 0, -3, 1, 1];
                     let s = streams(0x11, &conn, a as i64, &pos);
-                    match run_apply(st, &s, max_v, max_f, 3) {
+                    match run_apply(st, &s, max_v, max_f, major) {
                         Ok(next) => {
                             n[0] += 1;
                             n[2] += (k0 == 7 && ea == 4 || k1 == 7 && eb == 4) as u32;
                             if deeper {
                                 let seven: Vec<u32> =
                                     ends.into_iter().filter(|&x| next.valence(x) == 7).collect();
-                                sweep_edge_splits(&next, &seven, false, n);
+                                sweep_edge_splits(&next, &seven, false, major, n);
                             }
                         }
                         Err(_) => n[1] += 1,
@@ -654,7 +659,11 @@ fn fused_edge_split_equals_build_on_every_edge_of_real_levels() {
             dec.quads().to_vec(),
         );
         let all: Vec<u32> = (0..st.q.len() as u32).collect();
-        sweep_edge_splits(&st, &all, true, &mut n);
+        // Level 0 with version 3's rule, level 40 with version 4's too.
+        sweep_edge_splits(&st, &all, true, 3, &mut n);
+        if level == 40 {
+            sweep_edge_splits(&st, &all, true, 4, &mut n);
+        }
     }
     let [built, refused, full] = n;
     assert!(

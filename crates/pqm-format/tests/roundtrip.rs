@@ -118,7 +118,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
         1i32..20,
         any::<bool>(),
         any::<bool>(),
-        1u16..=3,
+        1u16..=4,
         any::<bool>(),
         0usize..3,
         any::<bool>(),
@@ -236,7 +236,7 @@ proptest! {
         walk in prop::collection::vec(0usize..200, 1..12),
         split_form in any::<bool>(),
         local_form in any::<bool>(),
-        version_major in 1u16..=3,
+        version_major in 1u16..=4,
     ) {
         let mut pm = testgen::generate(seed, 120);
         pqm_format::vectors::add_face_splits(&mut pm, 30, seed);
@@ -299,7 +299,7 @@ proptest! {
         sizes in prop::collection::vec(1usize..400, 1..6),
         refine_every in 1usize..4,
         flip in prop::option::of((any::<prop::sample::Index>(), any::<u8>())),
-        version_major in 1u16..=3,
+        version_major in 1u16..=4,
         detour in any::<prop::sample::Index>(),
     ) {
         let mut pm = testgen::generate(seed, 120);
@@ -804,9 +804,9 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
 
     // Newer major: clear error.
     let mut b = bytes.clone();
-    patch_header(&mut b, |h| h[8..10].copy_from_slice(&4u16.to_le_bytes()));
+    patch_header(&mut b, |h| h[8..10].copy_from_slice(&5u16.to_le_bytes()));
     match Decoder::new(Limits::default()).push(&b) {
-        Err(DecodeError::Format(FormatError::UnsupportedVersion { major: 4, .. })) => {}
+        Err(DecodeError::Format(FormatError::UnsupportedVersion { major: 5, .. })) => {}
         other => panic!("{other:?}"),
     }
     // Major 0 does not exist.
@@ -819,17 +819,38 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
             ..
         }))
     ));
-    // The writer writes 3.2 with the cube grid's bounds (the default),
-    // 3.1 with a VNBR section (the mesh has a vertex order) and the box
-    // grid, 3.0 where VORD is the smaller (the default picks) and 2.0 or
-    // 1.1 on request; all read back to the same levels.
-    assert_eq!(&bytes[8..12], &[3, 0, 2, 0]);
+    // The writer writes 4.0 (the default; with the cube grid's bounds,
+    // minor 0 all the same), and on request 3.2 with the bounds, 3.1 with
+    // a VNBR section (the mesh has a vertex order) and the box grid, 3.0
+    // where VORD is the smaller (the default picks), 2.0 or 1.1; all read
+    // back to the same levels.
+    assert_eq!(&bytes[8..12], &[4, 0, 0, 0]);
     assert_eq!(header_len(&bytes), 168);
+    let v3 = encode(
+        &pm,
+        &EncodeOptions {
+            version_major: 3,
+            ..EncodeOptions::default()
+        },
+    );
+    assert_eq!(&v3[8..12], &[3, 0, 2, 0]);
+    assert_eq!(header_len(&v3), 168);
     let boxed = |vertex_order_code| EncodeOptions {
         vertex_order_code,
         grid: Grid::Box,
+        version_major: 3,
         ..EncodeOptions::default()
     };
+    let vnbr4 = encode(
+        &pm,
+        &EncodeOptions {
+            vertex_order_code: VertexOrderCode::Neighbours,
+            grid: Grid::Box,
+            ..EncodeOptions::default()
+        },
+    );
+    assert_eq!(&vnbr4[8..12], &[4, 0, 0, 0]);
+    assert_eq!(header_len(&vnbr4), 120);
     let vnbr = encode(&pm, &boxed(VertexOrderCode::Neighbours));
     assert_eq!(&vnbr[8..12], &[3, 0, 1, 0]);
     assert_eq!(header_len(&vnbr), 120);
@@ -866,10 +887,14 @@ fn versioning_newer_minor_is_read_newer_major_is_refused() {
     d2.set_level(Target::Level(usize::MAX)).unwrap();
     assert_eq!(d1.quads(), d2.quads());
     assert_eq!(d1.position_codes(), d2.position_codes());
+    let mut d3 = decode_all(&v3, Limits::default()).unwrap();
+    d3.set_level(Target::Level(usize::MAX)).unwrap();
+    assert_eq!(d1.quads(), d3.quads());
+    assert_eq!(d1.position_codes(), d3.position_codes());
     assert!(write_to_vec(
         &pm,
         &EncodeOptions {
-            version_major: 4,
+            version_major: 5,
             ..EncodeOptions::default()
         }
     )
@@ -1270,9 +1295,12 @@ fn a_1x_file_with_a_face_split_record_names_that_record() {
     for r in &mut pm.records {
         r.moved.clear();
     }
+    // a 3.0 file: its base section is what 1.x readers read (4.0 adds a
+    // layout byte, spec §6)
     let opts = EncodeOptions {
         chunk_records: Some(4),
         split_form: false,
+        version_major: 3,
         ..EncodeOptions::default()
     };
     let (mut bytes, report) = write_to_vec(&pm, &opts).unwrap();
@@ -1349,9 +1377,9 @@ fn empty_and_record_free_meshes() {
     let bytes = encode(&empty, &EncodeOptions::default());
     let dec = decode_all(&bytes, Limits::default()).unwrap();
     assert!(dec.quads().is_empty() && dec.positions().is_empty());
-    // no positions, no bounds to store (a 3.0 file)
+    // no positions, no bounds to store (a 4.0 file all the same)
     assert_eq!(dec.header().unwrap().bounds, None);
-    assert_eq!(&bytes[8..12], &[3, 0, 0, 0]);
+    assert_eq!(&bytes[8..12], &[4, 0, 0, 0]);
 }
 
 /// Rebuilds `bytes` with chunk `i`'s uncompressed payload changed by `f`
@@ -1730,7 +1758,7 @@ proptest! {
     fn random_record_streams_never_panic(
         seed in 0u64..50,
         streams in prop::collection::vec(prop::collection::vec(any::<u8>(), 0..48), 5),
-        major in 1u16..=3,
+        major in 1u16..=4,
         edge_symbol in any::<bool>(),
     ) {
         use pqm_format::codec::{decode_record, Cursors, MeshState};

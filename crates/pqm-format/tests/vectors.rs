@@ -1,7 +1,7 @@
 //! The checked-in vectors of `spec/vectors/` are what the generator writes
 //! today, byte for byte, and decode to their recorded digests and OBJs.
 
-use pqm_format::{decode_all, vectors, Limits, Target};
+use pqm_format::{base, decode_all, vectors, Limits, Target};
 use std::path::PathBuf;
 
 fn dir() -> PathBuf {
@@ -43,7 +43,7 @@ fn checked_in_vectors_match_the_generator_and_their_digests() {
             "{} vertex order",
             v.name
         );
-        // The 3.2 header bounds (only `cube_grid` has them) are listed
+        // The 3.2 header bounds (`cube_grid` and the 4.0 vectors have them) are listed
         // exactly, and are the box of every position the levels show.
         let listed = |key: &str| {
             json[key]
@@ -59,7 +59,12 @@ fn checked_in_vectors_match_the_generator_and_their_digests() {
             "{} bounds",
             v.name
         );
-        assert_eq!(bounds.is_some(), v.name == "cube_grid", "{}", v.name);
+        assert_eq!(
+            bounds.is_some(),
+            v.name == "cube_grid" || v.name.starts_with("v4_"),
+            "{}",
+            v.name
+        );
         let levels = json["levels"].as_array().unwrap();
         assert_eq!(levels.len(), v.levels.len());
         for l in levels {
@@ -105,6 +110,23 @@ fn both_vertex_order_sections_have_a_vector() {
     };
     assert_eq!(tag("box_vord"), (b"VORD".to_vec(), vec![2, 0, 0, 0]));
     assert_eq!(tag("box_vnbr"), (b"VNBR".to_vec(), vec![3, 0, 1, 0]));
+}
+
+/// The 4.0 vectors cover both base layouts (spec §6): the traversal
+/// layout, and the delta layout behind its layout byte.
+#[test]
+fn the_4_0_vectors_hold_both_base_layouts() {
+    let all = vectors::all();
+    let layout = |name: &str| {
+        let v = all.iter().find(|v| v.name == name).unwrap();
+        assert_eq!(&v.bytes[8..12], &[4, 0, 0, 0], "{name}");
+        let dec = decode_all(&v.bytes, Limits::default()).unwrap();
+        let h = dec.header().unwrap();
+        let at = h.header_len as usize + h.chunk_count as usize * h.chunk_entry_len as usize + 4;
+        zstd::stream::decode_all(&v.bytes[at..at + h.base_compressed_len as usize]).unwrap()[0]
+    };
+    assert_eq!(layout("v4_traversal"), base::LAYOUT_TRAVERSAL);
+    assert_eq!(layout("v4_delta_base"), base::LAYOUT_DELTA);
 }
 
 #[test]

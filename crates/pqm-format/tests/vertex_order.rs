@@ -20,10 +20,12 @@ fn encode(pm: &ProgressiveMesh, opts: &EncodeOptions) -> Vec<u8> {
 
 /// The box grid (no 3.2 header bounds), so that the version fields say
 /// which vertex-order section a file holds: 3.1 with `VNBR`, 3.0 without.
+/// A 3.x file (3.0 with VORD, 3.1 with VNBR) on the box grid.
 fn boxed(vertex_order_code: VertexOrderCode) -> EncodeOptions {
     EncodeOptions {
         vertex_order_code,
         grid: Grid::Box,
+        version_major: 3,
         ..EncodeOptions::default()
     }
 }
@@ -135,13 +137,18 @@ proptest! {
         prop_assert_eq!(&v[120..sv], &d[120..sd]);
         let smaller = if d.len() <= v.len() { &d } else { &v };
         prop_assert_eq!(&encode(&pm, &boxed(VertexOrderCode::Smaller)), smaller);
-        // With the default cube grid: a 3.2 file, the same section choice,
-        // the bounds flag beside the section's.
-        let cube = encode(&pm, &EncodeOptions::default());
+        // With the cube grid: a 3.2 file, the same section choice, the
+        // bounds flag beside the section's; the default (4.0) likewise,
+        // with minor 0 whatever it holds.
+        let cube = encode(&pm, &EncodeOptions { version_major: 3, ..EncodeOptions::default() });
         prop_assert_eq!(&cube[8..12], &[3, 0, 2, 0]);
         let section_flag = if d.len() <= v.len() { 1 } else { 2 };
         prop_assert_eq!(Header::parse(&cube[..168]).flags, section_flag | 4);
         assert_order(&cube, &pm, if section_flag == 1 { b"VORD" } else { b"VNBR" });
+        let v4 = encode(&pm, &EncodeOptions::default());
+        prop_assert_eq!(&v4[8..12], &[4, 0, 0, 0]);
+        prop_assert!(Header::parse(&v4[..168]).flags & 4 == 4);
+        assert_order(&v4, &pm, if Header::parse(&v4[..168]).flags & 1 == 1 { b"VORD" } else { b"VNBR" });
         // 2.0 and 1.1 files keep VORD (their minors have no VNBR).
         for major in [1, 2] {
             let old = encode(&pm, &EncodeOptions { version_major: major, ..EncodeOptions::default() });

@@ -80,9 +80,12 @@ proptest! {
             );
             prop_assert!(block_count(p) >= block_count(a));
         }
-        // per part: the base in corners | codes, every chunk with at least
-        // ops | conn | refs (each non-empty here: every chunk has records)
-        prop_assert_eq!(block_count(p_sec[0]), 2);
+        // per part: the base in layout byte and corners | codes (delta
+        // layout) or gates | corners | escapes | positions (traversal
+        // layout, spec §6.1), every chunk with at least ops | conn | refs
+        // (each non-empty here: every chunk has records)
+        let layout = zstd::stream::decode_all(p_sec[0]).unwrap()[0];
+        prop_assert_eq!(block_count(p_sec[0]), if layout == base::LAYOUT_TRAVERSAL { 4 } else { 2 });
         for p in &p_sec[1..] {
             prop_assert!(block_count(p) >= 3);
         }

@@ -536,57 +536,30 @@ impl Base {
 /// Deterministic: the only orders used are face ids, corner order and the
 /// queue's.
 fn traversal_order(m: &Mesh) -> (Vec<FaceId>, Vec<VertexId>) {
-    let mut queued = vec![false; m.face_capacity()];
-    let mut numbered = vec![false; m.vertex_capacity()];
-    let mut faces: Vec<FaceId> = Vec::with_capacity(m.face_count());
-    let mut vertices: Vec<VertexId> = Vec::with_capacity(m.vertex_count());
-    let mut number = |v: VertexId, vertices: &mut Vec<VertexId>| {
-        if !numbered[v.idx()] {
-            numbered[v.idx()] = true;
-            vertices.push(v);
+    let ids: Vec<FaceId> = m.faces().collect();
+    let corners: Vec<Vec<u32>> = ids
+        .iter()
+        .map(|&f| m.face_vertices(f).map(|v| v.0).collect())
+        .collect();
+    let refs: Vec<&[u32]> = corners.iter().map(|c| &c[..]).collect();
+    let (faces, vertices) = crate::progressive::walk_order(&refs, m.vertex_capacity());
+    let live: Vec<bool> = {
+        let mut l = vec![false; m.vertex_capacity()];
+        for v in m.vertices() {
+            l[v.idx()] = true;
         }
+        l
     };
-    let corners = |f: FaceId| -> Vec<VertexId> { m.face_vertices(f).collect() };
-    // `faces` is the queue itself: faces are visited in the order queued
-    let mut head = 0;
-    for start in m.faces() {
-        if queued[start.idx()] {
-            continue;
-        }
-        queued[start.idx()] = true;
-        faces.push(start);
-        for v in m.face_vertices(start) {
-            number(v, &mut vertices);
-        }
-        while head < faces.len() {
-            let f = corners(faces[head]);
-            head += 1;
-            let n = f.len();
-            for k in 0..n {
-                let (a, b) = (f[k], f[(k + 1) % n]);
-                // the face across: the one holding `b → a`
-                let across = m.vertex_faces(b).find_map(|g| {
-                    let gv = corners(g);
-                    let r = gv.iter().position(|&v| v == b)?;
-                    (gv[(r + 1) % gv.len()] == a).then_some((g, gv, r))
-                });
-                if let Some((g, gv, r)) = across {
-                    if !queued[g.idx()] {
-                        queued[g.idx()] = true;
-                        faces.push(g);
-                        let len = gv.len();
-                        for t in 2..len {
-                            number(gv[(r + t) % len], &mut vertices);
-                        }
-                    }
-                }
-            }
-        }
-    }
-    for v in m.vertices() {
-        number(v, &mut vertices);
-    }
-    (faces, vertices)
+    (
+        faces.into_iter().map(|i| ids[i as usize]).collect(),
+        // `walk_order` lists every id up to the capacity; dead ones are not
+        // vertices of the mesh
+        vertices
+            .into_iter()
+            .filter(|&v| live[v as usize])
+            .map(VertexId)
+            .collect(),
+    )
 }
 
 /// The numbering state of [`build`]: coarsener ids → canonical ones.

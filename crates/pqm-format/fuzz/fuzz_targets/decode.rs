@@ -10,7 +10,12 @@
 //!   3.0 rules (bypasses CRCs so the record decoder itself is exercised),
 //!   both by the explicit record then `apply` and by the decoder's fused
 //!   path (`decode_apply_record`): both refuse the record, or both give
-//!   the same mesh.
+//!   the same mesh. (Modes 1 and 3 mod 8 with bit 7 set are mode 2.)
+//! * Mode 2 (a base payload, spec §6 and §6.1: odd modes with bit 7 set):
+//!   two bytes give the vertex and face counts, the rest is a 4.0 base
+//!   payload (layout byte first). A base it decodes to is valid (distinct
+//!   corners, ids and codes in range), and written again in the traversal
+//!   layout (when it can be) it decodes to the same base.
 //!
 //! `cargo +nightly fuzz run decode` (or `cargo fuzz run decode -s none` on
 //! stable) from `crates/pqm-format`; seed corpus: `spec/vectors/*.pqm`.
@@ -25,7 +30,26 @@ fuzz_target!(|data: &[u8]| {
     let Some((&mode, rest)) = data.split_first() else {
         return;
     };
-    if mode & 1 == 0 {
+    if mode & 0x81 == 0x81 {
+        use pqm_format::base;
+        let [nv, nf, payload @ ..] = rest else {
+            return;
+        };
+        let (nv, nf, qmax) = (*nv as u32, *nf as u32, 1023);
+        let Ok(st) = base::decode(payload, nv, nf, qmax, 4) else {
+            return;
+        };
+        assert_eq!((st.q.len(), st.quads.len()), (nv as usize, nf as usize));
+        for q in &st.quads {
+            assert!(q.iter().all(|&v| v < nv));
+            assert!((0..4).all(|i| (i + 1..4).all(|j| q[i] != q[j])));
+        }
+        assert!(st.q.iter().flatten().all(|&c| c <= qmax));
+        if let Some(p) = base::encode_traversal(&st.q, &st.quads, qmax) {
+            let again = base::decode(&p.payload, nv, nf, qmax, 4).expect("re-encoded base");
+            assert_eq!((again.q, again.quads), (st.q, st.quads));
+        }
+    } else if mode & 1 == 0 {
         let at = if rest.len() >= 2 {
             (rest[0] as usize | (rest[1] as usize) << 8) % (rest.len() + 1)
         } else {
@@ -37,8 +61,8 @@ fuzz_target!(|data: &[u8]| {
             decode_apply_record, decode_record, Cursors, DecodeScratch, MeshState, QRecord,
         };
         use pqm_format::varint::Reader;
-        // Bits 1-2 pick the rules (1.x, 2.0, 3.0), the rest the mesh.
-        let major = 1 + ((mode >> 1) & 3).min(2) as u16;
+        // Bits 1-2 pick the rules (1.x, 2.0, 3.0, 4.0), the rest the mesh.
+        let major = 1 + ((mode >> 1) & 3) as u16;
         let seed = (mode >> 3) as u64;
         let pm = pqm_core::progressive::testgen::generate(seed, 30);
         let (pos, quads) = pm.level_quads(pm.records.len());
