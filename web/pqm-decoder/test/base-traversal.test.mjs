@@ -376,3 +376,17 @@ test('a whole 4.0 file with a traversal base decodes to its faces and codes; a b
     (e) => e instanceof PqmError && e.kind === 'invalid' && e.section === 'base mesh' && /need at least/.test(e.message),
   );
 });
+
+test('the 4.0 vectors: v4_traversal has a traversal-layout base, v4_delta_base the delta layout behind byte 0', () => {
+  const files = Object.fromEntries(testFiles().map((f) => [f.name, f]));
+  for (const [name, layout] of [
+    ['v4_traversal', 1],
+    ['v4_delta_base', 0],
+  ]) {
+    assert.ok(files[name], `missing vector ${name}`);
+    assert.equal(unpack(files[name].bytes).base[0], layout, name);
+    const d = decodeAll(files[name].bytes);
+    assert.equal(d.header.versionMajor, 4);
+    assert.equal(d.header.versionMinor, 0);
+  }
+});
