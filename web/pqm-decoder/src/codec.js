@@ -460,17 +460,10 @@ function decodeDelta(payload, start, st, nv, nf, qmax) {
  */
 function decodeTraversal(payload, start, st, nv, nf, qmax) {
   const top = new Reader(payload, start, payload.length, 'base');
-  const part = (name) => {
-    const n = top.u();
-    if (n > top.remaining()) throw `stream ${name} claims ${n} bytes, ${top.remaining()} remain`;
-    const r = new Reader(payload, top.p, top.p + n, name);
-    top.p += n;
-    return r;
-  };
-  const gates = part('base gates');
-  const corners = part('base corners');
-  const escapes = part('base escapes');
-  const pos = part('base positions');
+  const gates = baseStream(top, 'base gates');
+  const corners = baseStream(top, 'base corners');
+  const escapes = baseStream(top, 'base escapes');
+  const pos = baseStream(top, 'base positions');
   if (top.remaining() !== 0) throw `${top.remaining()} bytes after the last base stream`;
 
   const f = st.f;
@@ -480,104 +473,43 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
   const cNext = new Int32Array(4 * nf);
   const open = new Uint8Array(4 * nf);
   let s = 0; // vertices seen
-
-  // The half-edge u → v if decoded (its id), else −1.
-  const find = (u, v) => {
-    for (let c = head[u]; c >= 0; c = cNext[c]) {
-      if (f[(c & ~3) | ((c + 1) & 3)] === v) return c;
-    }
-    return -1;
-  };
-  // Corner symbol σ (spec §6.1) of face n; candidates: 1 → X (open half-edges
-  // w → a, their sources), 2 → Y (open half-edges b → z, their targets), 0 → none.
-  const corner = (n, kind, a) => {
-    const sym = corners.byte();
-    if (sym === 0) {
-      if (s >= nv) throw `face ${n} has a new vertex but all ${nv} vertices are seen`;
-      return s++;
-    }
-    if (sym === 255) {
-      const u = escapes.u();
-      if (u >= s) throw `face ${n} escapes to vertex ${s - 1 - u} before vertex 0`;
-      return s - 1 - u;
-    }
-    // the (sym − 1)-th entry of the candidate list, in decode order
-    let i = sym - 1;
-    let len = 0;
-    if (kind === 1) {
-      for (let c = head[a]; c >= 0; c = cNext[c]) {
-        const e = (c & ~3) | ((c + 3) & 3); // incoming half-edge of corner c
-        if (open[e] === 0) continue;
-        if (i === 0) return f[e];
-        i--;
-        len++;
-      }
-    } else if (kind === 2) {
-      for (let c = head[a]; c >= 0; c = cNext[c]) {
-        if (open[c] === 0) continue;
-        if (i === 0) return f[(c & ~3) | ((c + 1) & 3)];
-        i--;
-        len++;
-      }
-    }
-    throw `face ${n} names candidate ${sym} of ${len} (spec §6.1)`;
-  };
-  // Adds face n (corners in f[4n ..], distinct) to the half-edge lists.
-  const addFace = (n) => {
-    const o = 4 * n;
-    const a = f[o], b = f[o + 1], c = f[o + 2], d = f[o + 3];
-    if (a === b || a === c || a === d || b === c || b === d || c === d) {
-      throw `face ${n} repeats a vertex (${a} ${b} ${c} ${d})`;
-    }
-    for (let t = 0; t < 4; t++) {
-      const u = f[o + t];
-      const v = f[o + ((t + 1) & 3)];
-      if (find(u, v) >= 0) throw `face ${n}: half-edge ${u} -> ${v} is in two faces`;
-      if (deg[u] >= MAX_FACES_PER_VERTEX) throw `face ${n}: vertex ${u} is in more than ${MAX_FACES_PER_VERTEX} faces`;
-    }
-    for (let t = 0; t < 4; t++) {
-      const u = f[o + t];
-      const v = f[o + ((t + 1) & 3)];
-      const rev = find(v, u);
-      if (rev >= 0) open[rev] = 0;
-      open[o + t] = rev < 0 ? 1 : 0;
-      const cId = o + t;
-      cNext[cId] = -1;
-      if (head[u] < 0) head[u] = cId;
-      else cNext[tail[u]] = cId;
-      tail[u] = cId;
-      deg[u]++;
-    }
-  };
-
   let n = 0;
   let h = 0;
   while (n < nf) {
+    const o = 4 * n;
     if (h === n) {
       // a component start: four corner symbols, no candidates
-      const o = 4 * n;
-      for (let k = 0; k < 4; k++) f[o + k] = corner(n, 0, 0);
-      addFace(n);
+      for (let k = 0; k < 4; k++) {
+        const v = cornerSymbol(corners, escapes, f, head, cNext, open, 0, 0, s, nv, n);
+        if (v === s) s++;
+        f[o + k] = v;
+      }
+      addFace(f, head, tail, deg, cNext, open, n);
       n++;
       continue;
     }
     const g = 4 * h;
     h++;
     for (let k = 0; k < 4 && n < nf; k++) {
-      const a = f[g + k];
-      const b = f[g + ((k + 1) & 3)];
-      if (find(b, a) >= 0) continue;
+      // face h's half-edge a → b: b → a is decoded exactly when it is closed
+      if (open[g + k] === 0) continue;
       const gate = gates.byte();
       if (gate === 0) continue;
       if (gate > 4) throw `gate byte ${gate} before face ${n} (spec §6.1)`;
+      const a = f[g + k];
+      const b = f[g + ((k + 1) & 3)];
+      const on = 4 * n;
       const r = gate - 1;
-      const o = 4 * n;
-      f[o + r] = b;
-      f[o + ((r + 1) & 3)] = a;
+      f[on + r] = b;
+      f[on + ((r + 1) & 3)] = a;
       // the candidates are taken before face n's half-edges are added
-      f[o + ((r + 2) & 3)] = corner(n, 1, a);
-      f[o + ((r + 3) & 3)] = corner(n, 2, b);
-      addFace(n);
+      const x = cornerSymbol(corners, escapes, f, head, cNext, open, 1, a, s, nv, n);
+      if (x === s) s++;
+      f[on + ((r + 2) & 3)] = x;
+      const y = cornerSymbol(corners, escapes, f, head, cNext, open, 2, b, s, nv, n);
+      if (y === s) s++;
+      f[on + ((r + 3) & 3)] = y;
+      addFace(f, head, tail, deg, cNext, open, n);
       n++;
     }
   }
@@ -618,15 +550,19 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
         e++;
       }
     }
+    // Math.floor(s / d) is exact here (as in the split form): d ≤ 8 · 255
+    // and |s| ≤ 255 · 12 · 2^24, so the quotient's rounding error is far
+    // below the 1/d a non-integer quotient keeps from the next integer
     let px, py, pz;
     if (c > 0) {
-      px = clamp(floorDiv(sx, 8 * c), qmax);
-      py = clamp(floorDiv(sy, 8 * c), qmax);
-      pz = clamp(floorDiv(sz, 8 * c), qmax);
+      const d = 8 * c;
+      px = clamp(Math.floor(sx / d), qmax);
+      py = clamp(Math.floor(sy / d), qmax);
+      pz = clamp(Math.floor(sz / d), qmax);
     } else if (e > 0) {
-      px = clamp(floorDiv(ex, e), qmax);
-      py = clamp(floorDiv(ey, e), qmax);
-      pz = clamp(floorDiv(ez, e), qmax);
+      px = clamp(Math.floor(ex / e), qmax);
+      py = clamp(Math.floor(ey / e), qmax);
+      pz = clamp(Math.floor(ez / e), qmax);
     } else if (v > 0) {
       px = q[16 * (v - 1)];
       py = q[16 * (v - 1) + 1];
@@ -645,6 +581,85 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
     q[16 * v + 2] = z;
   }
   if (pos.remaining() !== 0) throw `${pos.remaining()} unused bytes in the base positions`;
+}
+
+/** One length-prefixed stream of the traversal layout (spec §6.1) from `top`. */
+function baseStream(top, name) {
+  const n = top.u();
+  if (n > top.remaining()) throw `stream ${name} claims ${n} bytes, ${top.remaining()} remain`;
+  const r = new Reader(top.b, top.p, top.p + n, name);
+  top.p += n;
+  return r;
+}
+
+/**
+ * A corner symbol of face `n` (spec §6.1) with `s` vertices seen: a new
+ * vertex (returns `s`: the caller counts it), a candidate or an escape
+ * (below `s`). Candidates: `kind` 1 — X, the sources of the open
+ * half-edges into `at` (the incoming half-edge of each of its corners);
+ * 2 — Y, the targets of the open half-edges out of `at`; 0 — none.
+ */
+function cornerSymbol(corners, escapes, f, head, cNext, open, kind, at, s, nv, n) {
+  const sym = corners.byte();
+  if (sym === 0) {
+    if (s >= nv) throw `face ${n} has a new vertex but all ${nv} vertices are seen`;
+    return s;
+  }
+  if (sym === 255) {
+    const u = escapes.u();
+    if (u >= s) throw `face ${n} escapes to vertex ${s - 1 - u} before vertex 0`;
+    return s - 1 - u;
+  }
+  // entry sym − 1 of the list, in decode order
+  let i = sym - 1;
+  let len = 0;
+  if (kind !== 0) {
+    for (let c = head[at]; c >= 0; c = cNext[c]) {
+      // X: corner c's incoming half-edge (id of the corner before it), its source;
+      // Y: corner c's outgoing half-edge (id c), its target
+      const e = kind === 1 ? (c & ~3) | ((c + 3) & 3) : c;
+      if (open[e] === 0) continue;
+      if (i === 0) return kind === 1 ? f[e] : f[(c & ~3) | ((c + 1) & 3)];
+      i--;
+      len++;
+    }
+  }
+  throw `face ${n} names candidate ${sym} of ${len} (spec §6.1)`;
+}
+
+/**
+ * Adds face `n` (its corners in `f`) to the per-vertex corner lists: checks
+ * 4 distinct corners, no half-edge decoded twice and at most 255 faces per
+ * vertex, and closes the reverses it meets. One scan of `u`'s corners per
+ * corner `u → v` finds both a repeat (an outgoing `u → v`) and the reverse
+ * (an incoming `v → u`). (A throw ends the decoding: no state is kept.)
+ */
+function addFace(f, head, tail, deg, cNext, open, n) {
+  const o = 4 * n;
+  const a = f[o], b = f[o + 1], c = f[o + 2], d = f[o + 3];
+  if (a === b || a === c || a === d || b === c || b === d || c === d) {
+    throw `face ${n} repeats a vertex (${a} ${b} ${c} ${d})`;
+  }
+  for (let t = 0; t < 4; t++) {
+    const u = f[o + t];
+    const v = f[o + ((t + 1) & 3)];
+    if (deg[u] >= MAX_FACES_PER_VERTEX) throw `face ${n}: vertex ${u} is in more than ${MAX_FACES_PER_VERTEX} faces`;
+    let rev = -1;
+    for (let cr = head[u]; cr >= 0; cr = cNext[cr]) {
+      const fo = cr & ~3;
+      if (f[fo | ((cr + 1) & 3)] === v) throw `face ${n}: half-edge ${u} -> ${v} is in two faces`;
+      const e = fo | ((cr + 3) & 3);
+      if (f[e] === v) rev = e;
+    }
+    const id = o + t;
+    if (rev >= 0) open[rev] = 0;
+    open[id] = rev < 0 ? 1 : 0;
+    cNext[id] = -1;
+    if (head[u] < 0) head[u] = id;
+    else cNext[tail[u]] = id;
+    tail[u] = id;
+    deg[u]++;
+  }
 }
 
 /**
