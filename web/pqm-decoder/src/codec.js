@@ -361,57 +361,43 @@ RecordLog.prototype.maxLevels = Infinity;
 const RW_PER_APP = 3.5;
 
 /**
- * Decodes the base payload (spec §6) into a fresh frontier.
+ * Decodes the base payload (spec §6) into a fresh frontier: the delta
+ * layout in a file of version 3 or older; from version 4 a layout byte,
+ * then the delta layout (0) or the traversal layout (1, §6.1).
  * @param {Uint8Array} payload
  * @param {number} nv base_vertex_count
  * @param {number} nf base_face_count
  * @param {number} qmax
  * @param {number} [capV=nv] vertices to make room for (≥ nv)
  * @param {number} [capF=nf] slots to make room for (≥ nf)
+ * @param {number} [major=3] the file's version_major
  * @returns {Frontier}
  */
-export function decodeBase(payload, nv, nf, qmax, capV = nv, capF = nf) {
+export function decodeBase(payload, nv, nf, qmax, capV = nv, capF = nf, major = 3) {
   const section = 'base mesh';
-  // Every corner and coordinate takes at least one byte.
-  if (4 * nf + 3 * nv > payload.length) {
-    throw invalid(
-      section,
-      `${nf} faces and ${nv} vertices need at least ${4 * nf + 3 * nv} bytes, the payload has ${payload.length}`,
-    );
+  let traversal = false;
+  let start = 0;
+  if (major >= 4) {
+    if (payload.length === 0) throw invalid(section, 'the base payload is empty (no layout byte)');
+    const layout = payload[0];
+    if (layout > LAYOUT_TRAVERSAL) throw invalid(section, `unknown base layout ${layout}`);
+    traversal = layout === LAYOUT_TRAVERSAL;
+    start = 1;
+  }
+  const len = payload.length - start;
+  // Every corner and coordinate takes at least one byte (delta layout);
+  // every face at least two corner bytes and every vertex three bytes of
+  // `pos` (traversal layout): checked before allocating.
+  const least = traversal ? 2 * nf + 3 * nv : 4 * nf + 3 * nv;
+  if (least > len) {
+    throw invalid(section, `${nf} faces and ${nv} vertices need at least ${least} bytes, the payload has ${len}`);
   }
   const st = new Frontier();
   st.q = new Int32Array(16 * Math.max(nv, capV));
   st.f = new Uint32Array(4 * Math.max(nf, capF));
-  const r = new Reader(payload, 0, payload.length, 'base');
   try {
-    let prev = 0;
-    const f = st.f;
-    for (let i = 0; i < nf; i++) {
-      for (let c = 0; c < 4; c++) {
-        const v = prev + r.s();
-        if (v < 0 || v >= nv) throw `face ${i} corner ${c} is vertex ${v}, outside 0..${nv}`;
-        f[4 * i + c] = v;
-        prev = v;
-      }
-      const a = f[4 * i], b = f[4 * i + 1], c = f[4 * i + 2], d = f[4 * i + 3];
-      if (a === b || a === c || a === d || b === c || b === d || c === d) {
-        throw `face ${i} repeats a vertex (${a} ${b} ${c} ${d})`;
-      }
-    }
-    const q = st.q;
-    let x = 0, y = 0, z = 0;
-    for (let i = 0; i < nv; i++) {
-      x += r.s();
-      y += r.s();
-      z += r.s();
-      if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
-        throw `vertex ${i} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
-      }
-      q[16 * i] = x;
-      q[16 * i + 1] = y;
-      q[16 * i + 2] = z;
-    }
-    if (r.remaining() !== 0) throw `${r.remaining()} unused bytes after the last vertex`;
+    if (traversal) decodeTraversal(payload, start, st, nv, nf, qmax);
+    else decodeDelta(payload, start, st, nv, nf, qmax);
   } catch (e) {
     if (typeof e === 'string') throw invalid(section, e);
     throw e;
@@ -420,6 +406,260 @@ export function decodeBase(payload, nv, nf, qmax, capV = nv, capF = nf) {
   st.nf = nf;
   st.rebuild();
   return st;
+}
+
+/** Base layout byte (version ≥ 4, spec §6): the traversal layout follows (0: the delta layout). */
+const LAYOUT_TRAVERSAL = 1;
+/** Most faces a vertex may be in, in the traversal layout (spec §6.1). */
+const MAX_FACES_PER_VERTEX = 255;
+
+/** The delta layout (spec §6) from `payload[start ..]` into `st.f` / `st.q`; throws message strings. */
+function decodeDelta(payload, start, st, nv, nf, qmax) {
+  const r = new Reader(payload, start, payload.length, 'base');
+  let prev = 0;
+  const f = st.f;
+  for (let i = 0; i < nf; i++) {
+    for (let c = 0; c < 4; c++) {
+      const v = prev + r.s();
+      if (v < 0 || v >= nv) throw `face ${i} corner ${c} is vertex ${v}, outside 0..${nv}`;
+      f[4 * i + c] = v;
+      prev = v;
+    }
+    const a = f[4 * i], b = f[4 * i + 1], c = f[4 * i + 2], d = f[4 * i + 3];
+    if (a === b || a === c || a === d || b === c || b === d || c === d) {
+      throw `face ${i} repeats a vertex (${a} ${b} ${c} ${d})`;
+    }
+  }
+  const q = st.q;
+  let x = 0, y = 0, z = 0;
+  for (let i = 0; i < nv; i++) {
+    x += r.s();
+    y += r.s();
+    z += r.s();
+    if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
+      throw `vertex ${i} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+    }
+    q[16 * i] = x;
+    q[16 * i + 1] = y;
+    q[16 * i + 2] = z;
+  }
+  if (r.remaining() !== 0) throw `${r.remaining()} unused bytes after the last vertex`;
+}
+
+/**
+ * The traversal layout (spec §6.1) from `payload[start ..]` into `st.f` /
+ * `st.q`; throws message strings. Mirrors `decode_traversal` of the Rust
+ * reference (pqm_format::base). The decoded half-edges are kept per vertex
+ * as a list of its corners in decode order (`cNext` links corner `4 g + k`
+ * of face `g` to the vertex's next corner): corner `c` of face `g` starts
+ * the half-edge `g[k] → g[k+1]` (id `c`, outgoing at `g[k]`) and ends the
+ * half-edge `g[k−1] → g[k]` (id `g·4 + (k+3) mod 4`, incoming), so one list
+ * gives both the outgoing and the incoming half-edges in decode order.
+ * `open[e]` says that the reverse of half-edge `e` is not decoded. A
+ * vertex is in at most 255 faces, so every scan of a list is short.
+ */
+function decodeTraversal(payload, start, st, nv, nf, qmax) {
+  const top = new Reader(payload, start, payload.length, 'base');
+  const gates = baseStream(top, 'base gates');
+  const corners = baseStream(top, 'base corners');
+  const escapes = baseStream(top, 'base escapes');
+  const pos = baseStream(top, 'base positions');
+  if (top.remaining() !== 0) throw `${top.remaining()} bytes after the last base stream`;
+
+  const f = st.f;
+  const head = new Int32Array(nv).fill(-1);
+  const tail = new Int32Array(nv);
+  const deg = new Int32Array(nv);
+  const cNext = new Int32Array(4 * nf);
+  const open = new Uint8Array(4 * nf);
+  let s = 0; // vertices seen
+  let n = 0;
+  let h = 0;
+  while (n < nf) {
+    const o = 4 * n;
+    if (h === n) {
+      // a component start: four corner symbols, no candidates
+      for (let k = 0; k < 4; k++) {
+        const v = cornerSymbol(corners, escapes, f, head, cNext, open, 0, 0, s, nv, n);
+        if (v === s) s++;
+        f[o + k] = v;
+      }
+      addFace(f, head, tail, deg, cNext, open, n);
+      n++;
+      continue;
+    }
+    const g = 4 * h;
+    h++;
+    for (let k = 0; k < 4 && n < nf; k++) {
+      // face h's half-edge a → b: b → a is decoded exactly when it is closed
+      if (open[g + k] === 0) continue;
+      const gate = gates.byte();
+      if (gate === 0) continue;
+      if (gate > 4) throw `gate byte ${gate} before face ${n} (spec §6.1)`;
+      const a = f[g + k];
+      const b = f[g + ((k + 1) & 3)];
+      const on = 4 * n;
+      const r = gate - 1;
+      f[on + r] = b;
+      f[on + ((r + 1) & 3)] = a;
+      // the candidates are taken before face n's half-edges are added
+      const x = cornerSymbol(corners, escapes, f, head, cNext, open, 1, a, s, nv, n);
+      if (x === s) s++;
+      f[on + ((r + 2) & 3)] = x;
+      const y = cornerSymbol(corners, escapes, f, head, cNext, open, 2, b, s, nv, n);
+      if (y === s) s++;
+      f[on + ((r + 3) & 3)] = y;
+      addFace(f, head, tail, deg, cNext, open, n);
+      n++;
+    }
+  }
+  if (s !== nv) throw `the faces use ${s} of the ${nv} base vertices`;
+  for (const r of [gates, corners, escapes]) {
+    if (r.remaining() !== 0) throw `${r.remaining()} unused bytes in the ${r.name}`;
+  }
+
+  // Positions: P(v) over the faces at v (its corner list) whose other
+  // corners come before v (spec §6.1; §7.6's version-4 stencil).
+  const q = st.q;
+  for (let v = 0; v < nv; v++) {
+    let sx = 0, sy = 0, sz = 0, c = 0;
+    let ex = 0, ey = 0, ez = 0, e = 0;
+    for (let cr = head[v]; cr >= 0; cr = cNext[cr]) {
+      const o = cr & ~3;
+      const n1 = f[o | ((cr + 1) & 3)];
+      const op = f[o | ((cr + 2) & 3)];
+      const n3 = f[o | ((cr + 3) & 3)];
+      const k1 = n1 < v;
+      const k3 = n3 < v;
+      if (k1 && k3 && op < v) {
+        sx += 5 * (q[16 * n1] + q[16 * n3]) - 2 * q[16 * op];
+        sy += 5 * (q[16 * n1 + 1] + q[16 * n3 + 1]) - 2 * q[16 * op + 1];
+        sz += 5 * (q[16 * n1 + 2] + q[16 * n3 + 2]) - 2 * q[16 * op + 2];
+        c++;
+      }
+      if (k1) {
+        ex += q[16 * n1];
+        ey += q[16 * n1 + 1];
+        ez += q[16 * n1 + 2];
+        e++;
+      }
+      if (k3) {
+        ex += q[16 * n3];
+        ey += q[16 * n3 + 1];
+        ez += q[16 * n3 + 2];
+        e++;
+      }
+    }
+    // Math.floor(s / d) is exact here (as in the split form): d ≤ 8 · 255
+    // and |s| ≤ 255 · 12 · 2^24, so the quotient's rounding error is far
+    // below the 1/d a non-integer quotient keeps from the next integer
+    let px, py, pz;
+    if (c > 0) {
+      const d = 8 * c;
+      px = clamp(Math.floor(sx / d), qmax);
+      py = clamp(Math.floor(sy / d), qmax);
+      pz = clamp(Math.floor(sz / d), qmax);
+    } else if (e > 0) {
+      px = clamp(Math.floor(ex / e), qmax);
+      py = clamp(Math.floor(ey / e), qmax);
+      pz = clamp(Math.floor(ez / e), qmax);
+    } else if (v > 0) {
+      px = q[16 * (v - 1)];
+      py = q[16 * (v - 1) + 1];
+      pz = q[16 * (v - 1) + 2];
+    } else {
+      px = py = pz = 0;
+    }
+    const x = px + pos.s();
+    const y = py + pos.s();
+    const z = pz + pos.s();
+    if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
+      throw `vertex ${v} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+    }
+    q[16 * v] = x;
+    q[16 * v + 1] = y;
+    q[16 * v + 2] = z;
+  }
+  if (pos.remaining() !== 0) throw `${pos.remaining()} unused bytes in the base positions`;
+}
+
+/** One length-prefixed stream of the traversal layout (spec §6.1) from `top`. */
+function baseStream(top, name) {
+  const n = top.u();
+  if (n > top.remaining()) throw `stream ${name} claims ${n} bytes, ${top.remaining()} remain`;
+  const r = new Reader(top.b, top.p, top.p + n, name);
+  top.p += n;
+  return r;
+}
+
+/**
+ * A corner symbol of face `n` (spec §6.1) with `s` vertices seen: a new
+ * vertex (returns `s`: the caller counts it), a candidate or an escape
+ * (below `s`). Candidates: `kind` 1 — X, the sources of the open
+ * half-edges into `at` (the incoming half-edge of each of its corners);
+ * 2 — Y, the targets of the open half-edges out of `at`; 0 — none.
+ */
+function cornerSymbol(corners, escapes, f, head, cNext, open, kind, at, s, nv, n) {
+  const sym = corners.byte();
+  if (sym === 0) {
+    if (s >= nv) throw `face ${n} has a new vertex but all ${nv} vertices are seen`;
+    return s;
+  }
+  if (sym === 255) {
+    const u = escapes.u();
+    if (u >= s) throw `face ${n} escapes to vertex ${s - 1 - u} before vertex 0`;
+    return s - 1 - u;
+  }
+  // entry sym − 1 of the list, in decode order
+  let i = sym - 1;
+  let len = 0;
+  if (kind !== 0) {
+    for (let c = head[at]; c >= 0; c = cNext[c]) {
+      // X: corner c's incoming half-edge (id of the corner before it), its source;
+      // Y: corner c's outgoing half-edge (id c), its target
+      const e = kind === 1 ? (c & ~3) | ((c + 3) & 3) : c;
+      if (open[e] === 0) continue;
+      if (i === 0) return kind === 1 ? f[e] : f[(c & ~3) | ((c + 1) & 3)];
+      i--;
+      len++;
+    }
+  }
+  throw `face ${n} names candidate ${sym} of ${len} (spec §6.1)`;
+}
+
+/**
+ * Adds face `n` (its corners in `f`) to the per-vertex corner lists: checks
+ * 4 distinct corners, no half-edge decoded twice and at most 255 faces per
+ * vertex, and closes the reverses it meets. One scan of `u`'s corners per
+ * corner `u → v` finds both a repeat (an outgoing `u → v`) and the reverse
+ * (an incoming `v → u`). (A throw ends the decoding: no state is kept.)
+ */
+function addFace(f, head, tail, deg, cNext, open, n) {
+  const o = 4 * n;
+  const a = f[o], b = f[o + 1], c = f[o + 2], d = f[o + 3];
+  if (a === b || a === c || a === d || b === c || b === d || c === d) {
+    throw `face ${n} repeats a vertex (${a} ${b} ${c} ${d})`;
+  }
+  for (let t = 0; t < 4; t++) {
+    const u = f[o + t];
+    const v = f[o + ((t + 1) & 3)];
+    if (deg[u] >= MAX_FACES_PER_VERTEX) throw `face ${n}: vertex ${u} is in more than ${MAX_FACES_PER_VERTEX} faces`;
+    let rev = -1;
+    for (let cr = head[u]; cr >= 0; cr = cNext[cr]) {
+      const fo = cr & ~3;
+      if (f[fo | ((cr + 1) & 3)] === v) throw `face ${n}: half-edge ${u} -> ${v} is in two faces`;
+      const e = fo | ((cr + 3) & 3);
+      if (f[e] === v) rev = e;
+    }
+    const id = o + t;
+    if (rev >= 0) open[rev] = 0;
+    open[id] = rev < 0 ? 1 : 0;
+    cNext[id] = -1;
+    if (head[u] < 0) head[u] = id;
+    else cNext[tail[u]] = id;
+    tail[u] = id;
+    deg[u]++;
+  }
 }
 
 /**
@@ -458,6 +698,15 @@ class ChunkContext {
     this.v2 = versionMajor >= 2;
     /** Version-3 rules (spec §7.3 form 4, edge split). */
     this.v3 = versionMajor >= 3;
+    /** Version-4 rules (spec §7.6 stencil). */
+    this.v4 = versionMajor >= 4;
+    // §7.6's per-quad term wN (Q[n1] + Q[n3]) − wO Q[o] and the divisor
+    // div · c of its sum over c quads: 1, 1, 1 (versions 2 and 3: the
+    // mean of parallelograms) or 5, 2, 8 (version 4: the stencil). Read
+    // once per prediction, outside its loops: no branch per quad.
+    this.wN = this.v4 ? 5 : 1;
+    this.wO = this.v4 ? 2 : 1;
+    this.div = this.v4 ? 8 : 1;
   }
 }
 
@@ -939,9 +1188,10 @@ export function floorDiv(s, c) {
 
 /**
  * The prediction of new vertex `x` (spec §7.6) into ctx.px/py/pz, from the
- * corners gOcc groups for it (groupCorners). Version 2: the floored mean
- * of the parallelograms of every quad holding `x` whose three other corners
- * are known (ids < x); version 1, and version 2 when no quad qualifies: the
+ * corners gOcc groups for it (groupCorners). Versions 2 and 3: the floored
+ * mean of the parallelograms of every quad holding `x` whose three other
+ * corners are known (ids < x); version 4: of their stencils 5 (n1 + n3) −
+ * 2 o, divided by 8 c; version 1, and 2–4 when no quad qualifies: the
  * first quad's parallelogram, mean of its known corners, else the previous
  * new vertex or the grid centre.
  */
@@ -953,6 +1203,8 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
   const to = gOccAt[k + 1];
   const na = 4 * nApp;
   if (ctx.v2) {
+    const wN = ctx.wN;
+    const wO = ctx.wO;
     let sx = 0, sy = 0, sz = 0, n = 0;
     for (let j = from; j < to; j++) {
       const i = gOcc[j];
@@ -964,16 +1216,17 @@ function predictNew(ctx, x, V, nApp, app, rwNew) {
       const op = arr[o + ((c + 2) & 3)];
       const n3 = arr[o + ((c + 3) & 3)];
       if (n1 < x && op < x && n3 < x) {
-        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
-        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
-        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+        sx += wN * (q[16 * n1] + q[16 * n3]) - wO * q[16 * op];
+        sy += wN * (q[16 * n1 + 1] + q[16 * n3 + 1]) - wO * q[16 * op + 1];
+        sz += wN * (q[16 * n1 + 2] + q[16 * n3 + 2]) - wO * q[16 * op + 2];
         n++;
       }
     }
     if (n > 0) {
-      ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
-      ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
-      ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+      const d = ctx.div * n;
+      ctx.px = clamp(d === 1 ? sx : floorDiv(sx, d), qmax);
+      ctx.py = clamp(d === 1 ? sy : floorDiv(sy, d), qmax);
+      ctx.pz = clamp(d === 1 ? sz : floorDiv(sz, d), qmax);
       return;
     }
   }
@@ -1050,13 +1303,16 @@ function predictFallback(ctx, x, V, arr, ci) {
 /**
  * predictNew for a record with one new vertex `V` (no grouping pass): every
  * other corner of the record's quads is an existing vertex, so every quad
- * holding `V` has its parallelogram — version 2 averages them all,
- * version 1 takes the first (appended quads first, spec §7.6).
+ * holding `V` has its parallelogram — versions 2 and 3 average them all,
+ * version 4 their stencils, version 1 takes the first (appended quads
+ * first, spec §7.6).
  */
 function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
   const q = ctx.st.q;
   const qmax = ctx.qmax;
   const all = ctx.v2;
+  const wN = ctx.wN;
+  const wO = ctx.wO;
   let sx = 0, sy = 0, sz = 0, n = 0;
   for (let pass = 0; pass < 2; pass++) {
     const arr = pass === 0 ? app : rwNew;
@@ -1068,9 +1324,9 @@ function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
       const n1 = 16 * arr[o + ((c + 1) & 3)];
       const op = 16 * arr[o + ((c + 2) & 3)];
       const n3 = 16 * arr[o + ((c + 3) & 3)];
-      sx += q[n1] + q[n3] - q[op];
-      sy += q[n1 + 1] + q[n3 + 1] - q[op + 1];
-      sz += q[n1 + 2] + q[n3 + 2] - q[op + 2];
+      sx += wN * (q[n1] + q[n3]) - wO * q[op];
+      sy += wN * (q[n1 + 1] + q[n3 + 1]) - wO * q[op + 1];
+      sz += wN * (q[n1 + 2] + q[n3 + 2]) - wO * q[op + 2];
       n++;
       if (!all) break;
     }
@@ -1079,9 +1335,10 @@ function predictOnly(ctx, V, nApp, app, nRw, rwNew) {
   if (n === 0) {
     ctx.px = ctx.py = ctx.pz = ctx.half;
   } else {
-    ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
-    ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
-    ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+    const d = ctx.div * n;
+    ctx.px = clamp(d === 1 ? sx : floorDiv(sx, d), qmax);
+    ctx.py = clamp(d === 1 ? sy : floorDiv(sy, d), qmax);
+    ctx.pz = clamp(d === 1 ? sz : floorDiv(sz, d), qmax);
   }
 }
 
@@ -1105,6 +1362,8 @@ function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
   const q = ctx.st.q;
   const qmax = ctx.qmax;
   if (ctx.v2) {
+    const wN = ctx.wN;
+    const wO = ctx.wO;
     let sx = 0, sy = 0, sz = 0, n = 0;
     // the appended corners, then the rewritten ones (one loop body for both).
     // The same parallelogram sum as predictNew's and decodeEdgeSplit's,
@@ -1124,17 +1383,18 @@ function predictScan(ctx, x, V, app, aFrom, nA, rwNew, rFrom, nR) {
         const op = quads[o + ((c + 2) & 3)];
         const n3 = quads[o + ((c + 3) & 3)];
         if (n1 < x && op < x && n3 < x) {
-          sx += q[16 * n1] + q[16 * n3] - q[16 * op];
-          sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
-          sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+          sx += wN * (q[16 * n1] + q[16 * n3]) - wO * q[16 * op];
+          sy += wN * (q[16 * n1 + 1] + q[16 * n3 + 1]) - wO * q[16 * op + 1];
+          sz += wN * (q[16 * n1 + 2] + q[16 * n3 + 2]) - wO * q[16 * op + 2];
           n++;
         }
       }
     }
     if (n > 0) {
-      ctx.px = clamp(n === 1 ? sx : floorDiv(sx, n), qmax);
-      ctx.py = clamp(n === 1 ? sy : floorDiv(sy, n), qmax);
-      ctx.pz = clamp(n === 1 ? sz : floorDiv(sz, n), qmax);
+      const d = ctx.div * n;
+      ctx.px = clamp(d === 1 ? sx : floorDiv(sx, d), qmax);
+      ctx.py = clamp(d === 1 ? sy : floorDiv(sy, d), qmax);
+      ctx.pz = clamp(d === 1 ? sz : floorDiv(sz, d), qmax);
       return;
     }
   }
@@ -1544,15 +1804,19 @@ function decodeSplit(ctx, sym) {
     px = clamp(2 * mx - ax, qmax);
     py = clamp(2 * my - ay, qmax);
     pz = clamp(2 * mz - az, qmax);
-  } else if (ctx.v2 && nC > 0) {
-    // §7.6 version 2: c's quads are the appended (m, d, c, b) rotated —
+  } else if (ctx.v2 && (nC > 0 || ctx.v4)) {
+    // §7.6 versions 2–4: c's quads are the appended (m, d, c, b) rotated —
     // neighbours b and d, opposite m (code a) — and every side-C face with
     // m replaced by c — neighbours n and p, opposite o, none of them m (a
-    // quad's corners are distinct), all existing: every parallelogram
-    // counts.
-    let sx = q[16 * b] + q[16 * d] - ax;
-    let sy = q[16 * b + 1] + q[16 * d + 1] - ay;
-    let sz = q[16 * b + 2] + q[16 * d + 2] - az;
+    // quad's corners are distinct), all existing: every quad counts, with
+    // the term wN (n1 + n3) − wO o (the parallelogram in versions 2 and 3,
+    // where one quad alone is the version-1 rule below; version 4's
+    // stencil even for the appended quad alone).
+    const wN = ctx.wN;
+    const wO = ctx.wO;
+    let sx = wN * (q[16 * b] + q[16 * d]) - wO * ax;
+    let sy = wN * (q[16 * b + 1] + q[16 * d + 1]) - wO * ay;
+    let sz = wN * (q[16 * b + 2] + q[16 * d + 2]) - wO * az;
     for (let part = 0; part < 2; part++) {
       const to = part === 0 ? c2 : c4;
       for (let t = part === 0 ? c1 : c3; t < to; t++) {
@@ -1560,21 +1824,21 @@ function decodeSplit(ctx, sym) {
         const n = 16 * sN[idx];
         const p = 16 * sP[idx];
         const o = 16 * sO[idx];
-        sx += q[n] + q[p] - q[o];
-        sy += q[n + 1] + q[p + 1] - q[o + 1];
-        sz += q[n + 2] + q[p + 2] - q[o + 2];
+        sx += wN * (q[n] + q[p]) - wO * q[o];
+        sy += wN * (q[n + 1] + q[p + 1]) - wO * q[o + 1];
+        sz += wN * (q[n + 2] + q[p + 2]) - wO * q[o + 2];
       }
     }
-    const n = nC + 1;
+    const n = ctx.div * (nC + 1);
     // Math.floor(s / n) is exact here (floorDiv's correction never fires):
-    // n ≤ 256 and |s| ≤ 256 · 2^25, so the quotient's rounding error
-    // (< 2^-19) is below the 1/n a non-integer quotient keeps from the
-    // next integer — and it inlines, where floorDiv is a call
+    // n ≤ 8 · 256 and |s| ≤ 256 · 12 · 2^24, so the quotient's rounding
+    // error (< 2^-19) is below the 1/n a non-integer quotient keeps from
+    // the next integer — and it inlines, where floorDiv is a call
     px = clamp(Math.floor(sx / n), qmax);
     py = clamp(Math.floor(sy / n), qmax);
     pz = clamp(Math.floor(sz / n), qmax);
   } else {
-    // §7.6 (version 1; version 2 with side C empty): the appended quad
+    // §7.6 (version 1; versions 2 and 3 with side C empty): the appended quad
     // (m, d, c, b) rotated is the first quad holding c; its neighbours
     // there are b and d, its opposite corner m (code a).
     px = clamp(q[16 * b] + q[16 * d] - ax, qmax);
@@ -1678,21 +1942,35 @@ function decodeFaceSplit(ctx, sym) {
   const o = f[s4 + ((k + 2) & 3)];
   const qv = f[s4 + ((k + 3) & 3)];
   const c = V;
-  // 7. c against §7.6 (version 2): it is in both halves with all three other
-  // corners known — A: n1 = m, o = p, n3 = o; B: n1 = o, o = q, n3 = m.
+  // 7. c against §7.6 (versions 2–4): it is in both halves with all three
+  // other corners known — A: n1 = m, o = p, n3 = o; B: n1 = o, o = q, n3 = m.
+  // Versions 2 and 3: ⌊(2 (m + o) − p − q) / 2⌋; version 4 (the stencil of
+  // both): ⌊(10 (m + o) − 2 (p + q)) / 16⌋.
   const q = st.q;
   const qmax = ctx.qmax;
   const m3 = 16 * m, p3 = 16 * p, o3 = 16 * o, q3 = 16 * qv;
-  readCode(
-    ctx,
-    // ⌊s / 2⌋ as s >> 1: codes are below 2^24, so s is an int32
-    clamp((2 * q[m3] + 2 * q[o3] - q[p3] - q[q3]) >> 1, qmax),
-    clamp((2 * q[m3 + 1] + 2 * q[o3 + 1] - q[p3 + 1] - q[q3 + 1]) >> 1, qmax),
-    clamp((2 * q[m3 + 2] + 2 * q[o3 + 2] - q[p3 + 2] - q[q3 + 2]) >> 1, qmax),
-    'face-split vertex',
-    m,
-    ' (c)',
-  );
+  // ⌊s / 2^k⌋ as s >> k: codes are below 2^24, so s is an int32
+  if (ctx.v4) {
+    readCode(
+      ctx,
+      clamp((10 * (q[m3] + q[o3]) - 2 * (q[p3] + q[q3])) >> 4, qmax),
+      clamp((10 * (q[m3 + 1] + q[o3 + 1]) - 2 * (q[p3 + 1] + q[q3 + 1])) >> 4, qmax),
+      clamp((10 * (q[m3 + 2] + q[o3 + 2]) - 2 * (q[p3 + 2] + q[q3 + 2])) >> 4, qmax),
+      'face-split vertex',
+      m,
+      ' (c)',
+    );
+  } else {
+    readCode(
+      ctx,
+      clamp((2 * q[m3] + 2 * q[o3] - q[p3] - q[q3]) >> 1, qmax),
+      clamp((2 * q[m3 + 1] + 2 * q[o3 + 1] - q[p3 + 1] - q[q3 + 1]) >> 1, qmax),
+      clamp((2 * q[m3 + 2] + 2 * q[o3 + 2] - q[p3 + 2] - q[q3 + 2]) >> 1, qmax),
+      'face-split vertex',
+      m,
+      ' (c)',
+    );
+  }
   appendVertex(ctx);
   // 5.–6. X' rewrites slot s, Y' is appended; rotations from symbol bits 4-7
   const rotX = (sym >> 4) & 3;
@@ -1999,9 +2277,10 @@ function decodeEdgeSplit(ctx) {
   // vertex. Of the rewritten ones the fan quads were checked above, the
   // sector quads are distinct by construction.
 
-  // 9.–10. positions of V .. V+3 against §7.6 (version 2: the floored mean
-  // of the parallelograms of every quad holding the vertex whose three
-  // other corners are known), then the apply. The sums do not depend on
+  // 9.–10. positions of V .. V+3 against §7.6 (versions 2 and 3: the
+  // floored mean of the parallelograms of every quad holding the vertex
+  // whose three other corners are known; version 4: of their stencils),
+  // then the apply. The sums do not depend on
   // the quads' order, and every new vertex is in an appended quad, so the
   // fallback's first quad (appended ones first, by slot) is always an
   // appended one: the rewritten slots need no sorting (their log entries
@@ -2011,6 +2290,9 @@ function decodeEdgeSplit(ctx) {
   st.reserve(V + 4, NF);
   const q = st.q;
   const qmax = ctx.qmax;
+  const wN = ctx.wN;
+  const wO = ctx.wO;
+  const div = ctx.div;
   for (let k = 0; k < 4; k++) {
     const x = V + k;
     let sx = 0, sy = 0, sz = 0, n = 0;
@@ -2028,9 +2310,9 @@ function decodeEdgeSplit(ctx) {
         const op = eC[o + ((c + 2) & 3)];
         const n3 = eC[o + ((c + 3) & 3)];
         if (n1 < x && op < x && n3 < x) {
-          sx += q[16 * n1] + q[16 * n3] - q[16 * op];
-          sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
-          sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+          sx += wN * (q[16 * n1] + q[16 * n3]) - wO * q[16 * op];
+          sy += wN * (q[16 * n1 + 1] + q[16 * n3 + 1]) - wO * q[16 * op + 1];
+          sz += wN * (q[16 * n1 + 2] + q[16 * n3 + 2]) - wO * q[16 * op + 2];
           n++;
         }
       }
@@ -2045,20 +2327,21 @@ function decodeEdgeSplit(ctx) {
       const op = eQuad[o + ((c + 2) & 3)];
       const n3 = eQuad[o + ((c + 3) & 3)];
       if (n1 < x && op < x && n3 < x) {
-        sx += q[16 * n1] + q[16 * n3] - q[16 * op];
-        sy += q[16 * n1 + 1] + q[16 * n3 + 1] - q[16 * op + 1];
-        sz += q[16 * n1 + 2] + q[16 * n3 + 2] - q[16 * op + 2];
+        sx += wN * (q[16 * n1] + q[16 * n3]) - wO * q[16 * op];
+        sy += wN * (q[16 * n1 + 1] + q[16 * n3 + 1]) - wO * q[16 * op + 1];
+        sz += wN * (q[16 * n1 + 2] + q[16 * n3 + 2]) - wO * q[16 * op + 2];
         n++;
       }
     }
     if (n > 0) {
-      // Math.floor(s / n) is exact here, as in the split form: n ≤ 512
-      // quads and |s| ≤ 512 · 2^25, so the quotient's rounding error is
-      // far below the 1/n a non-integer quotient keeps from the next
-      // integer (and it inlines, where floorDiv is a call)
-      ctx.px = clamp(Math.floor(sx / n), qmax);
-      ctx.py = clamp(Math.floor(sy / n), qmax);
-      ctx.pz = clamp(Math.floor(sz / n), qmax);
+      // Math.floor(s / d) is exact here, as in the split form: d = div · n
+      // ≤ 8 · 512 and |s| ≤ 512 · 12 · 2^24, so the quotient's rounding
+      // error is far below the 1/d a non-integer quotient keeps from the
+      // next integer (and it inlines, where floorDiv is a call)
+      const d = div * n;
+      ctx.px = clamp(Math.floor(sx / d), qmax);
+      ctx.py = clamp(Math.floor(sy / d), qmax);
+      ctx.pz = clamp(Math.floor(sz / d), qmax);
     } else {
       // the first appended quad (by slot) holding x
       let i = 0;

@@ -29,9 +29,9 @@ import { decodeVnbr } from './vertex-order.js';
 import { PqmError, crcMismatch, invalid, limitsExceeded } from './errors.js';
 
 const MAGIC = [0x89, 0x50, 0x51, 0x4d, 0x0d, 0x0a, 0x1a, 0x0a];
-/** The `version_major`s this decoder reads (spec §3, §9): 1.x, 2.0 and 3.x files, each with its own rules. */
-const VERSION_MAJORS = [1, 2, 3];
-const VERSION_MAJOR = 3;
+/** The `version_major`s this decoder reads (spec §3, §9): 1.x, 2.0, 3.x and 4.0 files, each with its own rules. */
+const VERSION_MAJORS = [1, 2, 3, 4];
+const VERSION_MAJOR = 4;
 const HEADER_PREFIX = 16;
 const HEADER_LEN = 120;
 /** The shortest header holding `bounds_min` / `bounds_max` (flag bit 2, spec §3, version 3.2). */
@@ -608,10 +608,14 @@ export class PqmDecoder {
     if (computed !== h.baseCrc32) throw crcMismatch('base mesh', h.baseCrc32, computed);
     const nv = h.baseVertexCount;
     const nf = h.baseFaceCount;
-    if (4 * nf + 3 * nv > h.baseUncompressedLen) {
+    // The smallest payload that can hold the counts (spec §6): 4 F + 3 V
+    // (delta layout); from version 4 a layout byte and, at the least, the
+    // traversal layout's 2 F + 3 V (§6.1).
+    const least = h.versionMajor >= 4 ? 1 + 2 * nf + 3 * nv : 4 * nf + 3 * nv;
+    if (least > h.baseUncompressedLen) {
       throw invalid(
         'base mesh',
-        `${nf} faces and ${nv} vertices need at least ${4 * nf + 3 * nv} bytes, base_uncompressed_len is ${h.baseUncompressedLen}`,
+        `${nf} faces and ${nv} vertices need at least ${least} bytes, base_uncompressed_len is ${h.baseUncompressedLen}`,
       );
     }
     let payload;
@@ -631,7 +635,7 @@ export class PqmDecoder {
     const got = this._consumed + this._queue.length;
     const capV = Math.max(nv, Math.min(h.finalVertexCount, got));
     const capF = Math.max(nf, Math.min(h.finalFaceCount, got));
-    const st = decodeBase(payload, nv, nf, 2 ** h.quantBits - 1, capV, capF);
+    const st = decodeBase(payload, nv, nf, 2 ** h.quantBits - 1, capV, capF, h.versionMajor);
     st.maxV = h.finalVertexCount;
     st.maxF = h.finalFaceCount;
     this._log.maxLevels = h.recordCount + 1;

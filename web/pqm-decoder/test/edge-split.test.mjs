@@ -128,17 +128,17 @@ test('edge split: the worked example of spec §7.10, its variants, and the way b
   assert.deepEqual(codesOf(d3), codesOf(d));
 });
 
-test('edge split: every field against a transcription of the spec, many anchors and parameters', () => {
+for (const major of [3, 4]) test(`edge split: every field against a transcription of the spec, many anchors and parameters (version ${major})`, () => {
   // two meshes: the grid (valence 4 inside) and the grid after the worked
   // example (valences 3 to 5 around the new vertices), whose record comes
   // first in the file
   const example = { ops: [0x11], refs: [{ s: 6 }], conn: [2, 0, 0, 0, 0, 0, 0, 0, 0], pos: R0 };
-  const after = decodeAll(file(example));
+  const after = decodeAll(file(example, NV + 4, NQ + 4, major));
   after.setLevel(1);
   // and the grid after a face split of slot 0 at 6 (valence 5 at 6, a
   // doublet at 20): fans over a doublet repeat a corner (rejected)
   const split = { ops: [0x0c], refs: [{ s: 6 }], conn: [0], pos: R0.slice(0, 3) };
-  const afterSplit = decodeAll(file(split, NV + 1, NQ + 1));
+  const afterSplit = decodeAll(file(split, NV + 1, NQ + 1, major));
   afterSplit.setLevel(1);
   const meshes = [
     { quads: gridQuads, codes: gridCodes, V: NV, prefix: null },
@@ -183,8 +183,8 @@ test('edge split: every field against a transcription of the spec, many anchors 
     const rec = { ops: [sym], refs: [{ s: A }], conn: [r, ...fields, p, ra, ...rots.flat()], pos: residuals };
     const pre = mesh.prefix;
     const bytes = pre
-      ? file({ ops: [...pre.ops, sym], refs: [...pre.refs, { s: A - 6 }], conn: [...pre.conn, ...rec.conn], pos: [...pre.pos, ...residuals] }, mesh.V + 4, mesh.quads.length + 4)
-      : file(rec);
+      ? file({ ops: [...pre.ops, sym], refs: [...pre.refs, { s: A - 6 }], conn: [...pre.conn, ...rec.conn], pos: [...pre.pos, ...residuals] }, mesh.V + 4, mesh.quads.length + 4, major)
+      : file(rec, NV + 4, NQ + 4, major);
     const level = pre ? 2 : 1;
     if (small !== null) {
       badRecord(bytes, new RegExp(`first-sector length 0 at vertex ${small} exceeds -1`), level - 1);
@@ -203,7 +203,7 @@ test('edge split: every field against a transcription of the spec, many anchors 
     expected.push(...want.appended);
     assert.deepEqual(quadsOf(d), expected, JSON.stringify({ A, r, side, p, ra, rots }));
     const recordQuads = [...want.appended, ...want.rewritten.map(([, q]) => q)];
-    assert.deepEqual(codesOf(d).slice(mesh.V), predictAll(recordQuads, mesh.V, 4, mesh.codes, residuals));
+    assert.deepEqual(codesOf(d).slice(mesh.V), predictAll(recordQuads, mesh.V, 4, mesh.codes, residuals, major));
     d.setLevel(level - 1);
     assert.deepEqual(quadsOf(d), mesh.quads);
     assert.deepEqual(codesOf(d), mesh.codes);
@@ -412,7 +412,9 @@ function explicit(quads, V, { A, r, side, p, ra, rots }) {
  * Spec §7.6 (version 2 rule and its version-1 fallback) for the new
  * vertices V .. V+n−1 in order, with `residuals` (3 per vertex) added.
  */
-function predictAll(recordQuads, V, n, codes, residuals) {
+function predictAll(recordQuads, V, n, codes, residuals, major = 3) {
+  // §7.6: the parallelogram (versions 2, 3) or the stencil (version 4) per quad
+  const [wN, wO, div] = major >= 4 ? [5, 2, 8] : [1, 1, 1];
   const qmax = 2 ** 14 - 1;
   const clamp = (x) => Math.min(Math.max(x, 0), qmax);
   const all = codes.map((c) => [...c]);
@@ -426,11 +428,11 @@ function predictAll(recordQuads, V, n, codes, residuals) {
       if (k < 0) continue;
       const [n1, o, n3] = [q[(k + 1) % 4], q[(k + 2) % 4], q[(k + 3) % 4]];
       if (!(known(n1) && known(o) && known(n3))) continue;
-      sum = sum.map((s, a) => s + all[n1][a] + all[n3][a] - all[o][a]);
+      sum = sum.map((s, a) => s + wN * (all[n1][a] + all[n3][a]) - wO * all[o][a]);
       c++;
     }
     let pred;
-    if (c > 0) pred = sum.map((s) => clamp(Math.floor(s / c)));
+    if (c > 0) pred = sum.map((s) => clamp(Math.floor(s / (div * c))));
     else {
       const q = recordQuads.find((qq) => qq.includes(x));
       const k = q ? q.indexOf(x) : -1;

@@ -267,10 +267,19 @@ export const stream = (items) => items.flatMap((x) => (typeof x === 'number' ? v
  * A file for hand-written records: the base mesh of `baseFile` (a test
  * file's bytes) and one chunk holding the given streams, reaching `v`
  * vertices and `f` faces, with `version_major` = `major` (the record rules
- * of spec §7.3 and §7.6 depend on it, so tests say which they mean).
+ * of spec §7.3 and §7.6 depend on it, so tests say which they mean). The
+ * base payload gets or loses the layout byte of version 4 (spec §6) as
+ * `major` needs: a 3.x base becomes the delta layout behind byte 0.
  */
 export function handmadeFile(baseFile, { ops, conn = [], refs = [], slots = [], pos = [] }, v, f, major) {
   const parts = unpack(baseFile);
+  const from = new DataView(parts.header.buffer).getUint16(8, true);
+  if (major >= 4 && from < 4) parts.base = Uint8Array.of(0, ...parts.base);
+  if (major < 4 && from >= 4) {
+    if (parts.base[0] !== 0) throw new Error('a traversal-layout base cannot go into a file older than 4.0');
+    parts.base = parts.base.slice(1);
+  }
+  if (parts.entries.length === 0) parts.entries = [new Uint8Array(36)];
   const streams = [ops.map((b) => ({ b })), conn, refs, slots, pos].map(stream);
   parts.chunks = [Uint8Array.from(streams.flatMap((s) => [...varint(s.length), ...s]))];
   const e = parts.entries[0].slice();

@@ -11,7 +11,7 @@ const files = testFiles();
 
 test('the test files are there', () => {
   const names = files.map((f) => f.name);
-  for (const n of ['grid_small', 'box_vord', 'general_bits8', 'mixed_bits24', 'cube_grid', 'spot']) {
+  for (const n of ['grid_small', 'box_vord', 'general_bits8', 'mixed_bits24', 'cube_grid', 'spot', 'v4_traversal', 'v4_delta_base']) {
     assert.ok(names.includes(n), `missing test file ${n}`);
   }
   // the header-bounds checks below see at least one 3.2 file with bounds
@@ -86,13 +86,14 @@ for (const file of files) {
     const h = dec.header;
     const got = positionBounds(dec);
     if ('bounds_min' in file.digest) {
-      // a 3.2 file with bounds: exactly the JSON's numbers (Rust's shortest
-      // round-trip f64, which parse back to the same doubles), and exactly the
-      // box of the positions every level shows
+      // a 3.2 or 4.0 file with bounds: exactly the JSON's numbers (Rust's
+      // shortest round-trip f64, which parse back to the same doubles), and
+      // exactly the box of the positions every level shows
       assert.equal(h.hasBounds, true, 'hasBounds');
       assert.equal(h.flags & 4, 4, 'flag bit 2');
       assert.ok(h.headerLen >= 168);
-      assert.equal(h.versionMinor, 2);
+      // spec §3: version_minor 2 in a 3.x file with bounds, 0 in every 4.x file
+      assert.equal(h.versionMinor, h.versionMajor >= 4 ? 0 : 2);
       assert.deepEqual(h.boundsMin, file.digest.bounds_min, 'boundsMin = JSON bounds_min');
       assert.deepEqual(h.boundsMax, file.digest.bounds_max, 'boundsMax = JSON bounds_max');
       assert.deepEqual(got, [h.boundsMin, h.boundsMax], 'bounds = box of every level');
