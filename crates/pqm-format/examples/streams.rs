@@ -4,9 +4,11 @@
 //! new / moved / rewritten / appended counts, and the compressed bits per
 //! refined vertex each stream takes.
 //!
-//! `cargo run --release -p pqm-format --example streams -- [--v1|--v2] [--no-local] [--no-face-split] FILE.pqm...`
+//! `cargo run --release -p pqm-format --example streams -- [--v1|--v2|--v3] [--no-local] [--no-face-split] FILE.pqm...`
 //! (write the files with `pqm encode`; re-encoding skips the coarsener;
-//! `--v2` re-encodes as version 2.0 — no edge-split form; `--v1` as
+//! by default as this crate's newest version (4.0); `--v3` as 3.x (the
+//! delta base layout, version-2 prediction); `--v2` as version 2.0 — no
+//! edge-split form; `--v1` as
 //! version 1.1 — version-1 prediction, no face-split form; `--no-local` without the local form, as version 1.0 did;
 //! `--no-face-split` without the face-split form; `--write` also saves the
 //! re-encoded file beside the input as `NAME.reencoded.pqm`).
@@ -24,8 +26,10 @@ fn main() {
         1
     } else if flag("--v2") {
         2
-    } else {
+    } else if flag("--v3") {
         3
+    } else {
+        pqm_format::layout::VERSION_MAJOR
     };
     let write = flag("--write");
     files.retain(|f| !f.starts_with("--"));
