@@ -356,11 +356,21 @@ impl ProgressiveMesh {
     /// records and vertex order with them: the same levels under other ids
     /// and slots (records' own vertices and quads keep theirs).
     pub fn renumber_base_in_walk_order(&mut self) {
+        let faces: Vec<Vec<u32>> = self.base.faces().map(|f| f.to_vec()).collect();
+        let refs: Vec<&[u32]> = faces.iter().map(|f| &f[..]).collect();
+        let (face_order, vertex_order) = walk_order(&refs, self.base.vertex_count());
+        self.renumber_base(&face_order, &vertex_order);
+    }
+
+    /// Renumbers the base: `face_order[i]` becomes slot `i` and
+    /// `vertex_order[j]` becomes vertex `j` (both permutations of the base's
+    /// faces and vertices); the records and the vertex order follow, so
+    /// every level is the same mesh under other ids (records' own vertices
+    /// and quads keep theirs).
+    pub fn renumber_base(&mut self, face_order: &[u32], vertex_order: &[u32]) {
         let nb = self.base.vertex_count();
         let nfb = self.base.face_count() as u32;
         let faces: Vec<Vec<u32>> = self.base.faces().map(|f| f.to_vec()).collect();
-        let refs: Vec<&[u32]> = faces.iter().map(|f| &f[..]).collect();
-        let (face_order, vertex_order) = walk_order(&refs, nb);
         let mut vmap = vec![0u32; nb];
         for (new, &old) in vertex_order.iter().enumerate() {
             vmap[old as usize] = new as u32;
@@ -381,7 +391,7 @@ impl ProgressiveMesh {
             .iter()
             .map(|&o| self.base.positions[o as usize])
             .collect();
-        for &o in &face_order {
+        for &o in face_order {
             let f: Vec<u32> = faces[o as usize].iter().map(|&x| v(x)).collect();
             base.push_face(&f);
         }

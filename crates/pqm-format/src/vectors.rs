@@ -423,35 +423,9 @@ pub fn all() -> Vec<Vector> {
 /// not in the walk order of spec §6.1, so a 4.0 writer codes the base in
 /// the delta layout.
 pub fn reverse_base_vertices(pm: &mut ProgressiveMesh) {
-    let nb = pm.base.positions.len() as u32;
-    let map = |v: u32| if v < nb { nb - 1 - v } else { v };
-    pm.base.positions.reverse();
-    let faces: Vec<Vec<u32>> = pm
-        .base
-        .faces()
-        .map(|f| f.iter().map(|&v| map(v)).collect())
-        .collect();
-    let mut base = pqm_core::IndexedMesh::new();
-    base.positions = std::mem::take(&mut pm.base.positions);
-    for f in &faces {
-        base.push_face(f);
-    }
-    pm.base = base;
-    for r in &mut pm.records {
-        for m in &mut r.moved {
-            m.0 = map(m.0);
-        }
-        r.moved.sort_by_key(|m| m.0);
-        for (_, q) in &mut r.rewritten {
-            *q = q.map(map);
-        }
-        for q in &mut r.appended_faces {
-            *q = q.map(map);
-        }
-    }
-    if !pm.vertex_order.is_empty() {
-        pm.vertex_order[..nb as usize].reverse();
-    }
+    let faces: Vec<u32> = (0..pm.base.face_count() as u32).collect();
+    let vertices: Vec<u32> = (0..pm.base.vertex_count() as u32).rev().collect();
+    pm.renumber_base(&faces, &vertices);
 }
 
 /// Scales every position of `pm` per axis by `scale`, then adds `offset`.
