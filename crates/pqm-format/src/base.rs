@@ -280,8 +280,12 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     let (mut gates, mut corners, mut escapes) = (Vec::new(), Vec::new(), Vec::new());
     let mut cands = Vec::new();
     let mut s = 0u32;
-    // One corner symbol; `None` when `v` comes before its turn.
+    // One corner symbol; `None` when `v` comes before its turn (or is no
+    // vertex at all).
     let mut corner = |v: u32, cands: &[u32], s: &mut u32| -> Option<()> {
+        if v as usize >= nv {
+            return None;
+        }
         if v == *s {
             corners.push(0);
             *s += 1;
@@ -302,6 +306,7 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
             for &v in &g {
                 corner(v, &[], &mut s)?;
             }
+            codec::check_distinct(&g, String::new).ok()?;
             he.add_face(g).ok()?;
             n += 1;
             continue;
@@ -325,6 +330,7 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
                     corner(g[(r + 2) & 3], &cands, &mut s)?;
                     he.open_out(b, &mut cands);
                     corner(g[(r + 3) & 3], &cands, &mut s)?;
+                    codec::check_distinct(&g, String::new).ok()?;
                     he.add_face(g).ok()?;
                     n += 1;
                 }

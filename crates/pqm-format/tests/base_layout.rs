@@ -185,6 +185,18 @@ fn truncated_or_padded_traversal_payloads_are_errors() {
     assert!(base::decode(&p, nv, nf, qmax, 3).is_err());
 }
 
+/// A base the traversal layout cannot hold — a face naming a vertex
+/// twice, or a vertex that does not exist — is no traversal payload (the
+/// writer keeps the delta layout, whose checks refuse such a base).
+#[test]
+fn bases_with_bad_faces_have_no_traversal_payload() {
+    let codes = vec![[0u32; 3]; 4];
+    assert!(base::encode_traversal(&codes, &[[0, 1, 2, 3]], 255).is_some());
+    assert!(base::encode_traversal(&codes[..3], &[[0, 1, 1, 2]], 255).is_none());
+    assert!(base::encode_traversal(&codes, &[[0, 1, 2, 4]], 255).is_none());
+    assert!(base::encode_traversal(&codes[..3], &[[0, 1, 2, 3]], 255).is_none());
+}
+
 /// A face that repeats a half-edge of an earlier one (here: the same face
 /// twice, as a component start) is refused, as is a vertex in more than
 /// 255 faces.
