@@ -153,6 +153,31 @@ fn coarsened_bases_are_written_in_the_traversal_layout() {
     common::assert_every_level_down_and_up(&mut dec, &pm);
 }
 
+/// The worked example of spec §6.1, byte for byte: two quads side by side.
+#[test]
+fn the_spec_example_is_these_bytes() {
+    let codes = vec![
+        [0, 0, 0],
+        [10, 0, 0],
+        [10, 10, 0],
+        [0, 10, 0],
+        [20, 0, 0],
+        [20, 10, 0],
+    ];
+    let quads = vec![[0, 1, 2, 3], [1, 4, 5, 2]];
+    let expected: Vec<u8> = vec![
+        1, // layout
+        2, 0, 4, // gates
+        6, 0, 0, 0, 0, 0, 0, // corners
+        0, // escapes
+        18, 0, 0, 0, 20, 0, 0, 0, 20, 0, 5, 8, 0, 20, 0, 0, 8, 8, 0, // pos
+    ];
+    let p = base::encode_traversal(&codes, &quads, 1023).unwrap();
+    assert_eq!(p.payload, expected);
+    let st = base::decode(&expected, 6, 2, 1023, 4).unwrap();
+    assert_eq!((st.q, st.quads), (codes, quads));
+}
+
 /// Every truncation of a traversal payload is an error naming the base,
 /// and so are trailing bytes, an unknown layout byte and wrong counts.
 #[test]
