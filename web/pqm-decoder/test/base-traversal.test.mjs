@@ -390,3 +390,18 @@ test('the 4.0 vectors: v4_traversal has a traversal-layout base, v4_delta_base t
     assert.equal(d.header.versionMinor, 0);
   }
 });
+
+test('the worked example of spec §6.1 decodes to its two quads and codes', () => {
+  // the payload the spec lists byte by byte (and the Rust test
+  // `the_spec_example_is_these_bytes` writes)
+  const payload = Uint8Array.from([
+    1, // layout
+    2, 0, 4, // gates
+    6, 0, 0, 0, 0, 0, 0, // corners
+    0, // escapes
+    18, 0, 0, 0, 20, 0, 0, 0, 20, 0, 5, 8, 0, 20, 0, 0, 8, 8, 0, // pos
+  ]);
+  const { quads, codes } = decode(payload, 6, 2, 1023);
+  assert.deepEqual(quads, [[0, 1, 2, 3], [1, 4, 5, 2]]);
+  assert.deepEqual(codes, [[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0], [20, 0, 0], [20, 10, 0]]);
+});
