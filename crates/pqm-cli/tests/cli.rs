@@ -1172,6 +1172,9 @@ fn grid_cube_is_the_default_and_stores_the_bounds() {
     assert!(bc < bb, "cube {bc} bytes, box {bb}");
     let (ic, ib) = (json_ok(&["info", s(&cube)]), json_ok(&["info", s(&boxed)]));
     assert_eq!(ic["version"], "4.0");
+    // the coarsener numbers its base in the walk's order: 4.0's traversal
+    // layout (spec §6.1)
+    assert_eq!(ic["base_layout"], "traversal");
     assert_eq!(ic["bounds_stored"], true);
     assert_eq!(ib["bounds_stored"], false);
     assert_eq!(ib["bounds_min"], ib["bbox_min"]);

@@ -26,6 +26,26 @@ pub const LAYOUT_TRAVERSAL: u8 = 1;
 /// per-vertex lists a decoder scans (spec §6.1).
 pub const MAX_FACES_PER_VERTEX: usize = 255;
 
+/// How a base section is coded (spec §6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BaseLayout {
+    /// Corner and code deltas (every version; from 4.0 behind layout byte 0).
+    Delta,
+    /// The walk across edges of §6.1 (layout byte 1, version 4).
+    Traversal,
+}
+
+/// The layout of a decompressed base payload of a file of major version
+/// `major` (what its first byte says from version 4 on; an unknown byte
+/// is the decoder's error to report, so it reads as `Delta` here).
+pub fn layout_of(payload: &[u8], major: u16) -> BaseLayout {
+    if major >= 4 && payload.first() == Some(&LAYOUT_TRAVERSAL) {
+        BaseLayout::Traversal
+    } else {
+        BaseLayout::Delta
+    }
+}
+
 /// A candidate payload for the base section and the offsets where a writer
 /// may end a zstd block (after each part whose statistics differ).
 pub struct BasePayload {

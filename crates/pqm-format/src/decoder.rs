@@ -495,6 +495,8 @@ pub struct Decoder {
     copy_policy: CopyPolicy,
     /// Keeps no undo data past a chunk ([`Decoder::forward_only`]).
     forward_only: bool,
+    /// How the base section was coded (spec §6), once it is decoded.
+    base_layout: Option<crate::base::BaseLayout>,
     /// The undo logs (`Records::moved`, `rw` and their offsets) cover
     /// every record. A general decoder starts without them and decodes as
     /// a forward-only one does (each chunk's log dropped at its commit),
@@ -574,6 +576,7 @@ impl Decoder {
             shared: false,
             copy_policy: CopyPolicy::Auto,
             forward_only: false,
+            base_layout: None,
             logs: false,
             replay: None,
             pending_moved: Vec::new(),
@@ -1089,6 +1092,7 @@ impl Decoder {
         Self::check_crc(Section::BaseMesh, b, h.base_crc32)?;
         let payload = self.decompress(Section::BaseMesh, b, h.base_uncompressed_len)?;
         let qmax = self.quant.map_or(0, |q| q.qmax());
+        self.base_layout = Some(crate::base::layout_of(&payload, h.version_major));
         let mut st = crate::base::decode(
             &payload,
             h.base_vertex_count,
@@ -1969,6 +1973,13 @@ impl Decoder {
     /// The quantization grid (after the header).
     pub fn quantizer(&self) -> Option<Quantizer> {
         self.quant
+    }
+
+    /// How the file's base section is coded (spec §6): the traversal
+    /// layout (4.0 files whose base the writer could number in the walk's
+    /// order) or the corner deltas; `None` until the base is decoded.
+    pub fn base_layout(&self) -> Option<crate::base::BaseLayout> {
+        self.base_layout
     }
 
     /// A bounding box `[min, max]` of every level's positions (after the

@@ -123,10 +123,18 @@ fn the_4_0_vectors_hold_both_base_layouts() {
         let dec = decode_all(&v.bytes, Limits::default()).unwrap();
         let h = dec.header().unwrap();
         let at = h.header_len as usize + h.chunk_count as usize * h.chunk_entry_len as usize + 4;
-        zstd::stream::decode_all(&v.bytes[at..at + h.base_compressed_len as usize]).unwrap()[0]
+        let byte =
+            zstd::stream::decode_all(&v.bytes[at..at + h.base_compressed_len as usize]).unwrap()[0];
+        (byte, dec.base_layout())
     };
-    assert_eq!(layout("v4_traversal"), base::LAYOUT_TRAVERSAL);
-    assert_eq!(layout("v4_delta_base"), base::LAYOUT_DELTA);
+    assert_eq!(
+        layout("v4_traversal"),
+        (base::LAYOUT_TRAVERSAL, Some(base::BaseLayout::Traversal))
+    );
+    assert_eq!(
+        layout("v4_delta_base"),
+        (base::LAYOUT_DELTA, Some(base::BaseLayout::Delta))
+    );
 }
 
 #[test]

@@ -58,6 +58,9 @@ struct Report {
     bounds_stored: bool,
     base_vertices: u32,
     base_faces: u32,
+    /// How the base section is coded: "traversal" (format 4.0's walk,
+    /// spec §6.1) or "delta" (corner deltas); null before the base arrived.
+    base_layout: Option<&'static str>,
     final_vertices: u32,
     final_faces: u32,
     records: u32,
@@ -149,6 +152,10 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         bounds_stored: h.bounds.is_some(),
         base_vertices: h.base_vertex_count,
         base_faces: h.base_face_count,
+        base_layout: dec.base_layout().map(|l| match l {
+            pqm_format::base::BaseLayout::Traversal => "traversal",
+            pqm_format::base::BaseLayout::Delta => "delta",
+        }),
         final_vertices: h.final_vertex_count,
         final_faces: h.final_face_count,
         records: h.record_count,
@@ -178,8 +185,13 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         ));
         s.push_str(&format!("version       {}\n", r.version));
         s.push_str(&format!(
-            "base mesh     {} faces, {} vertices\nfull mesh     {} faces, {} vertices\n",
-            r.base_faces, r.base_vertices, r.final_faces, r.final_vertices
+            "base mesh     {} faces, {} vertices{}\nfull mesh     {} faces, {} vertices\n",
+            r.base_faces,
+            r.base_vertices,
+            r.base_layout
+                .map_or(String::new(), |l| format!(" ({l} layout)")),
+            r.final_faces,
+            r.final_vertices
         ));
         s.push_str(&format!(
             "records       {} in {} chunks\n",
