@@ -215,62 +215,37 @@ impl HalfEdges {
         })
     }
 
-    /// Entry `i` of [`HalfEdges::open_in`]'s list, without building it.
-    fn nth_open_in(&self, a: u32, mut i: usize) -> Option<u32> {
+    /// `X` of §6.1: the sources `w` of the open half-edges `w → a`, in
+    /// decode order (a decoder takes the one a symbol names, a writer looks
+    /// for its vertex: neither builds the list).
+    fn open_into(&self, a: u32) -> impl Iterator<Item = u32> + '_ {
         let mut e = self.at[a as usize].inc[0];
-        while e != NIL {
-            let h = self.he[e as usize];
-            if h.open {
-                if i == 0 {
+        std::iter::from_fn(move || {
+            while e != NIL {
+                let h = self.he[e as usize];
+                e = h.next_in;
+                if h.open {
                     return Some(h.src);
                 }
-                i -= 1;
             }
-            e = h.next_in;
-        }
-        None
+            None
+        })
     }
 
-    /// Entry `i` of [`HalfEdges::open_out`]'s list, without building it.
-    fn nth_open_out(&self, b: u32, mut i: usize) -> Option<u32> {
+    /// `Y` of §6.1: the targets `z` of the open half-edges `b → z`, in
+    /// decode order.
+    fn open_out_of(&self, b: u32) -> impl Iterator<Item = u32> + '_ {
         let mut e = self.at[b as usize].out[0];
-        while e != NIL {
-            let h = self.he[e as usize];
-            if h.open {
-                if i == 0 {
+        std::iter::from_fn(move || {
+            while e != NIL {
+                let h = self.he[e as usize];
+                e = h.next_out;
+                if h.open {
                     return Some(h.dst);
                 }
-                i -= 1;
             }
-            e = h.next_out;
-        }
-        None
-    }
-
-    /// `X` of §6.1: sources `w` of open half-edges `w → a`, in decode order.
-    fn open_in(&self, a: u32, out: &mut Vec<u32>) {
-        out.clear();
-        let mut e = self.at[a as usize].inc[0];
-        while e != NIL {
-            let h = self.he[e as usize];
-            if h.open {
-                out.push(h.src);
-            }
-            e = h.next_in;
-        }
-    }
-
-    /// `Y` of §6.1: targets `z` of open half-edges `b → z`, in decode order.
-    fn open_out(&self, b: u32, out: &mut Vec<u32>) {
-        out.clear();
-        let mut e = self.at[b as usize].out[0];
-        while e != NIL {
-            let h = self.he[e as usize];
-            if h.open {
-                out.push(h.dst);
-            }
-            e = h.next_out;
-        }
+            None
+        })
     }
 }
 
@@ -298,11 +273,11 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     let nf = quads.len();
     let mut he = HalfEdges::new(nv, nf);
     let (mut gates, mut corners, mut escapes) = (Vec::new(), Vec::new(), Vec::new());
-    let mut cands = Vec::new();
     let mut s = 0u32;
-    // One corner symbol; `None` when `v` comes before its turn (or is no
-    // vertex at all).
-    let mut corner = |v: u32, cands: &[u32], s: &mut u32| -> Option<()> {
+    // One corner symbol, `cand` the index of `v` among the symbol's
+    // candidates if it is one of the first 254; `None` when `v` comes
+    // before its turn (or is no vertex at all).
+    let mut corner = |v: u32, cand: Option<usize>, s: &mut u32| -> Option<()> {
         if v as usize >= nv {
             return None;
         }
@@ -311,7 +286,7 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
             *s += 1;
         } else if v > *s {
             return None;
-        } else if let Some(i) = cands.iter().position(|&c| c == v).filter(|&i| i < 254) {
+        } else if let Some(i) = cand {
             corners.push(1 + i as u8);
         } else {
             corners.push(255);
@@ -324,7 +299,7 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
         if h == n {
             let g = quads[n];
             for &v in &g {
-                corner(v, &[], &mut s)?;
+                corner(v, None, &mut s)?;
             }
             codec::check_distinct(&g, String::new).ok()?;
             he.add_face(g).ok()?;
@@ -346,10 +321,11 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
             match across(&g, a, b) {
                 Some(r) => {
                     gates.push(1 + r as u8);
-                    he.open_in(a, &mut cands);
-                    corner(g[(r + 2) & 3], &cands, &mut s)?;
-                    he.open_out(b, &mut cands);
-                    corner(g[(r + 3) & 3], &cands, &mut s)?;
+                    let (x, y) = (g[(r + 2) & 3], g[(r + 3) & 3]);
+                    let cand = he.open_into(a).take(254).position(|w| w == x);
+                    corner(x, cand, &mut s)?;
+                    let cand = he.open_out_of(b).take(254).position(|z| z == y);
+                    corner(y, cand, &mut s)?;
                     codec::check_distinct(&g, String::new).ok()?;
                     he.add_face(g).ok()?;
                     n += 1;
@@ -361,7 +337,15 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     if s as usize != nv {
         return None;
     }
-    let pos = encode_positions(q, quads, qmax);
+    // the prediction reads only the codes below `v`, as a decoder has them,
+    // over `v`'s corners as the walk's half-edges list them (as it does)
+    let mut pos = Vec::with_capacity(3 * nv);
+    for v in 0..nv {
+        let p = predict(v, q, quads, he.out_corners(v as u32), qmax);
+        for t in 0..3 {
+            put_s(&mut pos, q[v][t] as i64 - p[t] as i64);
+        }
+    }
     let mut payload = vec![LAYOUT_TRAVERSAL];
     let mut cuts = Vec::new();
     for part in [&gates, &corners, &escapes, &pos] {
@@ -371,30 +355,6 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     }
     cuts.pop();
     Some(BasePayload { payload, cuts })
-}
-
-/// Corners around each vertex, as a compressed-row table over `quads`:
-/// entries `start[v] .. start[v + 1]` of `corners` are `4 f + k` for each
-/// face `f` holding `v` at its corner `k`.
-fn vertex_corners(nv: usize, quads: &[[u32; 4]]) -> (Vec<u32>, Vec<u32>) {
-    let mut start = vec![0u32; nv + 1];
-    for g in quads {
-        for &v in g {
-            start[v as usize + 1] += 1;
-        }
-    }
-    for i in 0..nv {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut corners = vec![0u32; start[nv] as usize];
-    for (i, g) in quads.iter().enumerate() {
-        for (k, &v) in g.iter().enumerate() {
-            corners[fill[v as usize] as usize] = (4 * i + k) as u32;
-            fill[v as usize] += 1;
-        }
-    }
-    (start, corners)
 }
 
 /// `P(v)` of §6.1 from the codes of the vertices before `v` (`around`:
@@ -449,20 +409,6 @@ fn predict(
     } else {
         [0; 3]
     }
-}
-
-fn encode_positions(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Vec<u8> {
-    let (start, faces) = vertex_corners(q.len(), quads);
-    let mut out = Vec::with_capacity(3 * q.len());
-    for v in 0..q.len() {
-        let around = &faces[start[v] as usize..start[v + 1] as usize];
-        // the prediction reads only the codes below `v`, as a decoder has them
-        let p = predict(v, q, quads, around.iter().copied(), qmax);
-        for t in 0..3 {
-            put_s(&mut out, q[v][t] as i64 - p[t] as i64);
-        }
-    }
-    out
 }
 
 /// Decodes a base payload of a file of major version `major` with `nv`
@@ -537,8 +483,8 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
                 let nth = i as usize - 1;
                 match cands {
                     Cands::None => None,
-                    Cands::Into(a) => he.nth_open_in(a, nth),
-                    Cands::OutOf(b) => he.nth_open_out(b, nth),
+                    Cands::Into(a) => he.open_into(a).nth(nth),
+                    Cands::OutOf(b) => he.open_out_of(b).nth(nth),
                 }
                 .ok_or_else(|| {
                     format!("face {face} names candidate {i}, a list has fewer (spec §6.1)")
