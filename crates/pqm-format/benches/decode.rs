@@ -1,7 +1,8 @@
 //! Decode throughput on a generated progressive mesh of ~100k final quads:
 //! push the whole file (CRC + zstd + record decoding), then refine to the
 //! finest level (also with a forward-only decoder, which keeps no undo
-//! log); and moving between levels with the undo log.
+//! log, and with one decoder reset between iterations, whose arrays keep
+//! their pages); and moving between levels with the undo log.
 //! Throughput is reported in faces reconstructed per second.
 //! `subset_torus`: the same push-and-refine on what `pqm encode` writes
 //! (format 2.0, `Placement::Subset`: split, face-split and local-form
@@ -47,6 +48,17 @@ fn bench(c: &mut Criterion) {
             d.push(black_box(&bytes)).expect("decode");
             d.set_level(Target::Level(usize::MAX)).expect("refine");
             black_box(d.quads().len())
+        })
+    });
+    // One decoder for every iteration, reset between files: its arrays
+    // keep their pages (a client decoding asset after asset).
+    let mut kept = Decoder::new(Limits::default());
+    g.bench_function("push_all_and_refine_100k_reused_decoder", |b| {
+        b.iter(|| {
+            kept.reset(Limits::default());
+            kept.push(black_box(&bytes)).expect("decode");
+            kept.set_level(Target::Level(usize::MAX)).expect("refine");
+            black_box(kept.quads().len())
         })
     });
     g.bench_function("push_in_1500_byte_packets", |b| {

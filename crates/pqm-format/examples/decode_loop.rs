@@ -19,30 +19,45 @@
 //! `VNBR` section on first use): what an exporter pays, and what every
 //! decode paid when the section was read on arrival.
 //!
-//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N] [forward] [order]`
+//! With `reuse` one decoder decodes every time, [`Decoder::reset`] between
+//! decodes: its arrays keep their pages, as in a client that decodes file
+//! after file. Without it each decode has a new decoder, whose arrays are
+//! new memory (glibc returns large freed blocks to the kernel, so every
+//! decode faults its pages in again, as a one-shot decode does).
+//!
+//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N] [forward] [order] [reuse]`
 
-use pqm_format::{decode_all, DecodeError, Decoder, Limits, Target};
+use pqm_format::{DecodeError, Decoder, Limits, Target};
 
-/// The whole file, pushed at once, into a forward-only decoder.
-fn decode_forward(bytes: &[u8]) -> Result<Decoder, DecodeError> {
-    let mut d = Decoder::forward_only(Limits::none());
+/// The whole file, pushed at once, into `d` (reset first).
+fn decode_whole(d: &mut Decoder, bytes: &[u8]) -> Result<(), DecodeError> {
+    d.reset(Limits::none());
     d.push(bytes)?;
     if !d.status().finished {
         return Err(DecodeError::Parameter("the file ends early".into()));
     }
-    Ok(d)
+    Ok(())
 }
 
 fn main() {
     let mut args = std::env::args().skip(1);
     let Some(f) = args.next() else {
-        eprintln!("usage: decode_loop FILE.pqm [N] [forward] [order]");
+        eprintln!("usage: decode_loop FILE.pqm [N] [forward] [order] [reuse]");
         std::process::exit(2);
     };
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
     let rest: Vec<String> = args.collect();
     let forward = rest.iter().any(|a| a == "forward");
     let order = rest.iter().any(|a| a == "order");
+    let reuse = rest.iter().any(|a| a == "reuse");
+    let new_decoder = || {
+        if forward {
+            Decoder::forward_only(Limits::none())
+        } else {
+            Decoder::new(Limits::none())
+        }
+    };
+    let mut kept = new_decoder();
     let bytes = match std::fs::read(&f) {
         Ok(b) => b,
         Err(e) => {
@@ -55,18 +70,17 @@ fn main() {
     let mut sum = 0xcbf2_9ce4_8422_2325u64;
     for _ in 0..n.max(1) {
         let t = std::time::Instant::now();
-        let decoded = if forward {
-            decode_forward(&bytes)
+        let mut fresh;
+        let d = if reuse {
+            &mut kept
         } else {
-            decode_all(&bytes, Limits::none())
+            fresh = new_decoder();
+            &mut fresh
         };
-        let mut d = match decoded {
-            Ok(d) => d,
-            Err(e) => {
-                eprintln!("{f}: {e}");
-                std::process::exit(1);
-            }
-        };
+        if let Err(e) = decode_whole(d, &bytes) {
+            eprintln!("{f}: {e}");
+            std::process::exit(1);
+        }
         if let Err(e) = d.set_level(Target::Level(usize::MAX)) {
             eprintln!("{f}: {e}");
             std::process::exit(1);
@@ -91,8 +105,9 @@ fn main() {
         }
     }
     println!(
-        "{f}{}{}: best of {n}: {:.2} ms, {:.2} M faces/s, checksum {sum:016x}",
+        "{f}{}{}{}: best of {n}: {:.2} ms, {:.2} M faces/s, checksum {sum:016x}",
         if forward { " (forward-only)" } else { "" },
+        if reuse { " (reused decoder)" } else { "" },
         if order { " (+ vertex order)" } else { "" },
         best * 1e3,
         faces as f64 / best / 1e6

@@ -289,6 +289,21 @@ struct Records {
 }
 
 impl Records {
+    /// Empties every list, keeping their allocations ([`Decoder::reset`]).
+    fn clear(&mut self) {
+        self.op.clear();
+        self.v_at.clear();
+        self.f_at.clear();
+        self.moved_at.clear();
+        self.rw_at.clear();
+        self.at0 = 0;
+        self.moved.clear();
+        self.rw.clear();
+        self.new_pos.clear();
+        self.appended.clear();
+        self.kept = 0;
+    }
+
     /// Prefetches the lines, 256 bytes past the end of each per-record
     /// list, that the next records' entries go to. Those lists grow by
     /// one entry per record for the whole decode, forward-only too; on
@@ -518,6 +533,20 @@ pub struct Decoder {
     /// next [`Change`] reports; the logs they come from are dropped).
     pending_moved: Vec<u32>,
     pending_rw: Vec<u32>,
+    /// Allocations of the previous file's frontier and replay, handed on
+    /// by [`Decoder::reset`] for the next base mesh to reuse.
+    spare: Spare,
+}
+
+/// What [`Decoder::reset`] keeps of the previous file for the next one's
+/// base mesh (`Decoder::on_base`), emptied: the frontier's arrays and the
+/// replay's buffers.
+#[derive(Default)]
+struct Spare {
+    state: Option<MeshState>,
+    replay_base: Vec<u8>,
+    replay_bytes: Vec<u8>,
+    replay_ends: Vec<usize>,
 }
 
 /// Whether [`Decoder::go_to`] refines to the deepest level by copying the
@@ -581,6 +610,7 @@ impl Decoder {
             replay: None,
             pending_moved: Vec::new(),
             pending_rw: Vec::new(),
+            spare: Spare::default(),
         }
     }
 
@@ -598,6 +628,66 @@ impl Decoder {
         Decoder {
             forward_only: true,
             ..Decoder::new(limits)
+        }
+    }
+
+    /// Makes this decoder a new one for the next file — as
+    /// [`Decoder::new`] (or [`Decoder::forward_only`], if this one is)
+    /// with `limits` makes one — keeping the memory it allocated: the
+    /// mesh arrays, the undo lists, the input and payload buffers and the
+    /// zstd context. Nothing of the previous file is kept but capacity:
+    /// every decode after a reset gives what a fresh decoder gives (test
+    /// `reset_decoder_equals_fresh`).
+    ///
+    /// For a client that decodes file after file (a game streaming its
+    /// assets): a fresh decoder's arrays are new memory, which the system
+    /// maps page by page as they are first written, and on the bench
+    /// files those page faults were 12–17 % of a decode (`decode_loop
+    /// … reuse`; the previous file's mesh is gone after the call, so take
+    /// what you need from it first).
+    pub fn reset(&mut self, limits: Limits) {
+        let fresh = if self.forward_only {
+            Decoder::forward_only(limits)
+        } else {
+            Decoder::new(limits)
+        };
+        // Everything not handed on below starts as the fresh decoder's:
+        // no state of the previous file can leak into the next.
+        let mut old = std::mem::replace(self, fresh);
+        old.buf.clear();
+        old.chunks.clear();
+        old.chunk_levels.clear();
+        old.recs.clear();
+        old.zbuf.clear();
+        old.q.clear();
+        old.pos.clear();
+        old.quads.clear();
+        old.pending_moved.clear();
+        old.pending_rw.clear();
+        self.buf = old.buf;
+        self.chunks = old.chunks;
+        self.chunk_levels = old.chunk_levels;
+        self.recs = old.recs;
+        // Per-record buffers, sized to the largest record seen; their
+        // marks are generation stamps, never reset between records or files.
+        self.rec = old.rec;
+        self.buffers = old.buffers;
+        self.zbuf = old.zbuf;
+        // zstd resets its context at every frame.
+        self.zstd = old.zstd;
+        self.q = old.q;
+        self.pos = old.pos;
+        self.quads = old.quads;
+        self.pending_moved = old.pending_moved;
+        self.pending_rw = old.pending_rw;
+        self.spare = old.spare;
+        if let Some(st) = old.frontier {
+            self.spare.state = Some(st);
+        }
+        if let Some(r) = old.replay {
+            self.spare.replay_base = r.base;
+            self.spare.replay_bytes = r.bytes;
+            self.spare.replay_ends = r.ends;
         }
     }
 
@@ -1093,7 +1183,7 @@ impl Decoder {
         let payload = self.decompress(Section::BaseMesh, b, h.base_uncompressed_len)?;
         let qmax = self.quant.map_or(0, |q| q.qmax());
         self.base_layout = Some(crate::base::layout_of(&payload, h.version_major));
-        let mut st = crate::base::decode(
+        let base = crate::base::decode(
             &payload,
             h.base_vertex_count,
             h.base_face_count,
@@ -1101,17 +1191,33 @@ impl Decoder {
             h.version_major,
         )
         .map_err(|m| DecodeError::invalid(Section::BaseMesh, m))?;
+        // A reset decoder's previous frontier takes the base (its arrays
+        // already have room, and their pages are mapped).
+        let mut st = match self.spare.state.take() {
+            Some(mut st) => {
+                st.reset_to(&base);
+                st
+            }
+            None => base,
+        };
         if !self.forward_only && !self.logs {
             // Room for the chunks as the table states them (growing the
             // list copied it ~log2(chunks) times), never past the
             // uncompressed payload counted in `Limits::estimate`.
             let claimed: u64 = self.chunks.iter().map(|c| c.compressed_len as u64).sum();
             let room = claimed.min(self.payload_total) as usize;
-            self.replay = Some(Replay {
-                base: b.to_vec(),
-                bytes: Vec::with_capacity(room),
-                ends: Vec::new(),
-            });
+            let sp = &mut self.spare;
+            let (mut base, mut bytes, mut ends) = (
+                std::mem::take(&mut sp.replay_base),
+                std::mem::take(&mut sp.replay_bytes),
+                std::mem::take(&mut sp.replay_ends),
+            );
+            base.clear();
+            base.extend_from_slice(b);
+            bytes.clear();
+            bytes.reserve(room);
+            ends.clear();
+            self.replay = Some(Replay { base, bytes, ends });
         }
         // Room for the finest level up front: the header's counts were
         // checked against the limits, and what is reserved here (68 bytes
@@ -1130,13 +1236,16 @@ impl Decoder {
         // decoder needs its logs (`logs`).
         let n_rec = h.record_count as usize + 1;
         self.recs.reserve(n_rec, if self.logs { n_rec } else { 0 });
-        let mut q = Vec::with_capacity(st.q.len() + nv);
-        q.extend_from_slice(&st.q);
-        let mut pos = Vec::with_capacity(st.q.len() + nv);
-        extend_f32(&mut pos, &st.q, self.quant.as_ref());
-        let mut quads = Vec::with_capacity(st.quads.len() + nf);
-        quads.extend_from_slice(&st.quads);
-        (self.q, self.pos, self.quads) = (q, pos, quads);
+        // Empty here (a new decoder's, or emptied by `reset`).
+        self.q.clear();
+        self.q.reserve(st.q.len() + nv);
+        self.q.extend_from_slice(&st.q);
+        self.pos.clear();
+        self.pos.reserve(st.q.len() + nv);
+        extend_f32(&mut self.pos, &st.q, self.quant.as_ref());
+        self.quads.clear();
+        self.quads.reserve(st.quads.len() + nf);
+        self.quads.extend_from_slice(&st.quads);
         self.level = 0;
         self.recs.v_at.push(st.q.len() as u32);
         self.recs.f_at.push(st.quads.len() as u32);
@@ -2403,6 +2512,100 @@ mod tests {
                 prop_assert_eq!(a.quads(), b.quads());
                 prop_assert_eq!(a.position_codes(), b.position_codes());
                 prop_assert_eq!(a.positions(), b.positions());
+            }
+        }
+    }
+
+    /// Pushes `bytes` in pieces of `piece` bytes; the events, or the
+    /// first error as text, and the status after.
+    fn push_pieces(
+        d: &mut Decoder,
+        bytes: &[u8],
+        piece: usize,
+    ) -> (Result<Vec<super::Event>, String>, super::Status) {
+        let mut events = Vec::new();
+        for p in bytes.chunks(piece.max(1)) {
+            match d.push(p) {
+                Ok(e) => events.extend(e),
+                Err(e) => return (Err(e.to_string()), d.status()),
+            }
+        }
+        (Ok(events), d.status())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(40))]
+        /// A decoder reset after any first file — decoded whole, cut
+        /// short, failed on a corrupted byte, or moved below its deepest
+        /// level (its undo logs rebuilt) — decodes the next file exactly
+        /// as a fresh decoder of its kind does: the same events, status
+        /// and errors, the same levels and changes on a walk over them.
+        #[test]
+        fn reset_decoder_equals_fresh(
+            seed_a in any::<u64>(),
+            seed_b in any::<u64>(),
+            first in 0u8..4,
+            cut in 0.0f64..1.0,
+            flip in any::<prop::sample::Index>(),
+            forward in any::<bool>(),
+            majors in (1u16..=4, 1u16..=4),
+            piece in 1usize..400,
+            walk in proptest::collection::vec(prop_oneof![0usize..200, Just(usize::MAX)], 1..6),
+        ) {
+            let file = |seed: u64, n: usize, version_major: u16, chunk: usize| {
+                let mut pm = testgen::generate(seed, n);
+                crate::vectors::add_face_splits(&mut pm, 20, seed);
+                crate::vectors::add_edge_splits(&mut pm, 8, seed);
+                let opts = EncodeOptions {
+                    chunk_records: Some(chunk),
+                    version_major,
+                    ..EncodeOptions::default()
+                };
+                write_to_vec(&pm, &opts).expect("encode").0
+            };
+            let a = file(seed_a, 150, majors.0, 11);
+            let b = file(seed_b, 90, majors.1, 7);
+            let new = || if forward {
+                Decoder::forward_only(Limits::default())
+            } else {
+                Decoder::new(Limits::default())
+            };
+            let mut used = new();
+            match first {
+                0 => { let _ = used.push(&a); }
+                1 => { let _ = used.push(&a[..(a.len() as f64 * cut) as usize]); }
+                2 => {
+                    let mut bad = a.clone();
+                    let i = flip.index(bad.len());
+                    bad[i] ^= 0x5a;
+                    let _ = used.push(&bad);
+                }
+                _ => {
+                    let _ = used.push(&a);
+                    if !forward {
+                        let _ = used.set_level(Target::Level(0));
+                        let _ = used.set_level(Target::Level(usize::MAX));
+                    }
+                }
+            }
+            used.reset(Limits::default());
+            let mut fresh = new();
+            let got = push_pieces(&mut used, &b, piece);
+            let want = push_pieces(&mut fresh, &b, piece);
+            prop_assert_eq!(&got, &want);
+            prop_assert_eq!(used.base_layout(), fresh.base_layout());
+            for &t in &walk {
+                let t = if forward { usize::MAX } else { t };
+                let cu = used.set_level(Target::Level(t)).map_err(|e| e.to_string());
+                let cf = fresh.set_level(Target::Level(t)).map_err(|e| e.to_string());
+                prop_assert_eq!(&cu, &cf);
+                prop_assert_eq!(used.level(), fresh.level());
+                prop_assert_eq!(used.quads(), fresh.quads());
+                prop_assert_eq!(used.position_codes(), fresh.position_codes());
+                prop_assert_eq!(used.positions(), fresh.positions());
+            }
+            if !forward {
+                prop_assert_eq!(used.to_progressive_mesh(), fresh.to_progressive_mesh());
             }
         }
     }
