@@ -50,6 +50,10 @@
 //! then decodes the chunks again (a whole decode's time, in one frame);
 //! with the logs asked for up front they are written while decoding
 //! instead. A client that only ever refines uses [`Decoder::forward_only`].
+//! A client that decodes asset after asset keeps one decoder and calls
+//! [`Decoder::reset`] between them: the next file decodes in the memory the
+//! last one used, whose pages are already mapped (capacity is all that is
+//! kept; drop the decoder to give the memory back).
 
 pub mod base;
 pub mod codec;
