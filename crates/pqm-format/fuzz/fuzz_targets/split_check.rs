@@ -1,5 +1,7 @@
 //! Shared by the `decode` and `buf_independent` fuzz targets: a file
-//! pushed whole and pushed in pieces must decode alike.
+//! pushed whole and pushed in pieces must decode alike — the pieces into
+//! the same decoder after [`Decoder::reset`], so a reset decoder must
+//! also decode as a fresh one does, whatever the file before left in it.
 
 use pqm_format::{Decoder, Limits, Target};
 
@@ -13,7 +15,7 @@ fn limits() -> Limits {
     }
 }
 
-/// What [`outcome`] observes: whether every push succeeded, the events,
+/// What [`outcome`] observes (`d` reset, then fed the parts): whether every push succeeded, the events,
 /// the deepest level, its mesh, and the mesh of the level halfway.
 type Outcome = (
     bool,
@@ -25,8 +27,8 @@ type Outcome = (
     Vec<[u32; 3]>,
 );
 
-fn outcome(parts: &[&[u8]]) -> Outcome {
-    let mut d = Decoder::new(limits());
+fn outcome(d: &mut Decoder, parts: &[&[u8]]) -> Outcome {
+    d.reset(limits());
     let mut events = Vec::new();
     let mut ok = true;
     for p in parts {
@@ -49,7 +51,8 @@ fn outcome(parts: &[&[u8]]) -> Outcome {
         assert_eq!(back.to_level, 0);
         // A replay below the deepest level (the records' new codes and
         // quads unwound from the frontier), then up again.
-        d.set_level(Target::Level(deepest / 2)).expect("level halfway");
+        d.set_level(Target::Level(deepest / 2))
+            .expect("level halfway");
         mid = (d.quads().to_vec(), d.position_codes().to_vec());
         d.set_level(Target::Level(usize::MAX))
             .expect("refine again");
@@ -65,10 +68,13 @@ fn outcome(parts: &[&[u8]]) -> Outcome {
     )
 }
 
-/// [`Decoder::forward_only`] on the same parts: whether every push
-/// succeeded, the deepest level and its mesh.
-fn forward(parts: &[&[u8]]) -> (bool, Option<usize>, Vec<[u32; 4]>, Vec<[u32; 3]>) {
-    let mut d = Decoder::forward_only(limits());
+/// `d`, a [`Decoder::forward_only`] decoder, reset then fed the parts:
+/// whether every push succeeded, the deepest level and its mesh.
+fn forward(
+    d: &mut Decoder,
+    parts: &[&[u8]],
+) -> (bool, Option<usize>, Vec<[u32; 4]>, Vec<[u32; 3]>) {
+    d.reset(limits());
     let mut ok = true;
     for p in parts {
         if d.push(p).is_err() {
@@ -104,8 +110,11 @@ pub fn check_pieces(bytes: &[u8], cuts: &[usize]) {
         at = c;
     }
     parts.push(&bytes[at..]);
-    let whole = outcome(&[bytes]);
-    let split = outcome(&parts);
+    // One decoder for both: the split decode runs after a reset from the
+    // whole one (with its moves down and up, and any error).
+    let mut d = Decoder::new(limits());
+    let whole = outcome(&mut d, &[bytes]);
+    let split = outcome(&mut d, &parts);
     // Once an error happened, events after it are lost either way; the
     // levels decoded before the error must agree.
     assert_eq!(whole.0, split.0);
@@ -117,8 +126,11 @@ pub fn check_pieces(bytes: &[u8], cuts: &[usize]) {
     assert_eq!(whole.4, split.4);
     assert_eq!(whole.5, split.5);
     assert_eq!(whole.6, split.6);
-    // The one-way decoder keeps the same deepest level, error or not.
-    let fwd = forward(&parts);
+    // The one-way decoder keeps the same deepest level, error or not (fed
+    // the whole file first, then reset: the pieces are its second file).
+    let mut f = Decoder::forward_only(limits());
+    forward(&mut f, &[bytes]);
+    let fwd = forward(&mut f, &parts);
     assert_eq!(whole.0, fwd.0);
     assert_eq!(whole.2, fwd.1);
     assert_eq!(whole.3, fwd.2);
