@@ -69,7 +69,7 @@ pub mod vorder;
 pub use decoder::{decode_all, quad_triangles, Change, Decoder, Event, Limits, Status, Target};
 pub use encoder::{
     write, write_stored, write_to_vec, BitsPerVertex, CornerOrder, EncodeOptions, EncodeReport,
-    OpStats, VertexOrderCode, ZstdBlocks, BLOCK_PENALTY_BYTES,
+    OpStats, VertexOrderCode, ZstdBlocks, ZstdMinMatch, BLOCK_PENALTY_BYTES,
 };
 pub use error::{DecodeError, EncodeError, FormatError, Section};
 pub use layout::{ChunkInfo, Header};

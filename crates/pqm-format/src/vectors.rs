@@ -210,6 +210,10 @@ pub fn all() -> Vec<Vector> {
             } else {
                 crate::Grid::Box
             },
+            // A compression parameter, not a format one: the vectors keep
+            // the frames they were written with (the level's own minimum
+            // match; a decoder reads any standard frame).
+            zstd_min_match: crate::ZstdMinMatch::Level,
             ..opts
         };
         let mut pm = generate_with(&gen);

@@ -1,7 +1,10 @@
 //! The zstd block layouts of `EncodeOptions::zstd_blocks`: every layout
 //! decodes to the same levels, `Auto` never makes a section's frame larger
 //! than one block does (it charges each extra block `BLOCK_PENALTY_BYTES`),
-//! and `PerPart` really cuts each frame into its parts.
+//! and `PerPart` really cuts each frame into its parts. The minimum match
+//! lengths of `EncodeOptions::zstd_min_match` likewise decode alike, and
+//! `Auto` (which tries the level's own among others) never makes a chunk's
+//! frame cost more than `Level` does.
 
 use pqm_core::progressive::testgen;
 use pqm_format::*;
@@ -97,6 +100,55 @@ proptest! {
             );
         }
         let mut ds: Vec<Decoder> = [&single, &auto, &per_part]
+            .iter()
+            .map(|b| decode_all(b, Limits::default()).unwrap())
+            .collect();
+        for k in 0..=pm.records.len() {
+            let mut got = Vec::new();
+            for d in ds.iter_mut() {
+                d.set_level(Target::Level(k)).unwrap();
+                got.push((d.positions().to_vec(), d.quads().to_vec()));
+            }
+            prop_assert!(got[0] == got[1] && got[0] == got[2], "level {}", k);
+        }
+    }
+}
+
+/// A chunk frame's cost in the writer's choice: its bytes plus
+/// `BLOCK_PENALTY_BYTES` per block past the first.
+fn cost(f: &[u8]) -> usize {
+    f.len() + BLOCK_PENALTY_BYTES * (block_count(f) - 1)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16, ..ProptestConfig::default() })]
+
+    #[test]
+    fn min_match_choices_decode_alike_and_auto_never_costs_more(
+        seed in any::<u64>(),
+        splits in 1usize..300,
+        chunk_records in 1usize..80,
+        edge_splits in 0usize..10,
+        fixed in 3u32..=7,
+    ) {
+        let mut pm = testgen::generate(seed, splits);
+        vectors::add_edge_splits(&mut pm, edge_splits, seed);
+        let enc = |zstd_min_match| {
+            let opts = EncodeOptions { chunk_records: Some(chunk_records), zstd_min_match, ..Default::default() };
+            write_to_vec(&pm, &opts).unwrap().0
+        };
+        let files = [
+            enc(ZstdMinMatch::Level),
+            enc(ZstdMinMatch::Auto),
+            enc(ZstdMinMatch::Fixed(fixed)),
+        ];
+        let (l_sec, l_chunks) = sections(&files[0]);
+        let (a_sec, a_chunks) = sections(&files[1]);
+        prop_assert_eq!(l_chunks.len(), a_chunks.len());
+        for (l, a) in l_sec[1..].iter().zip(&a_sec[1..]) {
+            prop_assert!(cost(a) <= cost(l), "auto costs {} against {}", cost(a), cost(l));
+        }
+        let mut ds: Vec<Decoder> = files
             .iter()
             .map(|b| decode_all(b, Limits::default()).unwrap())
             .collect();
