@@ -84,14 +84,18 @@ pub fn encode_delta(q: &[[u32; 3]], quads: &[[u32; 4]], major: u16) -> BasePaylo
 /// incoming half-edges in decode order too: one list kept up per corner
 /// instead of two.
 struct HalfEdges {
-    /// Half-edge `4 f + t`, for the `len` decoded so far.
+    /// Half-edge `4 f + t`, for the faces decoded so far (pushed a face
+    /// at a time into room for `cap`: no entry written before its face).
     he: Vec<HalfEdge>,
-    len: usize,
-    /// Per vertex: its outgoing list's ends and its face count.
+    cap: usize,
+    /// Per vertex: its outgoing list's ends, its face count and its list
+    /// of the faces whose largest corner it is.
     at: Vec<VertexLists>,
+    /// Per face: the next corner in its largest corner's `top` list.
+    next_top: Vec<u32>,
 }
 
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 struct HalfEdge {
     src: u32,
     dst: u32,
@@ -126,12 +130,15 @@ enum Named {
     Other,
 }
 
-/// First and last outgoing half-edge of a vertex ([`NIL`]: none), and the
-/// faces decoded around it.
+/// First and last outgoing half-edge of a vertex ([`NIL`]: none), the
+/// faces decoded around it, and the first of its corners `4 f + k` where it
+/// is face `f`'s largest corner ([`NIL`]: none; linked through
+/// `next_top`).
 #[derive(Clone, Copy)]
 struct VertexLists {
     out: [u32; 2],
     faces: u32,
+    top: u32,
 }
 
 /// The half-edge entering the corner that half-edge `e` leaves (the one
@@ -144,15 +151,17 @@ fn entering(e: u32) -> u32 {
 impl HalfEdges {
     fn new(nv: usize, nf: usize) -> Self {
         HalfEdges {
-            he: vec![HalfEdge::default(); 4 * nf],
-            len: 0,
+            he: Vec::with_capacity(4 * nf),
+            cap: 4 * nf,
             at: vec![
                 VertexLists {
                     out: [NIL; 2],
                     faces: 0,
+                    top: NIL,
                 };
                 nv
             ],
+            next_top: Vec::with_capacity(nf),
         }
     }
 
@@ -257,19 +266,27 @@ impl HalfEdges {
     /// Appends face `g`'s half-edges, `rev[t]` the decoded reverse of its
     /// half-edge `t` ([`NIL`]: none), which the caller has checked are no
     /// repeats and whose corners are in fewer than the most faces.
+    #[inline(always)]
     fn link(&mut self, g: [u32; 4], rev: [u32; 4]) -> Result<(), String> {
-        let first = self.len;
-        let Some(new) = self.he.get_mut(first..first + 4) else {
+        let first = self.he.len();
+        if first + 4 > self.cap {
             return Err("more faces than the base has".into());
-        };
-        for t in 0..4 {
-            new[t] = HalfEdge {
-                src: g[t],
-                dst: g[(t + 1) & 3],
-                next_out: NIL,
-                open: rev[t] == NIL,
-            };
         }
+        // the face's largest corner (its corners are distinct): the one
+        // vertex whose prediction takes the face's parallelogram term
+        let k01 = (g[1] > g[0]) as usize;
+        let k23 = 2 + (g[3] > g[2]) as usize;
+        let k = if g[k23] > g[k01] { k23 } else { k01 };
+        let top = &mut self.at[g[k] as usize].top;
+        self.next_top.push(*top);
+        *top = (first + k) as u32;
+        let new = |t: usize| HalfEdge {
+            src: g[t],
+            dst: g[(t + 1) & 3],
+            next_out: NIL,
+            open: rev[t] == NIL,
+        };
+        self.he.extend_from_slice(&[new(0), new(1), new(2), new(3)]);
         for t in 0..4 {
             if rev[t] != NIL {
                 self.he[rev[t] as usize].open = false;
@@ -285,11 +302,11 @@ impl HalfEdges {
                 self.he[out_last as usize].next_out = e;
             }
         }
-        self.len += 4;
         Ok(())
     }
 
     /// The half-edges leaving `v` (as `4 f + k`: `v` is face `f`'s corner `k`).
+    #[inline(always)]
     fn out_corners(&self, v: u32) -> impl Iterator<Item = u32> + Clone + '_ {
         let mut e = self.at[v as usize].out[0];
         std::iter::from_fn(move || {
@@ -318,6 +335,42 @@ impl HalfEdges {
             }
             None
         })
+    }
+
+    /// Entry `nth` of [`open_into`](Self::open_into): the same walk as a
+    /// loop of its own (the iterator's closure was a call per entry).
+    #[inline(always)]
+    fn nth_open_into(&self, a: u32, mut nth: usize) -> Option<(u32, u32)> {
+        let mut e = self.at[a as usize].out[0];
+        while e != NIL {
+            let i = entering(e);
+            let h = self.he[i as usize];
+            if h.open {
+                if nth == 0 {
+                    return Some((h.src, i));
+                }
+                nth -= 1;
+            }
+            e = self.he[e as usize].next_out;
+        }
+        None
+    }
+
+    /// Entry `nth` of [`open_out_of`](Self::open_out_of), as a loop.
+    #[inline(always)]
+    fn nth_open_out_of(&self, b: u32, mut nth: usize) -> Option<(u32, u32)> {
+        let mut e = self.at[b as usize].out[0];
+        while e != NIL {
+            let h = self.he[e as usize];
+            if h.open {
+                if nth == 0 {
+                    return Some((h.dst, e));
+                }
+                nth -= 1;
+            }
+            e = h.next_out;
+        }
+        None
     }
 
     /// `Y` of §6.1: the targets `z` of the open half-edges `b → z`, in
@@ -430,7 +483,7 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     // over `v`'s corners as the walk's half-edges list them (as it does)
     let mut pos = Vec::with_capacity(3 * nv);
     for v in 0..nv {
-        let p = predict(v, q, quads, he.out_corners(v as u32), qmax);
+        let p = predict(v, q, quads, &he, qmax);
         for t in 0..3 {
             put_s(&mut pos, q[v][t] as i64 - p[t] as i64);
         }
@@ -446,44 +499,42 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     Some(BasePayload { payload, cuts })
 }
 
-/// `P(v)` of §6.1 from the codes of the vertices before `v` (`around`:
-/// `v`'s corners `4 f + k`, any order). Inlined into its loops: a call
-/// per vertex cost as much as a face's terms.
+/// `P(v)` of §6.1 from the codes of the vertices before `v` (only those
+/// are read: a decoder has no others), over `v`'s faces as `he` lists
+/// them. Inlined into its loops: a call per vertex cost as much as a
+/// face's terms.
+///
+/// A face's three other corners all come before `v` exactly when `v` is
+/// its largest corner, so the faces of `S` and `c` are `v`'s `top` list
+/// (each face in one vertex's list, built as faces are added): no test
+/// per face, and no walk of `v`'s other faces unless `c = 0`.
 #[inline(always)]
-fn predict(
-    v: usize,
-    q: &[[u32; 3]],
-    quads: &[[u32; 4]],
-    around: impl Iterator<Item = u32> + Clone,
-    qmax: u32,
-) -> [u32; 3] {
-    // only the codes below `v` are read (a decoder has no others); as a
-    // slice of length `v` the tests `< v` are its bounds checks too
+fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], he: &HalfEdges, qmax: u32) -> [u32; 3] {
+    // as a slice of length `v`, the tests `< v` are its bounds checks too
     let q = &q[..v];
     let qm = qmax as i64;
-    let (mut sum, mut c) = ([0i64; 3], 0i64);
-    for fk in around.clone() {
-        let g = quads[(fk >> 2) as usize];
-        let k = (fk & 3) as usize;
-        let (n1, o, n3) = (
-            g[(k + 1) & 3] as usize,
-            g[(k + 2) & 3] as usize,
-            g[(k + 3) & 3] as usize,
-        );
-        if n1 < v && o < v && n3 < v {
-            let (a, b, m) = (q[n1], q[n3], q[o]);
+    let mut fk = he.at[v].top;
+    if fk != NIL {
+        let (mut sum, mut c) = ([0i64; 3], 0i64);
+        while fk != NIL {
+            let g = quads[(fk >> 2) as usize];
+            let k = (fk & 3) as usize;
+            let (a, m, b) = (
+                q[g[(k + 1) & 3] as usize],
+                q[g[(k + 2) & 3] as usize],
+                q[g[(k + 3) & 3] as usize],
+            );
             sum[0] += 5 * (a[0] as i64 + b[0] as i64) - 2 * m[0] as i64;
             sum[1] += 5 * (a[1] as i64 + b[1] as i64) - 2 * m[1] as i64;
             sum[2] += 5 * (a[2] as i64 + b[2] as i64) - 2 * m[2] as i64;
             c += 1;
+            fk = he.next_top[(fk >> 2) as usize];
         }
-    }
-    if c > 0 {
         return floor_div_clamp(sum, 8 * c, qm);
     }
     // no face with three earlier corners: the earlier edge neighbours' mean
     let (mut esum, mut e) = ([0i64; 3], 0i64);
-    for fk in around {
+    for fk in he.out_corners(v as u32) {
         let g = quads[(fk >> 2) as usize];
         let k = (fk & 3) as usize;
         for u in [g[(k + 1) & 3] as usize, g[(k + 3) & 3] as usize] {
@@ -575,7 +626,7 @@ impl CornerStreams<'_> {
     /// named. The candidates are looked up only for a symbol that names
     /// one (most are "new").
     #[inline(always)]
-    fn corner(
+    fn corner<const FAST: bool>(
         &mut self,
         he: &HalfEdges,
         cands: Cands,
@@ -589,11 +640,13 @@ impl CornerStreams<'_> {
             self.s += 1;
             return Ok((self.s - 1, Named::New));
         }
-        self.named(he, cands, face, sym)
+        self.named::<FAST>(he, cands, face, sym)
     }
 
-    /// [`corner`](Self::corner) for a symbol other than "new".
-    fn named(
+    /// [`corner`](Self::corner) for a symbol other than "new": the walk
+    /// for a candidate inlined (nearly every other symbol is one).
+    #[inline(always)]
+    fn named<const FAST: bool>(
         &mut self,
         he: &HalfEdges,
         cands: Cands,
@@ -601,24 +654,38 @@ impl CornerStreams<'_> {
         sym: u8,
     ) -> Result<(u32, Named), String> {
         if sym == 255 {
-            let u = self.escapes.u()?;
-            if u >= self.s as u64 {
-                return Err(format!(
-                    "face {face} escapes to vertex {} before vertex 0",
-                    self.s as i64 - 1 - u.min(u32::MAX as u64) as i64
-                ));
-            }
-            return Ok((self.s - 1 - u as u32, Named::Other));
+            return self.escape(face);
         }
         let nth = sym as usize - 1;
-        match cands {
+        match match cands {
             Cands::None => None,
+            Cands::Into(a) if FAST => he.nth_open_into(a, nth),
+            Cands::OutOf(b) if FAST => he.nth_open_out_of(b, nth),
             Cands::Into(a) => he.open_into(a).nth(nth),
             Cands::OutOf(b) => he.open_out_of(b).nth(nth),
+        } {
+            Some((v, e)) => Ok((v, Named::Open(e))),
+            None => Err(too_few(face, sym)),
         }
-        .map(|(v, e)| (v, Named::Open(e)))
-        .ok_or_else(|| format!("face {face} names candidate {sym}, a list has fewer (spec §6.1)"))
     }
+
+    /// [`corner`](Self::corner) for an escape.
+    #[inline(never)]
+    fn escape(&mut self, face: usize) -> Result<(u32, Named), String> {
+        let u = self.escapes.u()?;
+        if u >= self.s as u64 {
+            return Err(format!(
+                "face {face} escapes to vertex {} before vertex 0",
+                self.s as i64 - 1 - u.min(u32::MAX as u64) as i64
+            ));
+        }
+        Ok((self.s - 1 - u as u32, Named::Other))
+    }
+}
+
+#[cold]
+fn too_few(face: usize, sym: u8) -> String {
+    format!("face {face} names candidate {sym}, a list has fewer (spec §6.1)")
 }
 
 #[cold]
@@ -671,7 +738,7 @@ fn decode_traversal<const FAST: bool>(
         if h == n {
             let mut g = [0u32; 4];
             for c in g.iter_mut() {
-                *c = cs.corner(&he, Cands::None, n)?.0;
+                *c = cs.corner::<FAST>(&he, Cands::None, n)?.0;
             }
             codec::check_distinct(&g, || format!("face {n}"))?;
             he.add_face(g).map_err(|m| format!("face {n}: {m}"))?;
@@ -697,8 +764,8 @@ fn decode_traversal<const FAST: bool>(
                 0 => {}
                 1..=4 => {
                     let r = (gate - 1) as usize;
-                    let (x, nx) = cs.corner(&he, Cands::Into(a), n)?;
-                    let (y, ny) = cs.corner(&he, Cands::OutOf(b), n)?;
+                    let (x, nx) = cs.corner::<FAST>(&he, Cands::Into(a), n)?;
+                    let (y, ny) = cs.corner::<FAST>(&he, Cands::OutOf(b), n)?;
                     let mut g = [0u32; 4];
                     g[r] = b;
                     g[(r + 1) & 3] = a;
@@ -737,7 +804,7 @@ fn decode_traversal<const FAST: bool>(
     // `4 f + k` leaves face `f`'s corner `k`.
     let mut q: Vec<[u32; 3]> = Vec::with_capacity(nv as usize);
     for v in 0..nv as usize {
-        let p = predict(v, &q, &quads, he.out_corners(v as u32), qmax);
+        let p = predict(v, &q, &quads, &he, qmax);
         let code = codec::add_residual(p, &mut pos, qmax)?;
         q.push(code);
     }
@@ -752,7 +819,90 @@ fn decode_traversal<const FAST: bool>(
 
 #[cfg(test)]
 mod tests {
-    use super::floor_div_clamp;
+    use super::{floor_div_clamp, predict, HalfEdges};
+
+    /// `P(v)` as §6.1 words it: every face holding `v`, tested for three
+    /// earlier corners.
+    fn predict_as_specified(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> [u32; 3] {
+        let (mut s, mut c, mut es, mut e) = ([0i64; 3], 0i64, [0i64; 3], 0i64);
+        for g in quads {
+            let Some(k) = g.iter().position(|&w| w as usize == v) else {
+                continue;
+            };
+            let [n1, o, n3] = [1, 2, 3].map(|d| g[(k + d) & 3] as usize);
+            if n1 < v && o < v && n3 < v {
+                for t in 0..3 {
+                    s[t] += 5 * (q[n1][t] as i64 + q[n3][t] as i64) - 2 * q[o][t] as i64;
+                }
+                c += 1;
+            }
+            for u in [n1, n3] {
+                if u < v {
+                    for t in 0..3 {
+                        es[t] += q[u][t] as i64;
+                    }
+                    e += 1;
+                }
+            }
+        }
+        let clamp = |x: i64| x.clamp(0, qmax as i64) as u32;
+        if c > 0 {
+            s.map(|x| clamp(x.div_euclid(8 * c)))
+        } else if e > 0 {
+            es.map(|x| clamp(x.div_euclid(e)))
+        } else if v > 0 {
+            q[v - 1]
+        } else {
+            [0; 3]
+        }
+    }
+
+    /// `predict` (the faces of `S` from each vertex's list of the faces
+    /// whose largest corner it is) is §6.1's `P(v)`, on grids with ids and
+    /// face order shuffled.
+    #[test]
+    fn predict_is_as_specified() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = |n: u64| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x % n
+        };
+        for round in 0..60 {
+            let (w, h) = (2 + round % 5, 1 + round % 4);
+            let nv = (w + 1) * (h + 1);
+            let mut id: Vec<u32> = (0..nv as u32).collect();
+            for i in (1..nv).rev() {
+                id.swap(i, rnd(i as u64 + 1) as usize);
+            }
+            let mut quads: Vec<[u32; 4]> = (0..w * h)
+                .map(|f| {
+                    let (i, j) = (f % w, f / w);
+                    let c = |i: usize, j: usize| id[j * (w + 1) + i];
+                    [c(i, j), c(i + 1, j), c(i + 1, j + 1), c(i, j + 1)]
+                })
+                .collect();
+            for i in (1..quads.len()).rev() {
+                quads.swap(i, rnd(i as u64 + 1) as usize);
+            }
+            let qmax = 1 + rnd(5000) as u32;
+            let q: Vec<[u32; 3]> = (0..nv)
+                .map(|_| [0; 3].map(|_: u32| rnd(qmax as u64 + 1) as u32))
+                .collect();
+            let mut he = HalfEdges::new(nv, quads.len());
+            for &g in &quads {
+                he.add_face(g).unwrap();
+            }
+            for v in 0..nv {
+                assert_eq!(
+                    predict(v, &q, &quads, &he, qmax),
+                    predict_as_specified(v, &q, &quads, qmax),
+                    "round {round} vertex {v}"
+                );
+            }
+        }
+    }
 
     /// The shift for a power-of-two divisor is `div_euclid`'s floor, for
     /// sums of either sign and every divisor a base can give.
