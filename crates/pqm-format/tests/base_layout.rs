@@ -345,7 +345,8 @@ fn a_vertex_crowded_across_edges_is_refused() {
 /// candidates (`x` from `X`, `y` from `Y`): the one half-edge neither
 /// candidate vouches for, `x → y`, is looked up — as the reverse of an
 /// earlier `y → x` (which closes it: the walk reads no gate across it)
-/// and as a repeat of an earlier `x → y` (an error).
+/// and as a repeat of an earlier `x → y` (an error) — and the two may be
+/// one vertex (an error).
 #[test]
 fn faces_across_two_candidates_look_up_their_middle_half_edge() {
     let payload = |gates: &[u8], corners: &[u8], nv: usize| {
@@ -373,4 +374,19 @@ fn faces_across_two_candidates_look_up_their_middle_half_edge() {
         "{e}"
     );
     same_as_reference(&p, 6, 3, 255);
+    // face 0 = [0, 1, 2, 3]; across its 0 → 1, face 1 = [1, 0, 2, 4] (2
+    // by an escape) holds 0 → 2; across 2 → 3, x = 0 (candidate 2 into
+    // 2: after 1) and y = 0 (candidate 1 out of 3): one vertex twice
+    let p = {
+        let mut p = vec![base::LAYOUT_TRAVERSAL];
+        let corners = [0u8, 0, 0, 0, 255, 0, 2, 1];
+        for part in [&[1u8, 0, 1][..], &corners, &[1], &[0; 15]] {
+            pqm_format::varint::put_u(&mut p, part.len() as u64);
+            p.extend_from_slice(part);
+        }
+        p
+    };
+    let e = base::decode(&p, 5, 3, 255, 4).unwrap_err();
+    assert!(e.contains("face 2 repeats vertex 0"), "{e}");
+    same_as_reference(&p, 5, 3, 255);
 }
