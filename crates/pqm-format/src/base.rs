@@ -74,22 +74,32 @@ pub fn encode_delta(q: &[[u32; 3]], quads: &[[u32; 4]], major: u16) -> BasePaylo
 /// Decoded half-edges around each vertex, with whether each one's reverse
 /// is decoded too (the walk's open edges are those whose reverse is not).
 /// Flat arrays: half-edge `4 f + t` is face `f`'s `g[t] → g[t + 1]`, and
-/// each vertex lists its outgoing and its incoming half-edges in decode
-/// order (linked through `next_out` / `next_in`); no allocation per vertex.
+/// each vertex lists its outgoing half-edges in decode order (linked
+/// through `next_out`); no allocation per vertex.
+///
+/// There is no list of incoming half-edges: a face holds its vertex `v`
+/// once, so the half-edge entering `v` in face `f` is the one before the
+/// half-edge leaving it (`4 f + k` leaves `v`, `4 f + (k + 3) mod 4`
+/// enters it), and `v`'s outgoing list, in decode order, gives its
+/// incoming half-edges in decode order too: one list kept up per corner
+/// instead of two.
 struct HalfEdges {
-    /// Half-edge `4 f + t`, for the `len` decoded so far.
+    /// Half-edge `4 f + t`, for the faces decoded so far (pushed a face
+    /// at a time into room for `cap`: no entry written before its face).
     he: Vec<HalfEdge>,
-    len: usize,
-    /// Per vertex: its lists' ends and its face count.
+    cap: usize,
+    /// Per vertex: its outgoing list's ends, its face count and its list
+    /// of the faces whose largest corner it is.
     at: Vec<VertexLists>,
+    /// Per face: the next corner in its largest corner's `top` list.
+    next_top: Vec<u32>,
 }
 
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 struct HalfEdge {
     src: u32,
     dst: u32,
     next_out: u32,
-    next_in: u32,
     /// The reverse half-edge is not decoded (yet).
     open: bool,
 }
@@ -107,28 +117,51 @@ enum Cands {
     OutOf(u32),
 }
 
-/// First and last outgoing and incoming half-edge of a vertex ([`NIL`]:
-/// none), and the faces decoded around it.
+/// What a corner symbol tells of its vertex besides its id: what
+/// [`HalfEdges::add_across`] needs to know instead of walking lists.
+#[derive(Clone, Copy)]
+enum Named {
+    /// A new vertex (`0`): in no decoded half-edge.
+    New,
+    /// A candidate: the open half-edge of its list (`x → a` for `X`,
+    /// `b → y` for `Y`).
+    Open(u32),
+    /// An escape (or a component start's corner): nothing known.
+    Other,
+}
+
+/// First and last outgoing half-edge of a vertex ([`NIL`]: none), the
+/// faces decoded around it, and the first of its corners `4 f + k` where it
+/// is face `f`'s largest corner ([`NIL`]: none; linked through
+/// `next_top`).
 #[derive(Clone, Copy)]
 struct VertexLists {
     out: [u32; 2],
-    inc: [u32; 2],
     faces: u32,
+    top: u32,
+}
+
+/// The half-edge entering the corner that half-edge `e` leaves (the one
+/// before it in its face).
+#[inline(always)]
+fn entering(e: u32) -> u32 {
+    (e & !3) | (e.wrapping_add(3) & 3)
 }
 
 impl HalfEdges {
     fn new(nv: usize, nf: usize) -> Self {
         HalfEdges {
-            he: vec![HalfEdge::default(); 4 * nf],
-            len: 0,
+            he: Vec::with_capacity(4 * nf),
+            cap: 4 * nf,
             at: vec![
                 VertexLists {
                     out: [NIL; 2],
-                    inc: [NIL; 2],
                     faces: 0,
+                    top: NIL,
                 };
                 nv
             ],
+            next_top: Vec::with_capacity(nf),
         }
     }
 
@@ -136,6 +169,19 @@ impl HalfEdges {
     /// `e % 4` to the next) is decoded: O(1), no list walked.
     fn closed(&self, e: usize) -> bool {
         !self.he[e].open
+    }
+
+    /// The decoded half-edge `u → v`, if any.
+    fn find(&self, u: u32, v: u32) -> Option<u32> {
+        let mut e = self.at[u as usize].out[0];
+        while e != NIL {
+            let h = self.he[e as usize];
+            if h.dst == v {
+                return Some(e);
+            }
+            e = h.next_out;
+        }
+        None
     }
 
     /// Adds face `g`'s half-edges (as half-edges `4 f .. 4 f + 4` of the
@@ -164,24 +210,89 @@ impl HalfEdges {
                 e = h.next_out;
             }
         }
-        let first = self.len as u32;
-        if self.len + 4 > self.he.len() {
+        self.link(g, rev)
+    }
+
+    /// [`add_face`](Self::add_face) for a face `g` coded across the open
+    /// half-edge `gate` (`a → b`): `g[r] = b`, `g[r + 1] = a`, and `x =
+    /// g[r + 2]`, `y = g[r + 3]` named as `x` and `y` say. The same
+    /// checks and the same result, with what the lists would be walked
+    /// for known from how the corners were named:
+    ///
+    /// * `b → a` is no repeat (`a → b` is open) and its reverse is `gate`;
+    /// * `a → x` is no repeat and has no reverse if `x` is new, and if `x`
+    ///   is a candidate `x → a` is open (so `a → x` is not decoded) and is
+    ///   its reverse; likewise `y → b` with `b → y`;
+    /// * `x → y` is no repeat and has no reverse if either is new; if both
+    ///   are candidates, two lists are walked as `add_face` would.
+    ///
+    /// Anything else (an escape, a crowded corner, a repeat) is left to
+    /// `add_face`, so that an error is the one it reports.
+    fn add_across(
+        &mut self,
+        g: [u32; 4],
+        r: usize,
+        gate: u32,
+        x: Named,
+        y: Named,
+    ) -> Result<(), String> {
+        let (ta, tx, ty) = ((r + 1) & 3, (r + 2) & 3, (r + 3) & 3);
+        let mut rev = [NIL; 4];
+        rev[r] = gate;
+        match (x, y) {
+            (Named::Other, _) | (_, Named::Other) => return self.add_face(g),
+            (Named::Open(ex), Named::Open(ey)) => {
+                rev[ta] = ex;
+                rev[ty] = ey;
+                if self.find(g[tx], g[ty]).is_some() {
+                    return self.add_face(g);
+                }
+                if let Some(e) = self.find(g[ty], g[tx]) {
+                    rev[tx] = e;
+                }
+            }
+            (Named::Open(ex), Named::New) => rev[ta] = ex,
+            (Named::New, Named::Open(ey)) => rev[ty] = ey,
+            (Named::New, Named::New) => {}
+        }
+        if g.iter()
+            .any(|&w| self.at[w as usize].faces as usize >= MAX_FACES_PER_VERTEX)
+        {
+            return self.add_face(g);
+        }
+        self.link(g, rev)
+    }
+
+    /// Appends face `g`'s half-edges, `rev[t]` the decoded reverse of its
+    /// half-edge `t` ([`NIL`]: none), which the caller has checked are no
+    /// repeats and whose corners are in fewer than the most faces.
+    #[inline(always)]
+    fn link(&mut self, g: [u32; 4], rev: [u32; 4]) -> Result<(), String> {
+        let first = self.he.len();
+        if first + 4 > self.cap {
             return Err("more faces than the base has".into());
         }
+        // the face's largest corner (its corners are distinct): the one
+        // vertex whose prediction takes the face's parallelogram term
+        let k01 = (g[1] > g[0]) as usize;
+        let k23 = 2 + (g[3] > g[2]) as usize;
+        let k = if g[k23] > g[k01] { k23 } else { k01 };
+        let top = &mut self.at[g[k] as usize].top;
+        self.next_top.push(*top);
+        *top = (first + k) as u32;
+        let new = |t: usize| HalfEdge {
+            src: g[t],
+            dst: g[(t + 1) & 3],
+            next_out: NIL,
+            open: rev[t] == NIL,
+        };
+        self.he.extend_from_slice(&[new(0), new(1), new(2), new(3)]);
         for t in 0..4 {
-            let (u, v) = (g[t], g[(t + 1) & 3]);
-            let e = first + t as u32;
             if rev[t] != NIL {
                 self.he[rev[t] as usize].open = false;
             }
-            self.he[e as usize] = HalfEdge {
-                src: u,
-                dst: v,
-                next_out: NIL,
-                next_in: NIL,
-                open: rev[t] == NIL,
-            };
-            let au = &mut self.at[u as usize];
+            let e = (first + t) as u32;
+            let au = &mut self.at[g[t] as usize];
             au.faces += 1;
             let out_last = au.out[1];
             au.out[1] = e;
@@ -190,20 +301,12 @@ impl HalfEdges {
             } else {
                 self.he[out_last as usize].next_out = e;
             }
-            let av = &mut self.at[v as usize];
-            let in_last = av.inc[1];
-            av.inc[1] = e;
-            if in_last == NIL {
-                av.inc[0] = e;
-            } else {
-                self.he[in_last as usize].next_in = e;
-            }
         }
-        self.len += 4;
         Ok(())
     }
 
     /// The half-edges leaving `v` (as `4 f + k`: `v` is face `f`'s corner `k`).
+    #[inline(always)]
     fn out_corners(&self, v: u32) -> impl Iterator<Item = u32> + Clone + '_ {
         let mut e = self.at[v as usize].out[0];
         std::iter::from_fn(move || {
@@ -216,32 +319,71 @@ impl HalfEdges {
     }
 
     /// `X` of §6.1: the sources `w` of the open half-edges `w → a`, in
-    /// decode order (a decoder takes the one a symbol names, a writer looks
-    /// for its vertex: neither builds the list).
-    fn open_into(&self, a: u32) -> impl Iterator<Item = u32> + '_ {
-        let mut e = self.at[a as usize].inc[0];
+    /// decode order, each with that half-edge (a decoder takes the one a
+    /// symbol names, a writer looks for its vertex: neither builds the
+    /// list). Walks `a`'s outgoing list for its incoming half-edges.
+    fn open_into(&self, a: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
+        let mut e = self.at[a as usize].out[0];
         std::iter::from_fn(move || {
             while e != NIL {
-                let h = self.he[e as usize];
-                e = h.next_in;
+                let i = entering(e);
+                e = self.he[e as usize].next_out;
+                let h = self.he[i as usize];
                 if h.open {
-                    return Some(h.src);
+                    return Some((h.src, i));
                 }
             }
             None
         })
     }
 
+    /// Entry `nth` of [`open_into`](Self::open_into): the same walk as a
+    /// loop of its own (the iterator's closure was a call per entry).
+    #[inline(always)]
+    fn nth_open_into(&self, a: u32, mut nth: usize) -> Option<(u32, u32)> {
+        let mut e = self.at[a as usize].out[0];
+        while e != NIL {
+            let i = entering(e);
+            let h = self.he[i as usize];
+            if h.open {
+                if nth == 0 {
+                    return Some((h.src, i));
+                }
+                nth -= 1;
+            }
+            e = self.he[e as usize].next_out;
+        }
+        None
+    }
+
+    /// Entry `nth` of [`open_out_of`](Self::open_out_of), as a loop.
+    #[inline(always)]
+    fn nth_open_out_of(&self, b: u32, mut nth: usize) -> Option<(u32, u32)> {
+        let mut e = self.at[b as usize].out[0];
+        while e != NIL {
+            let h = self.he[e as usize];
+            if h.open {
+                if nth == 0 {
+                    return Some((h.dst, e));
+                }
+                nth -= 1;
+            }
+            e = h.next_out;
+        }
+        None
+    }
+
     /// `Y` of §6.1: the targets `z` of the open half-edges `b → z`, in
-    /// decode order.
-    fn open_out_of(&self, b: u32) -> impl Iterator<Item = u32> + '_ {
+    /// decode order, each with that half-edge.
+    fn open_out_of(&self, b: u32) -> impl Iterator<Item = (u32, u32)> + '_ {
         let mut e = self.at[b as usize].out[0];
         std::iter::from_fn(move || {
             while e != NIL {
+                let here = e;
                 let h = self.he[e as usize];
                 e = h.next_out;
                 if h.open {
-                    return Some(h.dst);
+                    return Some((h.dst, here));
                 }
             }
             None
@@ -322,9 +464,9 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
                 Some(r) => {
                     gates.push(1 + r as u8);
                     let (x, y) = (g[(r + 2) & 3], g[(r + 3) & 3]);
-                    let cand = he.open_into(a).take(254).position(|w| w == x);
+                    let cand = he.open_into(a).take(254).position(|(w, _)| w == x);
                     corner(x, cand, &mut s)?;
-                    let cand = he.open_out_of(b).take(254).position(|z| z == y);
+                    let cand = he.open_out_of(b).take(254).position(|(z, _)| z == y);
                     corner(y, cand, &mut s)?;
                     codec::check_distinct(&g, String::new).ok()?;
                     he.add_face(g).ok()?;
@@ -341,7 +483,7 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     // over `v`'s corners as the walk's half-edges list them (as it does)
     let mut pos = Vec::with_capacity(3 * nv);
     for v in 0..nv {
-        let p = predict(v, q, quads, he.out_corners(v as u32), qmax);
+        let p = predict(v, q, quads, &he, qmax);
         for t in 0..3 {
             put_s(&mut pos, q[v][t] as i64 - p[t] as i64);
         }
@@ -357,39 +499,42 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
     Some(BasePayload { payload, cuts })
 }
 
-/// `P(v)` of §6.1 from the codes of the vertices before `v` (`around`:
-/// `v`'s corners `4 f + k`, any order).
-fn predict(
-    v: usize,
-    q: &[[u32; 3]],
-    quads: &[[u32; 4]],
-    around: impl Iterator<Item = u32> + Clone,
-    qmax: u32,
-) -> [u32; 3] {
+/// `P(v)` of §6.1 from the codes of the vertices before `v` (only those
+/// are read: a decoder has no others), over `v`'s faces as `he` lists
+/// them. Inlined into its loops: a call per vertex cost as much as a
+/// face's terms.
+///
+/// A face's three other corners all come before `v` exactly when `v` is
+/// its largest corner, so the faces of `S` and `c` are `v`'s `top` list
+/// (each face in one vertex's list, built as faces are added): no test
+/// per face, and no walk of `v`'s other faces unless `c = 0`.
+#[inline(always)]
+fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], he: &HalfEdges, qmax: u32) -> [u32; 3] {
+    // as a slice of length `v`, the tests `< v` are its bounds checks too
+    let q = &q[..v];
     let qm = qmax as i64;
-    let (mut sum, mut c) = ([0i64; 3], 0i64);
-    for fk in around.clone() {
-        let g = quads[(fk >> 2) as usize];
-        let k = (fk & 3) as usize;
-        let (n1, o, n3) = (
-            g[(k + 1) & 3] as usize,
-            g[(k + 2) & 3] as usize,
-            g[(k + 3) & 3] as usize,
-        );
-        if n1 < v && o < v && n3 < v {
-            let (a, b, m) = (q[n1], q[n3], q[o]);
+    let mut fk = he.at[v].top;
+    if fk != NIL {
+        let (mut sum, mut c) = ([0i64; 3], 0i64);
+        while fk != NIL {
+            let g = quads[(fk >> 2) as usize];
+            let k = (fk & 3) as usize;
+            let (a, m, b) = (
+                q[g[(k + 1) & 3] as usize],
+                q[g[(k + 2) & 3] as usize],
+                q[g[(k + 3) & 3] as usize],
+            );
             sum[0] += 5 * (a[0] as i64 + b[0] as i64) - 2 * m[0] as i64;
             sum[1] += 5 * (a[1] as i64 + b[1] as i64) - 2 * m[1] as i64;
             sum[2] += 5 * (a[2] as i64 + b[2] as i64) - 2 * m[2] as i64;
             c += 1;
+            fk = he.next_top[(fk >> 2) as usize];
         }
-    }
-    if c > 0 {
-        return sum.map(|x| x.div_euclid(8 * c).clamp(0, qm) as u32);
+        return floor_div_clamp(sum, 8 * c, qm);
     }
     // no face with three earlier corners: the earlier edge neighbours' mean
     let (mut esum, mut e) = ([0i64; 3], 0i64);
-    for fk in around {
+    for fk in he.out_corners(v as u32) {
         let g = quads[(fk >> 2) as usize];
         let k = (fk & 3) as usize;
         for u in [g[(k + 1) & 3] as usize, g[(k + 3) & 3] as usize] {
@@ -403,7 +548,7 @@ fn predict(
         }
     }
     if e > 0 {
-        esum.map(|x| x.div_euclid(e).clamp(0, qm) as u32)
+        floor_div_clamp(esum, e, qm)
     } else if v > 0 {
         q[v - 1]
     } else {
@@ -411,21 +556,149 @@ fn predict(
     }
 }
 
+/// `clamp(⌊x / d⌋)` of §6.1 per axis (`d > 0`, `clamp` to `0..=qm`). When
+/// `d` is a power of two (one or two faces or neighbours, the most
+/// common) the floor is an arithmetic shift, which rounds toward −∞ as
+/// `div_euclid` by a positive divisor does, without a division.
+#[inline(always)]
+fn floor_div_clamp(x: [i64; 3], d: i64, qm: i64) -> [u32; 3] {
+    let (a, b, c) = if d & (d - 1) == 0 {
+        let sh = d.trailing_zeros();
+        (x[0] >> sh, x[1] >> sh, x[2] >> sh)
+    } else {
+        (x[0].div_euclid(d), x[1].div_euclid(d), x[2].div_euclid(d))
+    };
+    [
+        a.clamp(0, qm) as u32,
+        b.clamp(0, qm) as u32,
+        c.clamp(0, qm) as u32,
+    ]
+}
+
 /// Decodes a base payload of a file of major version `major` with `nv`
 /// vertices and `nf` quads (spec §6).
 pub fn decode(buf: &[u8], nv: u32, nf: u32, qmax: u32, major: u16) -> Result<MeshState, String> {
+    decode_with::<true>(buf, nv, nf, qmax, major)
+}
+
+/// [`decode`] without its shortcuts: every face's half-edges found by
+/// walking lists ([`HalfEdges::add_face`]). The same result and the same
+/// errors as `decode` on any input; a test holds them to it.
+#[doc(hidden)]
+pub fn decode_reference(
+    buf: &[u8],
+    nv: u32,
+    nf: u32,
+    qmax: u32,
+    major: u16,
+) -> Result<MeshState, String> {
+    decode_with::<false>(buf, nv, nf, qmax, major)
+}
+
+fn decode_with<const FAST: bool>(
+    buf: &[u8],
+    nv: u32,
+    nf: u32,
+    qmax: u32,
+    major: u16,
+) -> Result<MeshState, String> {
     if major < 4 {
         return codec::decode_base(buf, nv, nf, qmax);
     }
     match buf.first() {
         Some(&LAYOUT_DELTA) => codec::decode_base(&buf[1..], nv, nf, qmax),
-        Some(&LAYOUT_TRAVERSAL) => decode_traversal(&buf[1..], nv, nf, qmax),
+        Some(&LAYOUT_TRAVERSAL) => decode_traversal::<FAST>(&buf[1..], nv, nf, qmax),
         Some(&l) => Err(format!("unknown base layout {l}")),
         None => Err("the base payload is empty (no layout byte)".into()),
     }
 }
 
-fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState, String> {
+/// The streams a corner symbol reads, and `s` of §6.1.
+struct CornerStreams<'a> {
+    corners: Reader<'a>,
+    escapes: Reader<'a>,
+    s: u32,
+    nv: u32,
+}
+
+impl CornerStreams<'_> {
+    /// One corner symbol (§6.1) of face `face`: its vertex, and how it was
+    /// named. The candidates are looked up only for a symbol that names
+    /// one (most are "new").
+    #[inline(always)]
+    fn corner<const FAST: bool>(
+        &mut self,
+        he: &HalfEdges,
+        cands: Cands,
+        face: usize,
+    ) -> Result<(u32, Named), String> {
+        let sym = self.corners.byte()?;
+        if sym == 0 {
+            if self.s >= self.nv {
+                return Err(all_seen(face, self.nv));
+            }
+            self.s += 1;
+            return Ok((self.s - 1, Named::New));
+        }
+        self.named::<FAST>(he, cands, face, sym)
+    }
+
+    /// [`corner`](Self::corner) for a symbol other than "new": the walk
+    /// for a candidate inlined (nearly every other symbol is one).
+    #[inline(always)]
+    fn named<const FAST: bool>(
+        &mut self,
+        he: &HalfEdges,
+        cands: Cands,
+        face: usize,
+        sym: u8,
+    ) -> Result<(u32, Named), String> {
+        if sym == 255 {
+            return self.escape(face);
+        }
+        let nth = sym as usize - 1;
+        match match cands {
+            Cands::None => None,
+            Cands::Into(a) if FAST => he.nth_open_into(a, nth),
+            Cands::OutOf(b) if FAST => he.nth_open_out_of(b, nth),
+            Cands::Into(a) => he.open_into(a).nth(nth),
+            Cands::OutOf(b) => he.open_out_of(b).nth(nth),
+        } {
+            Some((v, e)) => Ok((v, Named::Open(e))),
+            None => Err(too_few(face, sym)),
+        }
+    }
+
+    /// [`corner`](Self::corner) for an escape.
+    #[inline(never)]
+    fn escape(&mut self, face: usize) -> Result<(u32, Named), String> {
+        let u = self.escapes.u()?;
+        if u >= self.s as u64 {
+            return Err(format!(
+                "face {face} escapes to vertex {} before vertex 0",
+                self.s as i64 - 1 - u.min(u32::MAX as u64) as i64
+            ));
+        }
+        Ok((self.s - 1 - u as u32, Named::Other))
+    }
+}
+
+#[cold]
+fn too_few(face: usize, sym: u8) -> String {
+    format!("face {face} names candidate {sym}, a list has fewer (spec §6.1)")
+}
+
+#[cold]
+fn all_seen(face: usize, nv: u32) -> String {
+    format!("face {face} has a new vertex but all {nv} vertices are seen")
+}
+
+fn decode_traversal<const FAST: bool>(
+    buf: &[u8],
+    nv: u32,
+    nf: u32,
+    qmax: u32,
+) -> Result<MeshState, String> {
     // Every vertex takes at least three bytes of `pos`, every face at
     // least two corner bytes: check the counts before allocating.
     if (nv as u64) * 3 + (nf as u64) * 2 > buf.len() as u64 {
@@ -442,8 +715,8 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
         Ok(Reader::new(bytes, name))
     };
     let mut gates = part("base gates")?;
-    let mut corners = part("base corners")?;
-    let mut escapes = part("base escapes")?;
+    let corners = part("base corners")?;
+    let escapes = part("base escapes")?;
     let mut pos = part("base positions")?;
     if r.remaining() != 0 {
         return Err(format!(
@@ -454,50 +727,18 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
     let nfu = nf as usize;
     let mut quads: Vec<[u32; 4]> = Vec::with_capacity(nfu);
     let mut he = HalfEdges::new(nv as usize, nfu);
-    let mut s = 0u32;
-    // A corner symbol (§6.1); the candidates are looked up only for a
-    // symbol that names one (most are "new").
-    let mut corner = |he: &HalfEdges, cands: Cands, s: &mut u32, face: usize| {
-        let sym = corners.byte()?;
-        match sym {
-            0 => {
-                if *s >= nv {
-                    return Err(format!(
-                        "face {face} has a new vertex but all {nv} vertices are seen"
-                    ));
-                }
-                *s += 1;
-                Ok(*s - 1)
-            }
-            255 => {
-                let u = escapes.u()?;
-                if u >= *s as u64 {
-                    return Err(format!(
-                        "face {face} escapes to vertex {} before vertex 0",
-                        *s as i64 - 1 - u.min(u32::MAX as u64) as i64
-                    ));
-                }
-                Ok(*s - 1 - u as u32)
-            }
-            i => {
-                let nth = i as usize - 1;
-                match cands {
-                    Cands::None => None,
-                    Cands::Into(a) => he.open_into(a).nth(nth),
-                    Cands::OutOf(b) => he.open_out_of(b).nth(nth),
-                }
-                .ok_or_else(|| {
-                    format!("face {face} names candidate {i}, a list has fewer (spec §6.1)")
-                })
-            }
-        }
+    let mut cs = CornerStreams {
+        corners,
+        escapes,
+        s: 0,
+        nv,
     };
     let (mut n, mut h) = (0usize, 0usize);
     while n < nfu {
         if h == n {
             let mut g = [0u32; 4];
             for c in g.iter_mut() {
-                *c = corner(&he, Cands::None, &mut s, n)?;
+                *c = cs.corner::<FAST>(&he, Cands::None, n)?.0;
             }
             codec::check_distinct(&g, || format!("face {n}"))?;
             he.add_face(g).map_err(|m| format!("face {n}: {m}"))?;
@@ -514,7 +755,8 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
             let (a, b) = (f[k], f[(k + 1) & 3]);
             // face `h − 1`'s half-edge `a → b` is number 4 (h − 1) + k:
             // `b → a` is decoded exactly when that one is closed
-            if he.closed(4 * (h - 1) + k) {
+            let ab = 4 * (h - 1) + k;
+            if he.closed(ab) {
                 continue;
             }
             let gate = gates.byte()?;
@@ -522,13 +764,34 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
                 0 => {}
                 1..=4 => {
                     let r = (gate - 1) as usize;
+                    let (x, nx) = cs.corner::<FAST>(&he, Cands::Into(a), n)?;
+                    let (y, ny) = cs.corner::<FAST>(&he, Cands::OutOf(b), n)?;
                     let mut g = [0u32; 4];
                     g[r] = b;
                     g[(r + 1) & 3] = a;
-                    g[(r + 2) & 3] = corner(&he, Cands::Into(a), &mut s, n)?;
-                    g[(r + 3) & 3] = corner(&he, Cands::OutOf(b), &mut s, n)?;
-                    codec::check_distinct(&g, || format!("face {n}"))?;
-                    he.add_face(g).map_err(|m| format!("face {n}: {m}"))?;
+                    g[(r + 2) & 3] = x;
+                    g[(r + 3) & 3] = y;
+                    // `a ≠ b` (an edge of a face); a new `x` or `y` is none
+                    // of the others; a candidate `x` (`x → a` open) is not
+                    // `a`, nor `b` (`b → a` is not decoded, `a → b` being
+                    // open), and likewise a candidate `y` (`b → y` open):
+                    // only two candidates may be equal, and an escape may
+                    // be anything
+                    let distinct = FAST
+                        && match (nx, ny) {
+                            (Named::Open(_), Named::Open(_)) => x != y,
+                            (Named::Other, _) | (_, Named::Other) => false,
+                            _ => true,
+                        };
+                    if !distinct {
+                        codec::check_distinct(&g, || format!("face {n}"))?;
+                    }
+                    if FAST {
+                        he.add_across(g, r, ab as u32, nx, ny)
+                    } else {
+                        he.add_face(g)
+                    }
+                    .map_err(|m| format!("face {n}: {m}"))?;
                     quads.push(g);
                     n += 1;
                 }
@@ -536,13 +799,13 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
             }
         }
     }
-    if s != nv {
-        return Err(format!("the faces use {s} of the {nv} base vertices"));
+    if cs.s != nv {
+        return Err(format!("the faces use {} of the {nv} base vertices", cs.s));
     }
     for (rd, name) in [
         (&gates, "gates"),
-        (&corners, "corners"),
-        (&escapes, "escapes"),
+        (&cs.corners, "corners"),
+        (&cs.escapes, "escapes"),
     ] {
         if rd.remaining() != 0 {
             return Err(format!(
@@ -555,7 +818,7 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
     // `4 f + k` leaves face `f`'s corner `k`.
     let mut q: Vec<[u32; 3]> = Vec::with_capacity(nv as usize);
     for v in 0..nv as usize {
-        let p = predict(v, &q, &quads, he.out_corners(v as u32), qmax);
+        let p = predict(v, &q, &quads, &he, qmax);
         let code = codec::add_residual(p, &mut pos, qmax)?;
         q.push(code);
     }
@@ -566,4 +829,111 @@ fn decode_traversal(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState
         ));
     }
     Ok(MeshState::new(qmax, q, quads))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{floor_div_clamp, predict, HalfEdges};
+
+    /// `P(v)` as §6.1 words it: every face holding `v`, tested for three
+    /// earlier corners.
+    fn predict_as_specified(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> [u32; 3] {
+        let (mut s, mut c, mut es, mut e) = ([0i64; 3], 0i64, [0i64; 3], 0i64);
+        for g in quads {
+            let Some(k) = g.iter().position(|&w| w as usize == v) else {
+                continue;
+            };
+            let [n1, o, n3] = [1, 2, 3].map(|d| g[(k + d) & 3] as usize);
+            if n1 < v && o < v && n3 < v {
+                for t in 0..3 {
+                    s[t] += 5 * (q[n1][t] as i64 + q[n3][t] as i64) - 2 * q[o][t] as i64;
+                }
+                c += 1;
+            }
+            for u in [n1, n3] {
+                if u < v {
+                    for t in 0..3 {
+                        es[t] += q[u][t] as i64;
+                    }
+                    e += 1;
+                }
+            }
+        }
+        let clamp = |x: i64| x.clamp(0, qmax as i64) as u32;
+        if c > 0 {
+            s.map(|x| clamp(x.div_euclid(8 * c)))
+        } else if e > 0 {
+            es.map(|x| clamp(x.div_euclid(e)))
+        } else if v > 0 {
+            q[v - 1]
+        } else {
+            [0; 3]
+        }
+    }
+
+    /// `predict` (the faces of `S` from each vertex's list of the faces
+    /// whose largest corner it is) is §6.1's `P(v)`, on grids with ids and
+    /// face order shuffled.
+    #[test]
+    fn predict_is_as_specified() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = |n: u64| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x % n
+        };
+        for round in 0..60 {
+            let (w, h) = (2 + round % 5, 1 + round % 4);
+            let nv = (w + 1) * (h + 1);
+            let mut id: Vec<u32> = (0..nv as u32).collect();
+            for i in (1..nv).rev() {
+                id.swap(i, rnd(i as u64 + 1) as usize);
+            }
+            let mut quads: Vec<[u32; 4]> = (0..w * h)
+                .map(|f| {
+                    let (i, j) = (f % w, f / w);
+                    let c = |i: usize, j: usize| id[j * (w + 1) + i];
+                    [c(i, j), c(i + 1, j), c(i + 1, j + 1), c(i, j + 1)]
+                })
+                .collect();
+            for i in (1..quads.len()).rev() {
+                quads.swap(i, rnd(i as u64 + 1) as usize);
+            }
+            let qmax = 1 + rnd(5000) as u32;
+            let q: Vec<[u32; 3]> = (0..nv)
+                .map(|_| [0; 3].map(|_: u32| rnd(qmax as u64 + 1) as u32))
+                .collect();
+            let mut he = HalfEdges::new(nv, quads.len());
+            for &g in &quads {
+                he.add_face(g).unwrap();
+            }
+            for v in 0..nv {
+                assert_eq!(
+                    predict(v, &q, &quads, &he, qmax),
+                    predict_as_specified(v, &q, &quads, qmax),
+                    "round {round} vertex {v}"
+                );
+            }
+        }
+    }
+
+    /// The shift for a power-of-two divisor is `div_euclid`'s floor, for
+    /// sums of either sign and every divisor a base can give.
+    #[test]
+    fn floor_div_clamp_is_div_euclid_then_clamp() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        for d in 1..=2100i64 {
+            for _ in 0..40 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let s = (x as i64) >> (x % 40);
+                let qm = (x >> 40) as i64 & 0xffff_ffff;
+                let sums = [s, -s, s / 3];
+                let want = sums.map(|s| s.div_euclid(d).clamp(0, qm) as u32);
+                assert_eq!(floor_div_clamp(sums, d, qm), want, "{sums:?} / {d}");
+            }
+        }
+    }
 }

@@ -47,6 +47,35 @@ fn quantized_base(pm: &ProgressiveMesh, bytes: &[u8]) -> (Vec<[u32; 3]>, Vec<[u3
     (codes, quads, q.qmax())
 }
 
+/// `base::decode` (with its shortcuts: half-edges known from how the
+/// corners were named, not looked up) gives what `decode_reference` (every
+/// half-edge looked up) gives: the same base or the same error.
+fn same_as_reference(p: &[u8], nv: u32, nf: u32, qmax: u32) {
+    let fast = base::decode(p, nv, nf, qmax, 4).map(|st| (st.q, st.quads));
+    let reference = base::decode_reference(p, nv, nf, qmax, 4).map(|st| (st.q, st.quads));
+    assert_eq!(fast, reference);
+}
+
+/// The byte range of a traversal payload's gates, corners and escapes (its
+/// streams before the positions).
+fn symbol_streams(p: &[u8]) -> std::ops::Range<usize> {
+    let mut at = 1;
+    for _ in 0..3 {
+        let (mut len, mut shift) = (0usize, 0);
+        loop {
+            let b = p[at];
+            at += 1;
+            len |= ((b & 0x7f) as usize) << shift;
+            shift += 7;
+            if b < 0x80 {
+                break;
+            }
+        }
+        at += len;
+    }
+    1..at
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
@@ -79,6 +108,7 @@ proptest! {
         let (codes, quads, qmax) = quantized_base(&pm, &bytes);
         let p = base::encode_traversal(&codes, &quads, qmax).expect("walk-ordered");
         let st = base::decode(&p.payload, codes.len() as u32, quads.len() as u32, qmax, 4).unwrap();
+        same_as_reference(&p.payload, codes.len() as u32, quads.len() as u32, qmax);
         prop_assert_eq!(&st.q, &codes);
         prop_assert_eq!(&st.quads, &quads);
         let mut dec = decode_all(&bytes, Limits::default()).unwrap();
@@ -119,6 +149,7 @@ proptest! {
             p[i] = b;
         }
         let (nv, nf) = (codes.len() as u32, quads.len() as u32);
+        same_as_reference(&p, nv, nf, qmax);
         if let Ok(st) = base::decode(&p, nv, nf, qmax, 4) {
             prop_assert_eq!(st.q.len(), nv as usize);
             prop_assert_eq!(st.quads.len(), nf as usize);
@@ -128,6 +159,30 @@ proptest! {
             }
             prop_assert!(st.q.iter().all(|c| c.iter().all(|&x| x <= qmax)));
         }
+    }
+
+    /// Corner symbols and gates changed to other small symbols (new,
+    /// candidates 1–4, an escape) — faces that name the wrong candidate,
+    /// repeat half-edges, close fans twice: the decoder's shortcuts give
+    /// the same base or the same error as looking every half-edge up.
+    #[test]
+    fn changed_symbols_decode_as_the_reference_does(
+        seed in any::<u64>(),
+        splits in 0usize..120,
+        shape in any::<u8>(),
+        changes in proptest::collection::vec((any::<prop::sample::Index>(), 0usize..8), 1..6),
+    ) {
+        let mut pm = gen(seed, splits, shape);
+        pm.renumber_base_in_walk_order();
+        let bytes = write_to_vec(&pm, &EncodeOptions::default()).unwrap().0;
+        let (codes, quads, qmax) = quantized_base(&pm, &bytes);
+        let mut p = base::encode_traversal(&codes, &quads, qmax).unwrap().payload;
+        let streams = symbol_streams(&p);
+        for (i, b) in changes {
+            let i = streams.start + i.index(streams.len());
+            p[i] = [0, 1, 2, 3, 4, 5, 254, 255][b];
+        }
+        same_as_reference(&p, codes.len() as u32, quads.len() as u32, qmax);
     }
 }
 
@@ -253,4 +308,85 @@ fn repeated_half_edges_and_crowded_vertices_are_refused() {
     let codes = vec![[0u32; 3]; 1 + 3 * n as usize];
     assert!(base::encode_traversal(&codes[..1 + 3 * 255], &quads[..255], 255).is_some());
     assert!(base::encode_traversal(&codes, &quads, 255).is_none());
+}
+
+/// A strip of quads around vertex 0, each face coded across the edge it
+/// shares with the one before (not as a component start): 255 decode, and
+/// the 256th is refused as the reference refuses it.
+#[test]
+fn a_vertex_crowded_across_edges_is_refused() {
+    let strip = |f: usize| {
+        // face 0 = [0, 1, 2, 3]; face i + 1 = [0, v, m, w] across face
+        // i's half-edge `v → 0` (gate 1 at its k = 3), `m` and `w` new
+        let mut gates = vec![0u8, 0, 0, 1];
+        for _ in 1..f - 1 {
+            gates.extend_from_slice(&[0, 0, 1]);
+        }
+        let corners = [vec![0u8; 4], vec![0u8; 2 * (f - 1)]].concat();
+        let nv = 4 + 2 * (f - 1);
+        let mut p = vec![base::LAYOUT_TRAVERSAL];
+        for part in [gates, corners, vec![], vec![0u8; 3 * nv]] {
+            pqm_format::varint::put_u(&mut p, part.len() as u64);
+            p.extend_from_slice(&part);
+        }
+        (p, nv as u32, f as u32)
+    };
+    let (p, nv, nf) = strip(255);
+    let st = base::decode(&p, nv, nf, 255, 4).unwrap();
+    assert!(st.quads[254].contains(&0));
+    same_as_reference(&p, nv, nf, 255);
+    let (p, nv, nf) = strip(256);
+    let e = base::decode(&p, nv, nf, 255, 4).unwrap_err();
+    assert!(e.contains("vertex 0 is in more than 255 faces"), "{e}");
+    same_as_reference(&p, nv, nf, 255);
+}
+
+/// A face coded across an edge whose two other corners are both
+/// candidates (`x` from `X`, `y` from `Y`): the one half-edge neither
+/// candidate vouches for, `x → y`, is looked up — as the reverse of an
+/// earlier `y → x` (which closes it: the walk reads no gate across it)
+/// and as a repeat of an earlier `x → y` (an error) — and the two may be
+/// one vertex (an error).
+#[test]
+fn faces_across_two_candidates_look_up_their_middle_half_edge() {
+    let payload = |gates: &[u8], corners: &[u8], nv: usize| {
+        let mut p = vec![base::LAYOUT_TRAVERSAL];
+        for part in [gates, corners, &[], &vec![0u8; 3 * nv][..]] {
+            pqm_format::varint::put_u(&mut p, part.len() as u64);
+            p.extend_from_slice(part);
+        }
+        p
+    };
+    // face 0 = [0, 1, 2, 3] and across its 2 → 3 the same four corners
+    // reversed, [3, 2, 1, 0] (x = 1 candidate 1 into 2, y = 0 candidate
+    // 1 out of 3): every edge of face 1 is closed, so the walk goes on
+    // to a component start, face 2
+    let p = payload(&[0, 0, 1], &[0, 0, 0, 0, 1, 1, 0, 0, 0, 0], 8);
+    let st = base::decode(&p, 8, 3, 255, 4).unwrap();
+    assert_eq!(st.quads, [[0, 1, 2, 3], [3, 2, 1, 0], [4, 5, 6, 7]]);
+    same_as_reference(&p, 8, 3, 255);
+    // face 1 = [1, 0, 4, 5] across face 0's 0 → 1 holds 1 → 0 first:
+    // face 2 = [3, 2, 1, 0] repeats it
+    let p = payload(&[1, 0, 1], &[0, 0, 0, 0, 0, 0, 1, 1], 6);
+    let e = base::decode(&p, 6, 3, 255, 4).unwrap_err();
+    assert!(
+        e.contains("face 2: half-edge 1 -> 0 is in two faces"),
+        "{e}"
+    );
+    same_as_reference(&p, 6, 3, 255);
+    // face 0 = [0, 1, 2, 3]; across its 0 → 1, face 1 = [1, 0, 2, 4] (2
+    // by an escape) holds 0 → 2; across 2 → 3, x = 0 (candidate 2 into
+    // 2: after 1) and y = 0 (candidate 1 out of 3): one vertex twice
+    let p = {
+        let mut p = vec![base::LAYOUT_TRAVERSAL];
+        let corners = [0u8, 0, 0, 0, 255, 0, 2, 1];
+        for part in [&[1u8, 0, 1][..], &corners, &[1], &[0; 15]] {
+            pqm_format::varint::put_u(&mut p, part.len() as u64);
+            p.extend_from_slice(part);
+        }
+        p
+    };
+    let e = base::decode(&p, 5, 3, 255, 4).unwrap_err();
+    assert!(e.contains("face 2 repeats vertex 0"), "{e}");
+    same_as_reference(&p, 5, 3, 255);
 }
