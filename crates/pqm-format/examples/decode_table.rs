@@ -1,0 +1,248 @@
+//! Rust decode throughput of `.pqm` files beside a single-rate peer decoded
+//! in the same run, as a Markdown table (`scripts/decode-table.sh` runs it
+//! on the bench files).
+//!
+//! `cargo run --release -p pqm-format --example decode_table -- FILE.pqm... [--runs N] [--rounds R]`
+//!
+//! Per file, the whole file pushed at once and refined to the finest level
+//! (zstd, CRCs, base and records: what `decode_loop` times), in four ways,
+//! each in processes of its own (`--mode`), the ways alternated over
+//! `--rounds` rounds:
+//!
+//! * `fresh`: a new [`Decoder`] per decode — every decode's arrays are new
+//!   memory, faulted in page by page (glibc returns large freed blocks to
+//!   the kernel), as in a process that decodes one file;
+//! * `reused`: one decoder, [`Decoder::reset`] between decodes — the arrays
+//!   keep their pages, as in a client that decodes asset after asset;
+//!
+//! each as the general decoder and as [`Decoder::forward_only`].
+//!
+//! The peer is what gltfpack ships for a static mesh: the finest level's
+//! triangles (each quad as the two the decoder draws) and 14-bit codes
+//! (`[u16; 4]` per vertex), reordered by meshoptimizer for the vertex
+//! cache and vertex fetch, coded with its index and vertex codecs
+//! (`meshopt` crate, the C++ library's own) and then zstd-19 (gltfpack's
+//! output is meant to be compressed once more, by the server's gzip or
+//! Brotli or a zstd layer). Its decode: both zstd frames, then both
+//! meshoptimizer decoders, into new buffers each run (as `fresh`). A
+//! single-rate codec has no levels to keep and no topology to update, so
+//! it is the ceiling, not a like-for-like: the ratio says how far a
+//! progressive decoder is from simply unpacking the final mesh.
+//!
+//! Figures are M faces/s (quads; the peer's triangles / 2): per mode the
+//! median over the rounds of each process's median of `--runs` decodes
+//! (default 15 after one untimed one; 3 rounds), and the best decode.
+
+use pqm_format::{decode_all, quad_triangles, Decoder, Limits, Target};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// The whole file into `d` (reset first), refined to the finest level;
+/// returns its quad count.
+fn decode_into(d: &mut Decoder, bytes: &[u8]) -> usize {
+    d.reset(Limits::none());
+    d.push(bytes).expect("decode");
+    assert!(d.status().finished, "the file ends early");
+    d.set_level(Target::Level(usize::MAX))
+        .expect("finest level");
+    d.quads().len()
+}
+
+/// The peer's two compressed buffers and counts.
+struct Peer {
+    index_z: Vec<u8>,
+    vertex_z: Vec<u8>,
+    index_count: usize,
+    vertex_count: usize,
+    bytes: usize,
+}
+
+fn peer_encode(quads: &[[u32; 4]], codes: &[[u32; 3]]) -> Peer {
+    let indices: Vec<u32> = quads.iter().flat_map(|&q| quad_triangles(q)).collect();
+    let vertices: Vec<[u16; 4]> = codes
+        .iter()
+        .map(|c| [c[0] as u16, c[1] as u16, c[2] as u16, 0])
+        .collect();
+    let mut indices = meshopt::optimize_vertex_cache(&indices, vertices.len());
+    let vertices = meshopt::optimize_vertex_fetch(&mut indices, &vertices);
+    let index_raw = meshopt::encode_index_buffer(&indices, vertices.len()).expect("index codec");
+    let vertex_raw = meshopt::encode_vertex_buffer(&vertices).expect("vertex codec");
+    let index_z = zstd::bulk::compress(&index_raw, 19).expect("zstd");
+    let vertex_z = zstd::bulk::compress(&vertex_raw, 19).expect("zstd");
+    Peer {
+        bytes: index_z.len() + vertex_z.len(),
+        index_z,
+        vertex_z,
+        index_count: quads.len() * 6,
+        vertex_count: vertices.len(),
+    }
+}
+
+/// One decode of the peer; returns its triangle count.
+fn peer_decode(p: &Peer) -> usize {
+    let index_raw = zstd::bulk::decompress(&p.index_z, 64 << 20).expect("zstd");
+    let vertex_raw = zstd::bulk::decompress(&p.vertex_z, 64 << 20).expect("zstd");
+    let idx: Vec<u32> = meshopt::decode_index_buffer(&index_raw, p.index_count).expect("index");
+    let v: Vec<[u16; 4]> =
+        meshopt::decode_vertex_buffer(&vertex_raw, p.vertex_count).expect("vertex");
+    black_box(&v);
+    idx.len() / 3
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        (s[n / 2 - 1] + s[n / 2]) / 2.0
+    }
+}
+
+fn best(v: &[f64]) -> f64 {
+    v.iter().copied().fold(f64::MAX, f64::min)
+}
+
+/// The ways to decode, as `--mode` names them.
+const MODES: [&str; 5] = [
+    "fresh-general",
+    "fresh-forward",
+    "reused-general",
+    "reused-forward",
+    "peer",
+];
+
+/// Worker: decodes every file `runs` times in `mode` (after one untimed
+/// decode) and prints `file \t faces \t mode \t median s \t best s \t pqm
+/// bytes \t peer bytes` per file.
+fn worker(files: &[String], mode: &str, runs: usize) {
+    let (forward, reuse) = (mode.ends_with("forward"), mode.starts_with("reused"));
+    let new = || {
+        if forward {
+            Decoder::forward_only(Limits::none())
+        } else {
+            Decoder::new(Limits::none())
+        }
+    };
+    for f in files {
+        let bytes = std::fs::read(f).unwrap_or_else(|e| {
+            eprintln!("{f}: {e}");
+            std::process::exit(1)
+        });
+        let mut finest = decode_all(&bytes, Limits::none()).unwrap_or_else(|e| {
+            eprintln!("{f}: {e}");
+            std::process::exit(1)
+        });
+        finest
+            .set_level(Target::Level(usize::MAX))
+            .expect("finest level");
+        let faces = finest.quads().len();
+        let peer = peer_encode(finest.quads(), finest.position_codes());
+        drop(finest);
+        let mut kept = new();
+        let mut times = Vec::with_capacity(runs);
+        for round in 0..=runs {
+            let t = Instant::now();
+            let n = match mode {
+                "peer" => peer_decode(&peer) / 2,
+                _ if reuse => decode_into(&mut kept, &bytes),
+                _ => decode_into(&mut new(), &bytes),
+            };
+            let dt = t.elapsed().as_secs_f64();
+            assert_eq!(n, faces, "{mode}");
+            if round > 0 {
+                times.push(dt);
+            }
+        }
+        println!(
+            "{f}\t{faces}\t{mode}\t{}\t{}\t{}\t{}",
+            median(&times),
+            best(&times),
+            bytes.len(),
+            peer.bytes
+        );
+    }
+}
+
+fn main() {
+    let mut files = Vec::new();
+    let (mut runs, mut rounds, mut mode) = (15usize, 3usize, None);
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let mut num = |d: usize| args.next().and_then(|s| s.parse().ok()).unwrap_or(d).max(1);
+        match a.as_str() {
+            "--runs" => runs = num(runs),
+            "--rounds" => rounds = num(rounds),
+            "--mode" => mode = args.next(),
+            _ => files.push(a),
+        }
+    }
+    if files.is_empty() {
+        eprintln!("usage: decode_table FILE.pqm... [--runs N] [--rounds R] [--mode MODE]");
+        std::process::exit(2);
+    }
+    if let Some(m) = mode {
+        if !MODES.contains(&m.as_str()) {
+            eprintln!("--mode: one of {}", MODES.join(", "));
+            std::process::exit(2);
+        }
+        worker(&files, &m, runs);
+        return;
+    }
+    // Each mode in processes of its own (a fresh decoder's cost depends on
+    // what the process's heap holds, and a reused decoder holds it), the
+    // modes alternated over `rounds` rounds.
+    let exe = std::env::current_exe().expect("own path");
+    // per file: faces, pqm bytes, peer bytes, per mode (medians, bests)
+    type Row = (usize, usize, usize, Vec<(Vec<f64>, Vec<f64>)>);
+    let mut rows: Vec<Row> = files
+        .iter()
+        .map(|_| (0, 0, 0, vec![(Vec::new(), Vec::new()); MODES.len()]))
+        .collect();
+    for _ in 0..rounds {
+        for (mi, m) in MODES.iter().enumerate() {
+            let out = std::process::Command::new(&exe)
+                .args(&files)
+                .args(["--runs", &runs.to_string(), "--mode", m])
+                .output()
+                .expect("run the worker");
+            if !out.status.success() {
+                eprint!("{}", String::from_utf8_lossy(&out.stderr));
+                std::process::exit(1);
+            }
+            let text = String::from_utf8_lossy(&out.stdout);
+            for (row, line) in rows.iter_mut().zip(text.lines()) {
+                let c: Vec<&str> = line.split('\t').collect();
+                let num = |i: usize| c[i].parse::<f64>().expect("worker output");
+                (row.0, row.1, row.2) = (num(1) as usize, num(5) as usize, num(6) as usize);
+                row.3[mi].0.push(num(3));
+                row.3[mi].1.push(num(4));
+            }
+        }
+    }
+    println!(
+        "| file | quads | fresh general | fresh forward | reused general | reused forward | meshopt + zstd (same run) | pqm reused forward / peer | bytes pqm / peer |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for (f, (faces, pqm_bytes, peer_bytes, per)) in files.iter().zip(&rows) {
+        let rate = |t: f64| *faces as f64 / t / 1e6;
+        let cells: Vec<String> = per
+            .iter()
+            .map(|(med, bst)| format!("{:.2} (best {:.2})", rate(median(med)), rate(best(bst))))
+            .collect();
+        let name = std::path::Path::new(f)
+            .file_stem()
+            .map_or(f.clone(), |s| s.to_string_lossy().into_owned());
+        println!(
+            "| {name} | {faces} | {} | {:.2}× | {:.2}× |",
+            cells.join(" | "),
+            median(&per[4].0) / median(&per[3].0),
+            *pqm_bytes as f64 / *peer_bytes as f64,
+        );
+    }
+    println!();
+    println!(
+        "M faces/s (quads; the peer's triangles / 2): median over {rounds} processes per mode of each one's median of {runs} decodes (best: the fastest decode), modes alternated."
+    );
+}

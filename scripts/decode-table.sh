@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Prints the README's Rust decode-speed table: each .pqm file decoded whole to
+# its finest level by a fresh and by a reused decoder (general and
+# forward-only), each way in processes of its own, beside the same finest mesh
+# as gltfpack would ship it (meshoptimizer's index and vertex codecs + zstd-19)
+# decoded in the same run (crates/pqm-format/examples/decode_table.rs).
+#
+# Usage: scripts/decode-table.sh [FILE.pqm ...] [--runs N] [--rounds R]
+#   default files: web/bench/data/*.pqm (`npm run bench:data --prefix web`)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cargo build --release -q -p pqm-format --example decode_table
+target="${CARGO_TARGET_DIR:-target}"
+args=("$@")
+files=0
+for a in "${args[@]}"; do [[ "$a" == *.pqm ]] && files=$((files + 1)); done
+if [ "$files" -eq 0 ]; then
+  shopt -s nullglob
+  data=(web/bench/data/spot_quadrangulated.pqm web/bench/data/makehuman_base.pqm web/bench/data/loki.pqm web/bench/data/bunny.pqm)
+  present=()
+  for f in "${data[@]}"; do [ -f "$f" ] && present+=("$f"); done
+  [ ${#present[@]} -gt 0 ] || { echo "no .pqm files: run 'npm run bench:data --prefix web' or name files" >&2; exit 1; }
+  args+=("${present[@]}")
+fi
+"$target/release/examples/decode_table" "${args[@]}"
