@@ -492,9 +492,22 @@ function decodeDelta(payload, start, st, nv, nf, qmax) {
  * Positions: `P(v)`'s parallelogram sum is over the faces at `v` whose
  * three other corners come before `v`: those whose largest corner is `v`,
  * which each vertex lists (`topHead` / `topNext`, built as faces are
- * added); `v`'s other faces are walked only when it has none of them.
+ * added: a face across an edge with a new `y` has it as its largest
+ * corner, else one with a new `x` has `x`); `v`'s other faces are walked
+ * only when it has none of them. For 1, 2, 4 or 8 faces the floor of the
+ * sum over 8 c is a shift.
  */
 function decodeTraversal(payload, start, st, nv, nf, qmax) {
+  // qmax as int32: the decoder passes 2 ** bits − 1, a heap number, and
+  // compared and returned by clamp() it made every prediction and code a
+  // double, each store into q a conversion. (bits ≤ 24 is checked with the
+  // header; a caller with a wider qmax gets the reference decoder, whose
+  // sums need not fit an int32.)
+  if (!(qmax <= 0xffffff)) {
+    decodeTraversalReference(payload, start, st, nv, nf, qmax);
+    return;
+  }
+  qmax |= 0;
   const top = new Reader(payload, start, payload.length, 'base');
   const gates = baseStream(top, 'base gates');
   const corners = baseStream(top, 'base corners');
@@ -506,13 +519,16 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
   const nc = 4 * nf;
   // cNext[nc + v]: v's first corner (−1: none); tail[v] the slot its next
   // corner's id goes to
-  const cNext = new Int32Array(nc + nv).fill(-1, nc);
-  const tail = new Int32Array(nv);
+  // (one allocation for all of them: zero-filled, no GC pressure per array)
+  const words = nc + 4 * nv + nf;
+  const mem = new ArrayBuffer(4 * words + nc);
+  const cNext = new Int32Array(mem, 0, nc + nv).fill(-1, nc);
+  const tail = new Int32Array(mem, 4 * (nc + nv), nv);
   for (let v = 0; v < nv; v++) tail[v] = nc + v;
-  const deg = new Int32Array(nv);
-  const open = new Uint8Array(nc);
-  const topHead = new Int32Array(nv).fill(-1);
-  const topNext = new Int32Array(nf);
+  const deg = new Int32Array(mem, 4 * (nc + 2 * nv), nv);
+  const topHead = new Int32Array(mem, 4 * (nc + 3 * nv), nv).fill(-1);
+  const topNext = new Int32Array(mem, 4 * (nc + 4 * nv), nf);
+  const open = new Uint8Array(mem, 4 * words, nc);
   // the gate and corner streams read in place (their cursors written back
   // for the rare paths that use the readers and for the checks at the end)
   const gb = gates.b;
@@ -674,11 +690,19 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
         tail[y] = ty;
         cNext[ty] = -1;
         deg[y]++;
+        // the largest corner: a new y, else a new x, else compared
+        if (ey === -1) {
+          topNext[n] = topHead[y];
+          topHead[y] = ty;
+        } else if (ex === -1) {
+          topNext[n] = topHead[x];
+          topHead[x] = tx;
+        } else addTop(f, topHead, topNext, n);
       } else {
         corners.p = cp;
         addFaceLists(f, cNext, tail, deg, open, nc, n);
+        addTop(f, topHead, topNext, n);
       }
-      addTop(f, topHead, topNext, n);
       n++;
     }
   }
@@ -709,13 +733,24 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
         c++;
         fk = topNext[fk >> 2];
       } while (fk >= 0);
-      // Math.floor(s / d) is exact here (as in the split form): d ≤ 8 · 255
-      // and |s| ≤ 255 · 12 · 2^24, so the quotient's rounding error is far
-      // below the 1/d a non-integer quotient keeps from the next integer
-      const d = 8 * c;
-      px = clamp(Math.floor(sx / d), qmax);
-      py = clamp(Math.floor(sy / d), qmax);
-      pz = clamp(Math.floor(sz / d), qmax);
+      if (c <= 8 && (c & (c - 1)) === 0) {
+        // d = 8 c a power of two (one or two faces, the most common): the
+        // floor is an arithmetic shift, the sums being int32 (|s| ≤ 8 · 10 ·
+        // qmax < 2^31 for qmax < 2^24)
+        const sh = 34 - Math.clz32(c);
+        px = clamp(sx >> sh, qmax);
+        py = clamp(sy >> sh, qmax);
+        pz = clamp(sz >> sh, qmax);
+      } else {
+        // Math.floor(s / d) is exact here (as in the split form): d ≤ 8 ·
+        // 255 and |s| ≤ 255 · 12 · 2^24, so the quotient's rounding error
+        // is far below the 1/d a non-integer quotient keeps from the next
+        // integer
+        const d = 8 * c;
+        px = clamp(Math.floor(sx / d), qmax);
+        py = clamp(Math.floor(sy / d), qmax);
+        pz = clamp(Math.floor(sz / d), qmax);
+      }
     } else {
       let ex = 0, ey = 0, ez = 0, e = 0;
       for (let cr = cNext[nc + v]; cr >= 0; cr = cNext[cr]) {

@@ -196,6 +196,43 @@ test('traversal decode = reference decode: symbols changed to other small symbol
 });
 
 /**
+ * A closed surface of two fans of `k` quads glued along their rims, in the
+ * walk's order: the top fan (fanMesh: centre 0, rim r_i = 1 + 2i, o_i =
+ * 2 + 2i), then the bottom one around 1 + 2k, from its face across the top
+ * fan's last rim edge on — so that the bottom centre comes last and is the
+ * largest corner of all its k faces.
+ */
+function doubleFan(k) {
+  const { quads } = fanMesh(k);
+  const b = 1 + 2 * k;
+  for (let j = 0; j < k; j++) {
+    const i = (j + k - 1) % k;
+    quads.push([b, 1 + 2 * ((i + 1) % k), 2 + 2 * i, 1 + 2 * i]);
+  }
+  return { nv: 2 + 2 * k, quads };
+}
+
+test('traversal decode = reference decode: predictions over 1 to 12 faces, codes at 0 and qmax = 2^24 − 1', () => {
+  // P(v)'s sums at their extremes (5 (qmax + qmax) per face, or −2 qmax),
+  // over as many faces as v is the largest corner of (a power-of-two count
+  // takes a shift, the others a division)
+  const qmax = 2 ** 24 - 1;
+  for (let k = 2; k <= 12; k++) {
+    const mesh = doubleFan(k);
+    for (let seed = 1; seed <= 8; seed++) {
+      const rand = rng(1000 * k + seed);
+      const codes = Array.from({ length: mesh.nv }, () => [0, 1, 2].map(() => (rand() < 0.5 ? 0 : qmax)));
+      const payload = encodeTraversal(codes, mesh.quads, qmax);
+      assert.ok(payload !== null, `double fan ${k}`);
+      const got = same(payload, mesh.nv, mesh.quads.length, `double fan ${k} seed ${seed}`, qmax);
+      assert.ok(!got.error, `${got.error}`);
+      assert.deepEqual([...got.f.subarray(0, 8 * k)], mesh.quads.flat());
+      for (let v = 0; v < mesh.nv; v++) assert.deepEqual([...got.q.subarray(16 * v, 16 * v + 3)], codes[v]);
+    }
+  }
+});
+
+/**
  * A strip of `nf` quads around vertex 0, each face across the edge it
  * shares with the one before (not a component start): face 0 = [0, 1, 2,
  * 3]; face i + 1 = [0, v, m, w] across face i's half-edge v → 0 (gate 1 at
