@@ -486,8 +486,8 @@ function decodeDelta(payload, start, st, nv, nf, qmax) {
  * candidate `y` (`b → y` open) for `y → b`; only `x → y`, when both are
  * candidates, is looked up (one scan of `x`'s corners), and only then may
  * two corners be equal (`x = y`, compared). An escape, a crowded corner, a
- * repeated vertex or half-edge goes to addFace, so that every error is the
- * one it reports.
+ * repeated vertex or half-edge goes to addFaceLists (the reference's
+ * addFace on these lists), so that every error is the one it reports.
  *
  * Positions: `P(v)`'s parallelogram sum is over the faces at `v` whose
  * three other corners come before `v`: those whose largest corner is `v`,
@@ -517,9 +517,9 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
 
   const f = st.f;
   const nc = 4 * nf;
-  // cNext[nc + v]: v's first corner (−1: none); tail[v] the slot its next
-  // corner's id goes to
-  // (one allocation for all of them: zero-filled, no GC pressure per array)
+  // cNext[nc + v]: v's first corner (−1: none); tail[v]: the slot its next
+  // corner's id goes to; deg[v]: its faces; topHead / topNext: the faces
+  // whose largest corner it is. All views of one zero-filled allocation.
   const words = nc + 4 * nv + nf;
   const mem = new ArrayBuffer(4 * words + nc);
   const cNext = new Int32Array(mem, 0, nc + nv).fill(-1, nc);
@@ -699,7 +699,6 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
           topHead[x] = tx;
         } else addTop(f, topHead, topNext, n);
       } else {
-        corners.p = cp;
         addFaceLists(f, cNext, tail, deg, open, nc, n);
         addTop(f, topHead, topNext, n);
       }
