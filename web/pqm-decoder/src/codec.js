@@ -374,6 +374,19 @@ const RW_PER_APP = 3.5;
  * @returns {Frontier}
  */
 export function decodeBase(payload, nv, nf, qmax, capV = nv, capF = nf, major = 3) {
+  return decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, false);
+}
+
+/**
+ * decodeBase with the traversal layout decoded by decodeTraversalReference
+ * (no shortcuts: every half-edge looked up), for tests: the same frontier
+ * or the same error as decodeBase on any input.
+ */
+export function decodeBaseReference(payload, nv, nf, qmax, capV = nv, capF = nf, major = 3) {
+  return decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, true);
+}
+
+function decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, reference) {
   const section = 'base mesh';
   let traversal = false;
   let start = 0;
@@ -396,7 +409,7 @@ export function decodeBase(payload, nv, nf, qmax, capV = nv, capF = nf, major = 
   st.q = new Int32Array(16 * Math.max(nv, capV));
   st.f = new Uint32Array(4 * Math.max(nf, capF));
   try {
-    if (traversal) decodeTraversal(payload, start, st, nv, nf, qmax);
+    if (traversal) (reference ? decodeTraversalReference : decodeTraversal)(payload, start, st, nv, nf, qmax);
     else decodeDelta(payload, start, st, nv, nf, qmax);
   } catch (e) {
     if (typeof e === 'string') throw invalid(section, e);
@@ -449,7 +462,408 @@ function decodeDelta(payload, start, st, nv, nf, qmax) {
 /**
  * The traversal layout (spec §6.1) from `payload[start ..]` into `st.f` /
  * `st.q`; throws message strings. Mirrors `decode_traversal` of the Rust
- * reference (pqm_format::base). The decoded half-edges are kept per vertex
+ * reference (pqm_format::base), and decodeTraversalReference below (the
+ * same decoder looking every half-edge up: the same faces, codes and
+ * errors, which a test holds it to).
+ *
+ * The decoded half-edges are kept per vertex as a list of its corners in
+ * decode order (`cNext` links corner `4 g + k` of face `g` to the vertex's
+ * next corner; `cNext[4 nf + v]` is the first of `v`'s, so an append needs
+ * no test for an empty list): corner `c` of face `g` starts the half-edge
+ * `g[k] → g[k+1]` (id `c`, outgoing at `g[k]`) and ends the half-edge
+ * `g[k−1] → g[k]` (id `g·4 + (k+3) mod 4`, incoming: a face holds a vertex
+ * once), so one list gives both the outgoing and the incoming half-edges in
+ * decode order. `open[e]` says that the reverse of half-edge `e` is not
+ * decoded. A vertex is in at most 255 faces, so every scan of a list is
+ * short.
+ *
+ * A face coded across the open half-edge `a → b` (`g[r] = b`, `g[r+1] = a`,
+ * `x = g[r+2]`, `y = g[r+3]`) takes what addFace would scan the lists for
+ * from how `x` and `y` were named: `b → a` is no repeat (`a → b` is open)
+ * and its reverse is `a → b`; a new `x` (`y`) is in no half-edge and is
+ * none of the other corners; a candidate `x` (`x → a` open) is neither `a`
+ * nor `b`, `a → x` is no repeat and its reverse is `x → a`; likewise a
+ * candidate `y` (`b → y` open) for `y → b`; only `x → y`, when both are
+ * candidates, is looked up (one scan of `x`'s corners), and only then may
+ * two corners be equal (`x = y`, compared). An escape, a crowded corner, a
+ * repeated vertex or half-edge goes to addFaceLists (the reference's
+ * addFace on these lists), so that every error is the one it reports.
+ *
+ * Positions: `P(v)`'s parallelogram sum is over the faces at `v` whose
+ * three other corners come before `v`: those whose largest corner is `v`,
+ * which each vertex lists (`topHead` / `topNext`, built as faces are
+ * added: a face across an edge with a new `y` has it as its largest
+ * corner, else one with a new `x` has `x`); `v`'s other faces are walked
+ * only when it has none of them. For 1, 2, 4 or 8 faces the floor of the
+ * sum over 8 c is a shift.
+ */
+function decodeTraversal(payload, start, st, nv, nf, qmax) {
+  // qmax as int32: the decoder passes 2 ** bits − 1, a heap number, and
+  // compared and returned by clamp() it made every prediction and code a
+  // double, each store into q a conversion. (bits ≤ 24 is checked with the
+  // header; a caller with a wider qmax gets the reference decoder, whose
+  // sums need not fit an int32.)
+  if (!(qmax <= 0xffffff)) {
+    decodeTraversalReference(payload, start, st, nv, nf, qmax);
+    return;
+  }
+  qmax |= 0;
+  const top = new Reader(payload, start, payload.length, 'base');
+  const gates = baseStream(top, 'base gates');
+  const corners = baseStream(top, 'base corners');
+  const escapes = baseStream(top, 'base escapes');
+  const pos = baseStream(top, 'base positions');
+  if (top.remaining() !== 0) throw `${top.remaining()} bytes after the last base stream`;
+
+  const f = st.f;
+  const nc = 4 * nf;
+  // cNext[nc + v]: v's first corner (−1: none); tail[v]: the slot its next
+  // corner's id goes to; deg[v]: its faces; topHead / topNext: the faces
+  // whose largest corner it is. All views of one zero-filled allocation.
+  const words = nc + 4 * nv + nf;
+  const mem = new ArrayBuffer(4 * words + nc);
+  const cNext = new Int32Array(mem, 0, nc + nv).fill(-1, nc);
+  const tail = new Int32Array(mem, 4 * (nc + nv), nv);
+  for (let v = 0; v < nv; v++) tail[v] = nc + v;
+  const deg = new Int32Array(mem, 4 * (nc + 2 * nv), nv);
+  const topHead = new Int32Array(mem, 4 * (nc + 3 * nv), nv).fill(-1);
+  const topNext = new Int32Array(mem, 4 * (nc + 4 * nv), nf);
+  const open = new Uint8Array(mem, 4 * words, nc);
+  // the gate and corner streams read in place (their cursors written back
+  // for the rare paths that use the readers and for the checks at the end)
+  const gb = gates.b;
+  const gEnd = gates.end;
+  let gp = gates.p;
+  const cb = corners.b;
+  const cEnd = corners.end;
+  let cp = corners.p;
+  let s = 0; // vertices seen
+  let n = 0;
+  let h = 0;
+  while (n < nf) {
+    const o = 4 * n;
+    if (h === n) {
+      // a component start: four corner symbols, no candidates
+      corners.p = cp;
+      for (let k = 0; k < 4; k++) {
+        const v = startCorner(corners, escapes, s, nv, n);
+        if (v === s) s++;
+        f[o + k] = v;
+      }
+      cp = corners.p;
+      addFaceLists(f, cNext, tail, deg, open, nc, n);
+      addTop(f, topHead, topNext, n);
+      n++;
+      continue;
+    }
+    const g = 4 * h;
+    h++;
+    for (let k = 0; k < 4 && n < nf; k++) {
+      // face h's half-edge a → b: b → a is decoded exactly when it is closed
+      const ab = g + k;
+      if (open[ab] === 0) continue;
+      if (gp >= gEnd) throw `stream base gates ends early`;
+      const gate = gb[gp++];
+      if (gate === 0) continue;
+      if (gate > 4) throw `gate byte ${gate} before face ${n} (spec §6.1)`;
+      const a = f[ab];
+      const b = f[g + ((k + 1) & 3)];
+      const on = 4 * n;
+      const r = gate - 1;
+      const ta = on + ((r + 1) & 3);
+      const tx = on + ((r + 2) & 3);
+      const ty = on + ((r + 3) & 3);
+      f[on + r] = b;
+      f[ta] = a;
+      // x: new, a candidate of X (the sources of the open half-edges into
+      // a, in decode order: the incoming half-edge of each of a's corners)
+      // or an escape; ex: the open half-edge x → a it names (−1: new, −2:
+      // escape). The candidates are taken before face n's half-edges are
+      // added.
+      if (cp >= cEnd) throw `stream base corners ends early`;
+      let sym = cb[cp++];
+      let x;
+      let ex = -1;
+      if (sym === 0) {
+        if (s >= nv) throw `face ${n} has a new vertex but all ${nv} vertices are seen`;
+        x = s++;
+      } else if (sym === 255) {
+        x = escapeCorner(escapes, s, n);
+        ex = -2;
+      } else {
+        let i = sym - 1;
+        for (let c = cNext[nc + a]; c >= 0; c = cNext[c]) {
+          const e = (c & ~3) | ((c + 3) & 3);
+          if (open[e] !== 0) {
+            if (i === 0) {
+              ex = e;
+              break;
+            }
+            i--;
+          }
+        }
+        if (ex < 0) throw `face ${n} names candidate ${sym} of ${sym - 1 - i} (spec §6.1)`;
+        x = f[ex];
+      }
+      f[tx] = x;
+      // y: likewise from Y (the targets of the open half-edges out of b);
+      // ey: the open half-edge b → y
+      if (cp >= cEnd) throw `stream base corners ends early`;
+      sym = cb[cp++];
+      let y;
+      let ey = -1;
+      if (sym === 0) {
+        if (s >= nv) throw `face ${n} has a new vertex but all ${nv} vertices are seen`;
+        y = s++;
+      } else if (sym === 255) {
+        y = escapeCorner(escapes, s, n);
+        ey = -2;
+      } else {
+        let i = sym - 1;
+        for (let c = cNext[nc + b]; c >= 0; c = cNext[c]) {
+          if (open[c] !== 0) {
+            if (i === 0) {
+              ey = c;
+              break;
+            }
+            i--;
+          }
+        }
+        if (ey < 0) throw `face ${n} names candidate ${sym} of ${sym - 1 - i} (spec §6.1)`;
+        y = f[(ey & ~3) | ((ey + 1) & 3)];
+      }
+      f[ty] = y;
+      // the face's half-edges from how x and y were named (see above), or
+      // addFaceLists where that does not tell (or an error may be due)
+      let fast = ex !== -2 && ey !== -2 && deg[a] < MAX_FACES_PER_VERTEX && deg[b] < MAX_FACES_PER_VERTEX;
+      let exy = -1; // the reverse y → x of x → y
+      if (fast && ex >= 0) {
+        if (deg[x] >= MAX_FACES_PER_VERTEX) fast = false;
+        else if (ey >= 0) {
+          if (x === y) fast = false;
+          else {
+            // one scan of x's corners: a repeat x → y or the reverse y → x
+            for (let c = cNext[nc + x]; c >= 0; c = cNext[c]) {
+              const co = c & ~3;
+              if (f[co | ((c + 1) & 3)] === y) {
+                fast = false;
+                break;
+              }
+              const e = co | ((c + 3) & 3);
+              if (f[e] === y) exy = e;
+            }
+          }
+        }
+      }
+      if (fast && ey >= 0 && deg[y] >= MAX_FACES_PER_VERTEX) fast = false;
+      if (fast) {
+        // b → a closes a → b
+        open[ab] = 0;
+        open[on + r] = 0;
+        if (ex >= 0) {
+          open[ex] = 0;
+          open[ta] = 0;
+        } else open[ta] = 1;
+        if (exy >= 0) {
+          open[exy] = 0;
+          open[tx] = 0;
+        } else open[tx] = 1;
+        if (ey >= 0) {
+          open[ey] = 0;
+          open[ty] = 0;
+        } else open[ty] = 1;
+        // each corner appended to its vertex's list (a vertex gets one per
+        // face, so the order within the face is free)
+        cNext[tail[b]] = on + r;
+        tail[b] = on + r;
+        cNext[on + r] = -1;
+        deg[b]++;
+        cNext[tail[a]] = ta;
+        tail[a] = ta;
+        cNext[ta] = -1;
+        deg[a]++;
+        cNext[tail[x]] = tx;
+        tail[x] = tx;
+        cNext[tx] = -1;
+        deg[x]++;
+        cNext[tail[y]] = ty;
+        tail[y] = ty;
+        cNext[ty] = -1;
+        deg[y]++;
+        // the largest corner: a new y, else a new x, else compared
+        if (ey === -1) {
+          topNext[n] = topHead[y];
+          topHead[y] = ty;
+        } else if (ex === -1) {
+          topNext[n] = topHead[x];
+          topHead[x] = tx;
+        } else addTop(f, topHead, topNext, n);
+      } else {
+        addFaceLists(f, cNext, tail, deg, open, nc, n);
+        addTop(f, topHead, topNext, n);
+      }
+      n++;
+    }
+  }
+  gates.p = gp;
+  corners.p = cp;
+  if (s !== nv) throw `the faces use ${s} of the ${nv} base vertices`;
+  for (const r of [gates, corners, escapes]) {
+    if (r.remaining() !== 0) throw `${r.remaining()} unused bytes in the ${r.name}`;
+  }
+
+  // Positions: P(v) over the faces whose largest corner is v (their other
+  // corners come before v), else the mean of v's earlier edge neighbours
+  // (spec §6.1; §7.6's version-4 stencil).
+  const q = st.q;
+  for (let v = 0; v < nv; v++) {
+    let px, py, pz;
+    let fk = topHead[v];
+    if (fk >= 0) {
+      let sx = 0, sy = 0, sz = 0, c = 0;
+      do {
+        const fo = fk & ~3;
+        const n1 = 16 * f[fo | ((fk + 1) & 3)];
+        const op = 16 * f[fo | ((fk + 2) & 3)];
+        const n3 = 16 * f[fo | ((fk + 3) & 3)];
+        sx += 5 * (q[n1] + q[n3]) - 2 * q[op];
+        sy += 5 * (q[n1 + 1] + q[n3 + 1]) - 2 * q[op + 1];
+        sz += 5 * (q[n1 + 2] + q[n3 + 2]) - 2 * q[op + 2];
+        c++;
+        fk = topNext[fk >> 2];
+      } while (fk >= 0);
+      if (c <= 8 && (c & (c - 1)) === 0) {
+        // d = 8 c a power of two (one or two faces, the most common): the
+        // floor is an arithmetic shift, the sums being int32 (|s| ≤ 8 · 10 ·
+        // qmax < 2^31 for qmax < 2^24)
+        const sh = 34 - Math.clz32(c);
+        px = clamp(sx >> sh, qmax);
+        py = clamp(sy >> sh, qmax);
+        pz = clamp(sz >> sh, qmax);
+      } else {
+        // Math.floor(s / d) is exact here (as in the split form): d ≤ 8 ·
+        // 255 and |s| ≤ 255 · 12 · 2^24, so the quotient's rounding error
+        // is far below the 1/d a non-integer quotient keeps from the next
+        // integer
+        const d = 8 * c;
+        px = clamp(Math.floor(sx / d), qmax);
+        py = clamp(Math.floor(sy / d), qmax);
+        pz = clamp(Math.floor(sz / d), qmax);
+      }
+    } else {
+      let ex = 0, ey = 0, ez = 0, e = 0;
+      for (let cr = cNext[nc + v]; cr >= 0; cr = cNext[cr]) {
+        const fo = cr & ~3;
+        const n1 = f[fo | ((cr + 1) & 3)];
+        const n3 = f[fo | ((cr + 3) & 3)];
+        if (n1 < v) {
+          ex += q[16 * n1];
+          ey += q[16 * n1 + 1];
+          ez += q[16 * n1 + 2];
+          e++;
+        }
+        if (n3 < v) {
+          ex += q[16 * n3];
+          ey += q[16 * n3 + 1];
+          ez += q[16 * n3 + 2];
+          e++;
+        }
+      }
+      if (e > 0) {
+        px = clamp(Math.floor(ex / e), qmax);
+        py = clamp(Math.floor(ey / e), qmax);
+        pz = clamp(Math.floor(ez / e), qmax);
+      } else if (v > 0) {
+        px = q[16 * (v - 1)];
+        py = q[16 * (v - 1) + 1];
+        pz = q[16 * (v - 1) + 2];
+      } else {
+        px = py = pz = 0;
+      }
+    }
+    const x = px + pos.s();
+    const y = py + pos.s();
+    const z = pz + pos.s();
+    if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
+      throw `vertex ${v} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+    }
+    q[16 * v] = x;
+    q[16 * v + 1] = y;
+    q[16 * v + 2] = z;
+  }
+  if (pos.remaining() !== 0) throw `${pos.remaining()} unused bytes in the base positions`;
+}
+
+/** A component start's corner symbol of face `n` (no candidates): cornerSymbol of kind 0. */
+function startCorner(corners, escapes, s, nv, n) {
+  const sym = corners.byte();
+  if (sym === 0) {
+    if (s >= nv) throw `face ${n} has a new vertex but all ${nv} vertices are seen`;
+    return s;
+  }
+  if (sym === 255) return escapeCorner(escapes, s, n);
+  throw `face ${n} names candidate ${sym} of 0 (spec §6.1)`;
+}
+
+/** An escape corner symbol of face `n` with `s` vertices seen (spec §6.1): the vertex it names. */
+function escapeCorner(escapes, s, n) {
+  const u = escapes.u();
+  if (u >= s) throw `face ${n} escapes to vertex ${s - 1 - u} before vertex 0`;
+  return s - 1 - u;
+}
+
+/**
+ * Face `n` (its corners in `f`) into decodeTraversal's lists (`cNext[nc +
+ * v]` the first of v's corners, `tail[v]` the slot for its next): the
+ * checks of addFace (4 distinct corners, no half-edge decoded twice, at
+ * most 255 faces per vertex) and their messages, the reverses it meets
+ * closed. One scan of `u`'s corners per corner `u → v` finds both a repeat
+ * (an outgoing `u → v`) and the reverse (an incoming `v → u`).
+ */
+function addFaceLists(f, cNext, tail, deg, open, nc, n) {
+  const o = 4 * n;
+  const a = f[o], b = f[o + 1], c = f[o + 2], d = f[o + 3];
+  if (a === b || a === c || a === d || b === c || b === d || c === d) {
+    throw `face ${n} repeats a vertex (${a} ${b} ${c} ${d})`;
+  }
+  for (let t = 0; t < 4; t++) {
+    const u = f[o + t];
+    const v = f[o + ((t + 1) & 3)];
+    if (deg[u] >= MAX_FACES_PER_VERTEX) throw `face ${n}: vertex ${u} is in more than ${MAX_FACES_PER_VERTEX} faces`;
+    let rev = -1;
+    for (let cr = cNext[nc + u]; cr >= 0; cr = cNext[cr]) {
+      const fo = cr & ~3;
+      if (f[fo | ((cr + 1) & 3)] === v) throw `face ${n}: half-edge ${u} -> ${v} is in two faces`;
+      const e = fo | ((cr + 3) & 3);
+      if (f[e] === v) rev = e;
+    }
+    const id = o + t;
+    if (rev >= 0) open[rev] = 0;
+    open[id] = rev < 0 ? 1 : 0;
+    cNext[id] = -1;
+    cNext[tail[u]] = id;
+    tail[u] = id;
+    deg[u]++;
+  }
+}
+
+/** Face `n` (4 distinct corners in `f`) into its largest corner's list of faces (`topHead` / `topNext`, as corner ids). */
+function addTop(f, topHead, topNext, n) {
+  const o = 4 * n;
+  const k01 = f[o + 1] > f[o] ? 1 : 0;
+  const k23 = f[o + 3] > f[o + 2] ? 3 : 2;
+  const k = f[o + k23] > f[o + k01] ? k23 : k01;
+  const v = f[o + k];
+  topNext[n] = topHead[v];
+  topHead[v] = o + k;
+}
+
+/**
+ * decodeTraversal without its shortcuts (as `decode_reference` of the Rust
+ * reference, pqm_format::base): every face's half-edges looked up in the
+ * lists by addFace, every prediction over all the faces at its vertex. The
+ * same faces, codes and errors as decodeTraversal on any input (a test
+ * holds them to it); decodeBaseReference decodes with it. The decoded half-edges are kept per vertex
  * as a list of its corners in decode order (`cNext` links corner `4 g + k`
  * of face `g` to the vertex's next corner): corner `c` of face `g` starts
  * the half-edge `g[k] → g[k+1]` (id `c`, outgoing at `g[k]`) and ends the
@@ -458,7 +872,7 @@ function decodeDelta(payload, start, st, nv, nf, qmax) {
  * `open[e]` says that the reverse of half-edge `e` is not decoded. A
  * vertex is in at most 255 faces, so every scan of a list is short.
  */
-function decodeTraversal(payload, start, st, nv, nf, qmax) {
+function decodeTraversalReference(payload, start, st, nv, nf, qmax) {
   const top = new Reader(payload, start, payload.length, 'base');
   const gates = baseStream(top, 'base gates');
   const corners = baseStream(top, 'base corners');
