@@ -790,9 +790,12 @@ impl MeshState {
 
     /// [`MeshState::apply_delta_logged`] of an edge split decoded on the
     /// fast path (`edge_split::build_fast`), given as its parts: the
-    /// rewritten quads in star order (not by slot: the log's entries of
-    /// one record name distinct slots, and each delta is applied on its
-    /// own, so their order changes no level), the appended quads, the
+    /// sector faces of one endpoint as `sectors` (corner id of the
+    /// endpoint, new vertex: the one corner that changes) and the other
+    /// rewritten quads whole in `rewritten`, in star order (not by slot:
+    /// the log's entries of one record name distinct slots — no slot is in
+    /// both lists — and each delta is applied on its own, so their order
+    /// changes no level), the appended quads, the
     /// four new codes, and the corner changes of the six vertices whose
     /// every corner the record decides written whole (the split form's
     /// way, `decode_apply_split`): `blocks` = the corner blocks of `ends =
@@ -812,6 +815,7 @@ impl MeshState {
         ends: [u32; 2],
         blocks: &[[u32; 8]; 6],
         new_pos: &[[u32; 3]],
+        sectors: &[(u32, u32)],
         rewritten: &[(u32, [u32; 4])],
         masks: &[u8],
         appended: &[[u32; 4]],
@@ -824,6 +828,15 @@ impl MeshState {
         }
         self.inline[ends[0] as usize] = Block(blocks[0]);
         self.inline[ends[1] as usize] = Block(blocks[1]);
+        // A sector face: one corner, the endpoint's, becomes a new vertex;
+        // both blocks are written whole above.
+        for &(c, v) in sectors {
+            let (s, k) = (c >> 2, (c & 3) as usize);
+            let old = std::mem::replace(&mut self.quads[s as usize][k], v);
+            let mut delta = [0u32; 4];
+            delta[k] = old ^ v;
+            rw.push((s, delta));
+        }
         for (&(s, quad), &mk) in rewritten.iter().zip(masks) {
             let old = std::mem::replace(&mut self.quads[s as usize], quad);
             let mut un = (mk & 15) as u32;
@@ -3075,12 +3088,13 @@ fn decode_apply_edge_split(
     let crate::edge_split::Scratch {
         pred,
         rws,
+        sec,
         blocks,
         masks,
         ..
     } = &mut sc.edge;
-    let n = crate::edge_split::build_fast(
-        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, rws, &mut app, blocks, masks,
+    let (n, ns) = crate::edge_split::build_fast(
+        st, ends, fs, rho, n1, m, p, ra, &sc.rots, pred, rws, sec, &mut app, blocks, masks,
     )?;
     // Every new vertex has a parallelogram of three old corners (`T_x`
     // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most
@@ -3092,7 +3106,16 @@ fn decode_apply_edge_split(
         r.appended.push(q);
     }
     pred.finish(st, r, 4, major, &mut rd[POS])?;
-    st.apply_edge_split_parts(ends, blocks, &r.new_pos, &rws[..n], masks, &r.appended, rw);
+    st.apply_edge_split_parts(
+        ends,
+        blocks,
+        &r.new_pos,
+        &sec[..ns],
+        &rws[..n],
+        masks,
+        &r.appended,
+        rw,
+    );
     Ok(())
 }
 
