@@ -4355,6 +4355,47 @@ mod tests {
         assert_eq!(p2, vec![[200, 200, 395], [100, 200, 330]]);
     }
 
+    /// [`OnePass`] on random records of one to four new vertices whose
+    /// quads mix old and new corners (up to four new ones a quad, new
+    /// vertices as neighbours and as opposite corners of larger ones, some
+    /// without a quad, enough quads to overflow the deferred list):
+    /// the same predictions as the scans ([`all_paths`]), in versions 2–4.
+    #[test]
+    fn one_pass_equals_the_scans_on_random_records() {
+        let (st, _) = bump();
+        let v0 = st.q.len() as u32;
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut rnd = move |n: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed % n
+        };
+        for _ in 0..3000 {
+            let n_new = 1 + rnd(4) as u32;
+            let n_quads = 1 + rnd(14) as usize;
+            let mut r = QRecord::default();
+            while r.appended.len() < n_quads {
+                // Mostly new corners in some records, mostly old in others.
+                let p_new = 1 + rnd(4);
+                let quad = [0; 4].map(|_| {
+                    if rnd(5) < p_new {
+                        v0 + rnd(n_new as u64) as u32
+                    } else {
+                        rnd(v0 as u64) as u32
+                    }
+                });
+                let distinct = (0..4).all(|a| (a + 1..4).all(|b| quad[a] != quad[b]));
+                if distinct {
+                    r.appended.push(quad);
+                }
+            }
+            for major in 2..=4 {
+                all_paths(&st, &r, n_new as usize, major);
+            }
+        }
+    }
+
     /// The face split's closed form ([`predict_face_split`]) equals the
     /// scan of the record [`build_face_split`] makes, in versions 2–4, for
     /// every slot, corner, diagonal and rotation of a curved grid.
