@@ -2686,15 +2686,22 @@ fn decode_apply_split(
         op[t] = m_new[t] as i64;
     }
     let mut cnt = 1i64;
-    for t in 0..l {
-        if in_a(t) {
-            stay[n_stay] = s.c[t];
-            n_stay += 1;
-            continue;
-        }
-        let ct = s.c[t];
-        side[n_side] = ct;
+    // Faces `i .. j` (cyclic) stay at `m`, faces `j .. i` go to `c`: two
+    // runs of the star, walked in turn without a side test per face (`i
+    // != j`: both runs are non-empty; `& 7` spares the bounds checks,
+    // `l <= INLINE`).
+    let step = |t: usize| if t + 1 < l { t + 1 } else { 0 };
+    let mut t = i;
+    while t != j {
+        stay[n_stay & 7] = s.c[t & 7];
+        n_stay += 1;
+        t = step(t);
+    }
+    loop {
+        let ct = s.c[t & 7];
+        side[n_side & 7] = ct;
         n_side += 1;
+        t = step(t);
         if major >= 2 {
             let quad = &quads[(ct >> 2) as usize];
             let k = ct as usize;
@@ -2708,6 +2715,9 @@ fn decode_apply_split(
                 op[t] += o[t] as i64;
             }
             cnt += 1;
+        }
+        if t == i {
+            break;
         }
     }
     let pred = if sym & 0x80 != 0 {
