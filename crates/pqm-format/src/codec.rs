@@ -3004,7 +3004,9 @@ pub fn decode_apply_record(
     // Symbol `0x1?` with bits 2–3 clear: the edge-split form (version 3).
     match rd[OPS].peek_byte() {
         Some(b) if major >= 3 && b & 0xfc == 0x10 => {
-            decode_apply_edge_split(st, rd, cur, max_v, max_f, major, r, sc, moved, rw)?;
+            return decode_apply_edge_split(
+                st, rd, cur, max_v, max_f, major, r, sc, moved, rw, kept,
+            );
         }
         // Bits 2–3 = 1: the split form; 3: the face split (version 2):
         // their one new vertex and quad go to `kept` directly.
@@ -3053,6 +3055,7 @@ fn decode_apply_edge_split(
     sc: &mut DecodeScratch,
     moved: &mut MoveDeltas,
     rw: &mut RewriteDeltas,
+    kept: Kept,
 ) -> Result<(), String> {
     let sym = rd[OPS].byte()?;
     r.op = OpKind::from_code(sym & 3).ok_or("bad op")?;
@@ -3063,22 +3066,24 @@ fn decode_apply_edge_split(
                     rd: &mut [Reader; 5],
                     r: &mut QRecord,
                     sc: &mut DecodeScratch,
-                    link: usize|
+                    link: usize,
+                    kept: Kept|
      -> Result<(), String> {
         edge_split_after_link(st, rd, a, link, major, r, sc)?;
         st.apply_delta_logged(r, moved, rw);
+        keep(r, kept);
         Ok(())
     };
     if !st.star_fast_into(a, &mut sc.fast[0]) {
         let ka = crate::edge_split::anchor_star(st, a, &mut sc.edge)? as u64;
         let link = rd[CONN].u_max(ka - 1, "edge-split link index")? as usize;
-        return slow(st, rd, r, sc, link);
+        return slow(st, rd, r, sc, link, kept);
     }
     let link = rd[CONN].u_max(sc.fast[0].n as u64 - 1, "edge-split link index")? as usize;
     let d = sc.fast[0].nx[link];
     if !st.star_fast_into(d, &mut sc.fast[1]) {
         sc.fast[0].write_into(&mut sc.edge.stars[0]);
-        return slow(st, rd, r, sc, link);
+        return slow(st, rd, r, sc, link, kept);
     }
     let [sa, sd] = &sc.fast;
     // `A` in `D`'s link (the fast path's links are distinct).
@@ -3109,12 +3114,8 @@ fn decode_apply_edge_split(
     // Every new vertex has a parallelogram of three old corners (`T_x`
     // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most
     // 2 + INLINE quads are deferred, so `finish` never falls back to the
-    // scans, which would read `r`'s quads (here only the appended ones).
-    // Element by element (`extend_from_slice` of 64 bytes is a call to
-    // `memcpy`).
-    for q in app {
-        r.appended.push(q);
-    }
+    // scans, which would read `r`'s quads: the appended ones are not even
+    // there (they go from `app` to the state and to `kept`).
     pred.finish(st, r, 4, major, &mut rd[POS])?;
     st.apply_edge_split_parts(
         ends,
@@ -3123,9 +3124,18 @@ fn decode_apply_edge_split(
         &sec[..ns],
         &rws[..n],
         masks,
-        &r.appended,
+        &app,
         rw,
     );
+    if let Some((new_pos, appended)) = kept {
+        // Element by element (`extend_from_slice` is a call to `memcpy`).
+        for &p in &r.new_pos {
+            new_pos.push(p);
+        }
+        for q in app {
+            appended.push(q);
+        }
+    }
     Ok(())
 }
 
