@@ -814,14 +814,13 @@ impl MeshState {
         &mut self,
         ends: [u32; 2],
         blocks: &[[u32; 8]; 6],
-        new_pos: &[[u32; 3]],
+        new_pos: &[[u32; 3]; 4],
         sectors: &[(u32, u32)],
         rewritten: &[(u32, [u32; 4])],
         masks: &[u8],
         appended: &[[u32; 4]],
         rw: &mut RewriteDeltas,
     ) {
-        debug_assert_eq!(new_pos.len(), 4);
         for (&p, &b) in new_pos.iter().zip(&blocks[2..]) {
             self.q.push(p);
             self.inline.push(Block(b));
@@ -1938,23 +1937,54 @@ impl OnePass {
         if self.overflow {
             return scan_new_positions(st, r, n_new, major, pos);
         }
+        let mut out = [[0u32; 3]; ONE_PASS_NEW];
         // The rule chosen once per record: a loop for each.
         if major >= 4 {
-            self.finish_rule::<true>(st, r, n_new, major, pos)
+            self.finish_rule::<true, true>(st, r, n_new, major, pos, &mut out)
         } else {
-            self.finish_rule::<false>(st, r, n_new, major, pos)
+            self.finish_rule::<false, true>(st, r, n_new, major, pos, &mut out)
         }
     }
 
-    /// [`OnePass::finish`] with version 4's rule (`V4`) or the earlier one.
+    /// [`OnePass::finish`] of an edge split on the decoder's fast path
+    /// (`edge_split::build_fast`): its four codes returned, not pushed to
+    /// `r.new_pos`. `r` holds none of the record's quads, which only the
+    /// scans would read: the fast path never needs them (see
+    /// `decode_apply_edge_split`: every new vertex has a parallelogram of
+    /// old corners, and the deferred quads fit).
+    pub(crate) fn finish_edge_split(
+        &mut self,
+        st: &MeshState,
+        r: &mut QRecord,
+        major: u16,
+        pos: &mut Reader,
+        out: &mut [[u32; 3]; ONE_PASS_NEW],
+    ) -> Result<(), String> {
+        if self.overflow {
+            // Not reached (see above); the scans, as `finish` would.
+            scan_new_positions(st, r, 4, major, pos)?;
+            for (o, &p) in out.iter_mut().zip(&r.new_pos) {
+                *o = p;
+            }
+            Ok(())
+        } else if major >= 4 {
+            self.finish_rule::<true, false>(st, r, 4, major, pos, out)
+        } else {
+            self.finish_rule::<false, false>(st, r, 4, major, pos, out)
+        }
+    }
+
+    /// [`OnePass::finish`] with version 4's rule (`V4`) or the earlier one,
+    /// the codes into `out` and, with `PUSH`, to `r.new_pos` too.
     #[inline(always)]
-    fn finish_rule<const V4: bool>(
+    fn finish_rule<const V4: bool, const PUSH: bool>(
         &mut self,
         st: &MeshState,
         r: &mut QRecord,
         n_new: usize,
         major: u16,
         pos: &mut Reader,
+        out: &mut [[u32; 3]; ONE_PASS_NEW],
     ) -> Result<(), String> {
         let (v0, q) = (st.q.len() as u32, &st.q);
         for t in 0..n_new {
@@ -1969,7 +1999,7 @@ impl OnePass {
                     if u < v0 {
                         q[u as usize]
                     } else {
-                        r.new_pos[(u - v0) as usize]
+                        out[(u - v0) as usize & (ONE_PASS_NEW - 1)]
                     }
                 };
                 let (a, o, e) = (
@@ -1992,7 +2022,10 @@ impl OnePass {
                 predict_scan(st, r, v0, v0 + t as u32, major)
             };
             let p = add_residual(pred, pos, st.qmax)?;
-            r.new_pos.push(p);
+            out[t & (ONE_PASS_NEW - 1)] = p;
+            if PUSH {
+                r.new_pos.push(p);
+            }
         }
         Ok(())
     }
@@ -3116,11 +3149,15 @@ fn decode_apply_edge_split(
     // 2 + INLINE quads are deferred, so `finish` never falls back to the
     // scans, which would read `r`'s quads: the appended ones are not even
     // there (they go from `app` to the state and to `kept`).
-    pred.finish(st, r, 4, major, &mut rd[POS])?;
+    // (Written in place by `finish_edge_split`: returned by value, the
+    // array was copied in 16-byte pieces that the 12-byte reads of its
+    // codes then straddled.)
+    let mut new_pos_codes = [[0u32; 3]; 4];
+    pred.finish_edge_split(st, r, major, &mut rd[POS], &mut new_pos_codes)?;
     st.apply_edge_split_parts(
         ends,
         blocks,
-        &r.new_pos,
+        &new_pos_codes,
         &sec[..ns],
         &rws[..n],
         masks,
@@ -3129,7 +3166,7 @@ fn decode_apply_edge_split(
     );
     if let Some((new_pos, appended)) = kept {
         // Element by element (`extend_from_slice` is a call to `memcpy`).
-        for &p in &r.new_pos {
+        for p in new_pos_codes {
             new_pos.push(p);
         }
         for q in app {
