@@ -1947,8 +1947,8 @@ impl OnePass {
     }
 
     /// [`OnePass::finish`] of an edge split on the decoder's fast path
-    /// (`edge_split::build_fast`): its four codes returned, not pushed to
-    /// `r.new_pos`. `r` holds none of the record's quads, which only the
+    /// (`edge_split::build_fast`): its four codes into `out`, not pushed
+    /// to `r.new_pos`. `r` holds none of the record's quads, which only the
     /// scans would read: the fast path never needs them (see
     /// `decode_apply_edge_split`: every new vertex has a parallelogram of
     /// old corners, and the deferred quads fit).
@@ -3146,12 +3146,14 @@ fn decode_apply_edge_split(
     )?;
     // Every new vertex has a parallelogram of three old corners (`T_x`
     // for `U_{2x}`, the last fan quad for `U_{2x+1}`) and at most
-    // 2 + INLINE quads are deferred, so `finish` never falls back to the
-    // scans, which would read `r`'s quads: the appended ones are not even
-    // there (they go from `app` to the state and to `kept`).
+    // 2 + INLINE quads are deferred, so `finish_edge_split` never falls
+    // back to the scans, which would read `r`'s quads: the appended ones
+    // are not even there (they go from `app` to the state and to `kept`).
     // (Written in place by `finish_edge_split`: returned by value, the
-    // array was copied in 16-byte pieces that the 12-byte reads of its
-    // codes then straddled.)
+    // array made `decode_loop` 3-6 % slower at 0.8 % fewer instructions —
+    // presumably its copy's 16-byte stores, which the 12-byte loads of
+    // the codes straddle, defeating store forwarding; not measured with
+    // hardware counters.)
     let mut new_pos_codes = [[0u32; 3]; 4];
     pred.finish_edge_split(st, r, major, &mut rd[POS], &mut new_pos_codes)?;
     st.apply_edge_split_parts(
