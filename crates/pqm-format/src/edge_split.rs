@@ -87,9 +87,14 @@ pub struct Scratch {
     /// The predictions of the four new vertices (spec §7.6), gathered by
     /// [`build`] from the quads it makes (the decoder reads them).
     pub(crate) pred: OnePass,
-    /// [`build_fast`]'s rewritten slots (here, not on the stack: 280 bytes
-    /// that a stack array cleared with a `memset` call per record).
+    /// [`build_fast`]'s rewritten fan quads and faces of both endpoints,
+    /// whole (here, not on the stack: 320 bytes that a stack array
+    /// cleared with a `memset` call per record).
     pub(crate) rws: [(u32, [u32; 4]); FAST_REWRITES],
+    /// [`build_fast`]'s sector faces of one endpoint, `(corner id of the
+    /// endpoint, new vertex)`: the rest of its rewritten slots, each with
+    /// one corner changed.
+    pub(crate) sec: [(u32, u32); FAST_REWRITES],
     /// After [`derive()`]: the slot of each fan quad, in the order of
     /// [`EdgeSplit::rots`] (what an encoder that re-rotates the quads a
     /// record builds needs, `crate::encoder`'s corner order).
@@ -328,28 +333,40 @@ pub fn build(
     Ok(())
 }
 
-/// Most rewritten slots of [`build_fast`]: every face of both stars.
-pub(crate) const FAST_REWRITES: usize = 2 * crate::codec::INLINE;
+/// Room for [`build_fast`]'s rewritten slots (at most every face of both
+/// stars, `2 INLINE = 14`), a power of two: an index masked with
+/// `FAST_REWRITES - 1` needs no bounds check.
+pub(crate) const FAST_REWRITES: usize = 16;
+const _: () = assert!(2 * crate::codec::INLINE <= FAST_REWRITES);
 
 /// [`build`] for the decoder when both stars came from
 /// [`MeshState::star_fast`] (interior, at most [`crate::codec::INLINE`]
-/// faces each: nearly every edge split), straight from the parameters:
-/// the rewritten quads into `rw` in star order (returns their count) —
+/// faces each: nearly every edge split), straight from the parameters —
 /// no slot list to sort, the faces of both endpoints found by one vector
-/// compare per face — and the appended quads into `app`, the predictions
-/// fed to `pred` as `build` feeds them. Same quads, same predictions, and
-/// the same records rejected, in a decoder's state (every stored quad has
-/// four distinct corners: each passed `check_distinct`), as `build`
-/// followed by sorting by slot (test `fused_edge_split_equals_build`, and
-/// every real-mesh level). Also the corner blocks of the six vertices whose
-/// every corner the record decides, into `blocks` (`[X0, X1, V, V+1, V+2,
-/// V+3]`, each `[n, corners…]`, as [`Scratch::blocks`]): an endpoint's
-/// corners in its rewritten fan quads (its block held exactly its fast
-/// star: the sector faces lose it, no other face has it), a new vertex's
-/// where its sector faces had the endpoint (the same corner ids) and, for
-/// `u2`, in the last fan quad. The decoder then applies `rw`, `app` and
-/// `blocks` itself ([`MeshState::apply_edge_split_parts`]): the explicit
-/// record is never made.
+/// compare per face — in three parts: the sector faces of one endpoint
+/// only into `sec` as `(corner id of X, new vertex)` (one corner changes:
+/// the quad itself is never built), the fan quads and the faces of both
+/// endpoints into `rw` whole, and the appended quads into `app`; the
+/// predictions fed to `pred` as `build` feeds them. Returns the counts of
+/// `rw` and `sec`. Same quads, same predictions, and the same records
+/// rejected, in a decoder's state (every stored quad has four distinct
+/// corners: each passed `check_distinct`), as `build` followed by sorting
+/// by slot (test `fused_edge_split_equals_build`, and every real-mesh
+/// level). Also the corner blocks of the six vertices whose every corner
+/// the record decides, into `blocks` (`[X0, X1, V, V+1, V+2, V+3]`, each
+/// `[n, corners…]`, as [`Scratch::blocks`]): an endpoint's corners in its
+/// rewritten fan quads (its block held exactly its fast star: the sector
+/// faces lose it, no other face has it), a new vertex's where its sector
+/// faces had the endpoint (the same corner ids) and, for `u2`, in the last
+/// fan quad. The decoder then applies the parts itself
+/// ([`MeshState::apply_edge_split_parts`]): the explicit record is never
+/// made.
+///
+/// The order of the checks is `build_fast`'s since it first had them: the
+/// fields against each star, then a face of both endpoints that is a fan
+/// face (in `X1`'s star order), then a fan quad repeating a corner (in
+/// star order) — the same records refused, and the same message where a
+/// record breaks one rule.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn build_fast(
     st: &MeshState,
@@ -363,27 +380,43 @@ pub(crate) fn build_fast(
     rots: &[u8],
     pred: &mut OnePass,
     rw: &mut [(u32, [u32; 4]); FAST_REWRITES],
+    sec: &mut [(u32, u32); FAST_REWRITES],
     app: &mut [[u32; 4]; 4],
     blocks: &mut [[u32; 8]; 6],
     masks: &mut [u8; FAST_REWRITES],
-) -> Result<usize, String> {
+) -> Result<(usize, usize), String> {
     let v0 = st.q.len() as u32;
     let pv = PERMS[p / 24];
     let pf = PERMS[p % 24];
     let u = |i: usize| v0 + pv[i] as u32;
     pred.clear();
     let (q, quads) = (&st.q, &st.quads);
-    // Per endpoint and star position (not walk order): the new vertex
-    // `U_t` of a sector face (`t < 4`), or `4 + j` for fan quad `j`,
-    // whose rotated quad is `fan[x][j]`.
-    let mut role = [[0u8; 8]; 2];
-    // At most five fan quads per endpoint (`n1 + m + 2 <= k`, checked
-    // below, and a fast star has `k <= INLINE = 7` faces): a smaller
-    // array to clear per record than eight.
-    let mut fan = [[[0u32; 4]; 5]; 2];
-    // Per fan quad: its changed corners whose old vertex is not `X` (bits
-    // 0–3) and whose new one is neither `X` nor new (bits 4–7).
-    let mut fmask = [[0u8; 5]; 2];
+    // The faces of both endpoints first (the sector loops skip them): X1's
+    // faces whose slot is in X0's star, as star positions — `shared[x]`
+    // one bit per position, `pairs` the `(X0, X1)` positions in X1's star
+    // order. (Slots are below `2^30`: the `NIL` padding matches none.)
+    let mut slots0 = [NIL; 8];
+    for (sl, &c) in slots0.iter_mut().zip(&fs[0].c[..fs[0].n]) {
+        *sl = c >> 2;
+    }
+    let mut shared = [0u32; 2];
+    let mut pairs = [(0u8, 0u8); 8];
+    let mut np = 0usize;
+    for (i1, &c1) in fs[1].c[..fs[1].n].iter().enumerate() {
+        let hit = eq_mask8(&slots0, c1 >> 2);
+        if hit != 0 {
+            let i0 = hit.trailing_zeros();
+            shared[0] |= 1 << i0;
+            shared[1] |= 1 << i1;
+            pairs[np & 7] = (i0 as u8, i1 as u8);
+            np += 1;
+        }
+    }
+    let mut n = 0usize;
+    let mut ns = 0usize;
+    // Per endpoint, the star positions of fan quads before the last that
+    // repeat a corner (refused after the faces of both endpoints).
+    let mut bad = [0u32; 2];
     let mut tri = [[0u32; 4]; 2];
     let mut rot_i = 0usize;
     for x in 0..2 {
@@ -397,6 +430,7 @@ pub(crate) fn build_fast(
         }
         // `(rho + i) mod k`: `rho < k`, `i < k`.
         let wrap = |i: usize| if rho + i < k { rho + i } else { rho + i - k };
+        let sh = shared[x];
         // The new vertices' blocks: where the sector faces had `X` (at
         // most `k - 2 <= 5` and `k - 1 <= 6` corners, with `u2`'s in the
         // last fan quad below: within a block; the `& 7` only spare the
@@ -407,16 +441,20 @@ pub(crate) fn build_fast(
         );
         for i in 0..=n1 {
             let w = wrap(i) & 7;
-            role[x][w] = 2 * x as u8;
             blocks[b1][(1 + i) & 7] = s.c[w];
+            if sh & (1 << w) == 0 {
+                sector_face(st, s, w, pv[2 * x], pred, sec, &mut ns);
+            }
         }
         blocks[b1][0] = n1 as u32 + 1;
         let mut nb2 = 0usize;
         for i in n1 + m + 1..k {
             let w = wrap(i) & 7;
-            role[x][w] = 2 * x as u8 + 1;
             nb2 += 1;
             blocks[b2][nb2 & 7] = s.c[w];
+            if sh & (1 << w) == 0 {
+                sector_face(st, s, w, pv[2 * x + 1], pred, sec, &mut ns);
+            }
         }
         let lam = |i: usize| s.nx[wrap(i)];
         // Corner opposite X in fan face j (P_{2j+1}): the corner id gives
@@ -428,8 +466,17 @@ pub(crate) fn build_fast(
         let mut o = opp(0);
         tri[x] = [xv, u(2 * x), lam(n1 + 1), o];
         for j in 0..m {
+            let w = wrap(n1 + 1 + j) & 7;
             let fq = if j + 1 < m {
                 let o2 = opp(j + 1);
+                // Only a fan quad before the last can repeat a corner: its
+                // `o` and `o2` are the far corners of two faces, which may
+                // be one vertex. Every other pair of its corners, and of
+                // the last fan quad's `[X, o, l, u2]`, is two corners of
+                // one stored quad (`lam(n1 + 2 + j)`, the next face's
+                // `nx`, is this face's `pv`), `X` and a corner of a quad
+                // of `X`, or a new vertex: distinct.
+                bad[x] |= ((o == o2) as u32) << w;
                 let fq = [xv, o, lam(n1 + 2 + j), o2];
                 o = o2;
                 fq
@@ -440,10 +487,7 @@ pub(crate) fn build_fast(
             };
             let t = *rots.get(rot_i).ok_or("edge split: too few fan rotations")?;
             rot_i += 1;
-            let w = wrap(n1 + 1 + j) & 7;
-            role[x][w] = 4 + j as u8;
             let fq = rotl(fq, t);
-            fan[x][j] = fq;
             // `X` is corner 0 of the fan quad before its rotation (`u2`
             // corner 3 of the last): after it, corner `-t` (`3 - t`).
             let c = s.c[w];
@@ -459,79 +503,64 @@ pub(crate) fn build_fast(
                 blocks[b2][nb2 & 7] = c & !3 | ku;
                 keep_new |= 1 << ku;
             }
-            fmask[x][j] = (changed & !(1 << (c & 3)) | (changed & !keep_new) << 4) as u8;
+            rw[n & (FAST_REWRITES - 1)] = (c >> 2, fq);
+            masks[n & (FAST_REWRITES - 1)] =
+                (changed & !(1 << (c & 3)) | (changed & !keep_new) << 4) as u8;
+            n += 1;
         }
         blocks[x][0] = m as u32;
         blocks[b2][0] = nb2 as u32;
     }
-    // The faces of both endpoints: X1's faces whose slot is in X0's star.
-    let mut slots0 = [NIL; 8];
-    for (sl, &c) in slots0.iter_mut().zip(&fs[0].c[..fs[0].n]) {
-        *sl = c >> 2;
-    }
-    let mut n = 0usize;
-    for i1 in 0..fs[1].n {
-        let c1 = fs[1].c[i1];
-        let slot = c1 >> 2;
-        let hit = eq_mask8(&slots0, slot);
-        if hit == 0 {
-            continue;
-        }
-        let i0 = hit.trailing_zeros() as usize;
-        let (r0, r1) = (role[0][i0], role[1][i1]);
-        if r0 >= 4 || r1 >= 4 {
+    // The faces of both endpoints: refused where either has it as a fan
+    // face; else two new corners, one per endpoint, and the parallelogram
+    // goes to the larger once the smaller is decoded.
+    for &(i0, i1) in &pairs[..np.min(8)] {
+        let (i0, i1) = (i0 as usize, i1 as usize);
+        let (c0, c1) = (fs[0].c[i0 & 7], fs[1].c[i1 & 7]);
+        // The sector of each endpoint (`U_{2x}` or `U_{2x+1}`) from the
+        // position relative to `rho`; `None` in the fan.
+        let role = |x: usize, i: usize| {
+            let k = fs[x].n;
+            let rel = if i >= rho[x] {
+                i - rho[x]
+            } else {
+                i + k - rho[x]
+            };
+            if rel <= n1[x] {
+                Some(2 * x)
+            } else if rel <= n1[x] + m[x] {
+                None
+            } else {
+                Some(2 * x + 1)
+            }
+        };
+        let (Some(r0), Some(r1)) = (role(0, i0), role(1, i1)) else {
             return Err(format!(
-                "edge split: slot {slot} is a fan face and a face of the other endpoint"
+                "edge split: slot {} is a fan face and a face of the other endpoint",
+                c1 >> 2
             ));
-        }
-        // Done here: the loop below skips it in both stars.
-        role[0][i0] = u8::MAX;
-        role[1][i1] = u8::MAX;
-        // Two new corners, one per endpoint: the parallelogram goes to
-        // the larger once the smaller is decoded.
-        let c0 = fs[0].c[i0];
+        };
+        let slot = c1 >> 2;
         let (k0, k1) = ((c0 & 3) as usize, (c1 & 3) as usize);
         let mut qd = quads[slot as usize];
-        qd[k0] = u(r0 as usize);
-        qd[k1] = u(r1 as usize);
-        let (kb, best) = if pv[r0 as usize] > pv[r1 as usize] {
-            (k0, pv[r0 as usize])
+        qd[k0] = u(r0);
+        qd[k1] = u(r1);
+        let (kb, best) = if pv[r0] > pv[r1] {
+            (k0, pv[r0])
         } else {
-            (k1, pv[r1 as usize])
+            (k1, pv[r1])
         };
+        // At most `INLINE` such faces and the two below: within
+        // `ONE_PASS_DEFERRED`.
         pred.defer_at(&qd, kb, best as usize);
         // Two distinct corners of a stored quad replaced by two distinct
         // new vertices: still four distinct corners.
-        rw[n] = (slot, qd);
-        masks[n] = 0;
+        rw[n & (FAST_REWRITES - 1)] = (slot, qd);
+        masks[n & (FAST_REWRITES - 1)] = 0;
         n += 1;
     }
-    for x in 0..2 {
-        let s = fs[x];
-        for (&c, &r) in s.c[..s.n].iter().zip(&role[x]) {
-            let slot = c >> 2;
-            let (qd, mk) = if r == u8::MAX {
-                continue;
-            } else if r >= 4 {
-                let j = (r - 4) as usize;
-                let qd = fan[x][j];
-                check_distinct(&qd, || format!("edge split: rewritten slot {slot}"))?;
-                (qd, fmask[x][j])
-            } else {
-                // One new corner, where X was: a stored quad (four
-                // distinct corners) with one replaced by a new vertex
-                // needs no check.
-                let k = (c & 3) as usize;
-                let mut qd = quads[slot as usize];
-                qd[k] = u(r as usize);
-                let (a, o, e) = (qd[(k + 1) & 3], qd[(k + 2) & 3], qd[(k + 3) & 3]);
-                pred.add_single(q, pv[r as usize] as usize, a, o, e);
-                (qd, 0)
-            };
-            rw[n] = (slot, qd);
-            masks[n] = mk;
-            n += 1;
-        }
+    if bad != [0, 0] {
+        return Err(repeated_fan_corner(st, fs, bad));
     }
     let [x0, x1] = ends;
     let canon = [[x0, u(1), u(2), x1], [x0, x1, u(3), u(0)], tri[0], tri[1]];
@@ -545,12 +574,53 @@ pub(crate) fn build_fast(
         let [xv, _, l, o] = tri[x];
         pred.add_single(q, pv[2 * x] as usize, l, o, xv);
     }
+    // No `check_distinct` (`build` checks them, and they always pass):
+    // `C_0` and `C_1` are the two distinct endpoints and two distinct new
+    // vertices; `T_x = [X, U_2x, l, o]` has `l` and `o`, the next and far
+    // corners of `X` in one stored quad, and a new vertex.
     for (i, cq) in canon.into_iter().enumerate() {
-        let cq = rotl(cq, (ra >> (2 * i)) & 3);
-        check_distinct(&cq, || format!("edge split: appended quad {i}"))?;
-        app[pf[i] as usize] = cq;
+        app[pf[i] as usize] = rotl(cq, (ra >> (2 * i)) & 3);
     }
-    Ok(n)
+    Ok((n, ns))
+}
+
+/// [`build_fast`]'s sector face at star position `w` of an endpoint `X`
+/// (star `s`), a face of that endpoint only: `X` (corner `s.c[w]`)
+/// becomes new vertex `t` (index from `V`), into `sec[*ns]`. Its
+/// parallelogram is the face's other corners: `X`'s next (`nx`) and
+/// previous — the next position's `nx` (the star's walk makes each
+/// face's `pv` its successor's `nx`) — and its far corner. (Always
+/// inlined: as a closure it was a call.)
+#[inline(always)]
+fn sector_face(
+    st: &MeshState,
+    s: &FastStar,
+    w: usize,
+    t: u8,
+    pred: &mut OnePass,
+    sec: &mut [(u32, u32); FAST_REWRITES],
+    ns: &mut usize,
+) {
+    let c = s.c[w & 7];
+    let far = st.quads[(c >> 2) as usize][(c as usize + 2) & 3];
+    let e = s.nx[(if w + 1 < s.n { w + 1 } else { 0 }) & 7];
+    pred.add_single(&st.q, t as usize, s.nx[w & 7], far, e);
+    // (Each star face is in `rw` or `sec` once at most.)
+    sec[*ns & (FAST_REWRITES - 1)] = (c, st.q.len() as u32 + t as u32);
+    *ns += 1;
+}
+
+/// [`build_fast`]'s error for a fan quad that repeats a corner, `bad[x]`
+/// its star positions per endpoint: the first in star order, `X0`'s
+/// first, as `check_distinct` names it (the repeated vertex is the far
+/// corner of the face and of the next one).
+#[cold]
+#[inline(never)]
+fn repeated_fan_corner(st: &MeshState, fs: [&FastStar; 2], bad: [u32; 2]) -> String {
+    let x = (bad[0] == 0) as usize;
+    let c = fs[x].c[bad[x].trailing_zeros() as usize & 7];
+    let far = st.quads[(c >> 2) as usize][(c as usize + 2) & 3];
+    format!("edge split: rewritten slot {} repeats vertex {far}", c >> 2)
 }
 
 /// Rotation `t` with `rotl(q, t) == want`.
