@@ -6,9 +6,15 @@
 // goes: zstd (every frame), CRC-32 (every section), the records
 // (the rest of the push) and the move to the finest level.
 //
-//   node bench/decode.mjs [FILE.pqm ...] [--runs N] [--cold N] [--forward]
+//   node bench/decode.mjs [FILE.pqm ...] [--runs N] [--cold N] [--forward] [--reuse]
 //
 // --forward: the one-way decoder (`forwardOnly: true`).
+// --reuse: every warm decode of a file (warm-up, timed, 64 KiB pieces) in
+// one decoder, `reset(options)` before each (timed with the push), instead
+// of a new decoder each: the next file decoded into the previous one's
+// arrays, as a client decoding asset after asset would. The cold figure is
+// a fresh process's first decode either way. Compare runs with and without
+// it in separate processes, alternating (a shared machine drifts).
 //
 // Warm (steady state): medians over --runs runs after warm-up runs (at
 // least 3, and until 1 s of CPU however many runs that takes, see
@@ -55,6 +61,8 @@ const coldAt = args.indexOf('--cold');
 const coldRuns = coldAt >= 0 ? Number(args.splice(coldAt, 2)[1]) : 3;
 const forwardAt = args.indexOf('--forward');
 const options = forwardAt >= 0 && args.splice(forwardAt, 1).length > 0 ? { forwardOnly: true } : {};
+const reuseAt = args.indexOf('--reuse');
+const reuse = reuseAt >= 0 && args.splice(reuseAt, 1).length > 0;
 let files = args;
 if (files.length === 0) {
   const dirs = [path.join(here, 'data'), path.join(here, '../pqm-decoder/test/data'), path.join(here, '../../spec/vectors')];
@@ -93,10 +101,18 @@ for (const file of files) {
   // 64 KiB-pieces decode are timed in loops of their own afterwards (when
   // they ran between the timed decodes, a major GC fell outside the timed
   // part every other run: bunny read 2.19 M faces/s instead of 1.84).
+  // --reuse: one decoder per file, reset before each decode
+  let kept = null;
+  const decoder = () => {
+    if (!reuse) return new PqmDecoder(options);
+    if (kept === null) kept = new PqmDecoder(options);
+    else kept.reset(options);
+    return kept;
+  };
   const decodeOnce = () => {
     let d = null;
     const push = measure(() => {
-      d = new PqmDecoder(options);
+      d = decoder();
       d.push(bytes);
     });
     const level = measure(() => d.setLevel({ level: d.deepestLevel }));
@@ -131,7 +147,7 @@ for (const file of files) {
   for (let r = 0; r < runs; r++) {
     m.pieces.push(
       measure(() => {
-        const s = new PqmDecoder(options);
+        const s = decoder();
         for (let o = 0; o < bytes.length; o += 65536) s.push(bytes.subarray(o, o + 65536));
         s.setLevel({ level: s.deepestLevel });
       }).wall,
@@ -146,7 +162,7 @@ for (const file of files) {
   const pct = (x) => `${((100 * x) / cpu).toFixed(0)} %`;
   const mfs = (ms) => ((faces / ms) * 1000) / 1e6;
   console.log(
-    `${path.relative(process.cwd(), file)}${options.forwardOnly ? ' (forward-only)' : ''}: ${(bytes.length / 1024).toFixed(0)} KiB (${(uncompressed / 1024).toFixed(0)} KiB uncompressed), ` +
+    `${path.relative(process.cwd(), file)}${options.forwardOnly ? ' (forward-only)' : ''}${reuse ? ' (one decoder, reset)' : ''}: ${(bytes.length / 1024).toFixed(0)} KiB (${(uncompressed / 1024).toFixed(0)} KiB uncompressed), ` +
       `${h.baseFaceCount} → ${faces} faces, ${h.recordCount} records, ${h.chunkCount} chunks`,
   );
   console.log(
@@ -175,7 +191,7 @@ for (const file of files) {
 // and cold, million faces/s by CPU time
 const f2 = (x) => (Number.isFinite(x) ? x.toFixed(2) : '–');
 const head = ['mesh', 'faces', 'warm median', 'warm best', 'warm mean', 'cold', 'zstd %', 'level move %', 'page faults / decode'];
-console.log(`\n${options.forwardOnly ? 'forward-only' : 'general'} decoder, million faces/s by CPU time (node ${process.version}; warm: ${runs} runs after ≥ 1 s of warm-up; cold: first decode in a fresh process, median of ${coldRuns})`);
+console.log(`\n${options.forwardOnly ? 'forward-only' : 'general'} decoder${reuse ? ' (warm: one decoder, reset before each decode)' : ''}, million faces/s by CPU time (node ${process.version}; warm: ${runs} runs after ≥ 1 s of warm-up; cold: first decode in a fresh process, median of ${coldRuns})`);
 console.log(`| ${head.join(' | ')} |`);
 console.log(`|${head.map(() => '---').join('|')}|`);
 for (const [name, faces, med, best, mean, cold, z, l, pf] of summary) {

@@ -371,10 +371,14 @@ const RW_PER_APP = 3.5;
  * @param {number} [capV=nv] vertices to make room for (≥ nv)
  * @param {number} [capF=nf] slots to make room for (≥ nf)
  * @param {number} [major=3] the file's version_major
+ * @param {Frontier|null} [spare] a frontier of an earlier file whose arrays
+ *   take the base when they are large enough (PqmDecoder `reset`): it is
+ *   emptied and returned, the same frontier as a fresh one but for the
+ *   capacity and the contents past the counts, which are never read
  * @returns {Frontier}
  */
-export function decodeBase(payload, nv, nf, qmax, capV = nv, capF = nf, major = 3) {
-  return decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, false);
+export function decodeBase(payload, nv, nf, qmax, capV = nv, capF = nf, major = 3, spare = null) {
+  return decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, false, spare);
 }
 
 /**
@@ -386,7 +390,7 @@ export function decodeBaseReference(payload, nv, nf, qmax, capV = nv, capF = nf,
   return decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, true);
 }
 
-function decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, reference) {
+function decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, reference, spare = null) {
   const section = 'base mesh';
   let traversal = false;
   let start = 0;
@@ -405,9 +409,29 @@ function decodeBaseWith(payload, nv, nf, qmax, capV, capF, major, reference) {
   if (least > len) {
     throw invalid(section, `${nf} faces and ${nv} vertices need at least ${least} bytes, the payload has ${len}`);
   }
-  const st = new Frontier();
-  st.q = new Int32Array(16 * Math.max(nv, capV));
-  st.f = new Uint32Array(4 * Math.max(nf, capF));
+  let st;
+  if (spare !== null) {
+    // An earlier file's frontier (its pages already mapped): emptied, each
+    // array kept if it has the room a fresh one would get (else a fresh
+    // one, as without a spare). Its old contents are never read: the base
+    // decoders write every quad and every vertex's code before reading
+    // them, rebuild() sets every base vertex's list length, appendVertex
+    // each new one's, and a list is read only up to its length.
+    st = spare;
+    st.nv = 0;
+    st.nf = 0;
+    st.big.clear();
+    st.maxV = Infinity;
+    st.maxF = Infinity;
+    const nq = 16 * Math.max(nv, capV);
+    const nff = 4 * Math.max(nf, capF);
+    if (st.q.length < nq) st.q = new Int32Array(nq);
+    if (st.f.length < nff) st.f = new Uint32Array(nff);
+  } else {
+    st = new Frontier();
+    st.q = new Int32Array(16 * Math.max(nv, capV));
+    st.f = new Uint32Array(4 * Math.max(nf, capF));
+  }
   try {
     if (traversal) (reference ? decodeTraversalReference : decodeTraversal)(payload, start, st, nv, nf, qmax);
     else decodeDelta(payload, start, st, nv, nf, qmax);

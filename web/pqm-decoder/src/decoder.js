@@ -201,6 +201,108 @@ export class PqmDecoder {
     this._epoch = 0;
     this._movedScratch = new Uint32Array(64);
     this._rwScratch = new Uint32Array(64);
+    // Arrays of an earlier file that `reset` handed on, for the next base
+    // mesh to take (`_onBase`): the frontier and the current level's.
+    this._spare = { frontier: null, q: null, pos: null, quads: null, tris: null };
+  }
+
+  /**
+   * Makes this decoder a new one for the next file — what
+   * `new PqmDecoder(options)` makes (the same options: `limits`,
+   * `forwardOnly`; none gives the defaults, a general decoder, whatever
+   * this one was) — keeping the large arrays it allocated as room for the
+   * next file: the frontier's vertex records and quads, the current
+   * level's codes, positions, quads and triangles, the per-record log
+   * (its undo lists; when the kind, general or forward-only, stays the
+   * same), the chunk payload buffer and the move scratch. Nothing of the
+   * previous file is kept but capacity: every field not handed on is the
+   * fresh decoder's, and every decode after a reset gives what a fresh
+   * decoder gives — events, statuses, errors, levels, `Change`s
+   * (`test/reset.test.mjs`).
+   *
+   * For a client that decodes file after file (a game streaming its
+   * assets, a viewer switching models): a fresh decoder's arrays are new
+   * memory, zeroed and mapped by the system page by page as they are
+   * first written, and garbage for the collector afterwards.
+   *
+   * The previous file's mesh is gone after the call, so take what you need
+   * from it first: the views `positions`, `positionCodes`, `quads` and
+   * `triangleIndices` returned before (and any `subarray` of them) are
+   * the arrays the next file is decoded into — copy them (or upload them
+   * to the GPU) before `reset`. What the decoder returned as new objects
+   * stays valid: `header`, `chunks`, `vertexOrder`, `positionsF64()`,
+   * `status()`, events, errors and `Change`s.
+   * @param {{limits?: {maxVertices?: number, maxFaces?: number, maxMemoryBytes?: number}, forwardOnly?: boolean}} [options]
+   */
+  reset(options = {}) {
+    const fresh = new PqmDecoder(options);
+    const old = {
+      frontier: this._frontier,
+      spare: this._spare,
+      log: this._log,
+      forward: this._forward,
+      // the current level's quads may be the frontier's own (`_goTo`)
+      quads: this._frontier !== null && this._quads === this._frontier.f ? null : this._quads,
+      q: this._q,
+      pos: this._pos,
+      tris: this._tris,
+      payload: this._payload,
+      vMark: this._vMark,
+      fMark: this._fMark,
+      epoch: this._epoch,
+      pendMoved: this._pendMoved,
+      pendRw: this._pendRw,
+      movedScratch: this._movedScratch,
+      rwScratch: this._rwScratch,
+    };
+    // Every field starts as the fresh decoder's (the constructor creates
+    // them all, so this object keeps its shape): nothing of the previous
+    // file can leak into the next but what is handed on below.
+    for (const k of Object.keys(fresh)) this[k] = fresh[k];
+    // Scratch whose contents are never read before being written: the
+    // chunk payload buffer (decompressed into), the Change id lists
+    // (counted by _nPendMoved, _nPendRw and per move).
+    this._payload = old.payload;
+    this._pendMoved = old.pendMoved;
+    this._pendRw = old.pendRw;
+    this._movedScratch = old.movedScratch;
+    this._rwScratch = old.rwScratch;
+    // The marks are stamps of epochs up to `_epoch`, which goes on from
+    // there: no mark of the previous file equals a later stamp.
+    this._vMark = old.vMark;
+    this._fMark = old.fMark;
+    this._epoch = old.epoch;
+    // The log's arrays, its counts the fresh log's (zero). Only to a log of
+    // the same kind: a one-way log's arrays lack the level lists
+    // (`movedAt`, `rwAt`, `ops`) that a general log grows with `vAt`.
+    if (old.forward === this._forward) {
+      const log = this._log;
+      const o = old.log;
+      log.ops = o.ops;
+      log.vAt = o.vAt;
+      log.fAt = o.fAt;
+      log.movedAt = o.movedAt;
+      log.rwAt = o.rwAt;
+      log.moved = o.moved;
+      log.rw = o.rw;
+      log.newCodes = o.newCodes;
+      log.app = o.app;
+    }
+    // The frontier and the current level's arrays wait for the next base
+    // mesh (`_onBase`); of two candidates (this file's and a spare not
+    // taken, if its base never came) the larger.
+    const larger = (a, b) => (a === null ? b : b === null || a.length >= b.length ? a : b);
+    const sp = this._spare;
+    const f0 = old.frontier;
+    const f1 = old.spare.frontier;
+    sp.frontier = f0 === null ? f1 : f1 === null || f0.q.length >= f1.q.length ? f0 : f1;
+    // (its lists past the 12th slot of a vertex are the previous file's
+    // only: dropped now, not kept alive until the next base)
+    if (sp.frontier !== null) sp.frontier.big.clear();
+    sp.q = larger(old.q, old.spare.q);
+    sp.pos = larger(old.pos, old.spare.pos);
+    sp.quads = larger(old.quads, old.spare.quads);
+    sp.tris = larger(old.tris, old.spare.tris);
   }
 
   // ---- input ---------------------------------------------------------------
@@ -635,7 +737,11 @@ export class PqmDecoder {
     const got = this._consumed + this._queue.length;
     const capV = Math.max(nv, Math.min(h.finalVertexCount, got));
     const capF = Math.max(nf, Math.min(h.finalFaceCount, got));
-    const st = decodeBase(payload, nv, nf, 2 ** h.quantBits - 1, capV, capF, h.versionMajor);
+    // A reset decoder's previous frontier takes the base (kept while the
+    // base fails: the next reset hands it on again).
+    const sp = this._spare;
+    const st = decodeBase(payload, nv, nf, 2 ** h.quantBits - 1, capV, capF, h.versionMajor, sp.frontier);
+    sp.frontier = null;
     st.maxV = h.finalVertexCount;
     st.maxF = h.finalFaceCount;
     this._log.maxLevels = h.recordCount + 1;
@@ -644,12 +750,21 @@ export class PqmDecoder {
     // level 0 becomes the current level
     this._nv = nv;
     this._nf = nf;
-    this._q = codesOf(st.q, nv);
+    // (in a reset decoder's arrays of the previous file where they have
+    // room: every element below the counts is written here, and none above
+    // is read before a move writes it)
+    this._q = codesOf(st.q, nv, takeSpare(sp.q, 3 * nv));
     this._qShared = false;
-    this._pos = new Float32Array(3 * nv);
+    this._pos = takeSpare(sp.pos, 3 * nv) ?? new Float32Array(3 * nv);
     this._dequantizeInto(this._pos, this._q, 0, nv);
-    this._quads = st.f.slice(0, 4 * nf);
-    this._tris = new Uint32Array(6 * nf);
+    const quads = takeSpare(sp.quads, 4 * nf);
+    if (quads === null) this._quads = st.f.slice(0, 4 * nf);
+    else {
+      quads.set(st.f.subarray(0, 4 * nf));
+      this._quads = quads;
+    }
+    this._tris = takeSpare(sp.tris, 6 * nf) ?? new Uint32Array(6 * nf);
+    sp.q = sp.pos = sp.quads = sp.tris = null;
     this._writeTrisRange(0, nf);
     this._level = 0;
   }
@@ -1481,14 +1596,19 @@ export class PqmDecoder {
  * The codes of vertices 0..n (3 per vertex) out of the frontier's vertex
  * records, which keep each code in the first 3 of 16 ints (codec.js).
  */
-function codesOf(sq, n) {
-  const q = new Uint32Array(3 * n);
+function codesOf(sq, n, into = null) {
+  const q = into ?? new Uint32Array(3 * n);
   for (let v = 0; v < n; v++) {
     q[3 * v] = sq[16 * v];
     q[3 * v + 1] = sq[16 * v + 1];
     q[3 * v + 2] = sq[16 * v + 2];
   }
   return q;
+}
+
+/** `arr` if it is not null and holds `n` elements (a spare of `reset`), else null. */
+function takeSpare(arr, n) {
+  return arr !== null && arr.length >= n ? arr : null;
 }
 
 /**

@@ -7,6 +7,7 @@
  * const dec = new PqmDecoder();
  * for (const ev of dec.push(bytes)) if (ev.type === 'chunkReady') dec.refineTo({ level: ev.level });
  * dec.positions; dec.triangleIndices; // current level
+ * dec.reset(); // the next file, in the arrays of this one (take what you need first)
  * ```
  */
 export { PqmDecoder, Change, decodeAll, runs, estimateMemory, DEFAULT_LIMITS } from './decoder.js';
