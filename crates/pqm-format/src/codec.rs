@@ -489,6 +489,25 @@ impl MeshState {
         }
     }
 
+    /// Replaces corner `old` of vertex `v` (where it must be) by `new`:
+    /// in place when it sits in the block (one scan, where an unlink and
+    /// a link moved it to the block's end), else as
+    /// [`MeshState::unlink`] then [`MeshState::link`]. The same corners
+    /// either way (their order in a block carries no meaning).
+    #[inline(always)]
+    fn relink(&mut self, old: u32, new: u32, v: u32) {
+        let b = &mut self.inline[v as usize].0;
+        let n = ((b[0] & !OVERFLOW) as usize).min(INLINE);
+        let hit = eq_mask8(b, old) & ((2u32 << n) - 2);
+        if hit != 0 {
+            // `& 7`: one of bits 1..=7, the index needs no check.
+            b[(hit.trailing_zeros() & 7) as usize] = new;
+            return;
+        }
+        self.unlink(old, v);
+        self.link(new, v);
+    }
+
     /// Removes corner `c` from vertex `v` (where it must be): a scan of the
     /// block (inlined), else the overflow list (cold, out of line).
     #[inline]
@@ -765,27 +784,6 @@ impl MeshState {
             rw.push((s, xor4(quad, old)));
         }
         self.append_quads(&r.appended);
-    }
-
-    /// [`MeshState::apply_delta_logged`] of a record that moves nothing,
-    /// given as its parts: the fused decoding of the compact forms makes
-    /// the rewritten quads in stack arrays, in star order (not by slot:
-    /// the log's entries of one record name distinct slots, and each
-    /// delta is applied on its own, so their order changes no level).
-    #[inline(always)]
-    pub(crate) fn apply_parts_logged(
-        &mut self,
-        new_pos: &[[u32; 3]],
-        rewritten: &[(u32, [u32; 4])],
-        appended: &[[u32; 4]],
-        rw: &mut RewriteDeltas,
-    ) {
-        self.push_new_vertices(new_pos);
-        for &(s, quad) in rewritten {
-            let old = self.set_quad(s, quad);
-            rw.push((s, xor4(quad, old)));
-        }
-        self.append_quads(appended);
     }
 
     /// [`MeshState::apply_delta_logged`] of an edge split decoded on the
@@ -2625,7 +2623,16 @@ fn split_after_anchor(
 /// [`MeshState::apply_delta_logged`] (the sums of [`predict_a`] and
 /// [`predict_split`] over the same faces; test `fused_split_equals_explicit`
 /// and every real-mesh level), and nothing applied on error.
+///
+/// Always inlined (into [`decode_apply_record`], itself inlined into the
+/// decoder's chunk loop): the call, its eleven arguments and the returned
+/// `Result` were ~1.1 % of the bunny's decode (callgrind, one forward
+/// decode: 313.4 M -> 309.9 M instructions; wall time 1-3 % better on
+/// spot, makehuman and loki, even on the bunny). The face split inlined as
+/// well saved another 5.2 M on the bunny but was 1-2 % slower on loki and
+/// makehuman in two A/B runs: not kept.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn decode_apply_split(
     st: &mut MeshState,
     rd: &mut [Reader; 5],
@@ -2901,7 +2908,48 @@ fn decode_apply_face_split(
         new_pos.push(pc);
         appended.push(yq);
     }
-    st.apply_parts_logged(&[pc], &[(s, xq)], &[yq], rw);
+    // Applied: nothing can fail from here. As
+    // [`MeshState::apply_delta_logged`] of the explicit record (new code
+    // `pc`, slot `s` rewritten to `xq`, `yq` appended), but slot `s`
+    // rewritten corner by corner from what the record says of it, not by
+    // `set_quad`'s unlink and link per changed corner (the rotation nearly
+    // always moves all four: four block scans, swap-removes and appends;
+    // bunny, one decode: 317.3 M -> 313.4 M instructions). `xq[t] =
+    // base[(t + rot) & 3]` with `base` = `[m, p, o, c]` or `[m, c, o,
+    // q]`, whose entry `u` held corner `(k + u) & 3` of the old quad:
+    // three entries keep their vertex, which only changes the corner id
+    // in its block (in place: the order of a block's corners carries no
+    // meaning, see [`MeshState`]); the fourth is `c`, and the vertex it
+    // replaces loses its corner. Per corner, so the blocks end with the
+    // same corners as after `set_quad` even were a vertex twice in the
+    // quad. Tests `fused_face_split_equals_explicit` and
+    // `random_records_fused_equals_explicit` compare the corners of every
+    // vertex with the explicit record's.
+    st.q.push(pc);
+    st.inline.push(Block::default());
+    st.quads[s as usize] = xq;
+    let rot = ((sym >> 4) & 3) as usize;
+    let at = |u: usize| 4 * s + ((k + u) & 3) as u32;
+    let to = |u: usize| 4 * s + ((u + 4 - rot) & 3) as u32;
+    // `m`'s corner is the block entry found above (`ct`, at `b[hi]`).
+    let hi = if hit == 0 {
+        1
+    } else {
+        hit.trailing_zeros() as usize
+    };
+    st.inline[m as usize].0[hi & 7] = to(0);
+    // The entry that becomes `c` (its old vertex leaves the quad) and the
+    // other one that stays besides `m` and `o`.
+    let (gone, kept_u) = if x & 1 != 0 { (1, 3) } else { (3, 1) };
+    for u in [2, kept_u] {
+        if at(u) != to(u) {
+            st.relink(at(u), to(u), f[(k + u) & 3]);
+        }
+    }
+    st.unlink(at(gone), f[(k + gone) & 3]);
+    st.link(to(gone), c);
+    rw.push((s, xor4(xq, f)));
+    st.append_quads(&[yq]);
     Ok(())
 }
 
@@ -4074,6 +4122,92 @@ mod tests {
             MeshState::new(1, vec![[0; 3]; 1 + 2 * n as usize], quads),
             dense,
         )
+    }
+
+    /// The face split through the decoder's fused path
+    /// (`decode_apply_face_split`, whose apply moves the rewritten quad's
+    /// corners in place) leaves the same codes, quads and corners of every
+    /// vertex as the explicit record applied, also where a corner of the
+    /// rewritten quad belongs to a full block or one with an overflow list
+    /// (the hub of a 7-, 8- or 9-face fan): every anchor, face index and
+    /// diagonal, five rotation pairs, versions 2–4.
+    #[test]
+    fn fused_face_split_equals_explicit_at_a_full_hub() {
+        use super::{decode_apply_record, decode_record, Cursors, DecodeScratch};
+        use crate::varint::put_u;
+        let mut n_ok = 0;
+        for (n, step) in [(7u32, 3u32), (8, 3), (9, 2)] {
+            let (st, _) = fan(n, step, false);
+            let nv = st.q.len() as u32;
+            let nf = st.quads.len() as u32;
+            for m in 0..nv {
+                let faces = st.valence(m) as u64;
+                for x in 0..2 * faces {
+                    for sym in [0x0cu8, 0x1d, 0x6c, 0xbd, 0xfc] {
+                        for major in 2..=4u16 {
+                            let mut b: [Vec<u8>; 5] = Default::default();
+                            b[0].push(sym);
+                            put_u(&mut b[1], x);
+                            put_s(&mut b[2], m as i64);
+                            for _ in 0..3 {
+                                put_s(&mut b[4], 0);
+                            }
+                            let rd = || [0, 1, 2, 3, 4].map(|k| Reader::new(&b[k], "s"));
+                            let want_r = decode_record(
+                                &st,
+                                &mut rd(),
+                                &mut Cursors::default(),
+                                nv + 1,
+                                nf + 1,
+                                major,
+                            );
+                            let mut got = st.clone();
+                            let (mut moved, mut rw) = (Vec::new(), Vec::new());
+                            let res = decode_apply_record(
+                                &mut got,
+                                &mut rd(),
+                                &mut Cursors::default(),
+                                nv + 1,
+                                nf + 1,
+                                major,
+                                &mut QRecord::default(),
+                                &mut DecodeScratch::new(),
+                                &mut moved,
+                                &mut rw,
+                                None,
+                            );
+                            let r = match want_r {
+                                Ok(r) => r,
+                                Err(e) => {
+                                    assert_eq!(res, Err(e));
+                                    continue;
+                                }
+                            };
+                            res.unwrap();
+                            let mut want = st.clone();
+                            want.apply(&r);
+                            assert_eq!(got.q, want.q);
+                            assert_eq!(got.quads, want.quads);
+                            for v in 0..want.q.len() as u32 {
+                                let mut a: Vec<_> = got.corners(v).collect();
+                                let mut w: Vec<_> = want.corners(v).collect();
+                                a.sort_unstable();
+                                w.sort_unstable();
+                                assert_eq!(a, w, "fan {n}, anchor {m}, x {x}, vertex {v}");
+                            }
+                            // The log entry gives the old quad back.
+                            assert_eq!(rw.len(), 1);
+                            let (slot, d) = rw[0];
+                            let old = got.quads[slot as usize];
+                            let old = [0, 1, 2, 3].map(|k| old[k] ^ d[k]);
+                            assert_eq!(old, st.quads[slot as usize]);
+                            n_ok += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(n_ok > 1000, "{n_ok} face splits");
     }
 
     /// The canonical star (spec §7.5) of a shuffled fan, on both sides of
