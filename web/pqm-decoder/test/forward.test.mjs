@@ -8,20 +8,11 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { PqmDecoder, PqmError } from '../src/index.js';
-import { testFiles, levelDigests, rng, randomPieces } from './helpers.mjs';
+import { testFiles, levelDigests, rng, randomPieces, plainChange as plain } from './helpers.mjs';
 import { unpack, pack } from './repack.mjs';
 import { degree } from '../src/codec.js';
 
 const files = testFiles({ includeBench: true });
-
-/** A Change as plain data (typed arrays as arrays), for deepEqual. */
-const plain = (c) => ({
-  ...c,
-  verticesMoved: [...c.verticesMoved],
-  facesRewritten: [...c.facesRewritten],
-  moved: c.movedRanges(),
-  rewritten: c.rewrittenRanges(),
-});
 
 /** The current level of a decoder, all of it. */
 const state = (d) => ({

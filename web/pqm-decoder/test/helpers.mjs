@@ -300,3 +300,12 @@ export function handmadeFile(baseFile, { ops, conn = [], refs = [], slots = [], 
   setHeader(parts, 48, 'Uint32', 0);
   return pack(parts);
 }
+
+/** A Change as plain data (typed arrays as arrays), for deepEqual. */
+export const plainChange = (c) => ({
+  ...c,
+  verticesMoved: [...c.verticesMoved],
+  facesRewritten: [...c.facesRewritten],
+  moved: c.movedRanges(),
+  rewritten: c.rewrittenRanges(),
+});

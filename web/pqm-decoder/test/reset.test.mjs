@@ -11,19 +11,10 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { PqmDecoder, PqmError } from '../src/index.js';
-import { testFiles, rng, randomPieces } from './helpers.mjs';
+import { testFiles, rng, randomPieces, plainChange as plain } from './helpers.mjs';
 import { unpack, pack } from './repack.mjs';
 
 const files = testFiles();
-
-/** A Change as plain data (typed arrays as arrays), for deepEqual. */
-const plain = (c) => ({
-  ...c,
-  verticesMoved: [...c.verticesMoved],
-  facesRewritten: [...c.facesRewritten],
-  moved: c.movedRanges(),
-  rewritten: c.rewrittenRanges(),
-});
 
 /** An error as plain data (its events too), or null. */
 const plainError = (e) =>
