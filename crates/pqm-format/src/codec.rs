@@ -489,25 +489,6 @@ impl MeshState {
         }
     }
 
-    /// Replaces corner `old` of vertex `v` (where it must be) by `new`:
-    /// in place when it sits in the block (one scan, where an unlink and
-    /// a link moved it to the block's end), else as
-    /// [`MeshState::unlink`] then [`MeshState::link`]. The same corners
-    /// either way (their order in a block carries no meaning).
-    #[inline(always)]
-    fn relink(&mut self, old: u32, new: u32, v: u32) {
-        let b = &mut self.inline[v as usize].0;
-        let n = ((b[0] & !OVERFLOW) as usize).min(INLINE);
-        let hit = eq_mask8(b, old) & ((2u32 << n) - 2);
-        if hit != 0 {
-            // `& 7`: one of bits 1..=7, the index needs no check.
-            b[(hit.trailing_zeros() & 7) as usize] = new;
-            return;
-        }
-        self.unlink(old, v);
-        self.link(new, v);
-    }
-
     /// Removes corner `c` from vertex `v` (where it must be): a scan of the
     /// block (inlined), else the overflow list (cold, out of line).
     #[inline]
@@ -784,6 +765,27 @@ impl MeshState {
             rw.push((s, xor4(quad, old)));
         }
         self.append_quads(&r.appended);
+    }
+
+    /// [`MeshState::apply_delta_logged`] of a record that moves nothing,
+    /// given as its parts: the fused decoding of the compact forms makes
+    /// the rewritten quads in stack arrays, in star order (not by slot:
+    /// the log's entries of one record name distinct slots, and each
+    /// delta is applied on its own, so their order changes no level).
+    #[inline(always)]
+    pub(crate) fn apply_parts_logged(
+        &mut self,
+        new_pos: &[[u32; 3]],
+        rewritten: &[(u32, [u32; 4])],
+        appended: &[[u32; 4]],
+        rw: &mut RewriteDeltas,
+    ) {
+        self.push_new_vertices(new_pos);
+        for &(s, quad) in rewritten {
+            let old = self.set_quad(s, quad);
+            rw.push((s, xor4(quad, old)));
+        }
+        self.append_quads(appended);
     }
 
     /// [`MeshState::apply_delta_logged`] of an edge split decoded on the
@@ -2908,48 +2910,7 @@ fn decode_apply_face_split(
         new_pos.push(pc);
         appended.push(yq);
     }
-    // Applied: nothing can fail from here. As
-    // [`MeshState::apply_delta_logged`] of the explicit record (new code
-    // `pc`, slot `s` rewritten to `xq`, `yq` appended), but slot `s`
-    // rewritten corner by corner from what the record says of it, not by
-    // `set_quad`'s unlink and link per changed corner (the rotation nearly
-    // always moves all four: four block scans, swap-removes and appends;
-    // bunny, one decode: 317.3 M -> 313.4 M instructions). `xq[t] =
-    // base[(t + rot) & 3]` with `base` = `[m, p, o, c]` or `[m, c, o,
-    // q]`, whose entry `u` held corner `(k + u) & 3` of the old quad:
-    // three entries keep their vertex, which only changes the corner id
-    // in its block (in place: the order of a block's corners carries no
-    // meaning, see [`MeshState`]); the fourth is `c`, and the vertex it
-    // replaces loses its corner. Per corner, so the blocks end with the
-    // same corners as after `set_quad` even were a vertex twice in the
-    // quad. Tests `fused_face_split_equals_explicit` and
-    // `random_records_fused_equals_explicit` compare the corners of every
-    // vertex with the explicit record's.
-    st.q.push(pc);
-    st.inline.push(Block::default());
-    st.quads[s as usize] = xq;
-    let rot = ((sym >> 4) & 3) as usize;
-    let at = |u: usize| 4 * s + ((k + u) & 3) as u32;
-    let to = |u: usize| 4 * s + ((u + 4 - rot) & 3) as u32;
-    // `m`'s corner is the block entry found above (`ct`, at `b[hi]`).
-    let hi = if hit == 0 {
-        1
-    } else {
-        hit.trailing_zeros() as usize
-    };
-    st.inline[m as usize].0[hi & 7] = to(0);
-    // The entry that becomes `c` (its old vertex leaves the quad) and the
-    // other one that stays besides `m` and `o`.
-    let (gone, kept_u) = if x & 1 != 0 { (1, 3) } else { (3, 1) };
-    for u in [2, kept_u] {
-        if at(u) != to(u) {
-            st.relink(at(u), to(u), f[(k + u) & 3]);
-        }
-    }
-    st.unlink(at(gone), f[(k + gone) & 3]);
-    st.link(to(gone), c);
-    rw.push((s, xor4(xq, f)));
-    st.append_quads(&[yq]);
+    st.apply_parts_logged(&[pc], &[(s, xq)], &[yq], rw);
     Ok(())
 }
 

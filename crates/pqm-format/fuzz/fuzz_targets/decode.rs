@@ -10,7 +10,9 @@
 //!   3.0 rules (bypasses CRCs so the record decoder itself is exercised),
 //!   both by the explicit record then `apply` and by the decoder's fused
 //!   path (`decode_apply_record`): both refuse the record, or both give
-//!   the same mesh. (Modes 1 and 3 mod 8 with bit 7 set are mode 2.)
+//!   the same mesh — codes, quads and every vertex's star, so corner
+//!   lists that differ are caught at the record that made them. (Modes 1
+//!   and 3 mod 8 with bit 7 set are mode 2.)
 //! * Mode 2 (a base payload, spec §6 and §6.1: odd modes with bit 7 set):
 //!   two bytes give the vertex and face counts, the rest is a 4.0 base
 //!   payload (layout byte first). A base it decodes to is valid (distinct
@@ -58,7 +60,7 @@ fuzz_target!(|data: &[u8]| {
         split_check::check_pieces(rest, &[at]);
     } else {
         use pqm_format::codec::{
-            decode_apply_record, decode_record, Cursors, DecodeScratch, MeshState, QRecord,
+            decode_apply_record, decode_record, Cursors, DecodeScratch, MeshState, QRecord, Star,
         };
         use pqm_format::varint::Reader;
         // Bits 1-2 pick the rules (1.x, 2.0, 3.0, 4.0), the rest the mesh.
@@ -106,6 +108,16 @@ fuzz_target!(|data: &[u8]| {
                         .all(|&v| (v as usize) < st.q.len()));
                     assert_eq!(fused.q, st.q);
                     assert_eq!(fused.quads, st.quads);
+                    // The corner lists too, through every vertex's
+                    // canonical star (spec §7.5): a fused apply that
+                    // leaves the same quads but other corner lists
+                    // decodes later records differently.
+                    for v in 0..st.q.len() as u32 {
+                        let (mut a, mut b) = (Star::default(), Star::default());
+                        let (ra, rb) = (st.star_into(v, &mut a), fused.star_into(v, &mut b));
+                        assert_eq!(ra, rb, "vertex {v}");
+                        assert_eq!((a.faces, a.link), (b.faces, b.link), "vertex {v}");
+                    }
                 }
                 Err(e) => {
                     // refused too, nothing applied (the message may name
