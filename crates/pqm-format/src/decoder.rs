@@ -643,7 +643,7 @@ impl Decoder {
     /// assets): a fresh decoder's arrays are new memory, which the system
     /// maps page by page as they are first written (on loki ≈ 530 page
     /// faults, 2.1 MB). A reused decoder decoded spot, makehuman and loki
-    /// 18–25 % faster than a new one per decode (`decode_loop … reuse`,
+    /// 10–29 % faster than a new one per decode (`decode_loop … reuse`,
     /// session 18); the bunny about as fast, its arrays being large enough
     /// that glibc keeps them between decodes anyway. The previous file's
     /// mesh is gone after the call: take what you need from it first.
