@@ -512,10 +512,11 @@ pub fn encode_traversal(q: &[[u32; 3]], quads: &[[u32; 4]], qmax: u32) -> Option
 fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], he: &HalfEdges, qmax: u32) -> [u32; 3] {
     // as a slice of length `v`, the tests `< v` are its bounds checks too
     let q = &q[..v];
-    let qm = qmax as i64;
     let mut fk = he.at[v].top;
     if fk != NIL {
-        let (mut sum, mut c) = ([0i64; 3], 0i64);
+        // the records' stencil (§7.6 version 4): edge neighbours' and
+        // opposite corners' sums
+        let (mut nb, mut op, mut c) = ([0i64; 3], [0i64; 3], 0i64);
         while fk != NIL {
             let g = quads[(fk >> 2) as usize];
             let k = (fk & 3) as usize;
@@ -524,13 +525,14 @@ fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], he: &HalfEdges, qmax: u
                 q[g[(k + 2) & 3] as usize],
                 q[g[(k + 3) & 3] as usize],
             );
-            sum[0] += 5 * (a[0] as i64 + b[0] as i64) - 2 * m[0] as i64;
-            sum[1] += 5 * (a[1] as i64 + b[1] as i64) - 2 * m[1] as i64;
-            sum[2] += 5 * (a[2] as i64 + b[2] as i64) - 2 * m[2] as i64;
+            for t in 0..3 {
+                nb[t] += a[t] as i64 + b[t] as i64;
+                op[t] += m[t] as i64;
+            }
             c += 1;
             fk = he.next_top[(fk >> 2) as usize];
         }
-        return floor_div_clamp(sum, 8 * c, qm);
+        return codec::stencil_mean_rule::<true>(nb, op, c, qmax);
     }
     // no face with three earlier corners: the earlier edge neighbours' mean
     let (mut esum, mut e) = ([0i64; 3], 0i64);
@@ -548,31 +550,12 @@ fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], he: &HalfEdges, qmax: u
         }
     }
     if e > 0 {
-        floor_div_clamp(esum, e, qm)
+        codec::floor_mean(esum, e, qmax)
     } else if v > 0 {
         q[v - 1]
     } else {
         [0; 3]
     }
-}
-
-/// `clamp(⌊x / d⌋)` of §6.1 per axis (`d > 0`, `clamp` to `0..=qm`). When
-/// `d` is a power of two (one or two faces or neighbours, the most
-/// common) the floor is an arithmetic shift, which rounds toward −∞ as
-/// `div_euclid` by a positive divisor does, without a division.
-#[inline(always)]
-fn floor_div_clamp(x: [i64; 3], d: i64, qm: i64) -> [u32; 3] {
-    let (a, b, c) = if d & (d - 1) == 0 {
-        let sh = d.trailing_zeros();
-        (x[0] >> sh, x[1] >> sh, x[2] >> sh)
-    } else {
-        (x[0].div_euclid(d), x[1].div_euclid(d), x[2].div_euclid(d))
-    };
-    [
-        a.clamp(0, qm) as u32,
-        b.clamp(0, qm) as u32,
-        c.clamp(0, qm) as u32,
-    ]
 }
 
 /// Decodes a base payload of a file of major version `major` with `nv`
@@ -833,7 +816,7 @@ fn decode_traversal<const FAST: bool>(
 
 #[cfg(test)]
 mod tests {
-    use super::{floor_div_clamp, predict, HalfEdges};
+    use super::{predict, HalfEdges};
 
     /// `P(v)` as §6.1 words it: every face holding `v`, tested for three
     /// earlier corners.
@@ -914,25 +897,6 @@ mod tests {
                     predict_as_specified(v, &q, &quads, qmax),
                     "round {round} vertex {v}"
                 );
-            }
-        }
-    }
-
-    /// The shift for a power-of-two divisor is `div_euclid`'s floor, for
-    /// sums of either sign and every divisor a base can give.
-    #[test]
-    fn floor_div_clamp_is_div_euclid_then_clamp() {
-        let mut x = 0x9e37_79b9_7f4a_7c15u64;
-        for d in 1..=2100i64 {
-            for _ in 0..40 {
-                x ^= x << 13;
-                x ^= x >> 7;
-                x ^= x << 17;
-                let s = (x as i64) >> (x % 40);
-                let qm = (x >> 40) as i64 & 0xffff_ffff;
-                let sums = [s, -s, s / 3];
-                let want = sums.map(|s| s.div_euclid(d).clamp(0, qm) as u32);
-                assert_eq!(floor_div_clamp(sums, d, qm), want, "{sums:?} / {d}");
             }
         }
     }

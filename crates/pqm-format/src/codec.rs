@@ -2121,7 +2121,7 @@ fn predict_split(
 /// `floor(sum / n)` per axis, clamped to the grid (spec §7.6's mean of
 /// `n > 0` parallelograms).
 #[inline(always)]
-fn floor_mean(sum: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
+pub(crate) fn floor_mean(sum: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
     let qmax = qmax as i64;
     [
         floor_div(sum[0], n).clamp(0, qmax) as u32,
@@ -2150,7 +2150,12 @@ fn stencil_mean(nb: [i64; 3], op: [i64; 3], n: i64, major: u16, qmax: u32) -> [u
 
 /// [`stencil_mean`] with version 4's rule (`V4`) or the earlier one.
 #[inline(always)]
-fn stencil_mean_rule<const V4: bool>(nb: [i64; 3], op: [i64; 3], n: i64, qmax: u32) -> [u32; 3] {
+pub(crate) fn stencil_mean_rule<const V4: bool>(
+    nb: [i64; 3],
+    op: [i64; 3],
+    n: i64,
+    qmax: u32,
+) -> [u32; 3] {
     if V4 {
         // Per axis by hand: `[0, 1, 2].map(…)` was an out-of-line array
         // drain (3 M instructions of a loki decode), a closure a call.
