@@ -12,6 +12,7 @@
 //! integers, vertex references, face slots, position residuals) because
 //! each stream has its own statistics and zstd models them better apart.
 
+use crate::huge_pages::HugeVec;
 use crate::varint::{put_s, put_u, Reader};
 use pqm_core::OpKind;
 use std::collections::HashMap;
@@ -148,11 +149,11 @@ pub struct MeshState {
     /// Largest quantization code.
     pub qmax: u32,
     /// Vertex codes.
-    pub q: Vec<[u32; 3]>,
+    pub q: HugeVec<[u32; 3]>,
     /// Quads by slot.
-    pub quads: Vec<[u32; 4]>,
+    pub quads: HugeVec<[u32; 4]>,
     /// Per vertex: its [`Block`].
-    inline: Vec<Block>,
+    inline: HugeVec<Block>,
     /// First overflow corner per vertex ([`NIL`]: none), valid where the
     /// block has the flag.
     ov_head: Paged<u32>,
@@ -424,13 +425,15 @@ impl MeshState {
     /// State for the given codes and quads (indices must be in range, at
     /// most [`MAX_FACES`] quads).
     pub fn new(qmax: u32, q: Vec<[u32; 3]>, quads: Vec<[u32; 4]>) -> Self {
+        let mut inline = HugeVec::new();
+        inline.resize(q.len(), Block::default());
         let mut st = MeshState {
             qmax,
-            inline: vec![Block::default(); q.len()],
+            inline,
             ov_head: Paged::new(NIL),
             ov_links: Paged::new([NIL; 2]),
-            q,
-            quads,
+            q: HugeVec::from_slice(&q),
+            quads: HugeVec::from_slice(&quads),
         };
         for s in 0..st.quads.len() {
             for k in 0..4 {
@@ -4364,9 +4367,9 @@ mod tests {
             let (st, _) = fan(n, step.max(1), open);
             // A closed fan within a block takes the fast path.
             prop_assert_eq!(st.star_fast(0).is_some(), !open && n as usize <= INLINE);
-            let mut quads = st.quads.clone();
+            let mut quads = st.quads.to_vec();
             quads.extend(quads_from(st.q.len() as u32, &extra));
-            same_stars(&MeshState::new(1, st.q.clone(), quads))?;
+            same_stars(&MeshState::new(1, st.q.to_vec(), quads))?;
         }
 
         /// The rank sort agrees with the standard sort on distinct values,

@@ -26,6 +26,7 @@
 
 use crate::codec::{self, Cursors, MeshState};
 use crate::error::{DecodeError, FormatError, Section};
+use crate::huge_pages::HugeVec;
 use crate::layout::*;
 use crate::quant::Quantizer;
 use crate::varint::Reader;
@@ -400,10 +401,16 @@ impl Records {
 /// quantizer's match out of the loop. A refinement to the deepest level converts
 /// every new vertex at once, and with the match inside each took ~50
 /// instructions.
-fn extend_f32(pos: &mut Vec<[f32; 3]>, codes: &[[u32; 3]], quant: Option<&Quantizer>) {
-    match quant {
-        Some(q) => pos.extend(codes.iter().map(|&c| q.dequantize(c).map(|x| x as f32))),
-        None => pos.resize(pos.len() + codes.len(), [0.0; 3]),
+fn extend_f32(pos: &mut HugeVec<[f32; 3]>, codes: &[[u32; 3]], quant: Option<&Quantizer>) {
+    // Zero-filled first, then written through a slice: one loop the
+    // compiler vectorizes (an `extend` of a mapped iterator checks the
+    // capacity per element in `HugeVec`).
+    let n = pos.len();
+    pos.resize(n + codes.len(), [0.0; 3]);
+    if let Some(q) = quant {
+        for (p, &c) in pos[n..].iter_mut().zip(codes) {
+            *p = q.dequantize(c).map(|x| x as f32);
+        }
     }
 }
 
@@ -495,9 +502,9 @@ pub struct Decoder {
     zstd: Option<zstd::bulk::Decompressor<'static>>,
     // Current level.
     level: usize,
-    q: Vec<[u32; 3]>,
-    pos: Vec<[f32; 3]>,
-    quads: Vec<[u32; 4]>,
+    q: HugeVec<[u32; 3]>,
+    pos: HugeVec<[f32; 3]>,
+    quads: HugeVec<[u32; 4]>,
     /// The current level is the frontier's (the deepest decoded level) and
     /// its codes and quads are read from the frontier: `q` and `quads` are
     /// stale. A refinement to the deepest level sets it instead of copying
@@ -599,9 +606,9 @@ impl Decoder {
             vertex_order: OnceLock::new(),
             zstd: None,
             level: 0,
-            q: Vec::new(),
-            pos: Vec::new(),
-            quads: Vec::new(),
+            q: HugeVec::new(),
+            pos: HugeVec::new(),
+            quads: HugeVec::new(),
             shared: false,
             copy_policy: CopyPolicy::Auto,
             forward_only: false,

@@ -61,6 +61,7 @@ pub mod decoder;
 pub mod edge_split;
 pub mod encoder;
 pub mod error;
+pub mod huge_pages;
 pub mod layout;
 pub mod quant;
 pub mod varint;

@@ -230,7 +230,7 @@ fn the_spec_example_is_these_bytes() {
     let p = base::encode_traversal(&codes, &quads, 1023).unwrap();
     assert_eq!(p.payload, expected);
     let st = base::decode(&expected, 6, 2, 1023, 4).unwrap();
-    assert_eq!((st.q, st.quads), (codes, quads));
+    assert_eq!((&st.q[..], &st.quads[..]), (&codes[..], &quads[..]));
 }
 
 /// Every truncation of a traversal payload is an error naming the base,
