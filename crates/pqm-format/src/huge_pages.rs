@@ -12,11 +12,15 @@
 //! a mapping of its own (`mmap`), placed at a 2 MiB boundary, whose whole
 //! 2 MiB pages the kernel is advised to back with transparent huge pages
 //! (`madvise(MADV_HUGEPAGE)`); the tail past the last whole page keeps
-//! small pages, so a full array maps no more memory than before. Freeing
-//! it unmaps it: memory goes back to the kernel at once. (Through the heap
-//! instead, with 2 MiB-aligned blocks, glibc kept the freed huge pages: a
-//! loop of new decoders on the split bunny grew to 128 MB resident where
-//! one decode needs 23 MB.) The advice is only advice: contents and results
+//! small pages, so a full array maps no more memory than before. A freed
+//! mapping is kept for the next buffer of about its size (a new decoder
+//! for the next file): at most 8 of them and 64 MiB in all, the oldest
+//! unmapped first, so that a loop of new decoders finds its pages mapped,
+//! as glibc's heap gave them before, and pays no page faults. (Through the
+//! heap instead, with 2 MiB-aligned blocks, glibc kept every freed huge
+//! page: a loop of new decoders on the split bunny grew to 128 MB resident
+//! where one decode needs 23 MB. Unmapping at once made that loop 4–7 %
+//! slower than before.) The advice is only advice: contents and results
 //! are unchanged, and a kernel without transparent huge pages, or with them
 //! `never`, ignores it; at `always` the alignment alone lets the kernel use
 //! them, at `madvise` (Debian's default) only advised memory gets them.
@@ -25,13 +29,12 @@
 //!
 //! The cost: a huge page is mapped (and zeroed) whole on its first write,
 //! so a client that stops refining early may hold up to 2 MiB more per
-//! array than it wrote (one whole decode of the split bunny: 26.7 MB
-//! resident, 22.7 MB before). And a new decoder maps its arrays anew where
-//! glibc used to hand it the last decoder's pages: a loop of new decoders
-//! on the split bunny is 4–7 % slower than before, where a decoder reused
-//! through [`Decoder::reset`](crate::Decoder::reset) is 3–6 % faster and a
-//! one-shot decode (a new process) 7–12 % faster (session 19 in
-//! `docs/figures-history.md`). Decoding file after file, reuse a decoder.
+//! array than it wrote (one whole decode of the split bunny: 26.9 MB
+//! resident, 22.7 MB before), and up to 64 MiB of freed arrays stay mapped
+//! for the next decoder. The gain, on the split bunny: decodes 6–10 %
+//! faster, with a reused decoder, a new one, or in a new process; the
+//! smaller bench meshes have no array of 1 MiB (session 19 in
+//! `docs/figures-history.md`).
 //!
 //! Why not `Vec` with an allocator (the `allocator-api2` crate on stable
 //! Rust): measured, its `push` and `extend` cost loki's decode 1.0–1.7 %
@@ -78,13 +81,17 @@ fn mapped(layout: Layout) -> bool {
     cfg!(target_os = "linux") && layout.size() >= HUGE_FROM
 }
 
-/// Allocates a buffer of `layout` (non-zero size): mapped or from the heap.
-fn allocate(layout: Layout) -> Option<NonNull<u8>> {
+/// Allocates a buffer of `layout` (non-zero size), mapped or from the
+/// heap, and says how many bytes it holds (a cached mapping may hold more).
+fn allocate(layout: Layout) -> Option<(NonNull<u8>, usize)> {
     if mapped(layout) {
         os::map(layout.size())
     } else {
         // SAFETY: the caller passes a non-zero size.
-        NonNull::new(unsafe { std::alloc::alloc(layout) })
+        Some((
+            NonNull::new(unsafe { std::alloc::alloc(layout) })?,
+            layout.size(),
+        ))
     }
 }
 
@@ -166,10 +173,13 @@ impl<T: Copy> HugeVec<T> {
         let new_layout = buffer_layout::<T>(new_cap).expect("capacity overflow");
         // T is not zero-sized here (capacity() is usize::MAX for those, so
         // no growth is ever needed): the size is at least 4 elements'.
-        let Some(raw) = allocate(new_layout) else {
+        let Some((raw, bytes)) = allocate(new_layout) else {
             std::alloc::handle_alloc_error(new_layout)
         };
         let new_ptr = raw.cast::<T>();
+        // All of a cached mapping is ours; its layout (`buffer_layout` of
+        // this capacity) is still mapped and rounds to the same length.
+        let new_cap = new_cap.max(bytes / std::mem::size_of::<T>());
         if self.cap > 0 {
             // SAFETY: both buffers hold at least `len` elements and do not
             // overlap (the new one is fresh); the old one came from
@@ -360,6 +370,7 @@ impl<T: Copy> From<Vec<T>> for HugeVec<T> {
 mod os {
     use super::HUGE;
     use std::ptr::NonNull;
+    use std::sync::Mutex;
 
     /// Mapping lengths are rounded to this (a multiple of every Linux base
     /// page size), so that the tail cut off below starts on a page.
@@ -369,10 +380,32 @@ mod os {
         Some(bytes.checked_add(GRAIN - 1)? & !(GRAIN - 1))
     }
 
-    /// A fresh zeroed mapping of at least `bytes`, starting on a 2 MiB
-    /// boundary, its whole 2 MiB pages advised to huge pages.
-    pub(super) fn map(bytes: usize) -> Option<NonNull<u8>> {
+    /// Freed mappings kept for the next buffers, `(address, length)`,
+    /// oldest first: at most [`CACHE_COUNT`] of them and [`CACHE_BYTES`]
+    /// in all (see the module documentation).
+    static CACHE: Mutex<Vec<(usize, usize)>> = Mutex::new(Vec::new());
+    const CACHE_COUNT: usize = 8;
+    const CACHE_BYTES: usize = 64 << 20;
+
+    /// A mapping of at least `bytes` on a 2 MiB boundary, its whole 2 MiB
+    /// pages advised to huge pages, and its usable length (a multiple of
+    /// [`GRAIN`], up to a quarter more than asked when it is a cached one).
+    /// Its contents are unspecified (zeroes, or an earlier buffer's).
+    pub(super) fn map(bytes: usize) -> Option<(NonNull<u8>, usize)> {
         let len = mapped_len(bytes)?;
+        {
+            let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+            let fit = cache
+                .iter()
+                .enumerate()
+                .filter(|(_, &(_, l))| l >= len && l - len <= len / 4)
+                .min_by_key(|(_, &(_, l))| l)
+                .map(|(i, _)| i);
+            if let Some(i) = fit {
+                let (addr, l) = cache.remove(i);
+                return Some((NonNull::new(addr as *mut u8)?, l));
+            }
+        }
         let span = len.checked_add(HUGE)?;
         // SAFETY: a new private anonymous mapping; no existing memory is
         // touched. Its address is checked below.
@@ -409,17 +442,36 @@ mod os {
                 libc::madvise(aligned as *mut libc::c_void, whole, libc::MADV_HUGEPAGE);
             }
         }
-        NonNull::new(aligned as *mut u8)
+        Some((NonNull::new(aligned as *mut u8)?, len))
     }
 
-    /// Unmaps a buffer from [`map`].
+    /// Gives back a buffer from [`map`]: into the cache, or unmapped (with
+    /// the oldest cached ones, to make room).
     ///
     /// # Safety
-    /// `p` came from `map(bytes)` and is not used again.
+    /// `p` came from `map` with a usable length `l`, `bytes` is in
+    /// `(l - GRAIN, l]`, and `p` is not used again.
     pub(super) unsafe fn unmap(p: NonNull<u8>, bytes: usize) {
         let len = mapped_len(bytes).expect("mapped before");
-        // SAFETY: the caller's contract: exactly the mapping `map` kept.
-        unsafe { libc::munmap(p.as_ptr().cast(), len) };
+        let mut gone = vec![];
+        if len <= CACHE_BYTES {
+            let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+            let mut total: usize = cache.iter().map(|&(_, l)| l).sum();
+            while !cache.is_empty() && (cache.len() >= CACHE_COUNT || total + len > CACHE_BYTES) {
+                let old = cache.remove(0);
+                total -= old.1;
+                gone.push(old);
+            }
+            cache.push((p.as_ptr() as usize, len));
+        } else {
+            gone.push((p.as_ptr() as usize, len));
+        }
+        for (addr, l) in gone {
+            // SAFETY: the caller's contract (for `p`), or a mapping the
+            // cache owned, taken out of it above: each exactly a mapping
+            // `map` kept, used by no buffer.
+            unsafe { libc::munmap(addr as *mut libc::c_void, l) };
+        }
     }
 }
 
@@ -427,7 +479,7 @@ mod os {
 #[cfg(not(target_os = "linux"))]
 mod os {
     use std::ptr::NonNull;
-    pub(super) fn map(_bytes: usize) -> Option<NonNull<u8>> {
+    pub(super) fn map(_bytes: usize) -> Option<(NonNull<u8>, usize)> {
         unreachable!("mapped() is false off Linux")
     }
     pub(super) unsafe fn unmap(_p: NonNull<u8>, _bytes: usize) {
@@ -516,6 +568,34 @@ mod tests {
         z.push(());
         assert_eq!((z.len(), z.capacity()), (1001, usize::MAX));
         assert!(HugeVec::<u8>::new().is_empty());
+    }
+
+    /// Buffers freed and allocated again, of equal, near and far sizes
+    /// (the mapping cache's reuse, fit and eviction), hold what was
+    /// written, and one too large for the cache works too.
+    #[test]
+    fn freed_buffers_are_reused_safely() {
+        for round in 0..3u32 {
+            for (i, n) in [
+                300_000usize,
+                300_000,
+                320_000,
+                1_000_000,
+                270_000,
+                17_000_000,
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let tag = round * 10 + i as u32;
+                let mut v = HugeVec::<u32>::with_capacity(n);
+                v.resize(n, tag);
+                v[n - 1] = tag + 1;
+                let w = v.clone();
+                assert!(w[..n - 1].iter().all(|&x| x == tag) && w[n - 1] == tag + 1);
+                assert!(w.capacity() >= n);
+            }
+        }
     }
 
     /// Large buffers are mappings of their own on 2 MiB boundaries
