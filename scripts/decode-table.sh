@@ -3,7 +3,9 @@
 # its finest level by a fresh and by a reused decoder (general and
 # forward-only), each way in processes of its own, beside the same finest mesh
 # as gltfpack would ship it (meshoptimizer's index and vertex codecs + zstd-19)
-# decoded in the same run (crates/pqm-format/examples/decode_table.rs).
+# decoded in the same run (crates/pqm-format/examples/decode_table.rs); then
+# the peak resident memory of a process decoding each file once, beside the
+# peer's (Linux: VmHWM).
 #
 # Usage: scripts/decode-table.sh [FILE.pqm ...] [--runs N] [--rounds R]
 #   default files: web/bench/data/*.pqm (`npm run bench:data --prefix web`)

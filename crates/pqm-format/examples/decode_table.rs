@@ -32,6 +32,12 @@
 //! Figures are M faces/s (quads; the peer's triangles / 2): per mode the
 //! median over the rounds of each process's median of `--runs` decodes
 //! (default 15 after one untimed one; 3 rounds), and the best decode.
+//!
+//! A second table gives memory: the peak resident set (`VmHWM`, Linux) of a
+//! process that reads one file and decodes it once to the finest level
+//! (general, forward-only), of one that reads the peer's compressed mesh
+//! (written to a temporary file) and decodes it once, and of one that only
+//! reads the `.pqm` file (the baseline: the executable and the input).
 
 use pqm_format::{decode_all, quad_triangles, Decoder, Limits, Target};
 use std::hint::black_box;
@@ -87,6 +93,127 @@ fn peer_decode(p: &Peer) -> usize {
         meshopt::decode_vertex_buffer(&vertex_raw, p.vertex_count).expect("vertex");
     black_box(&v);
     idx.len() / 3
+}
+
+/// The peer's compressed mesh as a file: four little-endian `u64` (index
+/// count, vertex count, the two frames' lengths), then the two frames.
+fn peer_to_bytes(p: &Peer) -> Vec<u8> {
+    let mut out = Vec::new();
+    for n in [
+        p.index_count,
+        p.vertex_count,
+        p.index_z.len(),
+        p.vertex_z.len(),
+    ] {
+        out.extend_from_slice(&(n as u64).to_le_bytes());
+    }
+    out.extend_from_slice(&p.index_z);
+    out.extend_from_slice(&p.vertex_z);
+    out
+}
+
+fn peer_from_bytes(b: &[u8]) -> Peer {
+    let n = |i: usize| u64::from_le_bytes(b[8 * i..8 * i + 8].try_into().unwrap()) as usize;
+    let (ic, vc, il) = (n(0), n(1), n(2));
+    let (index_z, vertex_z) = b[32..].split_at(il);
+    Peer {
+        bytes: index_z.len() + vertex_z.len(),
+        index_z: index_z.to_vec(),
+        vertex_z: vertex_z.to_vec(),
+        index_count: ic,
+        vertex_count: vc,
+    }
+}
+
+/// This process's peak resident set in MB (`VmHWM`; `None` off Linux).
+fn peak_rss_mb() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// Memory worker: reads `file` and, by `what`, decodes it once (`general`,
+/// `forward`; a `.pqm`), decodes it as the peer's file once (`peer`) or
+/// only holds it (`none`); prints its peak resident set in MB.
+fn memory_worker(what: &str, file: &str) {
+    let bytes = std::fs::read(file).unwrap_or_else(|e| {
+        eprintln!("{file}: {e}");
+        std::process::exit(1)
+    });
+    match what {
+        "general" => {
+            black_box(decode_into(&mut Decoder::new(Limits::none()), &bytes));
+        }
+        "forward" => {
+            black_box(decode_into(
+                &mut Decoder::forward_only(Limits::none()),
+                &bytes,
+            ));
+        }
+        "peer" => {
+            black_box(peer_decode(&peer_from_bytes(&bytes)));
+        }
+        _ => {
+            black_box(&bytes);
+        }
+    }
+    match peak_rss_mb() {
+        Some(mb) => println!("{mb}"),
+        None => println!("nan"),
+    }
+}
+
+/// The memory table (see the module docs): one process per file and way.
+fn memory_table(exe: &std::path::Path, files: &[String]) {
+    let run = |what: &str, file: &str| -> f64 {
+        let out = std::process::Command::new(exe)
+            .args(["--memory-worker", what, file])
+            .output()
+            .expect("run the worker");
+        if !out.status.success() {
+            eprint!("{}", String::from_utf8_lossy(&out.stderr));
+            std::process::exit(1);
+        }
+        String::from_utf8_lossy(&out.stdout)
+            .trim()
+            .parse()
+            .unwrap_or(f64::NAN)
+    };
+    println!();
+    println!("| file | quads | baseline (file read) | pqm general | pqm forward-only | peer (meshopt + zstd) | pqm forward-only / peer, above the baseline |");
+    println!("|---|---|---|---|---|---|---|");
+    for f in files {
+        let bytes = std::fs::read(f).unwrap_or_else(|e| {
+            eprintln!("{f}: {e}");
+            std::process::exit(1)
+        });
+        let mut finest = decode_all(&bytes, Limits::none()).unwrap_or_else(|e| {
+            eprintln!("{f}: {e}");
+            std::process::exit(1)
+        });
+        finest
+            .set_level(Target::Level(usize::MAX))
+            .expect("finest level");
+        let peer = peer_encode(finest.quads(), finest.position_codes());
+        let peer_file =
+            std::env::temp_dir().join(format!("pqm-decode-table-{}.peer", std::process::id()));
+        std::fs::write(&peer_file, peer_to_bytes(&peer)).expect("write the peer's file");
+        let (base, general, forward) = (run("none", f), run("general", f), run("forward", f));
+        let peer_mb = run("peer", &peer_file.to_string_lossy());
+        let peer_base = run("none", &peer_file.to_string_lossy());
+        let _ = std::fs::remove_file(&peer_file);
+        let name = std::path::Path::new(f)
+            .file_stem()
+            .map_or(f.clone(), |s| s.to_string_lossy().into_owned());
+        println!(
+            "| {name} | {} | {base:.1} | {general:.1} | {forward:.1} | {peer_mb:.1} | {:.2}× |",
+            finest.quads().len(),
+            (forward - base) / (peer_mb - peer_base),
+        );
+    }
+    println!();
+    println!("Peak resident set (VmHWM) in MB of a process decoding the file once to its finest level; the baseline process only reads the .pqm file, and the ratio subtracts each side's own baseline (the peer's: reading its file).");
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -181,6 +308,14 @@ fn main() {
             "--runs" => runs = num(runs),
             "--rounds" => rounds = num(rounds),
             "--mode" => mode = args.next(),
+            "--memory-worker" => {
+                let (what, file) = (
+                    args.next().unwrap_or_default(),
+                    args.next().unwrap_or_default(),
+                );
+                memory_worker(&what, &file);
+                return;
+            }
             _ => files.push(a),
         }
     }
@@ -254,4 +389,5 @@ fn main() {
     println!(
         "M faces/s (quads; the peer's triangles / 2): median over {rounds} processes per mode of each one's median of {runs} decodes (best: the fastest decode), modes alternated."
     );
+    memory_table(&exe, &files);
 }
