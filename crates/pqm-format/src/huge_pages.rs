@@ -16,7 +16,8 @@
 //! mapping is kept for the next buffer of about its size (a new decoder
 //! for the next file): at most 8 of them and 64 MiB in all, the oldest
 //! unmapped first, so that a loop of new decoders finds its pages mapped,
-//! as glibc's heap gave them before, and pays no page faults. (Through the
+//! as glibc's heap gave them before, and pays no page faults
+//! ([`release_cached`] gives them back). (Through the
 //! heap instead, with 2 MiB-aligned blocks, glibc kept every freed huge
 //! page: a loop of new decoders on the split bunny grew to 128 MB resident
 //! where one decode needs 23 MB. Unmapping at once made that loop 4–7 %
@@ -67,6 +68,14 @@ pub struct HugeVec<T: Copy> {
 unsafe impl<T: Copy + Send> Send for HugeVec<T> {}
 // SAFETY: shared access only reads, like &[T].
 unsafe impl<T: Copy + Sync> Sync for HugeVec<T> {}
+
+/// Gives the kernel back the freed arrays kept for the next decoder (see
+/// the module documentation; at most 64 MiB); returns how many bytes that
+/// was. For a long-running process that decoded a large file and will not
+/// decode another soon. Arrays in use are not touched.
+pub fn release_cached() -> usize {
+    os::release()
+}
 
 /// The layout of a buffer of `cap` elements, `None` on overflow.
 fn buffer_layout<T>(cap: usize) -> Option<Layout> {
@@ -473,6 +482,19 @@ mod os {
             unsafe { libc::munmap(addr as *mut libc::c_void, l) };
         }
     }
+
+    /// Unmaps every cached mapping; returns their bytes.
+    pub(super) fn release() -> usize {
+        let gone = std::mem::take(&mut *CACHE.lock().unwrap_or_else(|e| e.into_inner()));
+        let mut bytes = 0;
+        for (addr, l) in gone {
+            // SAFETY: mappings the cache owned, taken out of it above:
+            // each exactly a mapping `map` kept, used by no buffer.
+            unsafe { libc::munmap(addr as *mut libc::c_void, l) };
+            bytes += l;
+        }
+        bytes
+    }
 }
 
 /// Other systems map nothing of their own (`mapped` is always false).
@@ -484,6 +506,9 @@ mod os {
     }
     pub(super) unsafe fn unmap(_p: NonNull<u8>, _bytes: usize) {
         unreachable!("mapped() is false off Linux")
+    }
+    pub(super) fn release() -> usize {
+        0
     }
 }
 
@@ -596,6 +621,24 @@ mod tests {
                 assert!(w.capacity() >= n);
             }
         }
+    }
+
+    /// Releasing the cache leaves buffers in use alone: a live large
+    /// buffer stays readable and writable after a freed one is released.
+    #[test]
+    fn release_keeps_live_buffers() {
+        let mut live = HugeVec::<u64>::with_capacity(400_000);
+        live.resize(400_000, 3);
+        let mut freed = HugeVec::<u64>::with_capacity(300_000);
+        freed.resize(300_000, 4);
+        drop(freed);
+        release_cached();
+        for (i, x) in live.iter_mut().enumerate() {
+            *x += i as u64;
+        }
+        assert!(live.iter().enumerate().all(|(i, &x)| x == 3 + i as u64));
+        let again = HugeVec::<u64>::from_slice(&live);
+        assert_eq!(again, live);
     }
 
     /// Large buffers are mappings of their own on 2 MiB boundaries

@@ -54,8 +54,8 @@
 //! [`Decoder::reset`] between them: the next file decodes in the memory the
 //! last one used, whose pages are already mapped (capacity is all that is
 //! kept; drop the decoder to give the memory back — on Linux up to 64 MiB
-//! of its largest arrays stay mapped for the next decoder, see
-//! [`huge_pages`]).
+//! of its largest arrays stay mapped for the next decoder until
+//! [`huge_pages::release_cached`]).
 
 pub mod base;
 pub mod codec;
