@@ -12,7 +12,7 @@
 //! a mapping of its own (`mmap`), placed at a 2 MiB boundary, whose whole
 //! 2 MiB pages the kernel is advised to back with transparent huge pages
 //! (`madvise(MADV_HUGEPAGE)`); the tail past the last whole page keeps
-//! small pages, so a full array maps no more memory than before. A freed
+//! small pages, so that it maps only what is written. A freed
 //! mapping is kept for the next buffer of about its size (a new decoder
 //! for the next file): at most 8 of them and 64 MiB in all, the oldest
 //! unmapped first, so that a loop of new decoders finds its pages mapped,
