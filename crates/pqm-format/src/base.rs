@@ -210,7 +210,7 @@ impl HalfEdges {
                 e = h.next_out;
             }
         }
-        self.link(g, rev)
+        self.link(&g, rev)
     }
 
     /// [`add_face`](Self::add_face) for a face `g` coded across the open
@@ -228,9 +228,14 @@ impl HalfEdges {
     ///
     /// Anything else (an escape, a crowded corner, a repeat) is left to
     /// `add_face`, so that an error is the one it reports.
+    ///
+    /// `g` by reference (and so to [`link`](Self::link)): taken by value it
+    /// was copied whole, a 16-byte load right after the decoder's four
+    /// 4-byte stores of it at variable places, which stalls until they
+    /// leave the store buffer (no store forwarding across stores).
     fn add_across(
         &mut self,
-        g: [u32; 4],
+        g: &[u32; 4],
         r: usize,
         gate: u32,
         x: Named,
@@ -240,12 +245,12 @@ impl HalfEdges {
         let mut rev = [NIL; 4];
         rev[r] = gate;
         match (x, y) {
-            (Named::Other, _) | (_, Named::Other) => return self.add_face(g),
+            (Named::Other, _) | (_, Named::Other) => return self.add_face(*g),
             (Named::Open(ex), Named::Open(ey)) => {
                 rev[ta] = ex;
                 rev[ty] = ey;
                 if self.find(g[tx], g[ty]).is_some() {
-                    return self.add_face(g);
+                    return self.add_face(*g);
                 }
                 if let Some(e) = self.find(g[ty], g[tx]) {
                     rev[tx] = e;
@@ -258,7 +263,7 @@ impl HalfEdges {
         if g.iter()
             .any(|&w| self.at[w as usize].faces as usize >= MAX_FACES_PER_VERTEX)
         {
-            return self.add_face(g);
+            return self.add_face(*g);
         }
         self.link(g, rev)
     }
@@ -267,7 +272,7 @@ impl HalfEdges {
     /// half-edge `t` ([`NIL`]: none), which the caller has checked are no
     /// repeats and whose corners are in fewer than the most faces.
     #[inline(always)]
-    fn link(&mut self, g: [u32; 4], rev: [u32; 4]) -> Result<(), String> {
+    fn link(&mut self, g: &[u32; 4], rev: [u32; 4]) -> Result<(), String> {
         let first = self.he.len();
         if first + 4 > self.cap {
             return Err("more faces than the base has".into());
@@ -770,7 +775,7 @@ fn decode_traversal<const FAST: bool>(
                         codec::check_distinct(&g, || format!("face {n}"))?;
                     }
                     if FAST {
-                        he.add_across(g, r, ab as u32, nx, ny)
+                        he.add_across(&g, r, ab as u32, nx, ny)
                     } else {
                         he.add_face(g)
                     }
