@@ -292,19 +292,22 @@ impl HalfEdges {
             open: rev[t] == NIL,
         };
         self.he.extend_from_slice(&[new(0), new(1), new(2), new(3)]);
+        // as slices: a `Vec`'s pointer and length were loaded again after
+        // every store through it (a store might have changed them)
+        let (he, at) = (&mut self.he[..], &mut self.at[..]);
         for t in 0..4 {
             if rev[t] != NIL {
-                self.he[rev[t] as usize].open = false;
+                he[rev[t] as usize].open = false;
             }
             let e = (first + t) as u32;
-            let au = &mut self.at[g[t] as usize];
+            let au = &mut at[g[t] as usize];
             au.faces += 1;
             let out_last = au.out[1];
             au.out[1] = e;
             if out_last == NIL {
                 au.out[0] = e;
             } else {
-                self.he[out_last as usize].next_out = e;
+                he[out_last as usize].next_out = e;
             }
         }
         Ok(())
