@@ -210,7 +210,7 @@ impl HalfEdges {
                 e = h.next_out;
             }
         }
-        self.link(&g, rev)
+        self.link::<false>(&g, rev)
     }
 
     /// [`add_face`](Self::add_face) for a face `g` coded across the open
@@ -226,8 +226,13 @@ impl HalfEdges {
     /// * `x → y` is no repeat and has no reverse if either is new; if both
     ///   are candidates, two lists are walked as `add_face` would.
     ///
-    /// Anything else (an escape, a crowded corner, a repeat) is left to
-    /// `add_face`, so that an error is the one it reports.
+    /// Anything else (an escape, a repeat) is left to `add_face`, so that
+    /// an error is the one it reports. A crowded corner is found by
+    /// [`link`](Self::link) as it counts the face in (no repeat being
+    /// possible by then, `add_face`'s error would be that of the first
+    /// crowded corner, as `link`'s is): four loads and tests fewer than
+    /// testing the corners first. The face is then half linked, which does
+    /// not matter: the error ends the decode.
     ///
     /// `g` by reference (and so to [`link`](Self::link)): taken by value it
     /// was copied whole, a 16-byte load right after the decoder's four
@@ -260,19 +265,16 @@ impl HalfEdges {
             (Named::New, Named::Open(ey)) => rev[ty] = ey,
             (Named::New, Named::New) => {}
         }
-        if g.iter()
-            .any(|&w| self.at[w as usize].faces as usize >= MAX_FACES_PER_VERTEX)
-        {
-            return self.add_face(*g);
-        }
-        self.link(g, rev)
+        self.link::<true>(g, rev)
     }
 
     /// Appends face `g`'s half-edges, `rev[t]` the decoded reverse of its
     /// half-edge `t` ([`NIL`]: none), which the caller has checked are no
-    /// repeats and whose corners are in fewer than the most faces.
+    /// repeats. Its corners are in fewer than the most faces: checked by
+    /// the caller, or with `CROWDED` here, where an error leaves the face
+    /// half linked (the caller's decode ends with it).
     #[inline(always)]
-    fn link(&mut self, g: &[u32; 4], rev: [u32; 4]) -> Result<(), String> {
+    fn link<const CROWDED: bool>(&mut self, g: &[u32; 4], rev: [u32; 4]) -> Result<(), String> {
         let first = self.he.len();
         if first + 4 > self.cap {
             return Err("more faces than the base has".into());
@@ -301,6 +303,9 @@ impl HalfEdges {
             }
             let e = (first + t) as u32;
             let au = &mut at[g[t] as usize];
+            if CROWDED && au.faces as usize >= MAX_FACES_PER_VERTEX {
+                return Err(crowded(g[t]));
+            }
             au.faces += 1;
             let out_last = au.out[1];
             au.out[1] = e;
