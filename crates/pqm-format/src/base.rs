@@ -171,6 +171,14 @@ impl HalfEdges {
         !self.he[e].open
     }
 
+    /// `(u, v)` of decoded half-edge `e` (`u → v`) if it is open (its
+    /// reverse not decoded).
+    #[inline(always)]
+    fn open_ends(&self, e: usize) -> Option<(u32, u32)> {
+        let h = self.he[e];
+        h.open.then_some((h.src, h.dst))
+    }
+
     /// The decoded half-edge `u → v`, if any.
     fn find(&self, u: u32, v: u32) -> Option<u32> {
         let mut e = self.at[u as usize].out[0];
@@ -742,19 +750,19 @@ fn decode_traversal<const FAST: bool>(
             n += 1;
             continue;
         }
-        let f = quads[h];
         h += 1;
         for k in 0..4 {
             if n >= nfu {
                 break;
             }
-            let (a, b) = (f[k], f[(k + 1) & 3]);
-            // face `h − 1`'s half-edge `a → b` is number 4 (h − 1) + k:
-            // `b → a` is decoded exactly when that one is closed
+            // face `h − 1`'s half-edge `a → b` (its corners `k`, `k + 1`)
+            // is number 4 (h − 1) + k: `b → a` is decoded exactly when
+            // that one is closed. Its ends from the half-edge, loaded for
+            // the test anyway, rather than a copy of the face.
             let ab = 4 * (h - 1) + k;
-            if he.closed(ab) {
+            let Some((a, b)) = he.open_ends(ab) else {
                 continue;
-            }
+            };
             let gate = gates.byte()?;
             match gate {
                 0 => {}
