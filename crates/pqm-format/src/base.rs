@@ -663,7 +663,7 @@ impl CornerStreams<'_> {
         sym: u8,
     ) -> Result<(u32, Named), String> {
         if sym == 255 {
-            return self.escape(face);
+            return escape(&mut self.escapes, self.s, face);
         }
         let nth = sym as usize - 1;
         match match cands {
@@ -677,19 +677,22 @@ impl CornerStreams<'_> {
             None => Err(too_few(face, sym)),
         }
     }
+}
 
-    /// [`corner`](Self::corner) for an escape.
-    #[inline(never)]
-    fn escape(&mut self, face: usize) -> Result<(u32, Named), String> {
-        let u = self.escapes.u()?;
-        if u >= self.s as u64 {
-            return Err(format!(
-                "face {face} escapes to vertex {} before vertex 0",
-                self.s as i64 - 1 - u.min(u32::MAX as u64) as i64
-            ));
-        }
-        Ok((self.s - 1 - u as u32, Named::Other))
+/// [`CornerStreams::corner`] for an escape, with `s` of §6.1. Out of line
+/// with the escape stream alone: given the whole `CornerStreams`, its
+/// address taken kept all of it in memory, its counters loaded and stored
+/// again around every store of the walk.
+#[inline(never)]
+fn escape(escapes: &mut Reader, s: u32, face: usize) -> Result<(u32, Named), String> {
+    let u = escapes.u()?;
+    if u >= s as u64 {
+        return Err(format!(
+            "face {face} escapes to vertex {} before vertex 0",
+            s as i64 - 1 - u.min(u32::MAX as u64) as i64
+        ));
     }
+    Ok((s - 1 - u as u32, Named::Other))
 }
 
 #[cold]
