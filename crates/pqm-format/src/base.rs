@@ -758,6 +758,9 @@ fn decode_traversal<const FAST: bool>(
             n += 1;
             continue;
         }
+        // The reference's walk reads the face's corners (unchanged since
+        // it was written); the fast one the half-edge's ends (below).
+        let f = if FAST { [0; 4] } else { quads[h] };
         h += 1;
         for k in 0..4 {
             if n >= nfu {
@@ -765,11 +768,20 @@ fn decode_traversal<const FAST: bool>(
             }
             // face `h − 1`'s half-edge `a → b` (its corners `k`, `k + 1`)
             // is number 4 (h − 1) + k: `b → a` is decoded exactly when
-            // that one is closed. Its ends from the half-edge, loaded for
-            // the test anyway, rather than a copy of the face.
+            // that one is closed. The fast walk takes its ends from the
+            // half-edge, loaded for the test anyway, rather than from a
+            // copy of the face (the same vertices).
             let ab = 4 * (h - 1) + k;
-            let Some((a, b)) = he.open_ends(ab) else {
-                continue;
+            let (a, b) = if FAST {
+                match he.open_ends(ab) {
+                    Some(e) => e,
+                    None => continue,
+                }
+            } else {
+                if he.closed(ab) {
+                    continue;
+                }
+                (f[k], f[(k + 1) & 3])
             };
             let gate = gates.byte()?;
             match gate {
