@@ -171,6 +171,14 @@ impl HalfEdges {
         !self.he[e].open
     }
 
+    /// `(u, v)` of decoded half-edge `e` (`u → v`) if it is open (its
+    /// reverse not decoded).
+    #[inline(always)]
+    fn open_ends(&self, e: usize) -> Option<(u32, u32)> {
+        let h = self.he[e];
+        h.open.then_some((h.src, h.dst))
+    }
+
     /// The decoded half-edge `u → v`, if any.
     fn find(&self, u: u32, v: u32) -> Option<u32> {
         let mut e = self.at[u as usize].out[0];
@@ -185,7 +193,12 @@ impl HalfEdges {
     }
 
     /// Adds face `g`'s half-edges (as half-edges `4 f .. 4 f + 4` of the
-    /// `f`-th face added); `Err` names the problem.
+    /// `f`-th face added); `Err` names the problem. Inlined: out of line,
+    /// the address of `self` it took kept the decoder's `HalfEdges` in
+    /// memory, its arrays' pointers and lengths loaded again around every
+    /// store of the walk, while it runs for about one face in ten
+    /// (makehuman's base: 422 of 3,987).
+    #[inline(always)]
     fn add_face(&mut self, g: [u32; 4]) -> Result<(), String> {
         // One walk of each corner's outgoing list finds both what would be
         // a repeat of the face's half-edge leaving it (`g[t] → g[t + 1]`)
@@ -210,7 +223,7 @@ impl HalfEdges {
                 e = h.next_out;
             }
         }
-        self.link(g, rev)
+        self.link::<false>(&g, rev)
     }
 
     /// [`add_face`](Self::add_face) for a face `g` coded across the open
@@ -226,11 +239,21 @@ impl HalfEdges {
     /// * `x → y` is no repeat and has no reverse if either is new; if both
     ///   are candidates, two lists are walked as `add_face` would.
     ///
-    /// Anything else (an escape, a crowded corner, a repeat) is left to
-    /// `add_face`, so that an error is the one it reports.
+    /// Anything else (an escape, a repeat) is left to `add_face`, so that
+    /// an error is the one it reports. A crowded corner is found by
+    /// [`link`](Self::link) as it counts the face in (no repeat being
+    /// possible by then, `add_face`'s error would be that of the first
+    /// crowded corner, as `link`'s is): four loads and tests fewer than
+    /// testing the corners first. The face is then half linked, which does
+    /// not matter: the error ends the decode.
+    ///
+    /// `g` by reference (and so to [`link`](Self::link)): taken by value it
+    /// was copied whole, a 16-byte load right after the decoder's four
+    /// 4-byte stores of it at variable places, which stalls until they
+    /// leave the store buffer (no store forwarding across stores).
     fn add_across(
         &mut self,
-        g: [u32; 4],
+        g: &[u32; 4],
         r: usize,
         gate: u32,
         x: Named,
@@ -240,12 +263,12 @@ impl HalfEdges {
         let mut rev = [NIL; 4];
         rev[r] = gate;
         match (x, y) {
-            (Named::Other, _) | (_, Named::Other) => return self.add_face(g),
+            (Named::Other, _) | (_, Named::Other) => return self.add_face(*g),
             (Named::Open(ex), Named::Open(ey)) => {
                 rev[ta] = ex;
                 rev[ty] = ey;
                 if self.find(g[tx], g[ty]).is_some() {
-                    return self.add_face(g);
+                    return self.add_face(*g);
                 }
                 if let Some(e) = self.find(g[ty], g[tx]) {
                     rev[tx] = e;
@@ -255,19 +278,16 @@ impl HalfEdges {
             (Named::New, Named::Open(ey)) => rev[ty] = ey,
             (Named::New, Named::New) => {}
         }
-        if g.iter()
-            .any(|&w| self.at[w as usize].faces as usize >= MAX_FACES_PER_VERTEX)
-        {
-            return self.add_face(g);
-        }
-        self.link(g, rev)
+        self.link::<true>(g, rev)
     }
 
     /// Appends face `g`'s half-edges, `rev[t]` the decoded reverse of its
     /// half-edge `t` ([`NIL`]: none), which the caller has checked are no
-    /// repeats and whose corners are in fewer than the most faces.
+    /// repeats. Its corners are in fewer than the most faces: checked by
+    /// the caller, or with `CROWDED` here, where an error leaves the face
+    /// half linked (the caller's decode ends with it).
     #[inline(always)]
-    fn link(&mut self, g: [u32; 4], rev: [u32; 4]) -> Result<(), String> {
+    fn link<const CROWDED: bool>(&mut self, g: &[u32; 4], rev: [u32; 4]) -> Result<(), String> {
         let first = self.he.len();
         if first + 4 > self.cap {
             return Err("more faces than the base has".into());
@@ -287,19 +307,25 @@ impl HalfEdges {
             open: rev[t] == NIL,
         };
         self.he.extend_from_slice(&[new(0), new(1), new(2), new(3)]);
+        // as slices: a `Vec`'s pointer and length were loaded again after
+        // every store through it (a store might have changed them)
+        let (he, at) = (&mut self.he[..], &mut self.at[..]);
         for t in 0..4 {
             if rev[t] != NIL {
-                self.he[rev[t] as usize].open = false;
+                he[rev[t] as usize].open = false;
             }
             let e = (first + t) as u32;
-            let au = &mut self.at[g[t] as usize];
+            let au = &mut at[g[t] as usize];
+            if CROWDED && au.faces as usize >= MAX_FACES_PER_VERTEX {
+                return Err(crowded(g[t]));
+            }
             au.faces += 1;
             let out_last = au.out[1];
             au.out[1] = e;
             if out_last == NIL {
                 au.out[0] = e;
             } else {
-                self.he[out_last as usize].next_out = e;
+                he[out_last as usize].next_out = e;
             }
         }
         Ok(())
@@ -637,7 +663,7 @@ impl CornerStreams<'_> {
         sym: u8,
     ) -> Result<(u32, Named), String> {
         if sym == 255 {
-            return self.escape(face);
+            return escape(&mut self.escapes, self.s, face);
         }
         let nth = sym as usize - 1;
         match match cands {
@@ -651,19 +677,22 @@ impl CornerStreams<'_> {
             None => Err(too_few(face, sym)),
         }
     }
+}
 
-    /// [`corner`](Self::corner) for an escape.
-    #[inline(never)]
-    fn escape(&mut self, face: usize) -> Result<(u32, Named), String> {
-        let u = self.escapes.u()?;
-        if u >= self.s as u64 {
-            return Err(format!(
-                "face {face} escapes to vertex {} before vertex 0",
-                self.s as i64 - 1 - u.min(u32::MAX as u64) as i64
-            ));
-        }
-        Ok((self.s - 1 - u as u32, Named::Other))
+/// [`CornerStreams::corner`] for an escape, with `s` of §6.1. Out of line
+/// with the escape stream alone: given the whole `CornerStreams`, its
+/// address taken kept all of it in memory, its counters loaded and stored
+/// again around every store of the walk.
+#[inline(never)]
+fn escape(escapes: &mut Reader, s: u32, face: usize) -> Result<(u32, Named), String> {
+    let u = escapes.u()?;
+    if u >= s as u64 {
+        return Err(format!(
+            "face {face} escapes to vertex {} before vertex 0",
+            s as i64 - 1 - u.min(u32::MAX as u64) as i64
+        ));
     }
+    Ok((s - 1 - u as u32, Named::Other))
 }
 
 #[cold]
@@ -729,19 +758,31 @@ fn decode_traversal<const FAST: bool>(
             n += 1;
             continue;
         }
-        let f = quads[h];
+        // The reference's walk reads the face's corners (unchanged since
+        // it was written); the fast one the half-edge's ends (below).
+        let f = if FAST { [0; 4] } else { quads[h] };
         h += 1;
         for k in 0..4 {
             if n >= nfu {
                 break;
             }
-            let (a, b) = (f[k], f[(k + 1) & 3]);
-            // face `h − 1`'s half-edge `a → b` is number 4 (h − 1) + k:
-            // `b → a` is decoded exactly when that one is closed
+            // face `h − 1`'s half-edge `a → b` (its corners `k`, `k + 1`)
+            // is number 4 (h − 1) + k: `b → a` is decoded exactly when
+            // that one is closed. The fast walk takes its ends from the
+            // half-edge, loaded for the test anyway, rather than from a
+            // copy of the face (the same vertices).
             let ab = 4 * (h - 1) + k;
-            if he.closed(ab) {
-                continue;
-            }
+            let (a, b) = if FAST {
+                match he.open_ends(ab) {
+                    Some(e) => e,
+                    None => continue,
+                }
+            } else {
+                if he.closed(ab) {
+                    continue;
+                }
+                (f[k], f[(k + 1) & 3])
+            };
             let gate = gates.byte()?;
             match gate {
                 0 => {}
@@ -770,7 +811,7 @@ fn decode_traversal<const FAST: bool>(
                         codec::check_distinct(&g, || format!("face {n}"))?;
                     }
                     if FAST {
-                        he.add_across(g, r, ab as u32, nx, ny)
+                        he.add_across(&g, r, ab as u32, nx, ny)
                     } else {
                         he.add_face(g)
                     }

@@ -435,9 +435,26 @@ impl MeshState {
             q: HugeVec::from_slice(&q),
             quads: HugeVec::from_slice(&quads),
         };
-        for s in 0..st.quads.len() {
-            for k in 0..4 {
-                st.link(4 * s as u32 + k as u32, st.quads[s][k]);
+        // `link`'s fast path over slices taken once (through `st` its
+        // arrays' pointers were loaded again after every store), left for
+        // `link_overflow` at a full block and taken again after it
+        let corners = quads.as_flattened();
+        let mut c = 0;
+        while c < corners.len() {
+            let inline = &mut st.inline[..];
+            while let Some(&v) = corners.get(c) {
+                let b = &mut inline[v as usize].0;
+                let n = b[0] as usize;
+                if n >= INLINE {
+                    break;
+                }
+                b[n + 1] = c as u32;
+                b[0] += 1;
+                c += 1;
+            }
+            if let Some(&v) = corners.get(c) {
+                st.link_overflow(c as u32, v);
+                c += 1;
             }
         }
         st
