@@ -15,9 +15,10 @@
 //!   and 3 mod 8 with bit 7 set are mode 2.)
 //! * Mode 2 (a base payload, spec §6 and §6.1: odd modes with bit 7 set):
 //!   two bytes give the vertex and face counts, the rest is a 4.0 base
-//!   payload (layout byte first). A base it decodes to is valid (distinct
-//!   corners, ids and codes in range), and written again in the traversal
-//!   layout (when it can be) it decodes to the same base.
+//!   payload (layout byte first). It decodes as `base::decode_reference`
+//!   does (the same base or the same error). A base it decodes to is
+//!   valid (distinct corners, ids and codes in range), and written again
+//!   in the traversal layout (when it can be) it decodes to the same base.
 //!
 //! `cargo +nightly fuzz run decode` (or `cargo fuzz run decode -s none` on
 //! stable) from `crates/pqm-format`; seed corpus: `spec/vectors/*.pqm`.
@@ -38,7 +39,15 @@ fuzz_target!(|data: &[u8]| {
             return;
         };
         let (nv, nf, qmax) = (*nv as u32, *nf as u32, 1023);
-        let Ok(st) = base::decode(payload, nv, nf, qmax, 4) else {
+        // The walk's shortcuts change nothing: the same base, or the same
+        // error, as the reference decoder (every shortcut off).
+        let fast = base::decode(payload, nv, nf, qmax, 4);
+        match (&fast, base::decode_reference(payload, nv, nf, qmax, 4)) {
+            (Ok(a), Ok(b)) => assert_eq!((&a.q[..], &a.quads[..]), (&b.q[..], &b.quads[..])),
+            (Err(a), Err(b)) => assert_eq!(a, &b),
+            (a, b) => panic!("fast {:?} / reference {:?}", a.as_ref().err(), b.err()),
+        }
+        let Ok(st) = fast else {
             return;
         };
         assert_eq!((st.q.len(), st.quads.len()), (nv as usize, nf as usize));
