@@ -652,14 +652,13 @@ impl MeshState {
     /// apply.)
     #[inline(always)]
     fn set_quad(&mut self, s: u32, quad: [u32; 4]) -> [u32; 4] {
-        let old = std::mem::replace(&mut self.quads[s as usize], quad);
-        let mut changed = !eq_mask4x4(&old, &quad) & 15;
+        let (old, new, mut changed) = swap_quad(&mut self.quads[s as usize], quad);
         while changed != 0 {
             let k = changed.trailing_zeros() as usize;
             changed &= changed - 1;
             let c = 4 * s + k as u32;
             self.unlink(c, old[k]);
-            self.link(c, quad[k]);
+            self.link(c, new[k]);
         }
         old
     }
@@ -760,7 +759,12 @@ impl MeshState {
             while full != 0 {
                 let k = full.trailing_zeros() as usize;
                 full &= full - 1;
-                self.link_overflow(4 * s + k as u32, quad[k]);
+                // The corner from the slot just written (one 16-byte
+                // store): indexing `quad` by `k` kept it in a stack array
+                // written as four 4-byte stores, which the push then read
+                // back as one 16-byte load, a failed store forwarding.
+                let v = self.quads[s as usize][k];
+                self.link_overflow(4 * s + k as u32, v);
             }
         }
     }
@@ -857,12 +861,10 @@ impl MeshState {
         for &(c, v) in sectors {
             let (s, k) = (c >> 2, (c & 3) as usize);
             let old = std::mem::replace(&mut self.quads[s as usize][k], v);
-            let mut delta = [0u32; 4];
-            delta[k] = old ^ v;
-            rw.push((s, delta));
+            rw.push((s, one_corner(k, old ^ v)));
         }
         for (&(s, quad), &mk) in rewritten.iter().zip(masks) {
-            let old = std::mem::replace(&mut self.quads[s as usize], quad);
+            let (old, new, _) = swap_quad(&mut self.quads[s as usize], quad);
             let mut un = (mk & 15) as u32;
             while un != 0 {
                 let k = un.trailing_zeros() as usize;
@@ -873,7 +875,7 @@ impl MeshState {
             while ln != 0 {
                 let k = ln.trailing_zeros() as usize;
                 ln &= ln - 1;
-                self.link(4 * s + k as u32, quad[k]);
+                self.link(4 * s + k as u32, new[k]);
             }
             rw.push((s, xor4(quad, old)));
         }
@@ -1437,6 +1439,69 @@ fn eq_mask4(q: &[u32; 4], key: u32) -> u32 {
     #[cfg(not(target_arch = "x86_64"))]
     {
         (0..4).fold(0, |m, k| m | ((q[k] == key) as u32) << k)
+    }
+}
+
+/// `[0; 4]` with `x` at index `k` (`k < 4`), made in a register: the
+/// decoders log a one-corner rewrite as this delta. Written into a zeroed
+/// stack array (`delta[k] = x`), it was a 4-byte store that the 16-byte
+/// load of the log entry's push read straight back, which store-to-load
+/// forwarding cannot serve (the load waits for the store to retire).
+#[inline(always)]
+pub(crate) fn one_corner(k: usize, x: u32) -> [u32; 4] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; `__m128i` and
+        // `[u32; 4]` are both 16 plain bytes.
+        unsafe {
+            let lane = _mm_cmpeq_epi32(_mm_set1_epi32(k as i32), _mm_setr_epi32(0, 1, 2, 3));
+            std::mem::transmute::<__m128i, [u32; 4]>(_mm_and_si128(lane, _mm_set1_epi32(x as i32)))
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        std::array::from_fn(|i| if i == k { x } else { 0 })
+    }
+}
+
+/// Writes `quad` to `*slot` and returns `(old, new, changed)`: the slot's
+/// old contents, a copy of `quad` to index by corner, and bit `k` set
+/// where corner `k` differs. The fused decoders make `quad` from four
+/// scalars; copied whole (`mem::replace`) or compared as a vector, it
+/// went through a stack array written as four 4-byte stores and read back
+/// as one 16-byte load, which store-to-load forwarding cannot serve. Here
+/// the vector is built in a register from the four values, stored once to
+/// the slot and once to the copy (16-byte stores, which the 4-byte loads
+/// of the corner loop do forward from).
+#[inline(always)]
+pub(crate) fn swap_quad(slot: &mut [u32; 4], quad: [u32; 4]) -> ([u32; 4], [u32; 4], u32) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86-64 baseline; the unaligned load
+        // and stores access the 16 bytes of `slot`, `old` and `new`.
+        unsafe {
+            let nv = _mm_set_epi32(
+                quad[3] as i32,
+                quad[2] as i32,
+                quad[1] as i32,
+                quad[0] as i32,
+            );
+            let p = slot.as_mut_ptr().cast::<__m128i>();
+            let ov = _mm_loadu_si128(p);
+            _mm_storeu_si128(p, nv);
+            let (mut old, mut new) = ([0u32; 4], [0u32; 4]);
+            _mm_storeu_si128(old.as_mut_ptr().cast::<__m128i>(), ov);
+            _mm_storeu_si128(new.as_mut_ptr().cast::<__m128i>(), nv);
+            let eq = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(ov, nv))) as u32;
+            (old, new, !eq & 15)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let old = std::mem::replace(slot, quad);
+        (old, quad, !eq_mask4x4(&old, &quad) & 15)
     }
 }
 
@@ -2829,9 +2894,7 @@ fn decode_apply_split(
     for &ct in &side[..n_side] {
         let (slot, k) = (ct >> 2, (ct & 3) as usize);
         st.quads[slot as usize][k] = c;
-        let mut delta = [0u32; 4];
-        delta[k] = m ^ c;
-        rw.push((slot, delta));
+        rw.push((slot, one_corner(k, m ^ c)));
     }
     st.append_quads(&[appended]);
     Ok(())
