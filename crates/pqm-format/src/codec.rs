@@ -4140,9 +4140,9 @@ pub fn decode_base(buf: &[u8], nv: u32, nf: u32, qmax: u32) -> Result<MeshState,
 #[cfg(test)]
 mod tests {
     use super::{
-        build_face_split, decode_new_positions, floor_div, predict, predict_face_split,
-        predict_scan, rank_mask8, sort_distinct, MeshState, NewFaces, OnePass, QRecord, Star,
-        INLINE, MAX_SPLIT_STAR, STAR_SMALL,
+        build_face_split, copy8, decode_new_positions, floor_div, one_corner, predict,
+        predict_face_split, predict_scan, rank_mask8, sort_distinct, swap_quad, MeshState,
+        NewFaces, OnePass, QRecord, Star, INLINE, MAX_SPLIT_STAR, STAR_SMALL,
     };
     use crate::varint::{put_s, Reader};
     use pqm_core::OpKind;
@@ -4499,6 +4499,30 @@ mod tests {
             sort_distinct(&mut x);
             want.sort_unstable();
             prop_assert_eq!(x, want);
+        }
+
+        /// The register-built helpers equal their plain definitions:
+        /// `one_corner` a zero quad with one corner set, `swap_quad` a
+        /// `mem::replace` with the changed corners' mask, `copy8` a copy.
+        #[test]
+        fn register_helpers_equal_plain_code(
+            k in 0usize..4,
+            x in any::<u32>(),
+            a in any::<[u32; 4]>(),
+            b in any::<[u32; 4]>(),
+            same in any::<u8>(),
+            c in any::<[u32; 8]>(),
+        ) {
+            let mut want = [0u32; 4];
+            want[k] = x;
+            prop_assert_eq!(one_corner(k, x), want);
+            // Some corners equal, so the mask has both kinds of bit.
+            let b: [u32; 4] = std::array::from_fn(|i| if same >> i & 1 != 0 { a[i] } else { b[i] });
+            let mut slot = a;
+            let (old, new, changed) = swap_quad(&mut slot, b);
+            let mask = (0..4).filter(|&i| a[i] != b[i]).fold(0u32, |m, i| m | 1 << i);
+            prop_assert_eq!((old, new, changed, slot), (a, b, mask, b));
+            prop_assert_eq!(copy8(c), c);
         }
     }
 
