@@ -54,6 +54,18 @@ fn decode_into(d: &mut Decoder, bytes: &[u8]) -> usize {
     d.quads().len()
 }
 
+/// File `f` (its `bytes`) decoded whole, at its finest level; exits with
+/// the error if it does not decode.
+fn finest_level(f: &str, bytes: &[u8]) -> Decoder {
+    let mut d = decode_all(bytes, Limits::none()).unwrap_or_else(|e| {
+        eprintln!("{f}: {e}");
+        std::process::exit(1)
+    });
+    d.set_level(Target::Level(usize::MAX))
+        .expect("finest level");
+    d
+}
+
 /// The peer's two compressed buffers and counts.
 struct Peer {
     index_z: Vec<u8>,
@@ -188,13 +200,7 @@ fn memory_table(exe: &std::path::Path, files: &[String]) {
             eprintln!("{f}: {e}");
             std::process::exit(1)
         });
-        let mut finest = decode_all(&bytes, Limits::none()).unwrap_or_else(|e| {
-            eprintln!("{f}: {e}");
-            std::process::exit(1)
-        });
-        finest
-            .set_level(Target::Level(usize::MAX))
-            .expect("finest level");
+        let finest = finest_level(f, &bytes);
         let peer = peer_encode(finest.quads(), finest.position_codes());
         let peer_file =
             std::env::temp_dir().join(format!("pqm-decode-table-{}.peer", std::process::id()));
@@ -262,13 +268,7 @@ fn worker(files: &[String], mode: &str, runs: usize) {
         // keeps or returns freed blocks by their sizes), and the fresh
         // decoders' page faults with it.
         let (faces, peer) = {
-            let mut finest = decode_all(&bytes, Limits::none()).unwrap_or_else(|e| {
-                eprintln!("{f}: {e}");
-                std::process::exit(1)
-            });
-            finest
-                .set_level(Target::Level(usize::MAX))
-                .expect("finest level");
+            let finest = finest_level(f, &bytes);
             let peer =
                 (mode == "peer").then(|| peer_encode(finest.quads(), finest.position_codes()));
             (finest.quads().len(), peer)
