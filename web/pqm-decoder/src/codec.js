@@ -805,17 +805,25 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
         px = py = pz = 0;
       }
     }
-    const x = px + pos.s();
-    const y = py + pos.s();
-    const z = pz + pos.s();
-    if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
-      throw `vertex ${v} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
-    }
-    q[16 * v] = x;
-    q[16 * v + 1] = y;
-    q[16 * v + 2] = z;
+    storeBaseCode(q, v, px, py, pz, pos, qmax);
   }
   if (pos.remaining() !== 0) throw `${pos.remaining()} unused bytes in the base positions`;
+}
+
+/**
+ * Base vertex `v`'s code: prediction (px, py, pz) plus its three residuals
+ * from `pos`, checked against 0..=qmax, into `q` (both traversal decoders).
+ */
+function storeBaseCode(q, v, px, py, pz, pos, qmax) {
+  const x = px + pos.s();
+  const y = py + pos.s();
+  const z = pz + pos.s();
+  if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
+    throw `vertex ${v} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
+  }
+  q[16 * v] = x;
+  q[16 * v + 1] = y;
+  q[16 * v + 2] = z;
 }
 
 /** A component start's corner symbol of face `n` (no candidates): cornerSymbol of kind 0. */
@@ -1008,15 +1016,7 @@ function decodeTraversalReference(payload, start, st, nv, nf, qmax) {
     } else {
       px = py = pz = 0;
     }
-    const x = px + pos.s();
-    const y = py + pos.s();
-    const z = pz + pos.s();
-    if (x < 0 || x > qmax || y < 0 || y > qmax || z < 0 || z > qmax) {
-      throw `vertex ${v} code (${x}, ${y}, ${z}) outside 0..=${qmax}`;
-    }
-    q[16 * v] = x;
-    q[16 * v + 1] = y;
-    q[16 * v + 2] = z;
+    storeBaseCode(q, v, px, py, pz, pos, qmax);
   }
   if (pos.remaining() !== 0) throw `${pos.remaining()} unused bytes in the base positions`;
 }
