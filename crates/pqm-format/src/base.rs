@@ -544,17 +544,8 @@ fn predict(v: usize, q: &[[u32; 3]], quads: &[[u32; 4]], he: &HalfEdges, qmax: u
         // opposite corners' sums
         let (mut nb, mut op, mut c) = ([0i64; 3], [0i64; 3], 0i64);
         while fk != NIL {
-            let g = quads[(fk >> 2) as usize];
-            let k = (fk & 3) as usize;
-            let (a, m, b) = (
-                q[g[(k + 1) & 3] as usize],
-                q[g[(k + 2) & 3] as usize],
-                q[g[(k + 3) & 3] as usize],
-            );
-            for t in 0..3 {
-                nb[t] += a[t] as i64 + b[t] as i64;
-                op[t] += m[t] as i64;
-            }
+            let g = &quads[(fk >> 2) as usize];
+            codec::add_stencil_corner(q, g, (fk & 3) as usize, &mut nb, &mut op);
             c += 1;
             fk = he.next_top[(fk >> 2) as usize];
         }

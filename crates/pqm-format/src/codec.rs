@@ -2226,17 +2226,32 @@ fn predict_split(
         for (_, quad) in &r.rewritten {
             let k =
                 (quad[1] == c) as usize + 2 * (quad[2] == c) as usize + 3 * (quad[3] == c) as usize;
-            let a = q[quad[(k + 1) & 3] as usize];
-            let o = q[quad[(k + 2) & 3] as usize];
-            let e = q[quad[(k + 3) & 3] as usize];
-            for t in 0..3 {
-                nb[t] += a[t] as i64 + e[t] as i64;
-                op[t] += o[t] as i64;
-            }
+            add_stencil_corner(q, quad, k, &mut nb, &mut op);
             n += 1;
         }
     }
     stencil_mean(nb, op, n, major, st.qmax)
+}
+
+/// Adds corner `k` of `quad` to a §7.6 stencil's sums: its two edge
+/// neighbours' codes to `nb`, its opposite corner's to `op`.
+#[inline(always)]
+pub(crate) fn add_stencil_corner(
+    q: &[[u32; 3]],
+    quad: &[u32; 4],
+    k: usize,
+    nb: &mut [i64; 3],
+    op: &mut [i64; 3],
+) {
+    let (a, o, e) = (
+        q[quad[(k + 1) & 3] as usize],
+        q[quad[(k + 2) & 3] as usize],
+        q[quad[(k + 3) & 3] as usize],
+    );
+    for t in 0..3 {
+        nb[t] += a[t] as i64 + e[t] as i64;
+        op[t] += o[t] as i64;
+    }
 }
 
 /// `floor(sum / n)` per axis, clamped to the grid (spec §7.6's mean of
@@ -2871,17 +2886,7 @@ fn decode_apply_split(
         n_side += 1;
         t = step(t);
         if major >= 2 {
-            let quad = &quads[(ct >> 2) as usize];
-            let k = ct as usize;
-            let (a, o, e) = (
-                q[quad[(k + 1) & 3] as usize],
-                q[quad[(k + 2) & 3] as usize],
-                q[quad[(k + 3) & 3] as usize],
-            );
-            for t in 0..3 {
-                nb[t] += a[t] as i64 + e[t] as i64;
-                op[t] += o[t] as i64;
-            }
+            add_stencil_corner(q, &quads[(ct >> 2) as usize], ct as usize, &mut nb, &mut op);
             cnt += 1;
         }
         if t == i {
