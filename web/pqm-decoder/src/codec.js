@@ -741,9 +741,9 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
   // (spec §6.1; §7.6's version-4 stencil).
   const q = st.q;
   for (let v = 0; v < nv; v++) {
-    let px, py, pz;
     let fk = topHead[v];
     if (fk >= 0) {
+      let px, py, pz;
       let sx = 0, sy = 0, sz = 0, c = 0;
       do {
         const fo = fk & ~3;
@@ -774,6 +774,7 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
         py = clamp(Math.floor(sy / d), qmax);
         pz = clamp(Math.floor(sz / d), qmax);
       }
+      storeBaseCode(q, v, px, py, pz, pos, qmax);
     } else {
       let ex = 0, ey = 0, ez = 0, e = 0;
       for (let cr = cNext[nc + v]; cr >= 0; cr = cNext[cr]) {
@@ -793,19 +794,8 @@ function decodeTraversal(payload, start, st, nv, nf, qmax) {
           e++;
         }
       }
-      if (e > 0) {
-        px = clamp(Math.floor(ex / e), qmax);
-        py = clamp(Math.floor(ey / e), qmax);
-        pz = clamp(Math.floor(ez / e), qmax);
-      } else if (v > 0) {
-        px = q[16 * (v - 1)];
-        py = q[16 * (v - 1) + 1];
-        pz = q[16 * (v - 1) + 2];
-      } else {
-        px = py = pz = 0;
-      }
+      storeEdgeMeanCode(q, v, e, ex, ey, ez, pos, qmax);
     }
-    storeBaseCode(q, v, px, py, pz, pos, qmax);
   }
   if (pos.remaining() !== 0) throw `${pos.remaining()} unused bytes in the base positions`;
 }
@@ -824,6 +814,24 @@ function storeBaseCode(q, v, px, py, pz, pos, qmax) {
   q[16 * v] = x;
   q[16 * v + 1] = y;
   q[16 * v + 2] = z;
+}
+
+/**
+ * Base vertex `v`'s code where no face has three earlier corners: the
+ * mean of its `e` earlier edge neighbours (their sums ex, ey, ez), else
+ * the previous vertex's code, else 0 (spec §6.1), plus its residuals.
+ */
+function storeEdgeMeanCode(q, v, e, ex, ey, ez, pos, qmax) {
+  if (e > 0) {
+    const px = clamp(Math.floor(ex / e), qmax);
+    const py = clamp(Math.floor(ey / e), qmax);
+    const pz = clamp(Math.floor(ez / e), qmax);
+    storeBaseCode(q, v, px, py, pz, pos, qmax);
+  } else if (v > 0) {
+    storeBaseCode(q, v, q[16 * (v - 1)], q[16 * (v - 1) + 1], q[16 * (v - 1) + 2], pos, qmax);
+  } else {
+    storeBaseCode(q, v, 0, 0, 0, pos, qmax);
+  }
 }
 
 /** A component start's corner symbol of face `n` (no candidates): cornerSymbol of kind 0. */
@@ -999,24 +1007,15 @@ function decodeTraversalReference(payload, start, st, nv, nf, qmax) {
     // Math.floor(s / d) is exact here (as in the split form): d ≤ 8 · 255
     // and |s| ≤ 255 · 12 · 2^24, so the quotient's rounding error is far
     // below the 1/d a non-integer quotient keeps from the next integer
-    let px, py, pz;
     if (c > 0) {
       const d = 8 * c;
-      px = clamp(Math.floor(sx / d), qmax);
-      py = clamp(Math.floor(sy / d), qmax);
-      pz = clamp(Math.floor(sz / d), qmax);
-    } else if (e > 0) {
-      px = clamp(Math.floor(ex / e), qmax);
-      py = clamp(Math.floor(ey / e), qmax);
-      pz = clamp(Math.floor(ez / e), qmax);
-    } else if (v > 0) {
-      px = q[16 * (v - 1)];
-      py = q[16 * (v - 1) + 1];
-      pz = q[16 * (v - 1) + 2];
+      const px = clamp(Math.floor(sx / d), qmax);
+      const py = clamp(Math.floor(sy / d), qmax);
+      const pz = clamp(Math.floor(sz / d), qmax);
+      storeBaseCode(q, v, px, py, pz, pos, qmax);
     } else {
-      px = py = pz = 0;
+      storeEdgeMeanCode(q, v, e, ex, ey, ez, pos, qmax);
     }
-    storeBaseCode(q, v, px, py, pz, pos, qmax);
   }
   if (pos.remaining() !== 0) throw `${pos.remaining()} unused bytes in the base positions`;
 }
