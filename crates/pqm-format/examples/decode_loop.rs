@@ -21,11 +21,13 @@
 //!
 //! With `reuse` one decoder decodes every time, [`Decoder::reset`] between
 //! decodes: its arrays keep their pages, as in a client that decodes file
-//! after file. Without it each decode has a new decoder, whose arrays are
-//! new memory (glibc returns large freed blocks to the kernel, so every
-//! decode faults its pages in again, as a one-shot decode does).
+//! after file. Without it each decode has a new decoder, which takes over
+//! the allocations the previous one left when dropped. With `cold` the
+//! process frees those first ([`pqm_format::release_recycled`], outside the
+//! timed part), so that every decode's arrays are new memory, faulted in
+//! page by page, as in a process that decodes one file.
 //!
-//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N] [forward] [order] [reuse]`
+//! `cargo run --release -p pqm-format --example decode_loop -- FILE.pqm [N] [forward] [order] [reuse|cold]`
 
 use pqm_format::{DecodeError, Decoder, Limits, Target};
 
@@ -42,7 +44,7 @@ fn decode_whole(d: &mut Decoder, bytes: &[u8]) -> Result<(), DecodeError> {
 fn main() {
     let mut args = std::env::args().skip(1);
     let Some(f) = args.next() else {
-        eprintln!("usage: decode_loop FILE.pqm [N] [forward] [order] [reuse]");
+        eprintln!("usage: decode_loop FILE.pqm [N] [forward] [order] [reuse|cold]");
         std::process::exit(2);
     };
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(20);
@@ -50,6 +52,7 @@ fn main() {
     let forward = rest.iter().any(|a| a == "forward");
     let order = rest.iter().any(|a| a == "order");
     let reuse = rest.iter().any(|a| a == "reuse");
+    let cold = rest.iter().any(|a| a == "cold") && !reuse;
     let new_decoder = || {
         if forward {
             Decoder::forward_only(Limits::none())
@@ -69,6 +72,9 @@ fn main() {
     let mut faces = 0;
     let mut sum = 0xcbf2_9ce4_8422_2325u64;
     for _ in 0..n.max(1) {
+        if cold {
+            pqm_format::release_recycled();
+        }
         let t = std::time::Instant::now();
         let mut fresh;
         let d = if reuse {
@@ -107,7 +113,13 @@ fn main() {
     println!(
         "{f}{}{}{}: best of {n}: {:.2} ms, {:.2} M faces/s, checksum {sum:016x}",
         if forward { " (forward-only)" } else { "" },
-        if reuse { " (reused decoder)" } else { "" },
+        if reuse {
+            " (reused decoder)"
+        } else if cold {
+            " (cold decoder)"
+        } else {
+            ""
+        },
         if order { " (+ vertex order)" } else { "" },
         best * 1e3,
         faces as f64 / best / 1e6

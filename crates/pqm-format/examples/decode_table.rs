@@ -5,15 +5,19 @@
 //! `cargo run --release -p pqm-format --example decode_table -- FILE.pqm... [--runs N] [--rounds R]`
 //!
 //! Per file, the whole file pushed at once and refined to the finest level
-//! (zstd, CRCs, base and records: what `decode_loop` times), in four ways,
+//! (zstd, CRCs, base and records: what `decode_loop` times), in six ways,
 //! each in processes of its own (`--mode`), the ways alternated over
 //! `--rounds` rounds:
 //!
-//! * `fresh`: a new [`Decoder`] per decode — every decode's arrays are new
-//!   memory, faulted in page by page (glibc returns large freed blocks to
-//!   the kernel), as in a process that decodes one file;
+//! * `cold`: a new [`Decoder`] per decode, after
+//!   [`pqm_format::release_recycled`] — every decode's arrays are new
+//!   memory, faulted in page by page, as in a process that decodes one
+//!   file;
+//! * `new`: a new [`Decoder`] per decode — it takes over the allocations
+//!   the previous one left when dropped, as in a client that makes a
+//!   decoder per asset;
 //! * `reused`: one decoder, [`Decoder::reset`] between decodes — the arrays
-//!   keep their pages, as in a client that decodes asset after asset;
+//!   keep their pages, as in a client that keeps its decoder;
 //!
 //! each as the general decoder and as [`Decoder::forward_only`].
 //!
@@ -238,9 +242,11 @@ fn best(v: &[f64]) -> f64 {
 }
 
 /// The ways to decode, as `--mode` names them.
-const MODES: [&str; 5] = [
-    "fresh-general",
-    "fresh-forward",
+const MODES: [&str; 7] = [
+    "cold-general",
+    "cold-forward",
+    "new-general",
+    "new-forward",
     "reused-general",
     "reused-forward",
     "peer",
@@ -250,7 +256,8 @@ const MODES: [&str; 5] = [
 /// decode) and prints `file \t faces \t mode \t median s \t best s \t pqm
 /// bytes \t peer bytes` per file.
 fn worker(files: &[String], mode: &str, runs: usize) {
-    let (forward, reuse) = (mode.ends_with("forward"), mode.starts_with("reused"));
+    let forward = mode.ends_with("forward");
+    let (reuse, cold) = (mode.starts_with("reused"), mode.starts_with("cold"));
     let new = || {
         if forward {
             Decoder::forward_only(Limits::none())
@@ -265,7 +272,7 @@ fn worker(files: &[String], mode: &str, runs: usize) {
         });
         // The peer is built only in its own mode's process: its buffers
         // would leave the heap in another state than a decoder's (glibc
-        // keeps or returns freed blocks by their sizes), and the fresh
+        // keeps or returns freed blocks by their sizes), and the cold
         // decoders' page faults with it.
         let (faces, peer) = {
             let finest = finest_level(f, &bytes);
@@ -276,6 +283,10 @@ fn worker(files: &[String], mode: &str, runs: usize) {
         let mut kept = new();
         let mut times = Vec::with_capacity(runs);
         for round in 0..=runs {
+            if cold {
+                // What the last decoder left is freed, outside the timing.
+                pqm_format::release_recycled();
+            }
             let t = Instant::now();
             let n = match &peer {
                 Some(p) => peer_decode(p) / 2,
@@ -331,7 +342,7 @@ fn main() {
         worker(&files, &m, runs);
         return;
     }
-    // Each mode in processes of its own (a fresh decoder's cost depends on
+    // Each mode in processes of its own (a new decoder's cost depends on
     // what the process's heap holds, and a reused decoder holds it), the
     // modes alternated over `rounds` rounds.
     let exe = std::env::current_exe().expect("own path");
@@ -366,9 +377,9 @@ fn main() {
         }
     }
     println!(
-        "| file | quads | fresh general | fresh forward | reused general | reused forward | meshopt + zstd (same run) | pqm reused forward / peer | bytes pqm / peer |"
+        "| file | quads | cold general | cold forward | new general | new forward | reused general | reused forward | meshopt + zstd (same run) | pqm reused forward / peer | bytes pqm / peer |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for (f, (faces, pqm_bytes, peer_bytes, per)) in files.iter().zip(&rows) {
         let rate = |t: f64| *faces as f64 / t / 1e6;
         let cells: Vec<String> = per
@@ -381,7 +392,7 @@ fn main() {
         println!(
             "| {name} | {faces} | {} | {:.2}× | {:.2}× |",
             cells.join(" | "),
-            median(&per[4].0) / median(&per[3].0),
+            median(&per[6].0) / median(&per[5].0),
             *pqm_bytes as f64 / *peer_bytes as f64,
         );
     }

@@ -460,6 +460,14 @@ impl MeshState {
         st
     }
 
+    /// Bytes of the arrays' allocations (codes, blocks, quads; the
+    /// overflow lists, a few kilobytes, left out).
+    pub fn capacity_bytes(&self) -> usize {
+        self.q.capacity() * std::mem::size_of::<[u32; 3]>()
+            + self.inline.capacity() * std::mem::size_of::<Block>()
+            + self.quads.capacity() * std::mem::size_of::<[u32; 4]>()
+    }
+
     /// Reserves room for `nv` more vertices and `nf` more slots.
     pub fn reserve(&mut self, nv: usize, nf: usize) {
         self.q.reserve(nv);

@@ -34,6 +34,7 @@ use byteorder::{ByteOrder, LittleEndian as LE};
 use glam::DVec3;
 use pqm_core::{IndexedMesh, OpKind, ProgressiveMesh, SplitRecord};
 use std::ops::Range;
+use std::sync::Mutex;
 use std::sync::OnceLock;
 
 /// A `VORD` or `VNBR` section kept compressed until the order is asked for.
@@ -543,6 +544,10 @@ pub struct Decoder {
     /// Allocations of the previous file's frontier and replay, handed on
     /// by [`Decoder::reset`] for the next base mesh to reuse.
     spare: Spare,
+    /// Whether dropping this decoder leaves its allocations to the next
+    /// new one ([`RECYCLED`]); false for the husks that `reset` and the
+    /// recycling itself leave behind.
+    recycle: bool,
 }
 
 /// What [`Decoder::reset`] keeps of the previous file for the next one's
@@ -554,6 +559,74 @@ struct Spare {
     replay_base: Vec<u8>,
     replay_bytes: Vec<u8>,
     replay_ends: Vec<usize>,
+}
+
+/// Most bytes of allocations a dropped decoder leaves for the next new one
+/// ([`RECYCLED`]): as much as [`crate::huge_pages`] keeps of freed arrays.
+/// A larger decoder frees its memory when dropped.
+const RECYCLE_MAX_BYTES: usize = 64 << 20;
+
+/// The allocations of the last decoder dropped in this process (emptied,
+/// up to [`RECYCLE_MAX_BYTES`]), which the next [`Decoder::new`] or
+/// [`Decoder::forward_only`] takes over.
+///
+/// Why: a new decoder's arrays are new memory, and glibc returns the freed
+/// heap top to the kernel, so a client making a decoder per file faults
+/// every page in again (loki: ≈ 550 faults of ≈ 1.2 µs each, a fifth of
+/// its decode; session 20). A decoder reused with [`Decoder::reset`]
+/// avoids that, and this gives a new decoder the same. One slot, not one
+/// per thread: a pool of threads keeps one decoder's memory, not one per
+/// thread. [`release_recycled`] frees it.
+static RECYCLED: Mutex<Option<Box<Decoder>>> = Mutex::new(None);
+
+/// The decoder in `slot`, if any (also after a panic elsewhere: what the
+/// slot holds is only capacity).
+fn take_from(slot: &Mutex<Option<Box<Decoder>>>) -> Option<Decoder> {
+    let taken = slot.lock().unwrap_or_else(|e| e.into_inner()).take();
+    taken.map(|d| *d)
+}
+
+/// Puts `husk` (not recycled itself when dropped) into `slot` if it holds
+/// at most `max_bytes`, in place of the one there (dropped, outside the
+/// lock); otherwise drops it.
+fn put_into(slot: &Mutex<Option<Box<Decoder>>>, mut husk: Decoder, max_bytes: usize) {
+    husk.recycle = false;
+    if husk.retained_bytes() > max_bytes {
+        return;
+    }
+    let displaced = slot
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .replace(Box::new(husk));
+    drop(displaced);
+}
+
+/// Frees the allocations a dropped decoder left for the next new one (see
+/// [`Decoder::new`]), and the freed arrays [`crate::huge_pages`] keeps;
+/// returns about how many bytes that was. For a long-running process that
+/// decoded a large file and will not decode another soon. Decoders in use
+/// are not touched.
+pub fn release_recycled() -> usize {
+    let old = take_from(&RECYCLED);
+    let bytes = old.as_ref().map_or(0, |d| d.retained_bytes());
+    // `recycle` is off in the slot: the drop frees, and the mapped arrays
+    // go to the huge-page cache, released next.
+    drop(old);
+    bytes + crate::huge_pages::release_cached()
+}
+
+impl Drop for Decoder {
+    /// Leaves this decoder's allocations to the next new one
+    /// ([`Decoder::new`]) when they are at most 64 MiB.
+    fn drop(&mut self) {
+        if !self.recycle || std::thread::panicking() {
+            return;
+        }
+        let husk = std::mem::replace(self, Decoder::empty(self.limits, false));
+        // What is left in `self` owns nothing.
+        self.recycle = false;
+        put_into(&RECYCLED, husk, RECYCLE_MAX_BYTES);
+    }
 }
 
 /// Whether [`Decoder::go_to`] refines to the deepest level by copying the
@@ -582,7 +655,33 @@ impl CopyPolicy {
 
 impl Decoder {
     /// A decoder with the given budget.
+    ///
+    /// It starts with the allocations the last dropped decoder of this
+    /// process left, if any, and if they fit in `limits.max_memory_bytes`
+    /// (see [`release_recycled`]): a new decoder per file then finds its
+    /// arrays' pages mapped, as a reset one does ([`Decoder::reset`]),
+    /// instead of faulting them in again. Nothing of that decoder's file is
+    /// kept but capacity.
     pub fn new(limits: Limits) -> Self {
+        Decoder::recycled_or_empty(limits, false)
+    }
+
+    /// A decoder for one-way decoding: it keeps the undo data of a chunk
+    /// only until the chunk is committed, so it moves only *to the deepest
+    /// decoded level* ([`Decoder::refine_to`] / [`Decoder::set_level`] with
+    /// a target that resolves to it; any other level is a
+    /// [`DecodeError::Parameter`]), and
+    /// [`Decoder::to_progressive_mesh`] gives `None`. Everything else — the
+    /// push API, the checks, [`Limits`], the events, the levels it reaches
+    /// and the [`Change`]s it reports — is the same as [`Decoder::new`]'s;
+    /// it needs less memory (neither undo data nor the compressed chunks to
+    /// rebuild it).
+    pub fn forward_only(limits: Limits) -> Self {
+        Decoder::recycled_or_empty(limits, true)
+    }
+
+    /// A decoder that owns no allocation yet.
+    fn empty(limits: Limits, forward_only: bool) -> Self {
         Decoder {
             limits,
             buf: Vec::new(),
@@ -611,31 +710,29 @@ impl Decoder {
             quads: HugeVec::new(),
             shared: false,
             copy_policy: CopyPolicy::Auto,
-            forward_only: false,
+            forward_only,
             base_layout: None,
             logs: false,
             replay: None,
             pending_moved: Vec::new(),
             pending_rw: Vec::new(),
             spare: Spare::default(),
+            recycle: true,
         }
     }
 
-    /// A decoder for one-way decoding: it keeps the undo data of a chunk
-    /// only until the chunk is committed, so it moves only *to the deepest
-    /// decoded level* ([`Decoder::refine_to`] / [`Decoder::set_level`] with
-    /// a target that resolves to it; any other level is a
-    /// [`DecodeError::Parameter`]), and
-    /// [`Decoder::to_progressive_mesh`] gives `None`. Everything else — the
-    /// push API, the checks, [`Limits`], the events, the levels it reaches
-    /// and the [`Change`]s it reports — is the same as [`Decoder::new`]'s;
-    /// it needs less memory (neither undo data nor the compressed chunks to
-    /// rebuild it).
-    pub fn forward_only(limits: Limits) -> Self {
-        Decoder {
-            forward_only: true,
-            ..Decoder::new(limits)
+    /// An empty decoder that takes over the allocations in [`RECYCLED`].
+    fn recycled_or_empty(limits: Limits, forward_only: bool) -> Self {
+        let mut d = Decoder::empty(limits, forward_only);
+        if let Some(old) = take_from(&RECYCLED) {
+            // Never more than the budget allows, even as mere capacity.
+            if old.retained_bytes() as u64 <= limits.max_memory_bytes {
+                d.adopt(old);
+            } else {
+                put_into(&RECYCLED, old, RECYCLE_MAX_BYTES);
+            }
         }
+        d
     }
 
     /// Makes this decoder a new one for the next file — as
@@ -647,22 +744,27 @@ impl Decoder {
     /// `reset_decoder_equals_fresh`).
     ///
     /// For a client that decodes file after file (a game streaming its
-    /// assets): a fresh decoder's arrays are new memory, which the system
-    /// maps page by page as they are first written (on loki ≈ 530 page
-    /// faults, 2.1 MB). A reused decoder decoded spot, makehuman and loki
-    /// 10–29 % faster than a new one per decode (`decode_loop … reuse`,
-    /// session 18); the bunny about as fast, its arrays being large enough
-    /// that glibc keeps them between decodes anyway. The previous file's
-    /// mesh is gone after the call: take what you need from it first.
+    /// assets): a decoder's arrays as new memory are mapped by the system
+    /// page by page as they are first written (on loki ≈ 530 page faults,
+    /// 2.1 MB); a reused decoder decoded spot, makehuman and loki 10–29 %
+    /// faster than one on new memory (`decode_loop … reuse`, session 18).
+    /// A new decoder that takes over a dropped one's allocations
+    /// ([`Decoder::new`]) gets the same, as long as no other decoder was
+    /// dropped in between; a reset one keeps its own whatever other
+    /// decoders do. The previous file's mesh is gone after the call: take
+    /// what you need from it first.
     pub fn reset(&mut self, limits: Limits) {
-        let fresh = if self.forward_only {
-            Decoder::forward_only(limits)
-        } else {
-            Decoder::new(limits)
-        };
-        // Everything not handed on below starts as the fresh decoder's:
+        // Everything not handed on by `adopt` starts as a fresh decoder's:
         // no state of the previous file can leak into the next.
-        let mut old = std::mem::replace(self, fresh);
+        let old = std::mem::replace(self, Decoder::empty(limits, self.forward_only));
+        self.adopt(old);
+    }
+
+    /// Takes over `old`'s allocations, emptied, into this empty decoder
+    /// (what [`Decoder::reset`] and a recycled [`Decoder::new`] keep).
+    fn adopt(&mut self, mut old: Decoder) {
+        // The husk left in `old` is dropped, not recycled.
+        old.recycle = false;
         old.buf.clear();
         old.chunks.clear();
         old.chunk_levels.clear();
@@ -673,31 +775,71 @@ impl Decoder {
         old.quads.clear();
         old.pending_moved.clear();
         old.pending_rw.clear();
-        self.buf = old.buf;
-        self.chunks = old.chunks;
-        self.chunk_levels = old.chunk_levels;
-        self.recs = old.recs;
+        self.buf = std::mem::take(&mut old.buf);
+        self.chunks = std::mem::take(&mut old.chunks);
+        self.chunk_levels = std::mem::take(&mut old.chunk_levels);
+        self.recs = std::mem::take(&mut old.recs);
         // Per-record buffers, sized to the largest record seen; their
         // marks are generation stamps, never reset between records or files.
-        self.rec = old.rec;
-        self.buffers = old.buffers;
-        self.zbuf = old.zbuf;
+        self.rec = std::mem::take(&mut old.rec);
+        self.buffers = std::mem::take(&mut old.buffers);
+        self.zbuf = std::mem::take(&mut old.zbuf);
         // zstd resets its context at every frame.
-        self.zstd = old.zstd;
-        self.q = old.q;
-        self.pos = old.pos;
-        self.quads = old.quads;
-        self.pending_moved = old.pending_moved;
-        self.pending_rw = old.pending_rw;
-        self.spare = old.spare;
-        if let Some(st) = old.frontier {
+        self.zstd = old.zstd.take();
+        self.q = std::mem::take(&mut old.q);
+        self.pos = std::mem::take(&mut old.pos);
+        self.quads = std::mem::take(&mut old.quads);
+        self.pending_moved = std::mem::take(&mut old.pending_moved);
+        self.pending_rw = std::mem::take(&mut old.pending_rw);
+        self.spare = std::mem::take(&mut old.spare);
+        if let Some(st) = old.frontier.take() {
             self.spare.state = Some(st);
         }
-        if let Some(r) = old.replay {
+        if let Some(r) = old.replay.take() {
             self.spare.replay_base = r.base;
             self.spare.replay_bytes = r.bytes;
             self.spare.replay_ends = r.ends;
         }
+    }
+
+    /// About how many bytes of allocations this decoder holds (the arrays
+    /// that grow with the mesh; a few small ones are left out).
+    fn retained_bytes(&self) -> usize {
+        fn b<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        fn h<T: Copy>(v: &HugeVec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        let r = &self.recs;
+        let states = self.frontier.iter().chain(self.spare.state.iter());
+        let replay = self
+            .replay
+            .iter()
+            .map(|r| b(&r.base) + b(&r.bytes) + b(&r.ends));
+        b(&self.buf)
+            + b(&self.zbuf)
+            + b(&self.chunks)
+            + b(&self.chunk_levels)
+            + h(&self.q)
+            + h(&self.pos)
+            + h(&self.quads)
+            + b(&self.pending_moved)
+            + b(&self.pending_rw)
+            + b(&r.op)
+            + b(&r.v_at)
+            + b(&r.f_at)
+            + b(&r.moved_at)
+            + b(&r.rw_at)
+            + b(&r.moved)
+            + b(&r.rw)
+            + b(&r.new_pos)
+            + b(&r.appended)
+            + states.map(MeshState::capacity_bytes).sum::<usize>()
+            + replay.sum::<usize>()
+            + b(&self.spare.replay_base)
+            + b(&self.spare.replay_bytes)
+            + b(&self.spare.replay_ends)
     }
 
     /// Makes a general decoder keep its undo logs for every record from now
@@ -2479,10 +2621,14 @@ pub fn decode_all(bytes: &[u8], limits: Limits) -> Result<Decoder, DecodeError> 
 
 #[cfg(test)]
 mod tests {
-    use super::{check_block_sizes, sorted_distinct_below, CopyPolicy, Decoder, Limits, Target};
+    use super::{
+        check_block_sizes, put_into, sorted_distinct_below, take_from, CopyPolicy, Decoder, Limits,
+        Target,
+    };
     use crate::{write_to_vec, EncodeOptions};
     use pqm_core::progressive::testgen;
     use proptest::prelude::*;
+    use std::sync::Mutex;
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
@@ -2525,6 +2671,47 @@ mod tests {
         }
     }
 
+    /// The recycling slot keeps the last decoder put into it, only within
+    /// the byte budget, and a decoder that took one over leaves the slot
+    /// empty; dropping a decoder that does not recycle leaves it alone.
+    #[test]
+    fn recycling_slot_keeps_the_last_decoder_within_budget() {
+        let pm = testgen::generate(7, 120);
+        let bytes = write_to_vec(&pm, &EncodeOptions::default())
+            .expect("encode")
+            .0;
+        let decoded = || {
+            let mut d = Decoder::empty(Limits::default(), false);
+            d.push(&bytes).expect("decode");
+            d
+        };
+        let slot = Mutex::new(None);
+        let d = decoded();
+        let held = d.retained_bytes();
+        assert!(
+            held > bytes.len(),
+            "a decoded file holds its arrays: {held}"
+        );
+        put_into(&slot, decoded(), held - 1);
+        assert!(slot.lock().unwrap().is_none(), "over the budget: freed");
+        put_into(&slot, d, held);
+        assert!(slot.lock().unwrap().is_some());
+        put_into(&slot, Decoder::empty(Limits::default(), true), usize::MAX);
+        let taken = take_from(&slot).expect("the last one put");
+        assert!(taken.forward_only && taken.retained_bytes() == 0);
+        assert!(!taken.recycle, "a husk is freed when dropped");
+        assert!(take_from(&slot).is_none());
+        let mut fresh = Decoder::empty(Limits::default(), false);
+        let before = fresh.retained_bytes();
+        fresh.adopt(decoded());
+        assert!(fresh.retained_bytes() > before, "adopted the allocations");
+        let again = fresh.push(&bytes).expect("decode after adopting");
+        let want = Decoder::empty(Limits::default(), false)
+            .push(&bytes)
+            .expect("decode");
+        assert_eq!(again, want);
+    }
+
     /// Pushes `bytes` in pieces of `piece` bytes; the events, or the
     /// first error as text, and the status after.
     fn push_pieces(
@@ -2549,6 +2736,8 @@ mod tests {
         /// level (its undo logs rebuilt) — decodes the next file exactly
         /// as a fresh decoder of its kind does: the same events, status
         /// and errors, the same levels and changes on a walk over them.
+        /// So does a new decoder that took over a dropped one's
+        /// allocations (`recycled`), of either kind.
         #[test]
         fn reset_decoder_equals_fresh(
             seed_a in any::<u64>(),
@@ -2557,6 +2746,8 @@ mod tests {
             cut in 0.0f64..1.0,
             flip in any::<prop::sample::Index>(),
             forward in any::<bool>(),
+            recycled in any::<bool>(),
+            forward_first in any::<bool>(),
             majors in (1u16..=4, 1u16..=4),
             piece in 1usize..400,
             walk in proptest::collection::vec(prop_oneof![0usize..200, Just(usize::MAX)], 1..6),
@@ -2579,7 +2770,12 @@ mod tests {
             } else {
                 Decoder::new(Limits::default())
             };
-            let mut used = new();
+            // A recycled decoder may have been of the other kind.
+            let mut used = if recycled {
+                Decoder::empty(Limits::default(), forward_first)
+            } else {
+                new()
+            };
             match first {
                 0 => { let _ = used.push(&a); }
                 1 => { let _ = used.push(&a[..(a.len() as f64 * cut) as usize]); }
@@ -2591,14 +2787,24 @@ mod tests {
                 }
                 _ => {
                     let _ = used.push(&a);
-                    if !forward {
+                    if !used.forward_only {
                         let _ = used.set_level(Target::Level(0));
                         let _ = used.set_level(Target::Level(usize::MAX));
                     }
                 }
             }
-            used.reset(Limits::default());
-            let mut fresh = new();
+            if recycled {
+                // Dropped into a slot and taken out by a new decoder, as
+                // `Decoder::drop` and `Decoder::new` do with `RECYCLED`.
+                let slot = Mutex::new(None);
+                put_into(&slot, used, usize::MAX);
+                used = Decoder::empty(Limits::default(), forward);
+                used.adopt(take_from(&slot).expect("kept"));
+            } else {
+                used.reset(Limits::default());
+            }
+            // Owns no allocation (`new` may take another test's).
+            let mut fresh = Decoder::empty(Limits::default(), forward);
             let got = push_pieces(&mut used, &b, piece);
             let want = push_pieces(&mut fresh, &b, piece);
             prop_assert_eq!(&got, &want);

@@ -72,7 +72,9 @@ unsafe impl<T: Copy + Sync> Sync for HugeVec<T> {}
 /// Gives the kernel back the freed arrays kept for the next decoder (see
 /// the module documentation; at most 64 MiB); returns how many bytes that
 /// was. For a long-running process that decoded a large file and will not
-/// decode another soon. Arrays in use are not touched.
+/// decode another soon. Arrays in use are not touched, nor those of the
+/// dropped decoder kept whole for the next one:
+/// [`crate::release_recycled`] frees those too.
 pub fn release_cached() -> usize {
     os::release()
 }

@@ -51,11 +51,12 @@
 //! with the logs asked for up front they are written while decoding
 //! instead. A client that only ever refines uses [`Decoder::forward_only`].
 //! A client that decodes asset after asset keeps one decoder and calls
-//! [`Decoder::reset`] between them: the next file decodes in the memory the
-//! last one used, whose pages are already mapped (capacity is all that is
-//! kept; drop the decoder to give the memory back — on Linux up to 64 MiB
-//! of its largest arrays stay mapped for the next decoder until
-//! [`huge_pages::release_cached`]).
+//! [`Decoder::reset`] between them, or makes a new one per asset: either
+//! way the next file decodes in the memory the last one used, whose pages
+//! are already mapped (capacity is all that is kept; a dropped decoder of
+//! up to 64 MiB leaves its allocations to the next [`Decoder::new`], and on
+//! Linux up to 64 MiB of freed large arrays stay mapped for it, until
+//! [`release_recycled`] frees both).
 
 pub mod base;
 pub mod codec;
@@ -69,7 +70,9 @@ pub mod quant;
 pub mod varint;
 pub mod vorder;
 
-pub use decoder::{decode_all, quad_triangles, Change, Decoder, Event, Limits, Status, Target};
+pub use decoder::{
+    decode_all, quad_triangles, release_recycled, Change, Decoder, Event, Limits, Status, Target,
+};
 pub use encoder::{
     write, write_stored, write_to_vec, BitsPerVertex, CornerOrder, EncodeOptions, EncodeReport,
     OpStats, VertexOrderCode, ZstdBlocks, ZstdMinMatch, BLOCK_PENALTY_BYTES,
