@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Prints the README's Rust decode-speed table: each .pqm file decoded whole to
-# its finest level by a fresh and by a reused decoder (general and
+# its finest level by a decoder on new memory (cold), by a new decoder that
+# takes over the last one's allocations, and by a reused decoder (general and
 # forward-only), each way in processes of its own, beside the same finest mesh
 # as gltfpack would ship it (meshoptimizer's index and vertex codecs + zstd-19)
 # decoded in the same run (crates/pqm-format/examples/decode_table.rs); then
