@@ -765,32 +765,31 @@ impl Decoder {
     fn adopt(&mut self, mut old: Decoder) {
         // The husk left in `old` is dropped, not recycled.
         old.recycle = false;
-        old.buf.clear();
-        old.chunks.clear();
-        old.chunk_levels.clear();
-        old.recs.clear();
-        old.zbuf.clear();
-        old.q.clear();
-        old.pos.clear();
-        old.quads.clear();
-        old.pending_moved.clear();
-        old.pending_rw.clear();
-        self.buf = std::mem::take(&mut old.buf);
-        self.chunks = std::mem::take(&mut old.chunks);
-        self.chunk_levels = std::mem::take(&mut old.chunk_levels);
-        self.recs = std::mem::take(&mut old.recs);
+        // Emptied, their capacity kept.
+        macro_rules! emptied {
+            ($($f:ident),*) => {$(
+                old.$f.clear();
+                self.$f = std::mem::take(&mut old.$f);
+            )*};
+        }
+        emptied!(
+            buf,
+            chunks,
+            chunk_levels,
+            recs,
+            zbuf,
+            q,
+            pos,
+            quads,
+            pending_moved,
+            pending_rw
+        );
         // Per-record buffers, sized to the largest record seen; their
         // marks are generation stamps, never reset between records or files.
         self.rec = std::mem::take(&mut old.rec);
         self.buffers = std::mem::take(&mut old.buffers);
-        self.zbuf = std::mem::take(&mut old.zbuf);
         // zstd resets its context at every frame.
         self.zstd = old.zstd.take();
-        self.q = std::mem::take(&mut old.q);
-        self.pos = std::mem::take(&mut old.pos);
-        self.quads = std::mem::take(&mut old.quads);
-        self.pending_moved = std::mem::take(&mut old.pending_moved);
-        self.pending_rw = std::mem::take(&mut old.pending_rw);
         self.spare = std::mem::take(&mut old.spare);
         if let Some(st) = old.frontier.take() {
             self.spare.state = Some(st);
