@@ -227,6 +227,25 @@ impl<T: Copy> HugeVec<T> {
         self.len += s.len();
     }
 
+    /// Appends `f(x)` for each `x` of `src`, each element written once
+    /// straight into the spare capacity (a `resize` then a loop over the
+    /// slice writes every element twice; `Extend` checks the capacity per
+    /// element).
+    #[inline]
+    pub fn extend_map<S: Copy>(&mut self, src: &[S], mut f: impl FnMut(S) -> T) {
+        self.reserve(src.len());
+        // SAFETY: room for `src.len()` more after `reserve`; `len` is
+        // raised once all are written (`T: Copy`: a panic in `f` leaves
+        // nothing to drop, only unwritten spare capacity).
+        unsafe {
+            let p = self.ptr.as_ptr().add(self.len);
+            for (i, &x) in src.iter().enumerate() {
+                p.add(i).write(f(x));
+            }
+        }
+        self.len += src.len();
+    }
+
     /// Sets the length to `n`, filling new slots with `x`.
     pub fn resize(&mut self, n: usize, x: T) {
         if n <= self.len {
