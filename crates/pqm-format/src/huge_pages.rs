@@ -541,6 +541,7 @@ mod tests {
     enum Op {
         Push(u32),
         Extend(Vec<u32>),
+        ExtendMap(Vec<u32>),
         Resize(usize, u32),
         Truncate(usize),
         Clear,
@@ -554,6 +555,7 @@ mod tests {
         prop_oneof![
             any::<u32>().prop_map(Op::Push),
             prop::collection::vec(any::<u32>(), 0..40).prop_map(Op::Extend),
+            prop::collection::vec(any::<u32>(), 0..40).prop_map(Op::ExtendMap),
             (0usize..300, any::<u32>()).prop_map(|(n, x)| Op::Resize(n, x)),
             (0usize..300).prop_map(Op::Truncate),
             Just(Op::Clear),
@@ -575,6 +577,10 @@ mod tests {
                 match o {
                     Op::Push(x) => { h.push(x); v.push(x); }
                     Op::Extend(s) => { h.extend_from_slice(&s); v.extend_from_slice(&s); }
+                    Op::ExtendMap(s) => {
+                        h.extend_map(&s, |x| x.rotate_left(7));
+                        v.extend(s.iter().map(|x| x.rotate_left(7)));
+                    }
                     Op::Resize(n, x) => { h.resize(n, x); v.resize(n, x); }
                     Op::Truncate(n) => { h.truncate(n); v.truncate(n); }
                     Op::Clear => { h.clear(); v.clear(); }
