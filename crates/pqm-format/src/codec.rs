@@ -661,6 +661,20 @@ impl MeshState {
     #[inline(always)]
     fn set_quad(&mut self, s: u32, quad: [u32; 4]) -> [u32; 4] {
         let (old, new, mut changed) = swap_quad(&mut self.quads[s as usize], quad);
+        if changed == 15 {
+            // A quad that turns: every corner moves, each vertex to another
+            // corner of the same quad. All unlinks before the links: an
+            // unlink right after the link of the same vertex read its block
+            // as two 16-byte vectors just after the link's 4-byte stores,
+            // which store-to-load forwarding cannot serve.
+            for (k, &v) in old.iter().enumerate() {
+                self.unlink(4 * s + k as u32, v);
+            }
+            for (k, &v) in new.iter().enumerate() {
+                self.link(4 * s + k as u32, v);
+            }
+            return old;
+        }
         while changed != 0 {
             let k = changed.trailing_zeros() as usize;
             changed &= changed - 1;

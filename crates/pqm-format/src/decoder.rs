@@ -403,15 +403,14 @@ impl Records {
 /// every new vertex at once, and with the match inside each took ~50
 /// instructions.
 fn extend_f32(pos: &mut HugeVec<[f32; 3]>, codes: &[[u32; 3]], quant: Option<&Quantizer>) {
-    // Zero-filled first, then written through a slice: one loop the
-    // compiler vectorizes (an `extend` of a mapped iterator checks the
-    // capacity per element in `HugeVec`).
-    let n = pos.len();
-    pos.resize(n + codes.len(), [0.0; 3]);
-    if let Some(q) = quant {
-        for (p, &c) in pos[n..].iter_mut().zip(codes) {
-            *p = q.dequantize(c).map(|x| x as f32);
-        }
+    // Each position written once, into the spare capacity. Zero-filled
+    // first, then written through a slice (the previous form), half of the
+    // function's samples on the bunny were the fill's stores; without the
+    // fill the bunny decoded 0.7-2.3 % faster (reused and new decoder, both
+    // orders; 0.5 M fewer instructions), the smaller meshes even.
+    match quant {
+        Some(q) => pos.extend_map(codes, |c| q.dequantize(c).map(|x| x as f32)),
+        None => pos.resize(pos.len() + codes.len(), [0.0; 3]),
     }
 }
 

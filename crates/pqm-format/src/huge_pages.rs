@@ -229,6 +229,25 @@ impl<T: Copy> HugeVec<T> {
         self.len += s.len();
     }
 
+    /// Appends `f(x)` for each `x` of `src`, each element written once
+    /// straight into the spare capacity (a `resize` then a loop over the
+    /// slice writes every element twice; `Extend` checks the capacity per
+    /// element).
+    #[inline]
+    pub fn extend_map<S: Copy>(&mut self, src: &[S], mut f: impl FnMut(S) -> T) {
+        self.reserve(src.len());
+        // SAFETY: room for `src.len()` more after `reserve`; `len` is
+        // raised once all are written (`T: Copy`: a panic in `f` leaves
+        // nothing to drop, only unwritten spare capacity).
+        unsafe {
+            let p = self.ptr.as_ptr().add(self.len);
+            for (i, &x) in src.iter().enumerate() {
+                p.add(i).write(f(x));
+            }
+        }
+        self.len += src.len();
+    }
+
     /// Sets the length to `n`, filling new slots with `x`.
     pub fn resize(&mut self, n: usize, x: T) {
         if n <= self.len {
@@ -524,6 +543,7 @@ mod tests {
     enum Op {
         Push(u32),
         Extend(Vec<u32>),
+        ExtendMap(Vec<u32>),
         Resize(usize, u32),
         Truncate(usize),
         Clear,
@@ -537,6 +557,7 @@ mod tests {
         prop_oneof![
             any::<u32>().prop_map(Op::Push),
             prop::collection::vec(any::<u32>(), 0..40).prop_map(Op::Extend),
+            prop::collection::vec(any::<u32>(), 0..40).prop_map(Op::ExtendMap),
             (0usize..300, any::<u32>()).prop_map(|(n, x)| Op::Resize(n, x)),
             (0usize..300).prop_map(Op::Truncate),
             Just(Op::Clear),
@@ -558,6 +579,10 @@ mod tests {
                 match o {
                     Op::Push(x) => { h.push(x); v.push(x); }
                     Op::Extend(s) => { h.extend_from_slice(&s); v.extend_from_slice(&s); }
+                    Op::ExtendMap(s) => {
+                        h.extend_map(&s, |x| x.rotate_left(7));
+                        v.extend(s.iter().map(|x| x.rotate_left(7)));
+                    }
                     Op::Resize(n, x) => { h.resize(n, x); v.resize(n, x); }
                     Op::Truncate(n) => { h.truncate(n); v.truncate(n); }
                     Op::Clear => { h.clear(); v.clear(); }
