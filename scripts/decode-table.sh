@@ -8,13 +8,20 @@
 # the peak resident memory of a process decoding each file once, beside the
 # peer's (Linux: VmHWM).
 #
-# Usage: scripts/decode-table.sh [FILE.pqm ...] [--runs N] [--rounds R]
+# Usage: scripts/decode-table.sh [FILE.pqm ...] [--large] [--runs N] [--rounds R]
 #   default files: web/bench/data/*.pqm (`npm run bench:data --prefix web`)
+#   --large: also the two large shared meshes (../shared/meshes/large: skull,
+#   amo), encoded with `pqm encode`'s defaults into $target/bench-large (again
+#   whenever the pqm binary is newer than the file)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p pqm-format --example decode_table
 target="${CARGO_TARGET_DIR:-target}"
-args=("$@")
+large=0
+args=()
+for a in "$@"; do
+  if [ "$a" = "--large" ]; then large=1; else args+=("$a"); fi
+done
 files=0
 for a in "${args[@]}"; do [[ "$a" == *.pqm ]] && files=$((files + 1)); done
 if [ "$files" -eq 0 ]; then
@@ -22,7 +29,22 @@ if [ "$files" -eq 0 ]; then
   data=(web/bench/data/spot_quadrangulated.pqm web/bench/data/makehuman_base.pqm web/bench/data/loki.pqm web/bench/data/bunny.pqm)
   present=()
   for f in "${data[@]}"; do [ -f "$f" ] && present+=("$f"); done
-  [ ${#present[@]} -gt 0 ] || { echo "no .pqm files: run 'npm run bench:data --prefix web' or name files" >&2; exit 1; }
+  [ ${#present[@]} -gt 0 ] || [ "$large" -eq 1 ] || { echo "no .pqm files: run 'npm run bench:data --prefix web' or name files" >&2; exit 1; }
   args+=("${present[@]}")
+fi
+if [ "$large" -eq 1 ]; then
+  cargo build --release -q -p pqm-cli
+  dir="$target/bench-large"
+  mkdir -p "$dir"
+  for m in skull.obj amo.off; do
+    src="../shared/meshes/large/$m"
+    [ -f "$src" ] || { echo "$src: not found (../shared beside the repository)" >&2; exit 1; }
+    out="$dir/${m%.*}.pqm"
+    if [ ! -f "$out" ] || [ "$target/release/pqm" -nt "$out" ]; then
+      echo "encoding $src -> $out" >&2
+      "$target/release/pqm" -q encode "$src" -o "$out"
+    fi
+    args+=("$out")
+  done
 fi
 "$target/release/examples/decode_table" "${args[@]}"
