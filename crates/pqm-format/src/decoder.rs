@@ -674,7 +674,8 @@ impl Decoder {
     /// push API, the checks, [`Limits`], the events, the levels it reaches
     /// and the [`Change`]s it reports — is the same as [`Decoder::new`]'s;
     /// it needs less memory (neither undo data nor the compressed chunks to
-    /// rebuild it).
+    /// rebuild it), though, like [`Decoder::new`], it starts with what the
+    /// last dropped decoder left, a general one's buffers included.
     pub fn forward_only(limits: Limits) -> Self {
         Decoder::recycled_or_empty(limits, true)
     }
@@ -2708,6 +2709,27 @@ mod tests {
             .push(&bytes)
             .expect("decode");
         assert_eq!(again, want);
+    }
+
+    /// A new decoder never takes over more than its memory limit: with a
+    /// limit of 0 it owns nothing, whatever the process's slot holds (a
+    /// decoder dropped here is put there first).
+    #[test]
+    fn new_decoder_takes_over_nothing_above_its_limit() {
+        let pm = testgen::generate(11, 120);
+        let bytes = write_to_vec(&pm, &EncodeOptions::default())
+            .expect("encode")
+            .0;
+        let mut d = Decoder::new(Limits::default());
+        d.push(&bytes).expect("decode");
+        assert!(d.retained_bytes() > 0);
+        drop(d);
+        let tight = Limits {
+            max_memory_bytes: 0,
+            ..Limits::default()
+        };
+        assert_eq!(Decoder::new(tight).retained_bytes(), 0);
+        assert_eq!(Decoder::forward_only(tight).retained_bytes(), 0);
     }
 
     /// Pushes `bytes` in pieces of `piece` bytes; the events, or the
