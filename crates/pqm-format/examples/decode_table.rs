@@ -252,6 +252,11 @@ const MODES: [&str; 7] = [
     "peer",
 ];
 
+/// Where `--mode` `name` is in [`MODES`] (and in each row's timings).
+fn mode_index(name: &str) -> usize {
+    MODES.iter().position(|m| *m == name).expect("a mode")
+}
+
 /// Worker: decodes every file `runs` times in `mode` (after one untimed
 /// decode) and prints `file \t faces \t mode \t median s \t best s \t pqm
 /// bytes \t peer bytes` per file.
@@ -392,7 +397,7 @@ fn main() {
         println!(
             "| {name} | {faces} | {} | {:.2}× | {:.2}× |",
             cells.join(" | "),
-            median(&per[6].0) / median(&per[5].0),
+            median(&per[mode_index("peer")].0) / median(&per[mode_index("reused-forward")].0),
             *pqm_bytes as f64 / *peer_bytes as f64,
         );
     }

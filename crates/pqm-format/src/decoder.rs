@@ -2670,15 +2670,20 @@ mod tests {
         }
     }
 
+    /// A file of a generated mesh of 120 faces, default options.
+    fn small_file(seed: u64) -> Vec<u8> {
+        let pm = testgen::generate(seed, 120);
+        write_to_vec(&pm, &EncodeOptions::default())
+            .expect("encode")
+            .0
+    }
+
     /// The recycling slot keeps the last decoder put into it, only within
     /// the byte budget, and a decoder that took one over leaves the slot
     /// empty; dropping a decoder that does not recycle leaves it alone.
     #[test]
     fn recycling_slot_keeps_the_last_decoder_within_budget() {
-        let pm = testgen::generate(7, 120);
-        let bytes = write_to_vec(&pm, &EncodeOptions::default())
-            .expect("encode")
-            .0;
+        let bytes = small_file(7);
         let decoded = || {
             let mut d = Decoder::empty(Limits::default(), false);
             d.push(&bytes).expect("decode");
@@ -2716,10 +2721,7 @@ mod tests {
     /// decoder dropped here is put there first).
     #[test]
     fn new_decoder_takes_over_nothing_above_its_limit() {
-        let pm = testgen::generate(11, 120);
-        let bytes = write_to_vec(&pm, &EncodeOptions::default())
-            .expect("encode")
-            .0;
+        let bytes = small_file(11);
         let mut d = Decoder::new(Limits::default());
         d.push(&bytes).expect("decode");
         assert!(d.retained_bytes() > 0);
