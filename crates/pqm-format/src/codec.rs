@@ -132,10 +132,10 @@ pub const NIL: u32 = u32::MAX;
 /// `[n, c_1 … c_7]` holding up to [`INLINE`] of its corners; the rest (a
 /// vertex in more than 7 faces, a few per cent on real meshes) are a doubly
 /// linked list (`ov_head`: first corner per vertex, `ov_links`:
-/// `[next, prev]` per corner, both `Paged`: only the pages of 64 ids
-/// that hold an entry are allocated), flagged by `OVERFLOW` in `n`. At
-/// most 32 bytes per vertex and 32 per slot, and 1/64 of that for the page
-/// tables (within `Limits::estimate`). Reading a
+/// `[next, prev]` per corner, both `Paged`: only the 64-byte pages of 16
+/// vertices or 8 corners that hold an entry are taken), flagged by
+/// `OVERFLOW` in `n`. At most 32 bytes per vertex and 32 per slot, and
+/// 1/16 of that for the page directories (within `Limits::estimate`). Reading a
 /// star is then one cache miss for the block and independent misses for
 /// the quads, where one linked list per vertex made every face a dependent
 /// miss (the decoder's largest cost, issue 4); a rewrite is a scan of one
@@ -156,9 +156,9 @@ pub struct MeshState {
     inline: HugeVec<Block>,
     /// First overflow corner per vertex ([`NIL`]: none), valid where the
     /// block has the flag.
-    ov_head: Paged<u32>,
+    ov_head: Paged<u32, 16>,
     /// `[next, prev]` per overflow corner ([`NIL`] ends a list).
-    ov_links: Paged<[u32; 2]>,
+    ov_links: Paged<[u32; 2], 8>,
 }
 
 impl MeshState {
@@ -174,48 +174,91 @@ impl MeshState {
     }
 }
 
-/// Entries per page of a [`Paged`] array.
-const PAGE: usize = 64;
-
 /// An array by index (vertex or corner id) whose entries are mostly never
-/// written: pages of [`PAGE`] entries are allocated on their first write,
-/// and unwritten entries read as `fill`. The overflow lists of
-/// [`MeshState`] are indexed by corner id but hold few corners (on the
-/// bunny ~800 of 836k): as one array grown to the largest id written (the
-/// previous form) they were 6.7 MB filled, copied as they doubled and
-/// faulted in, for a few kilobytes of entries.
-#[derive(Clone, Debug)]
-struct Paged<T: Copy> {
-    pages: Vec<Option<Box<[T; PAGE]>>>,
+/// written: pages of `P` entries (64 bytes each here) are taken on
+/// their first write, and unwritten entries read as `fill`. The overflow
+/// lists of [`MeshState`] are indexed by corner id but hold few corners
+/// (on the bunny ~800 of 836k): as one array grown to the largest id
+/// written (the first form) they were 6.7 MB filled, copied as they
+/// doubled and faulted in, for a few kilobytes of entries.
+///
+/// The pages are entries of one pool, found through a directory of `u32`
+/// indices. The previous form, a `Box` of 64 entries per page, allocated
+/// and filled 512 bytes (256 for the heads) for what was nearly always a
+/// single entry — new corners are new slots, so nearly every overflow
+/// corner opened a page — and freed them all when a reset decoder took
+/// the next base: on the skull (300k faces, ~14k overflow links per
+/// decode) the overflow lists, their pages and `malloc` / `free` were
+/// ~7 % of a reused decoder's samples. The pool is one allocation that a
+/// reset keeps (`clone_from`), a new page one 64-byte push.
+#[derive(Debug)]
+struct Paged<T: Copy, const P: usize> {
+    /// Page of ids `P i .. P (i + 1)`: its index in `pool`, or `NO_PAGE`.
+    dir: Vec<u32>,
+    pool: Vec<[T; P]>,
     fill: T,
 }
 
-impl<T: Copy> Paged<T> {
+/// A directory entry without a page.
+const NO_PAGE: u32 = u32::MAX;
+
+impl<T: Copy, const P: usize> Clone for Paged<T, P> {
+    fn clone(&self) -> Self {
+        Paged {
+            dir: self.dir.clone(),
+            pool: self.pool.clone(),
+            fill: self.fill,
+        }
+    }
+
+    /// Keeps this array's allocations (a reset decoder's frontier taking
+    /// the next base, `MeshState::reset_to`).
+    fn clone_from(&mut self, src: &Self) {
+        self.dir.clone_from(&src.dir);
+        self.pool.clone_from(&src.pool);
+        self.fill = src.fill;
+    }
+}
+
+impl<T: Copy, const P: usize> Paged<T, P> {
     fn new(fill: T) -> Self {
         Paged {
-            pages: Vec::new(),
+            dir: Vec::new(),
+            pool: Vec::new(),
             fill,
         }
+    }
+
+    /// Bytes of the allocations.
+    fn capacity_bytes(&self) -> usize {
+        self.dir.capacity() * std::mem::size_of::<u32>()
+            + self.pool.capacity() * std::mem::size_of::<[T; P]>()
     }
 
     /// Entry `i` (`fill` if never written).
     #[inline]
     fn get(&self, i: u32) -> T {
-        match self.pages.get(i as usize / PAGE) {
-            Some(Some(p)) => p[i as usize % PAGE],
+        match self.dir.get(i as usize / P) {
+            Some(&p) if p != NO_PAGE => self.pool[p as usize][i as usize % P],
             _ => self.fill,
         }
     }
 
-    /// Entry `i`, for writing (its page allocated if new).
+    /// Entry `i`, for writing (its page taken if new).
     #[inline]
     fn at(&mut self, i: u32) -> &mut T {
-        let (pi, k) = (i as usize / PAGE, i as usize % PAGE);
-        if self.pages.len() <= pi {
-            self.pages.resize(pi + 1, None);
+        let (pi, k) = (i as usize / P, i as usize % P);
+        if self.dir.len() <= pi {
+            self.dir.resize(pi + 1, NO_PAGE);
         }
-        let fill = self.fill;
-        &mut self.pages[pi].get_or_insert_with(|| Box::new([fill; PAGE]))[k]
+        let mut p = self.dir[pi];
+        if p == NO_PAGE {
+            // At most one page per `P` ids below 2^32: the index fits.
+            p = self.pool.len() as u32;
+            self.pool.push([self.fill; P]);
+            self.dir[pi] = p;
+        }
+        &mut self.pool[p as usize][k]
     }
 }
 
@@ -460,12 +503,14 @@ impl MeshState {
         st
     }
 
-    /// Bytes of the arrays' allocations (codes, blocks, quads; the
-    /// overflow lists, a few kilobytes, left out).
+    /// Bytes of the arrays' allocations (codes, blocks, quads, and the
+    /// overflow lists' pools and directories, which a reset keeps too).
     pub fn capacity_bytes(&self) -> usize {
         self.q.capacity() * std::mem::size_of::<[u32; 3]>()
             + self.inline.capacity() * std::mem::size_of::<Block>()
             + self.quads.capacity() * std::mem::size_of::<[u32; 4]>()
+            + self.ov_head.capacity_bytes()
+            + self.ov_links.capacity_bytes()
     }
 
     /// Reserves room for `nv` more vertices and `nf` more slots.
@@ -4526,6 +4571,39 @@ mod tests {
             sort_distinct(&mut x);
             want.sort_unstable();
             prop_assert_eq!(x, want);
+        }
+
+        /// A `Paged` array reads as a map with a default, whatever the
+        /// order of writes, and after `clone_from` (which keeps its own
+        /// pool and directory) reads as its source.
+        #[test]
+        fn paged_reads_as_a_map(
+            writes in proptest::collection::vec((0u32..2000, any::<u32>()), 0..200),
+            other in proptest::collection::vec((0u32..2000, any::<u32>()), 0..200),
+            big in 0u32..1 << 20,
+        ) {
+            let mut pg = super::Paged::<u32, 8>::new(super::NIL);
+            let mut want = std::collections::BTreeMap::new();
+            for &(i, v) in writes.iter().chain(&[(big, 7)]) {
+                *pg.at(i) = v;
+                want.insert(i, v);
+            }
+            let reads = |pg: &super::Paged<u32, 8>, want: &std::collections::BTreeMap<u32, u32>| {
+                (0..2100).chain([big, big ^ 1, u32::MAX]).all(|i| pg.get(i) == *want.get(&i).unwrap_or(&super::NIL))
+            };
+            prop_assert!(reads(&pg, &want));
+            let mut o = super::Paged::<u32, 8>::new(super::NIL);
+            let mut want_o = std::collections::BTreeMap::new();
+            for &(i, v) in &other {
+                *o.at(i) = v;
+                want_o.insert(i, v);
+            }
+            pg.clone_from(&o);
+            prop_assert!(reads(&pg, &want_o));
+            prop_assert!(reads(&o.clone(), &want_o));
+            *pg.at(3) = 5;
+            want_o.insert(3, 5);
+            prop_assert!(reads(&pg, &want_o));
         }
 
         /// The register-built helpers equal their plain definitions:

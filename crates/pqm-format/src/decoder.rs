@@ -1373,7 +1373,8 @@ impl Decoder {
         // checked against the limits, and what is reserved here (68 bytes
         // per vertex — 44 of them the frontier's codes and corner block —,
         // 32 per face, 17 per record; the frontier's overflow lists add at
-        // most 4 per vertex and 32 per face) stays within
+        // most 4 per vertex and 32 per face, their page directories 1/4
+        // and 2) stays within
         // `Limits::estimate`. Growing these lists chunk by chunk copied them
         // ~log2(final / base) times. Untouched capacity is address space,
         // not memory: a client that stops early does not pay for it.
