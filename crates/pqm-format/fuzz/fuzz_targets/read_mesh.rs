@@ -1,0 +1,30 @@
+//! The mesh readers `pqm encode` and `pqm convert` put user files through
+//! (OBJ, OFF, PLY, glTF/GLB) on hostile bytes: an error or a mesh, never a
+//! panic; a mesh read goes through the validity check and, when refused,
+//! the repair, without a crash either. The first byte picks the reader.
+//!
+//! `cargo fuzz run read_mesh -s none` (stable Rust: no sanitizer).
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use pqm_core::io::{
+    check, read_gltf_bytes, read_obj_bytes, read_off_bytes, read_ply_bytes, repair,
+};
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&which, rest)) = data.split_first() else {
+        return;
+    };
+    let mesh = match which % 4 {
+        0 => read_obj_bytes(rest),
+        1 => read_off_bytes(rest),
+        2 => read_ply_bytes(rest),
+        _ => read_gltf_bytes(rest, None),
+    };
+    if let Ok(mut m) = mesh {
+        // What `pqm convert --repair` and `pqm encode` do next.
+        if check(&m).is_err() {
+            let _ = repair(&mut m);
+        }
+    }
+});
