@@ -96,14 +96,7 @@ fn study(f: &str) -> Result<(), String> {
     let (mut exact_pair, mut exact_mean, mut exact_today) = (0usize, 0usize, 0usize);
     let mut ops = [[0usize; 2]; 4];
     // chunk-wise streams: today's residuals; selection bytes + chosen residuals
-    let ends: Vec<usize> = dec
-        .chunks()
-        .iter()
-        .scan(0usize, |a, c| {
-            *a += c.record_count as usize;
-            Some(*a)
-        })
-        .collect();
+    let ends = models::chunk_ends(&dec);
     let (mut z_today, mut z_sel, mut z_mean) = (0usize, 0usize, 0usize);
     let (mut z_snap, mut z_blend) = (0usize, 0usize);
     const WS: [i64; 5] = [1, 2, 3, 5, 6];

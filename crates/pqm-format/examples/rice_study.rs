@@ -231,14 +231,7 @@ fn study(f: &str) -> Result<(), String> {
         state: mut st,
         ..
     } = models::open(f)?;
-    let ends: Vec<usize> = dec
-        .chunks()
-        .iter()
-        .scan(0usize, |a, c| {
-            *a += c.record_count as usize;
-            Some(*a)
-        })
-        .collect();
+    let ends = models::chunk_ends(&dec);
     let mut today = Vec::new();
     let mut z_today = 0usize;
     let mut fixed: Vec<Rice> = CS.iter().map(|_| Rice::default()).collect();
@@ -260,10 +253,10 @@ fn study(f: &str) -> Result<(), String> {
     let (mut c_ideal, mut c_plain) = (0f64, 0f64);
     let mut n = 0usize;
     let mut hist = [0usize; 32];
-    for (ri, rec) in pm.records.iter().enumerate() {
-        if ends.contains(&ri) {
-            z_today += models::zstd19(&[&today]);
-            today.clear();
+    // Every split ends its chunk here: at each chunk end and after the
+    // last record (one list, so that no split is left out of either).
+    macro_rules! flush_all {
+        () => {
             fixed
                 .iter_mut()
                 .chain(fixed_b.iter_mut())
@@ -277,6 +270,13 @@ fn study(f: &str) -> Result<(), String> {
                 .for_each(Rice::flush);
             adaptive.flush();
             adaptive_s.flush();
+        };
+    }
+    for (ri, rec) in pm.records.iter().enumerate() {
+        if ends.contains(&ri) {
+            z_today += models::zstd19(&[&today]);
+            today.clear();
+            flush_all!();
             // Chunks stay independent: the running sums start again.
             runs.fill(Run { a: 4, n: 1 });
             runs_s.fill(Run { a: 4, n: 1 });
@@ -436,19 +436,7 @@ fn study(f: &str) -> Result<(), String> {
         st.apply(&r);
     }
     z_today += models::zstd19(&[&today]);
-    fixed
-        .iter_mut()
-        .chain(fixed_b.iter_mut())
-        .chain(constant.iter_mut())
-        .chain(mixed.iter_mut())
-        .chain(spanned.iter_mut())
-        .chain(exact.iter_mut())
-        .chain(per_record.iter_mut())
-        .chain(exact_b.iter_mut())
-        .chain(spanned2.iter_mut())
-        .for_each(Rice::flush);
-    adaptive.flush();
-    adaptive_s.flush();
+    flush_all!();
     let per = |b: usize| b as f64 * 8.0 / n.max(1) as f64;
     println!("## {f}: {n} new vertices, bits per new vertex");
     println!("today (svarint, zstd-19 per chunk): {:.2}", per(z_today));

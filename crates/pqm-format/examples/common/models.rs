@@ -143,6 +143,18 @@ pub fn open(f: &str) -> Result<Opened, String> {
     })
 }
 
+/// The record index at which each chunk of `dec`'s file ends (the count
+/// of records up to and including it), in chunk order.
+pub fn chunk_ends(dec: &pqm_format::Decoder) -> Vec<usize> {
+    dec.chunks()
+        .iter()
+        .scan(0usize, |a, c| {
+            *a += c.record_count as usize;
+            Some(*a)
+        })
+        .collect()
+}
+
 /// Bytes of `parts` as one chunk payload would hold them (each a varint
 /// length, then its bytes) after zstd-19, the writer's default level.
 pub fn zstd19(parts: &[&[u8]]) -> usize {
