@@ -72,9 +72,12 @@
 //! 9.58 M faces/s; the JavaScript decoder 5–8 % slower on loki and
 //! makehuman. Not merged: 1–5 % smaller files for 7–9 % more decoding,
 //! against issue 4's two targets, the nearer of which (10 M faces/s) it
-//! would move away. The lead it leaves: one scale per record (the
-//! `PER-RECORD` column keeps 85–90 % of the gain) computed once, not per
-//! quad, and the bits read in one take per vertex.
+//! would move away. A second variant with one `k` per record (the
+//! `PER-RECORD` column, 85–90 % of the gain) still cost loki +7.6 %: most
+//! of the cost is plumbing, which the same build paid on the 4.0 file too
+//! (+4.3 %). The lead: a reader of its own for `pos` and its bits, `k`
+//! once per record, and the 4.0 path measured first (`docs/figures-history.md`,
+//! session 21).
 
 use pqm_format::codec::QRecord;
 use pqm_format::varint::put_u;
