@@ -29,7 +29,11 @@
 //!   vertex's `⌊S / c⌋` (the same for one-vertex records);
 //! * `best offset per chunk`: the smallest of the `RULE` columns and `k = 0`
 //!   in each chunk (what a per-chunk offset byte could reach);
-//! * `BEND`: `k` from the stencil's own sums, `B = Σ_axis |nb − 2 op|`.
+//! * `BEND`: `k` from the stencil's own sums, `B = Σ_axis |nb − 2 op|`;
+//! * bucketed variants: `rice bend − C` (the L1 gap between the
+//!   parallelogram mean and the edge neighbours' mean), `span − C`,
+//!   `spread+2bend − C`, `span+4bend − C` (their bucket minus `C`), and
+//!   the adaptive `k` with the bend's bucket as a second context.
 //!
 //! Then the same splits of the `refs` and `conn` streams (they lose).
 //!
@@ -49,7 +53,10 @@
 //!
 //! `C = 6` was the best of 3–10 on every mesh within 0.06 bits (amo:
 //! `C = 7`, 16.89); `spread`
-//! and `bend` did 0.1–0.5 bits worse than the span. On the quad meshes the
+//! and `bend` did 0.1–0.5 bits worse than the span; a sum of two scales,
+//! bucketed (`span+4bend`, `spread+2bend`), 0.1–0.3 better at its best
+//! offset (loki 20.92, spot 27.43, makehuman 21.16, bunny 19.54): room for
+//! a finer rule. On the quad meshes the
 //! split gets within 0.1 bits of what the adaptive model would spend, with
 //! no arithmetic decoder (the split triangle meshes stay 0.2–0.6 bits
 //! short of it): the gain is the varint's low byte, which mixes
@@ -80,14 +87,10 @@
 //! session 21).
 
 use pqm_format::codec::QRecord;
-use pqm_format::varint::put_u;
+use pqm_format::varint::{put_u, zigzag};
 
 #[path = "common/models.rs"]
 mod models;
-
-fn zz(r: i64) -> u64 {
-    ((r << 1) ^ (r >> 63)) as u64
-}
 
 /// Packed raw bits, LSB first.
 #[derive(Default)]
@@ -113,7 +116,7 @@ struct Rice {
 
 impl Rice {
     fn put(&mut self, r: i64, k: u32) {
-        let u = zz(r);
+        let u = zigzag(r);
         put_u(&mut self.hi, u >> k);
         self.lo.n += k as usize;
     }
@@ -306,7 +309,6 @@ fn study(f: &str) -> Result<(), String> {
             let (mut nb, mut op, mut cnt) = ([0i64; 3], [0i64; 3], 0i64);
             let mut span = 0i64;
             let mut e: Vec<u32> = Vec::new();
-            let mut kn: Vec<u32> = Vec::new();
             let mut first: Option<[u32; 3]> = None;
             for q in &quads {
                 let Some(k) = q.iter().position(|&u| u == x) else {
@@ -327,7 +329,6 @@ fn study(f: &str) -> Result<(), String> {
                         e.push(u);
                     }
                 }
-                let _ = &mut kn;
             }
             // §7.6: the stencil, else version 1's rule on the first quad.
             let pred: [i64; 3] = if cnt > 0 {
@@ -375,9 +376,23 @@ fn study(f: &str) -> Result<(), String> {
             if rec_scale.is_none() && cnt > 0 {
                 rec_scale = Some(span / cnt);
             }
+            // `bitlen(v) − c`, 0 without a stencil quad.
+            let rule = |v: i64, c: u32| {
+                if cnt > 0 {
+                    (64 - (v as u64).leading_zeros()).saturating_sub(c)
+                } else {
+                    0
+                }
+            };
+            // Bend as a format could define it, from the stencil's own
+            // sums: B = Σ_axis |nb − 2 op|.
+            let bsum: i64 = (0..3).map(|a| (nb[a] - 2 * op[a]).abs()).sum();
             let sb = models::bucket(spread as u64).min(31);
             let bb = models::bucket(bend as u64).min(31);
             hist[sb] += 1;
+            if cnt == 0 {
+                no_quad += 1;
+            }
             for t in 0..3 {
                 let res = xc[t] - pred[t];
                 pqm_format::varint::put_s(&mut today, res);
@@ -392,25 +407,10 @@ fn study(f: &str) -> Result<(), String> {
                 let sp = if cnt > 0 { span / cnt } else { spread };
                 // The rule as a format would define it: k = bitlen(⌊S / c⌋) − C, 0 without a quad.
                 for (j, &cc) in CS.iter().enumerate() {
-                    let kk = if cnt > 0 {
-                        (64 - ((span / cnt) as u64).leading_zeros()).saturating_sub(cc)
-                    } else {
-                        0
-                    };
-                    exact[j].put(res, kk);
+                    exact[j].put(res, rule(span / cnt.max(1), cc));
                     let rs = rec_scale.unwrap_or(0) as u64;
                     per_record[j].put(res, (64 - rs.leading_zeros()).saturating_sub(cc));
-                    // Bend: from the stencil's own sums, B = Σ |nb − 2 op|.
-                    let bsum: i64 = (0..3).map(|a| (nb[a] - 2 * op[a]).abs()).sum();
-                    let kb = if cnt > 0 {
-                        (64 - ((bsum / cnt) as u64).leading_zeros()).saturating_sub(cc - 1)
-                    } else {
-                        0
-                    };
-                    exact_b[j].put(res, kb);
-                }
-                if t == 0 && cnt == 0 {
-                    no_quad += 1;
+                    exact_b[j].put(res, rule(bsum / cnt.max(1), cc - 1));
                 }
                 for (j, &cc) in CS.iter().enumerate() {
                     spanned[j].put(res, (models::bucket(sp as u64) as u32).saturating_sub(cc));
@@ -425,11 +425,11 @@ fn study(f: &str) -> Result<(), String> {
                 let ctx = t * 32 + sb;
                 let k = runs[ctx].k();
                 adaptive.put(res, k);
-                runs[ctx].add(zz(res));
+                runs[ctx].add(zigzag(res));
                 let ctx_s = ctx * 4 + (bb.min(15) / 4);
                 let k = runs_s[ctx_s].k();
                 adaptive_s.put(res, k);
-                runs_s[ctx_s].add(zz(res));
+                runs_s[ctx_s].add(zigzag(res));
                 c_ideal += ideal.cost_signed_m((t as u64) << 6 | sb as u64, res);
                 c_plain += ideal_plain.cost_signed_m(t as u64, res);
             }
