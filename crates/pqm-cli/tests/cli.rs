@@ -1216,54 +1216,74 @@ fn grid_cube_is_the_default_and_stores_the_bounds() {
     encode_spot_refused(Path::new("x.pqm"), &["--grid", "sphere"]);
 }
 
-/// `--corner-order`: the default (`diagonal`) lets quads start at their
-/// opposite corner and writes a smaller file; both decode to the input's
-/// quads with the same diagonals (the same triangles), and `input` keeps
-/// every quad's first corner.
+/// `--corner-order`: the default (`canonical`) starts every quad a record
+/// builds where the decoder builds it and writes the smallest file;
+/// `diagonal` lets quads start at their opposite corner, smaller than
+/// `input`; all three decode to the input's quads (each face the same
+/// corners in the same cyclic order), `diagonal` with the same diagonals
+/// (the same triangles), and `input` keeps every quad's first corner.
 #[test]
-fn corner_order_diagonal_is_the_default_and_keeps_the_triangles() {
+fn corner_order_canonical_is_the_default_and_keeps_the_quads() {
     let d = TempDir::new().unwrap();
-    let (default, diagonal, input) = (
+    let (default, canonical, diagonal, input) = (
         d.path().join("default.pqm"),
+        d.path().join("canonical.pqm"),
         d.path().join("diagonal.pqm"),
         d.path().join("input.pqm"),
     );
     encode_spot(&default, &[]);
+    encode_spot(&canonical, &["--corner-order", "canonical"]);
     encode_spot(&diagonal, &["--corner-order", "diagonal"]);
     encode_spot(&input, &["--corner-order", "input"]);
     let bytes = |p: &Path| std::fs::read(p).unwrap();
-    assert_eq!(bytes(&default), bytes(&diagonal));
+    assert_eq!(bytes(&default), bytes(&canonical));
+    let sizes = [&canonical, &diagonal, &input].map(|p| bytes(p).len());
     assert!(
-        bytes(&diagonal).len() < bytes(&input).len(),
-        "diagonal {} bytes, input {}",
-        bytes(&diagonal).len(),
-        bytes(&input).len()
+        sizes[0] < sizes[1] && sizes[1] < sizes[2],
+        "canonical, diagonal, input: {sizes:?} bytes"
     );
     let want = io::read_mesh(&spot()).unwrap();
-    // Each face from the smaller of its two starts that keep the diagonal.
-    let by_diagonal = |m: &IndexedMesh| {
+    // Each face from the smallest of the starts `turns` allows.
+    let started = |m: &IndexedMesh, turns: &[usize]| {
         let mut out: Vec<Vec<u32>> = m
             .faces()
             .map(|f| {
-                let turned: Vec<u32> = f[2..].iter().chain(&f[..2]).copied().collect();
-                f.to_vec().min(turned)
+                turns
+                    .iter()
+                    .map(|&t| f[t..].iter().chain(&f[..t]).copied().collect::<Vec<u32>>())
+                    .min()
+                    .unwrap()
             })
             .collect();
         out.sort();
         out
     };
-    let exact = |m: &IndexedMesh| {
-        let mut out: Vec<Vec<u32>> = m.faces().map(|f| f.to_vec()).collect();
-        out.sort();
-        out
-    };
-    let (full_d, full_i) = (d.path().join("d.obj"), d.path().join("i.obj"));
+    let (full_c, full_d, full_i) = (
+        d.path().join("c.obj"),
+        d.path().join("d.obj"),
+        d.path().join("i.obj"),
+    );
+    json_ok(&["decode", s(&canonical), "-o", s(&full_c)]);
     json_ok(&["decode", s(&diagonal), "-o", s(&full_d)]);
     json_ok(&["decode", s(&input), "-o", s(&full_i)]);
+    let (got_c, _) = load_valid(&full_c);
     let (got_d, _) = load_valid(&full_d);
     let (got_i, _) = load_valid(&full_i);
-    assert_eq!(by_diagonal(&got_d), by_diagonal(&want));
-    assert_ne!(exact(&got_d), exact(&want), "no quad starts elsewhere");
-    assert_eq!(exact(&got_i), exact(&want));
+    assert_eq!(
+        started(&got_c, &[0, 1, 2, 3]),
+        started(&want, &[0, 1, 2, 3])
+    );
+    assert_ne!(
+        started(&got_c, &[0, 2]),
+        started(&want, &[0, 2]),
+        "every quad keeps its diagonal"
+    );
+    assert_eq!(started(&got_d, &[0, 2]), started(&want, &[0, 2]));
+    assert_ne!(
+        started(&got_d, &[0]),
+        started(&want, &[0]),
+        "no quad starts elsewhere"
+    );
+    assert_eq!(started(&got_i, &[0]), started(&want, &[0]));
     encode_spot_refused(Path::new("x.pqm"), &["--corner-order", "first"]);
 }

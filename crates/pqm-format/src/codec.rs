@@ -3808,7 +3808,10 @@ pub fn encode_record(
 /// and appended quads, the edge split's four appended quads and its fan
 /// quads. Rotating such a quad by 2 before encoding changes only that
 /// field, by 2 (what `crate::encoder`'s [`crate::CornerOrder::Diagonal`]
-/// does); no other field or form choice depends on a quad's first corner.
+/// does), and rotating it by 1 or 3 only that field too (what
+/// [`crate::CornerOrder::Canonical`] does, to make it 0) — except that a
+/// face split's turned quads may then fit the split form, tried first. No
+/// other field depends on a quad's first corner.
 pub fn encode_record_rotations(
     st: &MeshState,
     r: &QRecord,

@@ -404,6 +404,21 @@ pub fn all() -> Vec<Vector> {
                 ..EncodeOptions::default()
             },
         ),
+        // Quads stored where each record's form builds them (every rotation
+        // field 0, `CornerOrder::Canonical`, what `pqm encode` writes):
+        // the same 4.0 rules; the levels hold the progressive mesh turned.
+        make(
+            "v4_canonical",
+            GenOptions {
+                base: BaseShape::Box { n: 3 },
+                ..GenOptions::new(22, 60)
+            },
+            EncodeOptions {
+                chunk_records: Some(16),
+                corner_order: crate::CornerOrder::Canonical,
+                ..EncodeOptions::default()
+            },
+        ),
         make(
             "v4_delta_base",
             GenOptions {

@@ -1,9 +1,15 @@
-//! `CornerOrder::Diagonal` (what `pqm encode` writes): quads a record
-//! builds may start at their opposite corner. The file decodes, at every
-//! level, to the progressive mesh `write_stored` returns, id for id; that
-//! mesh differs from the input only by rotations by 2 (every quad keeps
-//! its diagonal, so every level splits into the same triangles); and the
-//! file is smaller on real coarsener output.
+//! `CornerOrder::Diagonal`: quads a record builds may start at their
+//! opposite corner. The file decodes, at every level, to the progressive
+//! mesh `write_stored` returns, id for id; that mesh differs from the
+//! input only by rotations by 2 (every quad keeps its diagonal, so every
+//! level splits into the same triangles); and the file is smaller on real
+//! coarsener output.
+//!
+//! `CornerOrder::Canonical` (what `pqm encode` writes): quads a record
+//! builds start where its form builds them. The same guarantees up to any
+//! rotation (the same corners in the same cyclic order, not always the
+//! same diagonal), the same record forms as `Diagonal`, and a file smaller
+//! still.
 
 use pqm_core::progressive::testgen;
 use pqm_core::ProgressiveMesh;
@@ -23,6 +29,16 @@ fn turned(q: [u32; 4], t: usize) -> [u32; 4] {
 /// gives the same two triangles). Returns how many quads of the finest
 /// level are turned.
 fn assert_same_up_to_diagonal_turns(pm: &ProgressiveMesh, stored: &ProgressiveMesh) -> usize {
+    assert_same_up_to_turns(pm, stored, true)
+}
+
+/// [`assert_same_up_to_diagonal_turns`], or with `diagonal` false, each
+/// quad equal to `pm`'s turned by any of 0..=3.
+fn assert_same_up_to_turns(
+    pm: &ProgressiveMesh,
+    stored: &ProgressiveMesh,
+    diagonal: bool,
+) -> usize {
     assert_eq!(stored.base, pm.base);
     assert_eq!(stored.vertex_order, pm.vertex_order);
     assert_eq!(stored.level_error, pm.level_error);
@@ -43,11 +59,18 @@ fn assert_same_up_to_diagonal_turns(pm: &ProgressiveMesh, stored: &ProgressiveMe
         assert_eq!(qa.len(), qb.len(), "level {k}");
         turned_last = 0;
         for (s, (&x, &y)) in qa.iter().zip(&qb).enumerate() {
-            assert!(
-                y == x || y == turned(x, 2),
-                "level {k}, slot {s}: {y:?} is not {x:?} nor its opposite-corner start"
-            );
-            assert_eq!(triangles(x), triangles(y), "level {k}, slot {s}");
+            if diagonal {
+                assert!(
+                    y == x || y == turned(x, 2),
+                    "level {k}, slot {s}: {y:?} is not {x:?} nor its opposite-corner start"
+                );
+                assert_eq!(triangles(x), triangles(y), "level {k}, slot {s}");
+            } else {
+                assert!(
+                    (0..4).any(|t| y == turned(x, t)),
+                    "level {k}, slot {s}: {y:?} is not {x:?} turned"
+                );
+            }
             turned_last += (y != x) as usize;
         }
     }
@@ -73,6 +96,13 @@ fn canonical_triangle(t: &[u32]) -> [u32; 3] {
 fn diagonal() -> EncodeOptions {
     EncodeOptions {
         corner_order: CornerOrder::Diagonal,
+        ..EncodeOptions::default()
+    }
+}
+
+fn canonical() -> EncodeOptions {
+    EncodeOptions {
+        corner_order: CornerOrder::Canonical,
         ..EncodeOptions::default()
     }
 }
@@ -114,6 +144,10 @@ proptest! {
         let (_, stored, mut dec) = decode_stored(&pm, &opts);
         assert_same_up_to_diagonal_turns(&pm, &stored);
         common::assert_every_level_down_and_up(&mut dec, &stored);
+        let canon = EncodeOptions { chunk_records: Some(chunk), version_major, ..canonical() };
+        let (_, stored, mut dec) = decode_stored(&pm, &canon);
+        assert_same_up_to_turns(&pm, &stored, false);
+        common::assert_every_level_down_and_up(&mut dec, &stored);
         // `Input` stores the mesh as it is.
         let (_, same, mut dec) = decode_stored(&pm, &EncodeOptions { chunk_records: Some(chunk), ..EncodeOptions::default() });
         prop_assert_eq!(&same, &pm);
@@ -141,5 +175,41 @@ fn coarsener_output_is_smaller_and_draws_the_same_triangles() {
         "diagonal {} bytes against input order {}",
         bytes.len(),
         input.len()
+    );
+}
+
+#[test]
+fn canonical_keeps_the_forms_and_is_smaller_than_diagonal() {
+    let pm = common::coarsened_torus(Some(0.005));
+    let mut diagonal_bytes = Vec::new();
+    let diag = write(&pm, &diagonal(), &mut diagonal_bytes).unwrap();
+    let (bytes, stored, mut dec) = decode_stored(&pm, &canonical());
+    let canon = write(&pm, &canonical(), &mut Vec::new()).unwrap();
+    let input = write(&pm, &EncodeOptions::default(), &mut Vec::new()).unwrap();
+    let turned = assert_same_up_to_turns(&pm, &stored, false);
+    common::assert_every_level_down_and_up(&mut dec, &stored);
+    let faces = pm.final_face_count();
+    assert!(
+        turned * 10 > faces,
+        "{turned} of {faces} final quads turned"
+    );
+    // Turning a face split's quads must not make it a (larger) split:
+    // the forms of the unturned records (`Input`). (Diagonal's turns make
+    // a few face splits splits here.)
+    let forms = |r: &EncodeReport| {
+        (
+            r.split_records,
+            r.face_split_records,
+            r.edge_split_records,
+            r.local_records,
+        )
+    };
+    assert_eq!(forms(&canon), forms(&input));
+    assert!(forms(&diag).1 <= forms(&canon).1);
+    assert!(
+        bytes.len() * 100 < diagonal_bytes.len() * 99,
+        "canonical {} bytes against diagonal {}",
+        bytes.len(),
+        diagonal_bytes.len()
     );
 }

@@ -11,7 +11,7 @@ const files = testFiles();
 
 test('the test files are there', () => {
   const names = files.map((f) => f.name);
-  for (const n of ['grid_small', 'box_vord', 'general_bits8', 'mixed_bits24', 'cube_grid', 'spot', 'v4_traversal', 'v4_delta_base']) {
+  for (const n of ['grid_small', 'box_vord', 'general_bits8', 'mixed_bits24', 'cube_grid', 'spot', 'v4_traversal', 'v4_delta_base', 'v4_canonical']) {
     assert.ok(names.includes(n), `missing test file ${n}`);
   }
   // the header-bounds checks below see at least one 3.2 file with bounds

@@ -28,10 +28,11 @@ pub const DEFAULT_ROUND_FRACTION: Option<f64> = Some(0.005);
 /// (`docs/s16-window-experiment.md`, session 16).
 pub const DEFAULT_REORDER_WINDOW: Option<f64> = Some(0.05);
 
-/// `pqm encode`'s corner order when `--corner-order` is not given: every
-/// level draws the same triangles either way, and `diagonal` took 2.2–2.5 %
-/// off the bench files (`docs/figures-history.md`, session 15).
-pub const DEFAULT_CORNER_ORDER: CornerArg = CornerArg::Diagonal;
+/// `pqm encode`'s corner order when `--corner-order` is not given:
+/// `diagonal` took 2.2–2.5 % off the bench files and draws the input's
+/// triangles (session 15); `canonical` another 2.2–3.7 % of the file,
+/// drawing the same quads (session 22, `docs/figures-history.md`).
+pub const DEFAULT_CORNER_ORDER: CornerArg = CornerArg::Canonical;
 
 /// Encode meshes as progressive .pqm files (coarse base + refinement records).
 ///
@@ -139,12 +140,15 @@ pub struct Args {
     /// (files as before this option); 3..=7 fixes it (6 is level 19's cap).
     #[arg(long, default_value = "auto", value_name = "auto|level|N", value_parser = parse_min_match, help_heading = "File")]
     pub zstd_min_match: pqm_format::ZstdMinMatch,
-    /// Where each stored quad's corner list starts. `diagonal` lets a quad
-    /// start at its opposite corner where that codes smaller: every quad
-    /// keeps its diagonal, so every level splits into exactly the same
-    /// triangles, and files are about 2 % smaller. `input` keeps each input
-    /// quad's first corner at the full level, for tools that refer to a
-    /// face's corners by position.
+    /// Where each stored quad's corner list starts. `canonical` starts each
+    /// quad a record builds where the decoder builds it (no rotation to
+    /// code): the smallest files, every quad with its corners in the
+    /// input's cyclic order, but a renderer may split some quads into
+    /// triangles along the other diagonal. `diagonal` lets a quad start
+    /// only at its opposite corner, so every level splits into exactly the
+    /// input's triangles (`canonical`'s files are 2.2–3.7 % smaller). `input`
+    /// keeps each input quad's first corner at the full level, for tools
+    /// that refer to a face's corners by position (another 2–2.5 %).
     #[arg(long, value_enum, default_value_t = DEFAULT_CORNER_ORDER, value_name = "ORDER", help_heading = "File")]
     pub corner_order: CornerArg,
     /// The quantization grid. `cube` gives every axis the step of the
@@ -178,6 +182,7 @@ impl From<GridArg> for pqm_format::Grid {
 pub enum CornerArg {
     Diagonal,
     Input,
+    Canonical,
 }
 
 impl From<CornerArg> for pqm_format::CornerOrder {
@@ -185,6 +190,7 @@ impl From<CornerArg> for pqm_format::CornerOrder {
         match c {
             CornerArg::Diagonal => pqm_format::CornerOrder::Diagonal,
             CornerArg::Input => pqm_format::CornerOrder::Input,
+            CornerArg::Canonical => pqm_format::CornerOrder::Canonical,
         }
     }
 }
