@@ -138,7 +138,9 @@ pub enum CornerOrder {
     /// triangles as with `Input`; the file is 2.2–2.5 % smaller (session
     /// 15: spot, makehuman, loki, the split bunny). The finest level equals
     /// the input up to where each quad's corner list starts;
-    /// [`write_stored`] returns the progressive mesh the file holds.
+    /// [`write_stored`] returns the progressive mesh the file holds. Under
+    /// both turning orders a record keeps the form it has under `Input` (a
+    /// face split whose quads turn stays a face split).
     Diagonal,
     /// A quad a record builds starts where the record's form builds it
     /// (every rotation field 0), and keeps that start until a later record
@@ -149,11 +151,10 @@ pub enum CornerOrder {
     /// one, 50–58 % here, and the mean angle between a quad's two
     /// triangles moves by −0.07° to +0.10°.) Under `Diagonal` the fields
     /// still cost ≈ 1 bit per refined vertex; all 0, which every reader
-    /// already decodes (no format change), they leave the geometry 2.5–4.2 %
+    /// already decodes (no format change), they leave the geometry 2.2–3.5 %
     /// smaller than with `Diagonal`, and decoding takes ≈ 1 % fewer
-    /// instructions (session 22: spot, makehuman, loki, the split bunny).
-    /// Records keep the forms they have under `Input`. [`write_stored`]
-    /// returns the progressive mesh the file holds.
+    /// instructions (session 22: the six bench meshes).
+    /// [`write_stored`] returns the progressive mesh the file holds.
     Canonical,
 }
 
@@ -765,9 +766,8 @@ fn write_impl(
             }
             // Turned quads can let a face split (form 3) be coded as a
             // plain split, tried first: the same record, larger (+4.5 % on
-            // the split bunny). Canonical keeps the face-split form.
-            // (Diagonal is left as it was: its files stay byte for byte.)
-            if form == 3 && canonical {
+            // the split bunny under Canonical). A face split stays one.
+            if form == 3 {
                 round_coding.split = false;
             }
             rounds += 1;
