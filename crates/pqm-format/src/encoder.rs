@@ -723,10 +723,10 @@ fn write_impl(
     // slot keeps its turn while records only replace its corners in place,
     // and gets a new one when a record builds it again.
     let canonical = opts.corner_order == CornerOrder::Canonical;
-    let diagonal = canonical || opts.corner_order == CornerOrder::Diagonal;
+    let turning = canonical || opts.corner_order == CornerOrder::Diagonal;
     // The part of a rotation field the corner order removes.
     let excess = |r: u8| if canonical { r & 3 } else { r & 2 };
-    let mut turn: Vec<u8> = if diagonal {
+    let mut turn: Vec<u8> = if turning {
         vec![0; final_f as usize]
     } else {
         Vec::new()
@@ -735,7 +735,7 @@ fn write_impl(
     for (k, rec) in mesh.records.iter().enumerate() {
         let mut q = QRecord::quantized(rec, &quant);
         let before = [0, 1, 2, 3, 4].map(|t| streams[t].len());
-        if diagonal {
+        if turning {
             for (slot, quad) in &mut q.rewritten {
                 *quad = codec::rotl(*quad, turn[*slot as usize]);
             }
@@ -744,11 +744,12 @@ fn write_impl(
         // a rotation field of 2 or 3 is started at its opposite corner and
         // the record encoded again: its field changes by 2, to 0 or 1
         // (with Canonical, any nonzero field `r`: the quad turned by
-        // `4 - r`, its field to 0). The
-        // turn can make another form apply (a face split's turned rewritten
-        // quad can make the record a plain split, tried first), whose own
-        // fields are then turned the same way; a few rounds settle it, and
-        // any turn is a valid file (only smaller or not).
+        // `4 - r`, its field to 0). A turn changes no other field, but it
+        // can make an earlier-tried form apply: a face split's turned
+        // quads can fit the split form, which codes the same record larger
+        // (+4.5 % on the split bunny under Canonical), so a face split is
+        // encoded again as one. A few rounds settle it, and any turn is a
+        // valid file (only smaller or not).
         let cursors_before = cursors;
         let mut rounds = 0;
         let mut round_coding = coding;
@@ -761,12 +762,9 @@ fn write_impl(
                 round_coding,
                 &mut built,
             );
-            if !diagonal || rounds == 4 || built.iter().all(|&(_, r)| excess(r) == 0) {
+            if !turning || rounds == 4 || built.iter().all(|&(_, r)| excess(r) == 0) {
                 break form;
             }
-            // Turned quads can let a face split (form 3) be coded as a
-            // plain split, tried first: the same record, larger (+4.5 % on
-            // the split bunny under Canonical). A face split stays one.
             if form == 3 {
                 round_coding.split = false;
             }
