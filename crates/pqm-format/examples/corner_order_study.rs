@@ -10,22 +10,23 @@
 //!
 //! `cargo run --release -p pqm-format --example corner_order_study -- FILE.pqm...`
 //!
-//! ## Figures (session 22; files of `pqm encode --corner-order diagonal`)
+//! ## Figures (session 22; files of session 18's `pqm encode`, `diagonal`)
 //!
 //! A file written with `Diagonal` holds quads already turned by 2, so here
-//! `input` equals `diagonal` (same bytes, same triangles: the input's).
+//! `input` draws the same triangles as `diagonal` (the input's); the two
+//! differ in bytes because the turning orders write a doublet that fits
+//! both forms as a face split (`Coding::face_split_first`).
 //!
-//! | file | diagonal | canonical | shorter diagonal: input / canonical | mean fold: input / canonical |
-//! |---|---|---|---|---|
-//! | spot | 16,107 B, 43.98 b/v | 15,753 B, 43.01 b/v | 0.493 / 0.504 | 3.86° / 3.79° |
-//! | makehuman | 84,505 B, 35.29 | 81,693 B, 34.11 | 0.519 / 0.528 | 7.06° / 7.02° |
-//! | loki | 122,478 B, 35.61 | 118,622 B, 34.49 | 0.506 / 0.505 | 3.99° / 3.92° |
-//! | bunny (split) | 898,405 B, 34.39 | 872,532 B, 33.40 | 0.391 / 0.576 | 0.86° / 0.96° |
+//! | file | input | diagonal | canonical | shorter diagonal: input / canonical | mean fold: input / canonical |
+//! |---|---|---|---|---|---|
+//! | spot | 16,107 B, 43.98 b/v | 15,975 B, 43.62 | 15,579 B, 42.54 | 0.493 / 0.504 | 3.86° / 3.81° |
+//! | makehuman | 84,505 B, 35.29 | 83,031 B, 34.67 | 80,097 B, 33.45 | 0.519 / 0.523 | 7.06° / 7.04° |
+//! | loki | 122,478 B, 35.61 | 120,016 B, 34.90 | 115,846 B, 33.68 | 0.506 / 0.500 | 3.99° / 3.94° |
+//! | bunny (split) | 898,405 B, 34.39 | 878,307 B, 33.62 | 850,133 B, 32.54 | 0.391 / 0.573 | 0.86° / 0.96° |
 //!
-//! The same record forms under all three orders. The input's diagonals
-//! are no better than the canonical ones: about half of its quads are
-//! split along the shorter diagonal (fewer on the split bunny), and the
-//! triangles fold alike.
+//! The input's diagonals are no better than the canonical ones: about half
+//! of its quads are split along the shorter diagonal (fewer on the split
+//! bunny), and the triangles fold alike.
 
 use pqm_format::{write_stored, CornerOrder, EncodeOptions, EncodeReport};
 

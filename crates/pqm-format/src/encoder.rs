@@ -148,12 +148,13 @@ pub enum CornerOrder {
     /// order, not always its diagonal: a renderer may split some quads
     /// along the other one. (The input's diagonals carry nothing on the
     /// bench meshes: 39–52 % of their quads are split along the shorter
-    /// one, 50–58 % here, and the mean angle between a quad's two
-    /// triangles moves by −0.07° to +0.10°.) Under `Diagonal` the fields
+    /// one, 50–57 % here, and the mean angle between a quad's two
+    /// triangles moves by −0.05° to +0.10°.) Under `Diagonal` the fields
     /// still cost ≈ 1 bit per refined vertex; all 0, which every reader
-    /// already decodes (no format change), they leave the geometry 2.2–3.5 %
-    /// smaller than with `Diagonal`, and decoding takes ≈ 1 % fewer
-    /// instructions (session 22: the six bench meshes).
+    /// already decodes (no format change), they leave the geometry 2.5–3.5 %
+    /// smaller than with `Diagonal` (the files 2.2–3.1 %), and decoding
+    /// takes 0.5–1.2 % fewer instructions (session 22: the six bench
+    /// meshes).
     /// [`write_stored`] returns the progressive mesh the file holds.
     Canonical,
 }
@@ -540,6 +541,9 @@ fn write_impl(
         face_split: opts.face_split_form,
         local: opts.local_form,
         edge_split: opts.edge_split_form,
+        // With the corner orders that turn quads (below), whose files
+        // have no earlier bytes to keep.
+        face_split_first: opts.corner_order != CornerOrder::Input,
     };
     if opts.chunk_records == Some(0) || opts.chunk_bytes == 0 {
         return Err(EncodeError::InvalidOptions(
@@ -747,9 +751,10 @@ fn write_impl(
         // `4 - r`, its field to 0). A turn changes no other field, but it
         // can make an earlier-tried form apply: a face split's turned
         // quads can fit the split form, which codes the same record larger
-        // (+4.5 % on the split bunny under Canonical), so a face split is
-        // encoded again as one. A few rounds settle it, and any turn is a
-        // valid file (only smaller or not).
+        // (+4.5 % on the split bunny under Canonical, before doublets
+        // tried the face split first), so a face split is encoded again
+        // as one. A few rounds settle it, and any turn is a valid file
+        // (only smaller or not).
         let cursors_before = cursors;
         let mut rounds = 0;
         let mut round_coding = coding;

@@ -30,9 +30,9 @@ pub const DEFAULT_REORDER_WINDOW: Option<f64> = Some(0.05);
 
 /// `pqm encode`'s corner order when `--corner-order` is not given:
 /// `diagonal` took 2.2–2.5 % off the bench files and draws the input's
-/// triangles (session 15); `canonical` another 2.2–3.7 % of the file,
-/// 1.9–3.0 % against today's `diagonal`,
-/// drawing the same quads (session 22, `docs/figures-history.md`).
+/// triangles (session 15); `canonical` draws the same quads in files
+/// 2.2–3.1 % smaller than today's `diagonal` (session 22,
+/// `docs/figures-history.md`).
 pub const DEFAULT_CORNER_ORDER: CornerArg = CornerArg::Canonical;
 
 /// Encode meshes as progressive .pqm files (coarse base + refinement records).
@@ -147,7 +147,7 @@ pub struct Args {
     /// input's cyclic order, but a renderer may split some quads into
     /// triangles along the other diagonal. `diagonal` lets a quad start
     /// only at its opposite corner, so every level splits into exactly the
-    /// input's triangles (`canonical`'s files are 1.9–3.0 % smaller). `input`
+    /// input's triangles (`canonical`'s files are 2.2–3.1 % smaller). `input`
     /// keeps each input quad's first corner at the full level, for tools
     /// that refer to a face's corners by position (another 2–2.5 %).
     #[arg(long, value_enum, default_value_t = DEFAULT_CORNER_ORDER, value_name = "ORDER", help_heading = "File")]
