@@ -3723,9 +3723,8 @@ pub struct Coding {
     /// face split names one quad by its rank among the anchor's where the
     /// split names two wings, and it decodes with no star walk
     /// (session 22: `canonical` files 0.7–1.6 % smaller on the six bench
-    /// meshes, decoding 0.1–0.5 % fewer instructions). Off by default so
-    /// that the files of
-    /// [`crate::CornerOrder::Input`] stay as they were.
+    /// meshes, decoding 0.1–0.5 % fewer instructions). Off by default, so
+    /// that the files of [`crate::CornerOrder::Input`] stay as they were.
     pub face_split_first: bool,
 }
 
@@ -3854,8 +3853,9 @@ pub fn encode_record(
 /// field, by 2 (what `crate::encoder`'s [`crate::CornerOrder::Diagonal`]
 /// does), and rotating it by 1 or 3 only that field too (what
 /// [`crate::CornerOrder::Canonical`] does, to make it 0) — except that a
-/// face split's turned quads may then fit the split form, tried first. No
-/// other field depends on a quad's first corner.
+/// face split's turned quads may then fit the split form, tried first
+/// unless [`Coding::face_split_first`]. No other field depends on a quad's
+/// first corner.
 pub fn encode_record_rotations(
     st: &MeshState,
     r: &QRecord,
