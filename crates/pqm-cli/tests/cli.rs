@@ -1246,10 +1246,16 @@ fn corner_order_canonical_is_the_default_and_keeps_the_quads() {
         d.path().join("diagonal.pqm"),
         d.path().join("input.pqm"),
     );
-    encode_spot(&default, &[]);
-    encode_spot(&canonical, &["--corner-order", "canonical"]);
-    encode_spot(&diagonal, &["--corner-order", "diagonal"]);
-    encode_spot(&input, &["--corner-order", "input"]);
+    let reports = [
+        encode_spot(&default, &[]),
+        encode_spot(&canonical, &["--corner-order", "canonical"]),
+        encode_spot(&diagonal, &["--corner-order", "diagonal"]),
+        encode_spot(&input, &["--corner-order", "input"]),
+    ];
+    let orders = reports
+        .each_ref()
+        .map(|r| r["files"][0]["corner_order"].as_str().unwrap());
+    assert_eq!(orders, ["canonical", "canonical", "diagonal", "input"]);
     let bytes = |p: &Path| std::fs::read(p).unwrap();
     assert_eq!(bytes(&default), bytes(&canonical));
     let sizes = [&canonical, &diagonal, &input].map(|p| bytes(p).len());

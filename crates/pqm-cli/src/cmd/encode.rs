@@ -179,7 +179,8 @@ impl From<GridArg> for pqm_format::Grid {
 }
 
 /// `--corner-order` values.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum CornerArg {
     Diagonal,
     Input,
@@ -251,6 +252,9 @@ pub struct FileReport {
     pub subdivided: bool,
     /// Where merged vertices went (`subset`: every level at input positions).
     pub placement: Placement,
+    /// Where each stored quad's corner list starts (`--corner-order`):
+    /// `canonical`, `diagonal` or `input`.
+    pub corner_order: CornerArg,
     pub stop: &'static str,
     pub error: f64,
     pub operators: Operators,
@@ -449,6 +453,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         bits: args.bits,
         subdivided: p.split,
         placement,
+        corner_order: args.corner_order,
         stop: stop_code(&r),
         error: r.error,
         operators,
