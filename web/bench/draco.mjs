@@ -6,7 +6,11 @@
 //
 // For each .pqm file, the mesh compared is its finest level as pqm-decoder
 // decodes it (the input mesh with positions on the 14-bit grid), each quad
-// split into the two triangles the decoder draws (v0 v1 v2, v0 v2 v3).
+// split into two triangles along its shorter diagonal, as `pqm decode`'s
+// glTF export splits it (what a pipeline would hand Draco; until session
+// 22 the two the decoder draws, v0 v1 v2 and v0 v2 v3, whose diagonal
+// follows where the .pqm writer starts each quad: Draco's makehuman took
+// 21.5 bits per vertex with the input's starts, 23.5 with the canonical).
 // Draco encodes those triangles with positions only: 14-bit position
 // quantization, edgebreaker, speed 3/3 (= `draco_encoder -cl 7`).
 //
@@ -131,6 +135,29 @@ if (args[0] === '--child') await child(args.slice(1));
 const encoderModule = await draco3d.createEncoderModule({});
 decoderModule = await draco3d.createDecoderModule({});
 
+/**
+ * Each quad of `quads` (4 ids each) as two triangles split along its
+ * shorter diagonal in `positions` (x, y, z per vertex), `q[0]–q[2]` on a
+ * tie: pqm_core::io::quad_split_diagonal, which the glTF export uses.
+ */
+function shorterDiagonalTriangles(positions, quads) {
+  const d2 = (a, b) => {
+    let s = 0;
+    for (let k = 0; k < 3; k++) {
+      const t = positions[3 * a + k] - positions[3 * b + k];
+      s += t * t;
+    }
+    return s;
+  };
+  const out = new Uint32Array((quads.length / 4) * 6);
+  for (let f = 0, o = 0; f < quads.length; f += 4, o += 6) {
+    let q = [quads[f], quads[f + 1], quads[f + 2], quads[f + 3]];
+    if (d2(q[1], q[3]) < d2(q[0], q[2])) q = [q[1], q[2], q[3], q[0]];
+    out.set([q[0], q[1], q[2], q[0], q[2], q[3]], o);
+  }
+  return out;
+}
+
 /** Draco bytes of the triangle mesh (positions only). */
 function dracoEncode(positions, triangles) {
   const E = encoderModule;
@@ -189,7 +216,7 @@ for (const file of files) {
   const V = dec.vertexCount;
   const F = dec.faceCount;
   const positions = dec.positions.slice();
-  const triangles = dec.triangleIndices.slice();
+  const triangles = shorterDiagonalTriangles(positions, dec.quads);
   const drc = dracoEncode(positions, triangles);
   const check = dracoDecode(drc);
   // Draco drops triangles that are degenerate on its grid (a handful on the
