@@ -92,8 +92,9 @@ fn peer_encode(dec: &Decoder) -> Peer {
     let indices: Vec<u32> = quads
         .iter()
         .flat_map(|&q| {
-            let r = pqm_core::io::quad_split_diagonal(&p, q);
-            quad_triangles([q[r], q[(r + 1) % 4], q[(r + 2) % 4], q[(r + 3) % 4]])
+            let (mut t, r) = (q, pqm_core::io::quad_split_diagonal(&p, q));
+            t.rotate_left(r);
+            quad_triangles(t)
         })
         .collect();
     let vertices: Vec<[u16; 4]> = codes

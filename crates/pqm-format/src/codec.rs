@@ -3717,9 +3717,10 @@ pub struct Coding {
     pub local: bool,
     /// Try the edge-split form (§7.10; ignored when `major < 3`).
     pub edge_split: bool,
-    /// Try the face-split form before the split form for a doublet
-    /// record (the inverse of a doublet removal). Both can fit one: a
-    /// doublet whose quads start where the split form builds them. The
+    /// Try the face-split form before the split form. Both can fit one
+    /// record: a doublet removal's inverse whose quads start where the
+    /// split form builds them (turning quads, as `CornerOrder::Diagonal`
+    /// and `Canonical` do, can make it so). The
     /// face split names one quad by its rank among the anchor's where the
     /// split names two wings, and it decodes with no star walk
     /// (session 22: `canonical` files 0.7–1.6 % smaller on the six bench
@@ -3871,11 +3872,7 @@ pub fn encode_record_rotations(
     let major = coding.major;
     let mut nf = NewFaces::default();
     let face_split = coding.face_split && major >= 2;
-    if face_split
-        && coding.face_split_first
-        && r.op == OpKind::Doublet
-        && put_face_split(st, r, cur, s, built, major)
-    {
+    if face_split && coding.face_split_first && put_face_split(st, r, cur, s, built, major) {
         return 3;
     }
     if coding.split {

@@ -748,30 +748,25 @@ fn write_impl(
         // a rotation field of 2 or 3 is started at its opposite corner and
         // the record encoded again: its field changes by 2, to 0 or 1
         // (with Canonical, any nonzero field `r`: the quad turned by
-        // `4 - r`, its field to 0). A turn changes no other field, but it
-        // can make an earlier-tried form apply: a face split's turned
-        // quads can fit the split form, which codes the same record larger
-        // (+4.5 % on the split bunny under Canonical, before doublets
-        // tried the face split first), so a face split is encoded again
-        // as one. A few rounds settle it, and any turn is a valid file
-        // (only smaller or not).
+        // `4 - r`, its field to 0). A turn changes no other field, but a
+        // face split's turned quads can fit the split form too, which
+        // codes the same record larger (+4.5 % on the split bunny under
+        // Canonical): these orders set `Coding::face_split_first`, so a
+        // face split stays one. A few rounds settle it, and any turn is a
+        // valid file (only smaller or not).
         let cursors_before = cursors;
         let mut rounds = 0;
-        let mut round_coding = coding;
         let form = loop {
             let form = codec::encode_record_rotations(
                 &state,
                 &q,
                 &mut cursors,
                 &mut streams,
-                round_coding,
+                coding,
                 &mut built,
             );
             if !turning || rounds == 4 || built.iter().all(|&(_, r)| excess(r) == 0) {
                 break form;
-            }
-            if form == 3 {
-                round_coding.split = false;
             }
             rounds += 1;
             let f0 = state.quads.len() as u32;
