@@ -1308,3 +1308,34 @@ fn corner_order_canonical_is_the_default_and_keeps_the_quads() {
     assert_eq!(started(&got_i, &[0]), started(&want, &[0]));
     encode_spot_refused(Path::new("x.pqm"), &["--corner-order", "first"]);
 }
+
+#[test]
+fn chunk_growth_makes_fewer_chunks_with_the_same_final_mesh() {
+    let d = TempDir::new().unwrap();
+    let (flat, grown) = (d.path().join("flat.pqm"), d.path().join("grown.pqm"));
+    let base = ["--chunk-bytes", "256", "--corner-order", "input"];
+    let with = |g: &'static str| {
+        let mut a = base.to_vec();
+        a.extend(["--chunk-growth", g]);
+        a
+    };
+    let f = &encode_spot(&flat, &with("0"))["files"][0];
+    let g = &encode_spot(&grown, &with("0.5"))["files"][0];
+    assert_eq!(
+        (f["chunk_growth"].as_f64(), g["chunk_growth"].as_f64()),
+        (Some(0.0), Some(0.5))
+    );
+    let (cf, cg) = (f["chunks"].as_u64().unwrap(), g["chunks"].as_u64().unwrap());
+    assert!(cg * 2 < cf, "{cg} chunks grown vs {cf} flat");
+    // The same records, so the same mesh at the finest level.
+    let out = |p: &Path, o: &str| {
+        let o = d.path().join(o);
+        json_ok(&["decode", s(p), "-o", s(&o)]);
+        std::fs::read_to_string(o).unwrap()
+    };
+    assert_eq!(out(&flat, "flat.obj"), out(&grown, "grown.obj"));
+    for bad in ["-0.1", "17", "x"] {
+        encode_spot_refused(&d.path().join("bad.pqm"), &["--chunk-growth", bad]);
+    }
+    assert!(!d.path().join("bad.pqm").exists());
+}

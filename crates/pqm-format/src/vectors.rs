@@ -305,6 +305,9 @@ pub fn all() -> Vec<Vector> {
                 split_form: false,
                 local_form: false,
                 chunk_bytes: 64,
+                // The chunk cuts this vector was written with (before
+                // chunks grew with the file).
+                chunk_growth: 0.0,
                 ..EncodeOptions::default()
             },
         ),

@@ -122,6 +122,7 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
         any::<bool>(),
         0usize..3,
         any::<bool>(),
+        prop::sample::select(vec![0.0, 0.1, 0.5, 3.0]),
     )
         .prop_map(
             |(
@@ -136,11 +137,13 @@ fn opts_strategy() -> impl Strategy<Value = EncodeOptions> {
                 edge_split_form,
                 blocks,
                 cube,
+                chunk_growth,
             )| {
                 EncodeOptions {
                     bits,
                     chunk_records,
                     chunk_bytes,
+                    chunk_growth,
                     zstd_level,
                     split_form,
                     local_form,
@@ -1803,4 +1806,68 @@ fn fan_of_300() -> pqm_format::codec::MeshState {
         quads.push([0, a, a + 1, b]);
     }
     pqm_format::codec::MeshState::new((1 << 14) - 1, q, quads)
+}
+
+/// `chunk_growth`: each chunk holds at least its budget (`chunk_bytes`, or
+/// the fraction of every earlier chunk's payload when that is more) and
+/// closes soon after reaching it; the file has fewer chunks than with
+/// fixed-size chunks, and every chunk-end level still equals the
+/// coarsener's level.
+#[test]
+fn chunks_grow_with_the_file() {
+    let mut pm = testgen::generate(41, 900);
+    pqm_format::vectors::rotate_rewritten(&mut pm);
+    let opts = |chunk_growth| EncodeOptions {
+        chunk_bytes: 256,
+        chunk_growth,
+        ..EncodeOptions::default()
+    };
+    let flat = encode(&pm, &opts(0.0));
+    let grown = encode(&pm, &opts(0.5));
+    let q = expected_quantizer(&pm, 14, Grid::Cube);
+    let table = |bytes: &[u8]| {
+        decode_all(bytes, Limits::default())
+            .unwrap()
+            .chunks()
+            .to_vec()
+    };
+    let (tf, tg) = (table(&flat), table(&grown));
+    assert!(
+        tg.len() * 2 < tf.len(),
+        "{} chunks grown vs {} flat",
+        tg.len(),
+        tf.len()
+    );
+    // The table's payload lengths include each stream's length varint (at
+    // most 3 bytes for these sizes) on top of the bytes the writer counts.
+    let mut before = 0u64;
+    for (i, c) in tg.iter().enumerate() {
+        let budget = 256u64.max(before / 2);
+        let len = c.uncompressed_len as u64;
+        if i + 1 < tg.len() {
+            assert!(
+                len >= budget,
+                "chunk {i}: {len} bytes under its budget {budget}"
+            );
+        }
+        assert!(
+            len <= 2 * budget + 512,
+            "chunk {i}: {len} bytes, far over its budget {budget}"
+        );
+        before += len.saturating_sub(15);
+    }
+    let mut dec = decode_all(&grown, Limits::default()).unwrap();
+    let mut k = 0;
+    for c in &tg {
+        k += c.record_count as usize;
+        dec.set_level(Target::Level(k)).unwrap();
+        assert_level(&dec, &pm, &q, k);
+    }
+    assert_eq!(k, pm.records.len());
+    for bad in [-0.1, f64::NAN, 16.5] {
+        assert!(matches!(
+            write_to_vec(&pm, &opts(bad)),
+            Err(EncodeError::InvalidOptions(_))
+        ));
+    }
 }

@@ -3,7 +3,9 @@
 use crate::cmd::coarsen::{run_with_bar, stop_code, target_faces, Operators};
 use crate::ctx::{usage, Ctx};
 use crate::pipeline::{placement_and_smoothing, prepare, CoarsenerArgs};
-use crate::util::{human_bytes, in_dir_with_ext, parse_nonneg, parse_ratio, write_atomic};
+use crate::util::{
+    human_bytes, in_dir_with_ext, parse_growth, parse_nonneg, parse_ratio, write_atomic,
+};
 use anyhow::Context;
 use pqm_core::coarsen::{CoarsenOptions, Placement};
 use pqm_format::EncodeOptions;
@@ -112,6 +114,15 @@ pub struct Args {
     /// bytes (smaller chunks: finer streaming steps, a little more overhead).
     #[arg(long, value_name = "N", default_value_t = 16384, value_parser = clap::value_parser!(u64).range(64..=(1 << 30)), help_heading = "File")]
     pub chunk_bytes: u64,
+    /// Let chunks grow with the file: a chunk also holds at least this
+    /// fraction of everything before it (0: every chunk --chunk-bytes).
+    /// Early chunks stay small, so the base and the first levels still
+    /// arrive in small steps; the fine end, where each record changes
+    /// little, goes in fewer, larger chunks that compress better (2–3 %
+    /// smaller files on meshes over 100k faces) under a shorter chunk
+    /// table.
+    #[arg(long, value_name = "F", default_value_t = 0.1, value_parser = parse_growth, help_heading = "File")]
+    pub chunk_growth: f64,
     /// Leave out the vertex-order section: the full level then has the
     /// decoder's vertex order instead of the input's (as Draco and gltfpack
     /// also reorder). Saves 3–15 bits per vertex (format 3.1's `VNBR`
@@ -255,6 +266,9 @@ pub struct FileReport {
     /// Where each stored quad's corner list starts (`--corner-order`):
     /// `canonical`, `diagonal` or `input`.
     pub corner_order: CornerArg,
+    /// `--chunk-growth`: each chunk holds at least this fraction of the
+    /// record payload before it.
+    pub chunk_growth: f64,
     pub stop: &'static str,
     pub error: f64,
     pub operators: Operators,
@@ -418,6 +432,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
     let eopts = EncodeOptions {
         bits: args.bits,
         chunk_bytes: args.chunk_bytes as usize,
+        chunk_growth: args.chunk_growth,
         vertex_order: !args.no_vertex_order,
         vertex_order_code: if args.vertex_order_deltas {
             pqm_format::VertexOrderCode::Deltas
@@ -454,6 +469,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         subdivided: p.split,
         placement,
         corner_order: args.corner_order,
+        chunk_growth: args.chunk_growth,
         stop: stop_code(&r),
         error: r.error,
         operators,
