@@ -1339,3 +1339,52 @@ fn chunk_growth_makes_fewer_chunks_with_the_same_final_mesh() {
     }
     assert!(!d.path().join("bad.pqm").exists());
 }
+
+#[test]
+fn a_split_input_keeps_its_own_vertex_indices_and_gives_out_the_rest_anew() {
+    // spot's control cage has triangles and pentagons: split into quads
+    // first, its 194 vertices then the split's edge and face points.
+    let d = TempDir::new().unwrap();
+    let cage = fixtures().join("spot_control_mesh.obj");
+    let n_in = io::read_mesh(&cage).unwrap().vertex_count();
+    let (free, kept) = (d.path().join("free.pqm"), d.path().join("kept.pqm"));
+    let enc = |out: &Path, flags: &[&str]| {
+        let mut a = vec!["encode", s(&cage), "-o", s(out)];
+        a.extend_from_slice(flags);
+        json_ok(&a)["files"][0]["bytes"].as_u64().unwrap()
+    };
+    let (bf, bk) = (enc(&free, &[]), enc(&kept, &["--keep-split-order"]));
+    assert!(bf < bk, "free tail {bf} bytes, kept order {bk}");
+    let full = |p: &Path, o: &str| {
+        let o = d.path().join(o);
+        json_ok(&["decode", s(p), "-o", s(&o)]);
+        io::read_mesh(&o).unwrap()
+    };
+    let (a, b) = (full(&free, "free.obj"), full(&kept, "kept.obj"));
+    assert_eq!(a.vertex_count(), b.vertex_count());
+    assert!(a.vertex_count() > n_in);
+    // The input's own vertices where the input has them.
+    assert_eq!(a.positions[..n_in], b.positions[..n_in]);
+    // The same mesh: the same faces, named by their corners' positions
+    // (each face from its smallest corner; positions may repeat, so
+    // compared as sorted lists, not through an index map).
+    let faces = |m: &IndexedMesh| {
+        let key = |v: u32| m.positions[v as usize].to_array().map(f64::to_bits);
+        let mut out: Vec<Vec<[u64; 3]>> = m
+            .faces()
+            .map(|f| {
+                let k: Vec<[u64; 3]> = f.iter().map(|&v| key(v)).collect();
+                let i = (0..k.len()).min_by_key(|&i| k[i]).unwrap();
+                k[i..].iter().chain(&k[..i]).copied().collect()
+            })
+            .collect();
+        out.sort();
+        out
+    };
+    assert_eq!(faces(&a), faces(&b));
+    // A quad input is not split: the flag changes nothing.
+    let (q1, q2) = (d.path().join("q1.pqm"), d.path().join("q2.pqm"));
+    encode_spot(&q1, &[]);
+    encode_spot(&q2, &["--keep-split-order"]);
+    assert_eq!(std::fs::read(&q1).unwrap(), std::fs::read(&q2).unwrap());
+}

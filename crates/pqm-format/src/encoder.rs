@@ -70,6 +70,14 @@ pub struct EncodeOptions {
     /// Which vertex-order section to write (default
     /// [`VertexOrderCode::Smaller`]).
     pub vertex_order_code: VertexOrderCode,
+    /// Only the input indices below this mean something to the user
+    /// (default `None`: all do). The writer gives the others out anew, in
+    /// the order the `VNBR` section codes in the fewest bits
+    /// ([`crate::vorder::free_tail`]): `pqm encode` passes the input's
+    /// vertex count when it split a triangle or mixed mesh into quads, whose
+    /// edge and face points are its own. [`write_stored`] returns the
+    /// order written.
+    pub vertex_order_keep: Option<usize>,
     /// How the zstd frames of the base and the record chunks are cut into
     /// blocks (default [`ZstdBlocks::Auto`]). Every choice is one standard
     /// frame per section (spec §1); only size and decode time differ.
@@ -225,6 +233,7 @@ impl Default for EncodeOptions {
             version_major: VERSION_MAJOR,
             vertex_order: true,
             vertex_order_code: VertexOrderCode::Smaller,
+            vertex_order_keep: None,
             zstd_blocks: ZstdBlocks::Auto,
             corner_order: CornerOrder::Input,
             grid: Grid::Cube,
@@ -510,24 +519,30 @@ pub fn write_stored(
     w: impl Write,
 ) -> Result<(EncodeReport, ProgressiveMesh), EncodeError> {
     let mut records = Vec::with_capacity(mesh.records.len());
-    let report = write_impl(mesh, opts, w, Some(&mut records))?;
+    let mut vertex_order = mesh.vertex_order.clone();
+    let report = write_impl(mesh, opts, w, Some((&mut records, &mut vertex_order)))?;
     let stored = ProgressiveMesh {
         base: mesh.base.clone(),
         records,
-        vertex_order: mesh.vertex_order.clone(),
+        vertex_order,
         level_error: mesh.level_error.clone(),
     };
     Ok((report, stored))
 }
 
 /// [`write()`]; with `stored`, each record as the file holds it (see
-/// [`write_stored`]) is pushed there.
+/// [`write_stored`]) is pushed there, and the vertex order written (the
+/// same unless `vertex_order_keep`) replaces the second.
 fn write_impl(
     mesh: &ProgressiveMesh,
     opts: &EncodeOptions,
     mut w: impl Write,
-    mut stored: Option<&mut Vec<pqm_core::SplitRecord>>,
+    stored: Option<(&mut Vec<pqm_core::SplitRecord>, &mut Vec<u32>)>,
 ) -> Result<EncodeReport, EncodeError> {
+    let (mut stored, stored_order) = match stored {
+        Some((r, o)) => (Some(r), Some(o)),
+        None => (None, None),
+    };
     if !(8..=24).contains(&opts.bits) {
         return Err(EncodeError::InvalidOptions(format!(
             "bits = {} (allowed 8..=24)",
@@ -895,10 +910,26 @@ fn write_impl(
         0
     };
     if opts.vertex_order && !mesh.vertex_order.is_empty() {
+        let order = match opts.vertex_order_keep {
+            Some(keep) if keep < mesh.vertex_order.len() => {
+                let o = crate::vorder::free_tail(
+                    &mesh.vertex_order,
+                    &state.quads,
+                    mesh.base.vertex_count(),
+                    keep,
+                )
+                .map_err(EncodeError::InvalidMesh)?;
+                if let Some(out) = stored_order {
+                    out.clone_from(&o);
+                }
+                std::borrow::Cow::Owned(o)
+            }
+            _ => std::borrow::Cow::Borrowed(&mesh.vertex_order),
+        };
         let deltas = || {
             let mut payload = Vec::new();
             let mut prev = 0i64;
-            for &o in &mesh.vertex_order {
+            for &o in order.iter() {
                 put_s(&mut payload, o as i64 - prev);
                 prev = o as i64;
             }
@@ -911,9 +942,8 @@ fn write_impl(
         };
         let mut candidates = Vec::with_capacity(2);
         if code != VertexOrderCode::Deltas {
-            let payload =
-                crate::vorder::encode(&mesh.vertex_order, &state.quads, mesh.base.vertex_count())
-                    .map_err(EncodeError::InvalidMesh)?;
+            let payload = crate::vorder::encode(&order, &state.quads, mesh.base.vertex_count())
+                .map_err(EncodeError::InvalidMesh)?;
             let (c, _) = compress_parts(&payload, &[], opts, 0)?;
             candidates.push((true, payload, c));
         }

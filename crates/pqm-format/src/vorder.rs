@@ -357,25 +357,93 @@ pub fn encode(order: &[u32], quads: &[[u32; 4]], base: usize) -> Result<Vec<u8>,
     let mut symbols = Vec::with_capacity(n);
     let mut ranks = Vec::new();
     for &t in &inv {
-        if w.low() == Some(t) {
-            symbols.push(SYM_BASE);
-            w.assign(t);
-            continue;
-        }
-        w.candidates(Until::Vertex(t));
-        if w.list.last() == Some(&t) {
-            symbols.push((w.list.len() - 1) as u8);
-        } else {
-            symbols.push(SYM_ESCAPE);
-            let r = w.free.below(t as usize) as i64;
-            let r0 = w.free.below(w.after_escape) as i64;
-            put_s(&mut ranks, r - r0);
-            w.after_escape = t as usize + 1;
-        }
-        w.assign(t);
+        w.code(t, &mut symbols, &mut ranks);
     }
     symbols.extend_from_slice(&ranks);
     Ok(symbols)
+}
+
+impl Walk {
+    /// Codes canonical vertex `t` as the next input vertex (the writer's
+    /// unique choice of symbol, spec §8.2) and assigns it.
+    fn code(&mut self, t: u32, symbols: &mut Vec<u8>, ranks: &mut Vec<u8>) {
+        if self.low() == Some(t) {
+            symbols.push(SYM_BASE);
+            self.assign(t);
+            return;
+        }
+        self.candidates(Until::Vertex(t));
+        if self.list.last() == Some(&t) {
+            symbols.push((self.list.len() - 1) as u8);
+        } else {
+            symbols.push(SYM_ESCAPE);
+            let r = self.free.below(t as usize) as i64;
+            let r0 = self.free.below(self.after_escape) as i64;
+            put_s(ranks, r - r0);
+            self.after_escape = t as usize + 1;
+        }
+        self.assign(t);
+    }
+}
+
+/// `order` (canonical id → input index, a permutation of `0..n`) with the
+/// input indices from `keep` on given out anew, in the order that `VNBR`
+/// codes in the fewest bits: each next one is the first entry of the
+/// candidate list, else the smallest unassigned base vertex, else the
+/// first unassigned vertex past the last escape — so their symbols are
+/// nearly all 0. Indices below `keep` stay as they are.
+///
+/// For inputs whose vertices past `keep` are the writer's own, with no
+/// meaning to the user: the edge and face points of the quad split that
+/// `pqm encode` makes of a triangle or mixed mesh (the input's own
+/// vertices keep their indices, spec §8). Their input order otherwise costs
+/// most of the section (the bunny: 10 bits per vertex in all).
+pub fn free_tail(
+    order: &[u32],
+    quads: &[[u32; 4]],
+    base: usize,
+    keep: usize,
+) -> Result<Vec<u32>, String> {
+    let n = order.len();
+    if keep >= n {
+        return Ok(order.to_vec());
+    }
+    let mut inv = vec![u32::MAX; keep];
+    for (c, &i) in order.iter().enumerate() {
+        if i as usize >= n {
+            return Err(format!("vertex order entry {c} = {i} out of range"));
+        }
+        if let Some(s) = inv.get_mut(i as usize) {
+            if *s != u32::MAX {
+                return Err(format!("vertex order entry {c} = {i} repeated"));
+            }
+            *s = c as u32;
+        }
+    }
+    let mut w = Walk::new(n, quads, base)?;
+    // The symbols are thrown away: only the walk's state matters.
+    let (mut symbols, mut ranks) = (Vec::with_capacity(n), Vec::new());
+    for &t in &inv {
+        if t == u32::MAX {
+            return Err("vertex order is not a permutation".into());
+        }
+        w.code(t, &mut symbols, &mut ranks);
+    }
+    let mut out = order.to_vec();
+    for j in keep..n {
+        w.candidates(Until::Len(1));
+        let t = match (w.list.first(), w.low()) {
+            (Some(&x), _) | (None, Some(x)) => x,
+            (None, None) => {
+                let left = w.free.left as u64;
+                let r0 = w.free.below(w.after_escape);
+                w.free.select(r0.min(left - 1)) as u32
+            }
+        };
+        out[t as usize] = j as u32;
+        w.code(t, &mut symbols, &mut ranks);
+    }
+    Ok(out)
 }
 
 /// Decodes a `VNBR` payload into the permutation (canonical id → input

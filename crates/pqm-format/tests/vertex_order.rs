@@ -431,3 +431,76 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// `vertex_order_keep`: the input indices below `keep` stay with their
+    /// vertices, the rest are a permutation of `keep..n`; the decoder gives
+    /// back exactly the order `write_stored` reports, whatever section the
+    /// writer picks; the records are untouched (the same bytes up to the
+    /// sections); and the section is no larger than the whole order's
+    /// (random orders: far smaller).
+    #[test]
+    fn a_free_tail_keeps_the_kept_indices_and_codes_smaller(
+        seed in 0u64..10_000,
+        splits in 1usize..150,
+        coherent in prop::option::of(0usize..40),
+        keep_frac in 0.0f64..1.0,
+    ) {
+        let pm = gen(seed, splits, coherent);
+        let n = pm.final_vertex_count();
+        let keep = (keep_frac * n as f64) as usize;
+        let whole = encode(&pm, &boxed(VertexOrderCode::Neighbours));
+        let opts = EncodeOptions { vertex_order_keep: Some(keep), ..boxed(VertexOrderCode::Neighbours) };
+        let mut bytes = Vec::new();
+        let (_, stored) = write_stored(&pm, &opts, &mut bytes).unwrap();
+        let order = &stored.vertex_order;
+        prop_assert_eq!(order.len(), n);
+        let mut seen = vec![false; n];
+        for (c, (&o, &was)) in order.iter().zip(&pm.vertex_order).enumerate() {
+            prop_assert!(!std::mem::replace(&mut seen[o as usize], true), "index {} twice", o);
+            if (was as usize) < keep || (o as usize) < keep {
+                prop_assert_eq!(o, was, "vertex {} moved from kept index {}", c, was);
+            }
+        }
+        assert_order(&bytes, &stored, b"VNBR");
+        let (sb, sw) = (sections_start(&bytes), sections_start(&whole));
+        prop_assert_eq!(&bytes[..sb], &whole[..sw]);
+        prop_assert!(bytes.len() - sb <= whole.len() - sw, "{} vs {} section bytes", bytes.len() - sb, whole.len() - sw);
+        // The default section choice reads the same order back.
+        let smaller = EncodeOptions { vertex_order_keep: Some(keep), ..EncodeOptions::default() };
+        let (_, again) = write_stored(&pm, &smaller, &mut Vec::new()).unwrap();
+        prop_assert_eq!(&again.vertex_order, order);
+        let dec = decode_all(&encode(&pm, &smaller), Limits::default()).unwrap();
+        prop_assert_eq!(dec.vertex_order().unwrap(), Some(&order[..]));
+    }
+}
+
+/// A random order past `keep` costs about what VORD costs; given out anew
+/// it costs almost nothing.
+#[test]
+fn a_free_tail_costs_almost_nothing() {
+    let pm = gen(5, 600, None);
+    let n = pm.final_vertex_count();
+    let keep = n / 5;
+    let size = |keep| {
+        let b = encode(
+            &pm,
+            &EncodeOptions {
+                vertex_order_keep: keep,
+                ..boxed(VertexOrderCode::Neighbours)
+            },
+        );
+        8.0 * (b.len() - sections_start(&b)) as f64 / n as f64
+    };
+    let (whole, free, none) = (size(None), size(Some(keep)), size(Some(0)));
+    assert!(
+        free < 0.4 * whole,
+        "free tail {free:.2} vs whole {whole:.2} bits per vertex"
+    );
+    assert!(
+        none < 1.5,
+        "everything given out anew: {none:.2} bits per vertex"
+    );
+}

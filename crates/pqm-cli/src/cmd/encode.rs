@@ -138,6 +138,15 @@ pub struct Args {
     /// mesh).
     #[arg(long, help_heading = "File", conflicts_with = "no_vertex_order")]
     pub vertex_order_deltas: bool,
+    /// Keep the order of the vertices the quad split makes too. A triangle
+    /// or mixed input is split into quads first (edge and face points after
+    /// the input's own vertices); by default only the input's own vertices
+    /// keep their indices at the full level, and the split's points are
+    /// numbered after them in the order that codes smallest (the bunny's
+    /// vertex order: 10 bits per vertex → about 2). Quad inputs are not
+    /// split and keep their whole order either way.
+    #[arg(long, help_heading = "File", conflicts_with = "no_vertex_order")]
+    pub keep_split_order: bool,
     /// How each section's zstd frame is cut into blocks: `auto` gives a
     /// chunk's streams (operation symbols, connectivity, vertex references,
     /// positions) blocks of their own where that saves more than a block
@@ -434,6 +443,9 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         chunk_bytes: args.chunk_bytes as usize,
         chunk_growth: args.chunk_growth,
         vertex_order: !args.no_vertex_order,
+        // The split's edge and face points are pqm's own: their indices
+        // mean nothing to the user (pipeline: the input's vertices first).
+        vertex_order_keep: (p.split && !args.keep_split_order).then(|| p.input.vertex_count()),
         vertex_order_code: if args.vertex_order_deltas {
             pqm_format::VertexOrderCode::Deltas
         } else {
