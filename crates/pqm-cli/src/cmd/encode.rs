@@ -125,7 +125,7 @@ pub struct Args {
     pub chunk_growth: f64,
     /// Leave out the vertex-order section: the full level then has the
     /// decoder's vertex order instead of the input's (as Draco and gltfpack
-    /// also reorder). Saves 3–15 bits per vertex (format 3.1's `VNBR`
+    /// also reorder). Saves 2–15 bits per vertex (format 3.1's `VNBR`
     /// section, which codes the input order against the mesh, or 3.0's
     /// `VORD` deltas where those come out smaller); keep the
     /// default when something else refers to the input's vertex indices.
