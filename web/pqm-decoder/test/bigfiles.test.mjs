@@ -1,10 +1,10 @@
 // The big files of bench/data (written by tools/make-pqm, not committed),
 // when present: the same digests as the Rust reference decoder at levels
-// 0, n/3, 2n/3 and n, whole and streamed in 64 KiB pieces.
+// 0, n/3, 2n/3 and n, and the same vertex order, streamed in 64 KiB pieces.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { PqmDecoder } from '../src/index.js';
-import { testFiles, levelDigests, BENCH_DATA_DIR } from './helpers.mjs';
+import { testFiles, levelDigests, fnv1a64, BENCH_DATA_DIR } from './helpers.mjs';
 
 const files = testFiles({ includeBench: true }).filter((f) => f.dir === BENCH_DATA_DIR);
 
@@ -18,6 +18,10 @@ for (const file of files) {
     for (let o = 0; o < file.bytes.length; o += 65536) dec.push(file.bytes.subarray(o, o + 65536));
     dec.end();
     assert.equal(dec.deepestLevel, file.digest.final_level);
+    if (file.digest.vertex_order_fnv1a64) {
+      const o = dec.vertexOrder;
+      assert.equal(fnv1a64(new Uint8Array(o.buffer, o.byteOffset, o.byteLength)), file.digest.vertex_order_fnv1a64, 'vertex order');
+    }
     for (const l of file.digest.levels) {
       dec.setLevel({ level: l.level });
       assert.equal(dec.faceCount, l.face_count);
