@@ -1351,9 +1351,14 @@ fn a_split_input_keeps_its_own_vertex_indices_and_gives_out_the_rest_anew() {
     let enc = |out: &Path, flags: &[&str]| {
         let mut a = vec!["encode", s(&cage), "-o", s(out)];
         a.extend_from_slice(flags);
-        json_ok(&a)["files"][0]["bytes"].as_u64().unwrap()
+        let f = json_ok(&a)["files"][0].clone();
+        (
+            f["bytes"].as_u64().unwrap(),
+            f["vertex_order_kept"].as_u64(),
+        )
     };
-    let (bf, bk) = (enc(&free, &[]), enc(&kept, &["--keep-split-order"]));
+    let ((bf, kf), (bk, kk)) = (enc(&free, &[]), enc(&kept, &["--keep-split-order"]));
+    assert_eq!((kf, kk), (Some(n_in as u64), None));
     assert!(bf < bk, "free tail {bf} bytes, kept order {bk}");
     let full = |p: &Path, o: &str| {
         let o = d.path().join(o);
@@ -1384,7 +1389,7 @@ fn a_split_input_keeps_its_own_vertex_indices_and_gives_out_the_rest_anew() {
     assert_eq!(faces(&a), faces(&b));
     // A quad input is not split: the flag changes nothing.
     let (q1, q2) = (d.path().join("q1.pqm"), d.path().join("q2.pqm"));
-    encode_spot(&q1, &[]);
+    assert!(encode_spot(&q1, &[])["files"][0]["vertex_order_kept"].is_null());
     encode_spot(&q2, &["--keep-split-order"]);
     assert_eq!(std::fs::read(&q1).unwrap(), std::fs::read(&q2).unwrap());
 }

@@ -278,6 +278,11 @@ pub struct FileReport {
     /// `--chunk-growth`: each chunk holds at least this fraction of the
     /// record payload before it.
     pub chunk_growth: f64,
+    /// The full level keeps the input's vertex indices below this (a split
+    /// input: its own vertices; the split's points are numbered as they
+    /// code smallest); `null` when it keeps every index, or has no vertex
+    /// order (`--no-vertex-order`).
+    pub vertex_order_kept: Option<usize>,
     pub stop: &'static str,
     pub error: f64,
     pub operators: Operators,
@@ -482,6 +487,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         placement,
         corner_order: args.corner_order,
         chunk_growth: args.chunk_growth,
+        vertex_order_kept: eopts.vertex_order_keep.filter(|_| eopts.vertex_order),
         stop: stop_code(&r),
         error: r.error,
         operators,
