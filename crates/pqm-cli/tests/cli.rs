@@ -91,6 +91,24 @@ fn face_set(m: &IndexedMesh) -> Vec<Vec<u32>> {
     out
 }
 
+/// The faces of `m` named by their corners' positions (bit patterns), each
+/// from its smallest corner, sorted: two meshes with the same faces under
+/// different vertex numberings compare equal. (Positions may repeat, so
+/// this compares lists, not an index map.)
+fn faces_by_position(m: &IndexedMesh) -> Vec<Vec<[u64; 3]>> {
+    let key = |v: u32| m.positions[v as usize].to_array().map(f64::to_bits);
+    let mut out: Vec<Vec<[u64; 3]>> = m
+        .faces()
+        .map(|f| {
+            let k: Vec<[u64; 3]> = f.iter().map(|&v| key(v)).collect();
+            let i = (0..k.len()).min_by_key(|&i| k[i]).unwrap();
+            k[i..].iter().chain(&k[..i]).copied().collect()
+        })
+        .collect();
+    out.sort();
+    out
+}
+
 /// Files in `dir` whose name ends in `.tmp` (left-over temporaries).
 fn temp_files(dir: &Path) -> Vec<String> {
     std::fs::read_dir(dir)
@@ -1029,20 +1047,7 @@ fn encode_without_vertex_order_is_smaller_and_the_same_mesh_up_to_renumbering() 
         let out = d.path().join(name);
         json_ok(&["decode", s(file), "-o", s(&out)]);
         let im = io::read_mesh(&out).unwrap();
-        let key = |v: u32| {
-            let p = im.positions[v as usize];
-            [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
-        };
-        let mut faces: Vec<Vec<[u64; 3]>> = face_set(&im)
-            .iter()
-            .map(|f| {
-                let k: Vec<[u64; 3]> = f.iter().map(|&v| key(v)).collect();
-                let i = (0..k.len()).min_by_key(|&i| k[i]).unwrap();
-                k[i..].iter().chain(&k[..i]).copied().collect()
-            })
-            .collect();
-        faces.sort();
-        (im.vertex_count(), faces)
+        (im.vertex_count(), faces_by_position(&im))
     };
     let (na, fa) = full(&with, "a.obj");
     let (nb, fb) = full(&without, "b.obj");
@@ -1370,23 +1375,8 @@ fn a_split_input_keeps_its_own_vertex_indices_and_gives_out_the_rest_anew() {
     assert!(a.vertex_count() > n_in);
     // The input's own vertices where the input has them.
     assert_eq!(a.positions[..n_in], b.positions[..n_in]);
-    // The same mesh: the same faces, named by their corners' positions
-    // (each face from its smallest corner; positions may repeat, so
-    // compared as sorted lists, not through an index map).
-    let faces = |m: &IndexedMesh| {
-        let key = |v: u32| m.positions[v as usize].to_array().map(f64::to_bits);
-        let mut out: Vec<Vec<[u64; 3]>> = m
-            .faces()
-            .map(|f| {
-                let k: Vec<[u64; 3]> = f.iter().map(|&v| key(v)).collect();
-                let i = (0..k.len()).min_by_key(|&i| k[i]).unwrap();
-                k[i..].iter().chain(&k[..i]).copied().collect()
-            })
-            .collect();
-        out.sort();
-        out
-    };
-    assert_eq!(faces(&a), faces(&b));
+    // The same mesh: the same faces, named by their corners' positions.
+    assert_eq!(faces_by_position(&a), faces_by_position(&b));
     // A quad input is not split: the flag changes nothing.
     let (q1, q2) = (d.path().join("q1.pqm"), d.path().join("q2.pqm"));
     assert!(encode_spot(&q1, &[])["files"][0]["vertex_order_kept"].is_null());
