@@ -40,7 +40,8 @@ pub struct EncodeOptions {
     /// while the base and the first levels arrive, and the fine end, where
     /// a step changes little, is coded in fewer, larger frames that zstd
     /// compresses better (and a shorter chunk table: the base shows
-    /// sooner). Measured: the bunny 2.3 % smaller, amo 2.6 %.
+    /// sooner). Measured: positions + connectivity 1.9 % smaller on the
+    /// bunny, 2.6 % on amo (whole files 1.5 and 1.7 %).
     pub chunk_growth: f64,
     /// zstd compression level, 1..=22 (default 19).
     pub zstd_level: i32,
