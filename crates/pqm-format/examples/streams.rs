@@ -11,7 +11,9 @@
 //! edge-split form; `--v1` as
 //! version 1.1 — version-1 prediction, no face-split form; `--no-local` without the local form, as version 1.0 did;
 //! `--no-face-split` without the face-split form; `--write` also saves the
-//! re-encoded file beside the input as `NAME.reencoded.pqm`).
+//! re-encoded file beside the input as `NAME.reencoded.pqm`; `--input-corners`
+//! re-encodes with the library's default corner order, `Input`, instead of
+//! `pqm encode`'s `Canonical`, whose files this then describes as written).
 
 use pqm_format::{decode_all, write_to_vec, EncodeOptions, Limits};
 
@@ -32,6 +34,14 @@ fn main() {
         pqm_format::layout::VERSION_MAJOR
     };
     let write = flag("--write");
+    // `pqm encode`'s corner order: its files' quads already start where
+    // the decoder builds them, so the records come out as the file has
+    // them (doublets as face splits where both forms fit).
+    let corner_order = if flag("--input-corners") {
+        pqm_format::CornerOrder::Input
+    } else {
+        pqm_format::CornerOrder::Canonical
+    };
     files.retain(|f| !f.starts_with("--"));
     if files.is_empty() {
         eprintln!("usage: streams FILE.pqm...");
@@ -62,6 +72,7 @@ fn main() {
             local_form,
             face_split_form,
             version_major,
+            corner_order,
             ..EncodeOptions::default()
         };
         let (out, r) = match write_to_vec(&pm, &opts) {
