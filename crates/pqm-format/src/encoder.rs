@@ -72,9 +72,10 @@ pub struct EncodeOptions {
     /// [`VertexOrderCode::Smaller`]).
     pub vertex_order_code: VertexOrderCode,
     /// Only the input indices below this mean something to the user
-    /// (default `None`: all do). The writer gives the others out anew, in
-    /// the order the `VNBR` section codes in the fewest bits
-    /// ([`crate::vorder::free_tail`]): `pqm encode` passes the input's
+    /// (default `None`: all do). The writer may then give the others out
+    /// anew, in the order the `VNBR` section codes in the fewest bits
+    /// ([`crate::vorder::free_tail`]), and does where that section comes
+    /// out smaller than the whole order's: `pqm encode` passes the input's
     /// vertex count when it split a triangle or mixed mesh into quads, whose
     /// edge and face points are its own. [`write_stored`] returns the
     /// order written.
@@ -911,26 +912,29 @@ fn write_impl(
         0
     };
     if opts.vertex_order && !mesh.vertex_order.is_empty() {
-        let order = match opts.vertex_order_keep {
-            Some(keep) if keep < mesh.vertex_order.len() => {
-                let o = crate::vorder::free_tail(
-                    &mesh.vertex_order,
-                    &state.quads,
-                    mesh.base.vertex_count(),
-                    keep,
-                )
-                .map_err(EncodeError::InvalidMesh)?;
-                if let Some(out) = stored_order {
-                    out.clone_from(&o);
-                }
-                std::borrow::Cow::Owned(o)
-            }
-            _ => std::borrow::Cow::Borrowed(&mesh.vertex_order),
-        };
-        let deltas = || {
+        // The mesh's whole order and, with `vertex_order_keep`, the order
+        // with the free indices given out anew: the greedy walk nearly
+        // always codes far smaller, but is not sure to (a few free
+        // indices whose given order happens to compress well), so both
+        // are priced and the smaller written — on a tie the whole order.
+        let mut orders = vec![std::borrow::Cow::Borrowed(&mesh.vertex_order)];
+        if let Some(keep) = opts
+            .vertex_order_keep
+            .filter(|&k| k < mesh.vertex_order.len())
+        {
+            let o = crate::vorder::free_tail(
+                &mesh.vertex_order,
+                &state.quads,
+                mesh.base.vertex_count(),
+                keep,
+            )
+            .map_err(EncodeError::InvalidMesh)?;
+            orders.push(std::borrow::Cow::Owned(o));
+        }
+        let deltas = |order: &[u32]| {
             let mut payload = Vec::new();
             let mut prev = 0i64;
-            for &o in order.iter() {
+            for &o in order {
                 put_s(&mut payload, o as i64 - prev);
                 prev = o as i64;
             }
@@ -941,25 +945,29 @@ fn write_impl(
         } else {
             VertexOrderCode::Deltas
         };
-        let mut candidates = Vec::with_capacity(2);
-        if code != VertexOrderCode::Deltas {
-            let payload = crate::vorder::encode(&order, &state.quads, mesh.base.vertex_count())
-                .map_err(EncodeError::InvalidMesh)?;
-            let (c, _) = compress_parts(&payload, &[], opts, 0)?;
-            candidates.push((true, payload, c));
+        let mut candidates = Vec::with_capacity(2 * orders.len());
+        for (i, order) in orders.iter().enumerate() {
+            if code != VertexOrderCode::Deltas {
+                let payload = crate::vorder::encode(order, &state.quads, mesh.base.vertex_count())
+                    .map_err(EncodeError::InvalidMesh)?;
+                let (c, _) = compress_parts(&payload, &[], opts, 0)?;
+                candidates.push((i, true, payload, c));
+            }
+            if code != VertexOrderCode::Neighbours {
+                let payload = deltas(order);
+                let (c, _) = compress_parts(&payload, &[], opts, 0)?;
+                candidates.push((i, false, payload, c));
+            }
         }
-        if code != VertexOrderCode::Neighbours {
-            let payload = deltas();
-            let (c, _) = compress_parts(&payload, &[], opts, 0)?;
-            candidates.push((false, payload, c));
-        }
-        // The smaller compressed section; on a tie the later one (`VORD`),
-        // which 3.0 readers read too.
-        let (neighbours, payload, c) = candidates
+        // The smaller compressed section; on a tie the whole order, then
+        // `VORD`, which 3.0 readers read too.
+        let (i, neighbours, payload, c) = candidates
             .into_iter()
-            .rev()
-            .min_by_key(|(_, _, c)| c.len())
+            .min_by_key(|(i, neighbours, _, c)| (c.len(), *i, *neighbours))
             .expect("at least one vertex-order candidate");
+        if let Some(out) = stored_order {
+            out.clone_from(&orders[i]);
+        }
         sections.extend_from_slice(if neighbours { &TAG_VNBR } else { &TAG_VORD });
         sections.extend_from_slice(&(c.len() as u32).to_le_bytes());
         sections.extend_from_slice(&(payload.len() as u32).to_le_bytes());
