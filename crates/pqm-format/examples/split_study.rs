@@ -93,45 +93,11 @@ fn study(f: &str, n_orig: u32) -> Result<(), String> {
         for i in 0..r.new_pos.len() {
             let x = v0 + i as u32;
             let xc = code[x as usize];
-            let known = |u: u32| u < x;
             let class = usize::from(order[x as usize] >= n_orig);
-            // The stencil (as `rice_study`: spec §7.6, else version 1's
-            // rule on the first quad) and the edge neighbours in fan order.
-            let (mut nb, mut op, mut cnt) = ([0i64; 3], [0i64; 3], 0i64);
-            let mut first: Option<[u32; 3]> = None;
-            let mut e: Vec<u32> = Vec::new();
-            for q in &quads {
-                let Some(k) = q.iter().position(|&u| u == x) else {
-                    continue;
-                };
-                let (n1, o, n3) = (q[(k + 1) % 4], q[(k + 2) % 4], q[(k + 3) % 4]);
-                first.get_or_insert([n1, o, n3]);
-                if known(n1) && known(o) && known(n3) {
-                    for a in 0..3 {
-                        nb[a] += code[n1 as usize][a] + code[n3 as usize][a];
-                        op[a] += code[o as usize][a];
-                    }
-                    cnt += 1;
-                }
-                for u in [n1, n3] {
-                    if known(u) && !e.contains(&u) {
-                        e.push(u);
-                    }
-                }
-            }
-            let stencil: [i64; 3] = if cnt > 0 {
-                [0, 1, 2].map(|a| ((5 * nb[a] - 2 * op[a]).div_euclid(8 * cnt)).clamp(0, qmax))
-            } else if let Some(ks) = first
-                .map(|f| f.into_iter().filter(|&u| known(u)).collect::<Vec<u32>>())
-                .filter(|ks| !ks.is_empty())
-            {
-                [0, 1, 2]
-                    .map(|a| ks.iter().map(|&u| code[u as usize][a]).sum::<i64>() / ks.len() as i64)
-            } else if x > v0 {
-                code[(x - 1) as usize]
-            } else {
-                [qmax / 2 + 1; 3]
-            };
+            // The file's stencil, and the edge neighbours in quad order.
+            let sums = models::StencilSums::of(&code, &quads, x);
+            let stencil = sums.predict(&code, x, v0, qmax);
+            let e = &sums.edge;
             let mean_of = |vs: &[u32]| -> Option<[i64; 3]> {
                 (!vs.is_empty()).then(|| {
                     [0, 1, 2].map(|a| {
@@ -141,7 +107,7 @@ fn study(f: &str, n_orig: u32) -> Result<(), String> {
                     })
                 })
             };
-            let mean = mean_of(&e).unwrap_or(stencil);
+            let mean = mean_of(e).unwrap_or(stencil);
             let dist = |p: [i64; 3]| (0..3).map(|a| (xc[a] - p[a]).abs()).max().unwrap_or(0);
             // Every pair: the record's quads need not close the ring, so
             // which neighbours face each other is not known.

@@ -165,3 +165,83 @@ pub fn zstd19(parts: &[&[u8]]) -> usize {
     }
     zstd::bulk::compress(&payload, 19).map_or(usize::MAX, |c| c.len())
 }
+
+/// Spec §7.6's sums for new vertex `x` over the quads a record writes
+/// (appended, then rewritten), with `code` every vertex's position code
+/// (the new ones included): per quad holding `x`, its neighbours `n1`, `n3`
+/// and opposite corner `o`; a quad counts when all three come before `x`.
+#[allow(dead_code)]
+pub struct StencilSums {
+    /// `Σ (n1 + n3)` and `Σ o` per axis over the counted quads, and their
+    /// number.
+    pub nb: [i64; 3],
+    pub op: [i64; 3],
+    pub cnt: i64,
+    /// `Σ_axis |n1 − n3|` over the counted quads.
+    pub span: i64,
+    /// `(n1, o, n3)` of the first quad holding `x`, counted or not.
+    pub first: Option<[u32; 3]>,
+    /// The edge neighbours of `x` that come before it, in quad order.
+    pub edge: Vec<u32>,
+}
+
+#[allow(dead_code)]
+impl StencilSums {
+    pub fn of(code: &[[i64; 3]], quads: &[[u32; 4]], x: u32) -> Self {
+        let known = |u: u32| u < x;
+        let mut s = StencilSums {
+            nb: [0; 3],
+            op: [0; 3],
+            cnt: 0,
+            span: 0,
+            first: None,
+            edge: Vec::new(),
+        };
+        for q in quads {
+            let Some(k) = q.iter().position(|&u| u == x) else {
+                continue;
+            };
+            let (n1, o, n3) = (q[(k + 1) % 4], q[(k + 2) % 4], q[(k + 3) % 4]);
+            s.first.get_or_insert([n1, o, n3]);
+            if known(n1) && known(o) && known(n3) {
+                let (a, c, b) = (code[n1 as usize], code[o as usize], code[n3 as usize]);
+                s.nb = [0, 1, 2].map(|t| s.nb[t] + a[t] + b[t]);
+                s.op = [0, 1, 2].map(|t| s.op[t] + c[t]);
+                s.span += (0..3).map(|t| (a[t] - b[t]).abs()).sum::<i64>();
+                s.cnt += 1;
+            }
+            for u in [n1, n3] {
+                if known(u) && !s.edge.contains(&u) {
+                    s.edge.push(u);
+                }
+            }
+        }
+        s
+    }
+
+    /// The prediction of new vertex `x` (the record's first new vertex is
+    /// `v0`): the version-4 stencil, else version 1's rule on the first
+    /// quad's known corners, else the previous new vertex or the grid's
+    /// centre.
+    pub fn predict(&self, code: &[[i64; 3]], x: u32, v0: u32, qmax: i64) -> [i64; 3] {
+        let known = |u: u32| u < x;
+        if self.cnt > 0 {
+            return [0, 1, 2].map(|t| {
+                ((5 * self.nb[t] - 2 * self.op[t]).div_euclid(8 * self.cnt)).clamp(0, qmax)
+            });
+        }
+        if let Some([n1, o, n3]) = self.first {
+            let ks: Vec<u32> = [n1, o, n3].into_iter().filter(|&u| known(u)).collect();
+            if !ks.is_empty() {
+                return [0, 1, 2].map(|t| {
+                    ks.iter().map(|&u| code[u as usize][t]).sum::<i64>() / ks.len() as i64
+                });
+            }
+        }
+        if x > v0 {
+            code[(x - 1) as usize]
+        } else {
+            [qmax / 2 + 1; 3]
+        }
+    }
+}
