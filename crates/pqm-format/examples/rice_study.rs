@@ -305,10 +305,52 @@ fn study(f: &str) -> Result<(), String> {
         for (i, c) in r.new_pos.iter().enumerate() {
             let x = v0 + i as u32;
             let xc = c.map(|t| t as i64);
+            let known = |u: u32| u < x;
+            let (mut nb, mut op, mut cnt) = ([0i64; 3], [0i64; 3], 0i64);
+            let mut span = 0i64;
+            let mut e: Vec<u32> = Vec::new();
+            let mut first: Option<[u32; 3]> = None;
+            for q in &quads {
+                let Some(k) = q.iter().position(|&u| u == x) else {
+                    continue;
+                };
+                let (n1, o, n3) = (q[(k + 1) % 4], q[(k + 2) % 4], q[(k + 3) % 4]);
+                first.get_or_insert([n1, o, n3]);
+                if known(n1) && known(o) && known(n3) {
+                    for t in 0..3 {
+                        nb[t] += code[n1 as usize][t] + code[n3 as usize][t];
+                        op[t] += code[o as usize][t];
+                        span += (code[n1 as usize][t] - code[n3 as usize][t]).abs();
+                    }
+                    cnt += 1;
+                }
+                for u in [n1, n3] {
+                    if known(u) && !e.contains(&u) {
+                        e.push(u);
+                    }
+                }
+            }
             // §7.6: the stencil, else version 1's rule on the first quad.
-            let sums = models::StencilSums::of(&code, &quads, x);
-            let pred = sums.predict(&code, x, v0, qmax);
-            let (nb, op, cnt, span, e) = (sums.nb, sums.op, sums.cnt, sums.span, &sums.edge);
+            let pred: [i64; 3] = if cnt > 0 {
+                [0, 1, 2].map(|t| ((5 * nb[t] - 2 * op[t]).div_euclid(8 * cnt)).clamp(0, qmax))
+            } else if let Some([n1, o, n3]) = first {
+                let ks: Vec<u32> = [n1, o, n3].into_iter().filter(|&u| known(u)).collect();
+                if ks.is_empty() {
+                    if x > v0 {
+                        code[(x - 1) as usize]
+                    } else {
+                        [qmax / 2 + 1; 3]
+                    }
+                } else {
+                    [0, 1, 2].map(|t| {
+                        ks.iter().map(|&u| code[u as usize][t]).sum::<i64>() / ks.len() as i64
+                    })
+                }
+            } else if x > v0 {
+                code[(x - 1) as usize]
+            } else {
+                [qmax / 2 + 1; 3]
+            };
             // Scales the decoder knows before the residual.
             let spread = if e.is_empty() {
                 0
