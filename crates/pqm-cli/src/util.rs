@@ -103,10 +103,8 @@ pub fn parse_nonneg(s: &str) -> Result<f64, String> {
 
 /// Clap value parser: a chunk growth fraction in `0..=16`.
 pub fn parse_growth(s: &str) -> Result<f64, String> {
-    let r: f64 = s.parse().map_err(|_| format!("'{s}' is not a number"))?;
-    if (0.0..=16.0).contains(&r) {
-        Ok(r)
-    } else {
-        Err(format!("{s} is not in 0..=16"))
+    match parse_nonneg(s)? {
+        r if r <= 16.0 => Ok(r),
+        _ => Err(format!("{s} is not in 0..=16")),
     }
 }

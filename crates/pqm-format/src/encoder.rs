@@ -541,10 +541,7 @@ fn write_impl(
     mut w: impl Write,
     stored: Option<(&mut Vec<pqm_core::SplitRecord>, &mut Vec<u32>)>,
 ) -> Result<EncodeReport, EncodeError> {
-    let (mut stored, stored_order) = match stored {
-        Some((r, o)) => (Some(r), Some(o)),
-        None => (None, None),
-    };
+    let (mut stored, stored_order) = stored.unzip();
     if !(8..=24).contains(&opts.bits) {
         return Err(EncodeError::InvalidOptions(format!(
             "bits = {} (allowed 8..=24)",
