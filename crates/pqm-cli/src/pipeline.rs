@@ -18,6 +18,7 @@ use pqm_core::attributes::{
 };
 use pqm_core::coarsen::{Attributes, CoarsenOptions, Coarsener, Placement, Smoothing};
 use pqm_core::features::{feature_edges_from_polylines, load_features, sharp_edges, FeatureCurves};
+use pqm_core::pairing::pair_triangles;
 use pqm_core::subdivide::{catmull_clark_split, SplitMode};
 use pqm_core::{io, IndexedMesh, Mesh, VertexId};
 use std::path::{Path, PathBuf};
@@ -109,13 +110,51 @@ pub struct CoarsenerArgs {
     /// the paper's). `subset` placement never moves a vertex.
     #[arg(long, value_enum, help_heading = "Coarsener")]
     pub smoothing: Option<SmoothingArg>,
-    /// Refuse non-quad input instead of splitting each n-gon into n quads.
+    /// Refuse non-quad input instead of making it quad-only (--triangles).
     #[arg(long, help_heading = "Coarsener")]
     pub no_subdivide: bool,
+    /// How a triangle or mixed input becomes quad-only. `split`: each n-gon
+    /// into n quads around new edge and face points (any input; about 6×
+    /// the vertices of a triangle mesh, every level finer than the input).
+    /// `pair`: adjacent triangles joined two by two, no new vertex, so the
+    /// finest level is the input itself (each quad is two of its triangles)
+    /// and the file is several times smaller (fandisk, fertility: 4–5×);
+    /// its quads are as regular as the triangles allow. Where pairing
+    /// leaves a triangle alone (boundaries, odd parts) or meets an n-gon,
+    /// the input is split instead, with a note.
+    #[arg(
+        long,
+        value_enum,
+        default_value_t = TrianglesArg::Split,
+        help_heading = "Coarsener"
+    )]
+    pub triangles: TrianglesArg,
     /// Repair the input first (weld duplicates, drop unused vertices, split
     /// non-manifold vertices, re-orient) and report what changed.
     #[arg(long, help_heading = "Coarsener")]
     pub repair: bool,
+}
+
+/// `--triangles`: how a non-quad input becomes quad-only.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TrianglesArg {
+    /// The linear split (`pqm_core::subdivide`).
+    Split,
+    /// Triangle pairing (`pqm_core::pairing`), else the split.
+    Pair,
+}
+
+/// How the coarsener's quad mesh came from the input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum QuadConversion {
+    /// The input was quad-only.
+    None,
+    /// Triangles joined in pairs: the same vertices.
+    Paired,
+    /// The linear split: new vertices after the input's.
+    Split,
 }
 
 /// The placement (`default` unless `--placement` is given) and the smoothing
@@ -175,6 +214,8 @@ pub struct Prepared {
     pub input: IndexedMesh,
     /// True when the input went through the linear split.
     pub split: bool,
+    /// How the quad mesh came from the input.
+    pub conversion: QuadConversion,
     /// The coarsener, set up and not yet run.
     pub coarsener: Coarsener,
     /// Faces of the coarsener's input.
@@ -228,24 +269,55 @@ pub fn prepare(
         None => Vec::new(),
     };
 
-    // Non-quad input: one linear split (the surface does not change).
-    let split = !work.is_quad_only();
-    if split {
+    // Non-quad input: triangles paired (`--triangles pair`), else one
+    // linear split (the surface does not change either way).
+    let mut conversion = QuadConversion::None;
+    if !work.is_quad_only() {
         let (q, t, o) = work.face_size_counts();
         if args.no_subdivide {
             bail!(
                 "{name}: not a quad mesh ({q} quads, {t} triangles, {o} other polygons) and \
-                 --no-subdivide was given (without it, each n-gon is split into n quads first)"
+                 --no-subdivide was given (without it, the input is made quad-only first: \
+                 see --triangles)"
             );
         }
         let before = work.face_count();
-        work = catmull_clark_split(&work, SplitMode::Linear).map_err(|e| anyhow!("{name}: {e}"))?;
-        ctx.note(format!(
-            "{name}: not quad-only ({q} quads, {t} triangles, {o} other); split each n-gon into \
-             n quads with linear points (surface unchanged): {before} faces -> {} quads",
-            work.face_count()
-        ));
+        if args.triangles == TrianglesArg::Pair {
+            match pair_triangles(&work) {
+                Ok((paired, r)) if Mesh::from_indexed(&paired).is_ok() => {
+                    ctx.note(format!(
+                        "{name}: not quad-only ({q} quads, {t} triangles, {o} other); joined \
+                         the triangles in {} pairs ({} by shape, {} through augmenting paths, \
+                         {} folded or not convex), no new vertex: {before} faces -> {} quads",
+                        r.pairs,
+                        r.greedy_pairs,
+                        r.pairs - r.greedy_pairs,
+                        r.folded,
+                        paired.face_count()
+                    ));
+                    work = paired;
+                    conversion = QuadConversion::Paired;
+                }
+                Ok(_) => ctx.note(format!(
+                    "{name}: the paired triangles do not make a valid quad mesh; split instead"
+                )),
+                Err(e) => ctx.note(format!(
+                    "{name}: cannot pair the triangles ({e}); split instead"
+                )),
+            }
+        }
+        if conversion == QuadConversion::None {
+            work = catmull_clark_split(&work, SplitMode::Linear)
+                .map_err(|e| anyhow!("{name}: {e}"))?;
+            conversion = QuadConversion::Split;
+            ctx.note(format!(
+                "{name}: not quad-only ({q} quads, {t} triangles, {o} other); split each n-gon \
+                 into n quads with linear points (surface unchanged): {before} faces -> {} quads",
+                work.face_count()
+            ));
+        }
     }
+    let split = conversion == QuadConversion::Split;
     let mesh = Mesh::from_indexed(&work).map_err(|e| anyhow!("{name}: {e}"))?;
     if split && !polylines.is_empty() {
         polylines = polylines
@@ -298,6 +370,7 @@ pub fn prepare(
     Ok(Prepared {
         input,
         split,
+        conversion,
         coarsener,
         quad_faces,
     })

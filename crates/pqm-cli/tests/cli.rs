@@ -1383,3 +1383,125 @@ fn a_split_input_keeps_its_own_vertex_indices_and_gives_out_the_rest_anew() {
     encode_spot(&q2, &["--keep-split-order"]);
     assert_eq!(std::fs::read(&q1).unwrap(), std::fs::read(&q2).unwrap());
 }
+
+/// A closed triangle mesh made in code: a bumpy torus's quads, each split
+/// along one of its diagonals, so a perfect pairing exists but greedy
+/// pairing by shape need not find it.
+fn triangle_torus() -> IndexedMesh {
+    use pqm_core::shapes;
+    shapes::triangulated(&shapes::noisy(&shapes::torus(24, 12, 2.0, 0.7), 0.02, 7), 7)
+}
+
+/// The triangles of a mesh as sorted rotations of their vertex ids.
+fn triangle_ids(tris: impl Iterator<Item = [u32; 3]>) -> Vec<[u32; 3]> {
+    let mut v: Vec<[u32; 3]> = tris
+        .map(|t| {
+            let k = (0..3).min_by_key(|&k| t[k]).unwrap();
+            [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+        })
+        .collect();
+    v.sort_unstable();
+    v
+}
+
+#[test]
+fn paired_triangles_make_the_input_the_finest_level() {
+    let d = TempDir::new().unwrap();
+    let input = triangle_torus();
+    let obj = d.path().join("torus_tris.obj");
+    io::write_mesh(&obj, &input).unwrap();
+    let (paired, split) = (d.path().join("paired.pqm"), d.path().join("split.pqm"));
+    let out = pqm()
+        .args([
+            "--json",
+            "encode",
+            s(&obj),
+            "-o",
+            s(&paired),
+            "--triangles",
+            "pair",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("joined the triangles in"), "{stderr}");
+    let p: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let p = &p["files"][0];
+    let sp = json_ok(&["encode", s(&obj), "-o", s(&split)]);
+    let sp = &sp["files"][0];
+    assert_eq!(p["conversion"], "paired");
+    assert_eq!(sp["conversion"], "split");
+    assert_eq!(p["subdivided"], false);
+    // No new vertex; half as many faces as triangles.
+    assert_eq!(p["vertices"].as_u64(), Some(input.vertex_count() as u64));
+    assert_eq!(p["faces"].as_u64(), Some(input.face_count() as u64 / 2));
+    // The split has about six times the vertices: the paired file is
+    // several times smaller.
+    let (bp, bs) = (p["bytes"].as_u64().unwrap(), sp["bytes"].as_u64().unwrap());
+    assert!(3 * bp < bs, "paired {bp} bytes, split {bs}");
+    // The finest level: the input's vertices at their indices (on the
+    // grid), and each quad two input triangles across one diagonal.
+    let fine = d.path().join("fine.obj");
+    json_ok(&["decode", s(&paired), "-o", s(&fine)]);
+    let fine = io::read_mesh(&fine).unwrap();
+    assert_eq!(fine.vertex_count(), input.vertex_count());
+    let step = input.bbox_diagonal() / (1 << 14) as f64;
+    for (a, b) in fine.positions.iter().zip(&input.positions) {
+        assert!((*a - *b).length() <= step, "{a} vs {b}");
+    }
+    let want = triangle_ids(input.faces().map(|f| [f[0], f[1], f[2]]));
+    let mut got = Vec::new();
+    for q in fine.faces() {
+        assert_eq!(q.len(), 4);
+        let one = triangle_ids([[q[0], q[1], q[2]], [q[2], q[3], q[0]]].into_iter());
+        let other = triangle_ids([[q[1], q[2], q[3]], [q[3], q[0], q[1]]].into_iter());
+        let hit = [one, other]
+            .into_iter()
+            .find(|t| t.iter().all(|x| want.binary_search(x).is_ok()));
+        got.extend(hit.unwrap_or_else(|| panic!("quad {q:?} is not two input triangles")));
+    }
+    got.sort_unstable();
+    assert_eq!(got, want);
+}
+
+#[test]
+fn triangles_that_cannot_pair_are_split_with_a_note() {
+    // spot's control cage: quads, 4 triangles and 16 pentagons.
+    let d = TempDir::new().unwrap();
+    let out_p = d.path().join("p.pqm");
+    let cage = fixtures().join("spot_control_mesh.obj");
+    let out = pqm()
+        .args([
+            "--json",
+            "encode",
+            s(&cage),
+            "-o",
+            s(&out_p),
+            "--triangles",
+            "pair",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("cannot pair the triangles") && stderr.contains("split instead"),
+        "{stderr}"
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["files"][0]["conversion"], "split");
+    // The same file as the default split.
+    let out_s = d.path().join("s.pqm");
+    json_ok(&["encode", s(&cage), "-o", s(&out_s)]);
+    assert_eq!(
+        std::fs::read(&out_p).unwrap(),
+        std::fs::read(&out_s).unwrap()
+    );
+    // A quad input says so.
+    let q = d.path().join("q.pqm");
+    assert_eq!(
+        encode_spot(&q, &["--triangles", "pair"])["files"][0]["conversion"],
+        "none"
+    );
+}

@@ -17,6 +17,7 @@ pub mod metrics;
 pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};
 pub mod ops;
+pub mod pairing;
 pub mod progressive;
 pub mod shapes;
 pub mod subdivide;

@@ -250,6 +250,23 @@ pub fn noisy(mesh: &IndexedMesh, amplitude: f64, seed: u64) -> IndexedMesh {
     m
 }
 
+/// A triangle mesh from a quad mesh: each quad `[a, b, c, d]` split into
+/// two triangles along the diagonal `a–c` or `b–d`, chosen per face by a
+/// hash of `(seed, face)`. Same vertices; the faces of quad `f` are
+/// triangles `2f` and `2f + 1`. (A perfect pairing of the triangles always
+/// exists: the quads. `crate::pairing` tests recover one.)
+pub fn triangulated(quads: &IndexedMesh, seed: u64) -> IndexedMesh {
+    let mut tris: Vec<[u32; 3]> = Vec::with_capacity(2 * quads.face_count());
+    for (f, q) in quads.faces().enumerate() {
+        if splitmix64(seed ^ splitmix64(f as u64)) & 1 == 0 {
+            tris.extend([[q[0], q[1], q[2]], [q[0], q[2], q[3]]]);
+        } else {
+            tris.extend([[q[1], q[2], q[3]], [q[1], q[3], q[0]]]);
+        }
+    }
+    IndexedMesh::from_faces(quads.positions.clone(), tris)
+}
+
 /// A [`torus`] whose tube radius varies smoothly:
 /// `minor_radius · (1 + amplitude · b(θ, φ))` with `b ∈ [-1, 1]` a sum of
 /// three periodic sinusoids whose integer frequencies (1..=6) and phases come

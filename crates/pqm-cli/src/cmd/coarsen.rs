@@ -94,6 +94,8 @@ struct Report {
     input: String,
     output: String,
     subdivided: bool,
+    /// How the quad mesh came from a non-quad input: `none`, `paired` or `split`.
+    conversion: crate::pipeline::QuadConversion,
     target_faces: Option<usize>,
     stop: &'static str,
     stop_reason: String,
@@ -180,6 +182,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         input: args.input.display().to_string(),
         output: args.output.display().to_string(),
         subdivided: p.split,
+        conversion: p.conversion,
         target_faces: target,
         stop: stop_code(&r),
         stop_reason: stop_sentence(&r, out.face_count(), target),

@@ -86,6 +86,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         placement: None,
         smoothing: None,
         no_subdivide: false,
+        triangles: crate::pipeline::TrianglesArg::Split,
         repair: false,
     };
     // as `pqm encode` does by default

@@ -270,6 +270,8 @@ pub struct FileReport {
     pub record_bits_per_vertex: f64,
     pub bits: u8,
     pub subdivided: bool,
+    /// How the quad mesh came from a non-quad input: `none`, `paired` or `split`.
+    pub conversion: crate::pipeline::QuadConversion,
     /// Where merged vertices went (`subset`: every level at input positions).
     pub placement: Placement,
     /// Where each stored quad's corner list starts (`--corner-order`):
@@ -484,6 +486,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         record_bits_per_vertex: enc.bits_per_vertex.total,
         bits: args.bits,
         subdivided: p.split,
+        conversion: p.conversion,
         placement,
         corner_order: args.corner_order,
         chunk_growth: args.chunk_growth,
