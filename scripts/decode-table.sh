@@ -11,8 +11,9 @@
 # Usage: scripts/decode-table.sh [FILE.pqm ...] [--large] [--runs N] [--rounds R]
 #   default files: web/bench/data/*.pqm (`npm run bench:data --prefix web`)
 #   --large: also the two large shared meshes (../shared/meshes/large: skull,
-#   amo), encoded with `pqm encode`'s defaults into $target/bench-large (again
-#   whenever the pqm binary is newer than the file)
+#   amo), encoded with `pqm encode`'s defaults but `--triangles split` (issue
+#   4's quad-split meshes) into $target/bench-large (again whenever the pqm
+#   binary is newer than the file)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p pqm-format --example decode_table
@@ -42,7 +43,7 @@ if [ "$large" -eq 1 ]; then
     out="$dir/${m%.*}.pqm"
     if [ ! -f "$out" ] || [ "$target/release/pqm" -nt "$out" ]; then
       echo "encoding $src -> $out" >&2
-      "$target/release/pqm" -q encode "$src" -o "$out"
+      "$target/release/pqm" -q encode "$src" -o "$out" --triangles split
     fi
     args+=("$out")
   done

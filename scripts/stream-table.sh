@@ -5,11 +5,15 @@
 # `pqm encode`'s default options. Needs a release build: cargo build --release -p pqm-cli
 # (or PQM=path/to/pqm).
 #
-# Usage: scripts/stream-table.sh [MESH ...]   (paths under ../shared/meshes; default: four)
+# Triangle meshes go through `--triangles $TRIANGLES`, `split` unless set
+# (issue 4's quad-split bunny; TRIANGLES=pair: the default since session 24).
+#
+# Usage: [TRIANGLES=pair] scripts/stream-table.sh [MESH ...]   (paths under ../shared/meshes; default: four)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 shared=../shared/meshes
 pqm=${PQM:-target/release/pqm}
+triangles=${TRIANGLES:-split}
 [ -x "$pqm" ] || { echo "build first: cargo build --release -p pqm-cli" >&2; exit 1; }
 meshes=("$@")
 [ ${#meshes[@]} -eq 0 ] && meshes=(quad/spot_quadrangulated.obj quad/makehuman_base.obj quad/loki.obj tri/bunny.off)
@@ -18,7 +22,7 @@ trap 'rm -rf "$out"' EXIT
 echo "| input | final faces | .pqm bytes | base mesh shown after | 10 % of the faces after | 50 % of the faces after |"
 echo "|---|---|---|---|---|---|"
 for m in "${meshes[@]}"; do
-    "$pqm" -q encode "$shared/$m" -o "$out/x.pqm"
+    "$pqm" -q encode "$shared/$m" -o "$out/x.pqm" --triangles "$triangles"
     "$pqm" info "$out/x.pqm" --json > "$out/i.json"
     python3 - "$m" "$out/i.json" <<'PY'
 import json, sys

@@ -891,7 +891,14 @@ fn encode_triangle_mesh_goes_through_the_split() {
             "-o",
             s(&file),
         ])
-        .args(["--base-ratio", "0.5", "--bits", "12"])
+        .args([
+            "--base-ratio",
+            "0.5",
+            "--bits",
+            "12",
+            "--triangles",
+            "split",
+        ])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -1411,16 +1418,9 @@ fn paired_triangles_make_the_input_the_finest_level() {
     let obj = d.path().join("torus_tris.obj");
     io::write_mesh(&obj, &input).unwrap();
     let (paired, split) = (d.path().join("paired.pqm"), d.path().join("split.pqm"));
+    // Pairing is the default.
     let out = pqm()
-        .args([
-            "--json",
-            "encode",
-            s(&obj),
-            "-o",
-            s(&paired),
-            "--triangles",
-            "pair",
-        ])
+        .args(["--json", "encode", s(&obj), "-o", s(&paired)])
         .output()
         .unwrap();
     assert!(out.status.success());
@@ -1428,7 +1428,7 @@ fn paired_triangles_make_the_input_the_finest_level() {
     assert!(stderr.contains("joined the triangles in"), "{stderr}");
     let p: Value = serde_json::from_slice(&out.stdout).unwrap();
     let p = &p["files"][0];
-    let sp = json_ok(&["encode", s(&obj), "-o", s(&split)]);
+    let sp = json_ok(&["encode", s(&obj), "-o", s(&split), "--triangles", "split"]);
     let sp = &sp["files"][0];
     assert_eq!(p["conversion"], "paired");
     assert_eq!(sp["conversion"], "split");
@@ -1472,15 +1472,7 @@ fn triangles_that_cannot_pair_are_split_with_a_note() {
     let out_p = d.path().join("p.pqm");
     let cage = fixtures().join("spot_control_mesh.obj");
     let out = pqm()
-        .args([
-            "--json",
-            "encode",
-            s(&cage),
-            "-o",
-            s(&out_p),
-            "--triangles",
-            "pair",
-        ])
+        .args(["--json", "encode", s(&cage), "-o", s(&out_p)])
         .output()
         .unwrap();
     assert!(out.status.success());
@@ -1491,17 +1483,43 @@ fn triangles_that_cannot_pair_are_split_with_a_note() {
     );
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["files"][0]["conversion"], "split");
-    // The same file as the default split.
+    // The same file as the split asked for.
     let out_s = d.path().join("s.pqm");
-    json_ok(&["encode", s(&cage), "-o", s(&out_s)]);
+    json_ok(&["encode", s(&cage), "-o", s(&out_s), "--triangles", "split"]);
     assert_eq!(
         std::fs::read(&out_p).unwrap(),
         std::fs::read(&out_s).unwrap()
     );
     // A quad input says so.
     let q = d.path().join("q.pqm");
-    assert_eq!(
-        encode_spot(&q, &["--triangles", "pair"])["files"][0]["conversion"],
-        "none"
-    );
+    assert_eq!(encode_spot(&q, &[])["files"][0]["conversion"], "none");
+}
+
+#[test]
+fn convert_pairs_triangles_or_names_one_that_cannot() {
+    let d = TempDir::new().unwrap();
+    let input = triangle_torus();
+    let obj = d.path().join("tris.obj");
+    io::write_mesh(&obj, &input).unwrap();
+    let quads = d.path().join("quads.obj");
+    let v = json_ok(&["convert", s(&obj), s(&quads), "--subdivide", "pair"]);
+    assert_eq!(v["vertices"].as_u64(), Some(input.vertex_count() as u64));
+    let (out, _) = load_valid(&quads);
+    pqm_core::pairing::check_pairing(&input, &out).unwrap();
+    // spot's cage: its triangles sit among quads; an error naming one, and
+    // no output file.
+    let bad = d.path().join("bad.obj");
+    pqm()
+        .args([
+            "convert",
+            s(&fixtures().join("spot_control_mesh.obj")),
+            s(&bad),
+        ])
+        .args(["--subdivide", "pair"])
+        .assert()
+        .failure()
+        .stderr(
+            predicate::str::contains("face").and(predicate::str::contains("--subdivide split")),
+        );
+    assert!(!bad.exists());
 }

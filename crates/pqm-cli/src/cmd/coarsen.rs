@@ -21,10 +21,11 @@ use std::time::Instant;
 /// vertices).
 ///
 /// The result stays quad-only and valid, with the same topology (components,
-/// boundary loops, genus) and every feature curve kept. Non-quad input is
-/// first split once (each n-gon into n quads, linear points: the surface is
-/// unchanged), which the command says on stderr; --no-subdivide refuses
-/// instead. Without a target it goes as far as the quality rules allow.
+/// boundary loops, genus) and every feature curve kept. A triangle mesh is
+/// first made quad-only by joining its triangles in pairs (no new vertex;
+/// --triangles), else — a triangle that cannot pair, an n-gon — split once
+/// (each n-gon into n quads, linear points: the surface is unchanged);
+/// the command says which on stderr; --no-subdivide refuses instead. Without a target it goes as far as the quality rules allow.
 /// Prints the statistics of input and output, the time, and how many steps
 /// of each kind were taken.
 #[derive(clap::Args, Debug)]

@@ -5,6 +5,7 @@ use crate::stats::mesh_stats;
 use crate::util::{mesh_input_format, mesh_output_format};
 use anyhow::{anyhow, bail};
 use pqm_core::io;
+use pqm_core::pairing::pair_triangles;
 use pqm_core::subdivide::{catmull_clark_split, SplitMode};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -17,6 +18,9 @@ pub enum SubdivideArg {
     Split,
     /// One Catmull-Clark step: the same quads, smoothed positions.
     CatmullClark,
+    /// Adjacent triangles joined two by two, no new vertex (quads kept);
+    /// an error naming a triangle that finds no partner.
+    Pair,
 }
 
 /// Convert between OBJ, OFF, PLY, glTF and GLB; optionally repair or split into quads.
@@ -33,13 +37,15 @@ pub enum SubdivideArg {
 #[command(after_help = "Examples:
   pqm convert bunny.off bunny.glb
   pqm convert scan.ply scan_quads.obj --repair --subdivide split
-  pqm convert cage.obj smooth.obj --subdivide catmull-clark --stats")]
+  pqm convert cage.obj smooth.obj --subdivide catmull-clark --stats
+  pqm convert bunny.off bunny_quads.obj --subdivide pair")]
 pub struct Args {
     /// Input mesh (.obj, .off, .ply, .gltf, .glb).
     pub input: PathBuf,
     /// Output mesh (.obj, .off, .ply, .gltf, .glb).
     pub output: PathBuf,
-    /// Split every n-gon into n quads first.
+    /// Make the mesh quad-only first: split every n-gon into n quads
+    /// (`split`, `catmull-clark`) or join triangles in pairs (`pair`).
     #[arg(long, value_enum, value_name = "MODE")]
     pub subdivide: Option<SubdivideArg>,
     /// Repair the input and report what changed.
@@ -86,17 +92,34 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         };
         bail!("{name}: {e}{hint}");
     }
-    if let Some(mode) = args.subdivide {
-        let mode = match mode {
-            SubdivideArg::Split => SplitMode::Linear,
-            SubdivideArg::CatmullClark => SplitMode::CatmullClark,
-        };
-        let before = mesh.face_count();
-        mesh = catmull_clark_split(&mesh, mode).map_err(|e| anyhow!("{name}: {e}"))?;
-        ctx.note(format!(
-            "{name}: split {before} faces into {} quads",
-            mesh.face_count()
-        ));
+    let before = mesh.face_count();
+    match args.subdivide {
+        None => {}
+        Some(SubdivideArg::Pair) => {
+            let (paired, r) = pair_triangles(&mesh)
+                .map_err(|e| anyhow!("{name}: {e} (--subdivide split makes any mesh quad-only)"))?;
+            mesh = paired;
+            ctx.note(format!(
+                "{name}: joined {} triangles in {} pairs ({} folded or not convex): {before} \
+                 faces -> {} quads",
+                r.triangles,
+                r.pairs,
+                r.folded,
+                mesh.face_count()
+            ));
+        }
+        Some(mode) => {
+            let mode = if mode == SubdivideArg::Split {
+                SplitMode::Linear
+            } else {
+                SplitMode::CatmullClark
+            };
+            mesh = catmull_clark_split(&mesh, mode).map_err(|e| anyhow!("{name}: {e}"))?;
+            ctx.note(format!(
+                "{name}: split {before} faces into {} quads",
+                mesh.face_count()
+            ));
+        }
     }
     crate::util::write_mesh(&args.output, &mesh)?;
     let stats = args.stats.then(|| mesh_stats(&mesh, None));

@@ -86,7 +86,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         placement: None,
         smoothing: None,
         no_subdivide: false,
-        triangles: crate::pipeline::TrianglesArg::Split,
+        triangles: crate::pipeline::TrianglesArg::Pair,
         repair: false,
     };
     // as `pqm encode` does by default

@@ -47,8 +47,10 @@ pub const DEFAULT_CORNER_ORDER: CornerArg = CornerArg::Canonical;
 /// Several inputs run in parallel, one progress bar each plus a total; a
 /// failing input is reported and the others still finish (exit code 1 if
 /// any failed). Positions are quantized to --bits per axis over the bounding
-/// cube (see --grid); decoding the full level gives exactly the quantized input. Non-quad
-/// input is split into quads first (see `pqm coarsen --help`).
+/// cube (see --grid); decoding the full level gives exactly the quantized input. A
+/// triangle mesh's triangles are joined in pairs first, no new vertex, so
+/// the full level is the input (`--triangles`); what cannot pair, and
+/// other polygons, is split into quads (see `pqm coarsen --help`).
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
   pqm encode spot.obj -o spot.pqm
@@ -138,13 +140,14 @@ pub struct Args {
     /// mesh).
     #[arg(long, help_heading = "File", conflicts_with = "no_vertex_order")]
     pub vertex_order_deltas: bool,
-    /// Keep the order of the vertices the quad split makes too. A triangle
-    /// or mixed input is split into quads first (edge and face points after
-    /// the input's own vertices); by default only the input's own vertices
-    /// keep their indices at the full level, and the split's points are
-    /// numbered after them in the order that codes smallest (the bunny's
-    /// vertex order: 10 bits per vertex → about 2). Quad inputs are not
-    /// split and keep their whole order either way.
+    /// Keep the order of the vertices the quad split makes too. An input
+    /// that is split into quads (`--triangles split`, or one that cannot
+    /// pair) gets edge and face points after its own vertices; by default
+    /// only the input's own vertices keep their indices at the full level,
+    /// and the split's points are numbered after them in the order that
+    /// codes smallest (the split bunny's vertex order: 10 bits per vertex →
+    /// about 2). Quad and paired inputs make no new vertex and keep their
+    /// whole order either way.
     #[arg(long, help_heading = "File", conflicts_with = "no_vertex_order")]
     pub keep_split_order: bool,
     /// How each section's zstd frame is cut into blocks: `auto` gives a
