@@ -287,13 +287,18 @@ pub fn prepare(
         if args.triangles == TrianglesArg::Pair {
             match pair_triangles(&work) {
                 Ok((paired, r)) if Mesh::from_indexed(&paired).is_ok() => {
+                    let repaired = match r.repaired_quads {
+                        0 => String::new(),
+                        n => format!(", {n} of the input's quads re-paired on the way"),
+                    };
                     ctx.note(format!(
                         "{name}: not quad-only ({q} quads, {t} triangles, {o} other); joined \
                          the triangles in {} pairs ({} by shape, {} through augmenting paths, \
-                         {} folded or not convex), no new vertex: {before} faces -> {} quads",
+                         {} folded or not convex{repaired}), no new vertex: {before} faces -> \
+                         {} quads",
                         r.pairs,
                         r.greedy_pairs,
-                        r.pairs - r.greedy_pairs,
+                        r.pairs.saturating_sub(r.greedy_pairs),
                         r.folded,
                         paired.face_count()
                     ));

@@ -2,7 +2,9 @@
 //! triangulation of a quad shape a perfect pairing exists, and
 //! `pair_triangles` finds one that is the input's triangles two by two; on
 //! meshes with triangles taken out it either pairs them all that way or
-//! names a triangle it could not pair — never a wrong quad, never a panic.
+//! names a triangle it could not pair — never a wrong quad, never a panic;
+//! on quad-dominant meshes whose triangles sit among quads (a perfect
+//! pairing exists) it pairs them through the quads between them.
 
 use glam::DVec3;
 use pqm_core::pairing::{check_pairing, pair_triangles, PairingError};
@@ -17,6 +19,58 @@ fn shape(kind: u8, n: u32) -> IndexedMesh {
         2 => shapes::grid(n.max(1), n.max(1) + 2, 1.0, 1.5),
         _ => shapes::box_grid(n.max(1), DVec3::new(1.0, 0.5, 2.0)),
     }
+}
+
+/// A quad-dominant mesh from a triangle mesh: adjacent triangles joined
+/// into quads along a random order of their shared edges, about `keep` of
+/// them, the rest left as triangles. Joined as `pair_triangles` joins:
+/// triangles `(a, b, c)` and `(b, a, d)` make `(a, d, b, c)`.
+fn joined_at_random(tris: &IndexedMesh, keep: f64, seed: u64) -> IndexedMesh {
+    use std::collections::HashMap;
+    let mut by_edge: HashMap<(u32, u32), u32> = HashMap::new();
+    for (t, f) in tris.faces().enumerate() {
+        for k in 0..3 {
+            by_edge.insert((f[k], f[(k + 1) % 3]), t as u32);
+        }
+    }
+    let mut pairs: Vec<(u64, u32, u32, [u32; 4])> = Vec::new();
+    for (t, f) in tris.faces().enumerate() {
+        for k in 0..3 {
+            let (a, b, c) = (f[k], f[(k + 1) % 3], f[(k + 2) % 3]);
+            if let Some(&o) = by_edge.get(&(b, a)) {
+                if (t as u32) < o {
+                    let g = tris.face(o as usize);
+                    let d = g.iter().copied().find(|&v| v != a && v != b).unwrap();
+                    let h = (t as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                        ^ (o as u64).wrapping_mul(seed | 1);
+                    pairs.push((
+                        h.wrapping_mul(0xff51_afd7_ed55_8ccd),
+                        t as u32,
+                        o,
+                        [a, d, b, c],
+                    ));
+                }
+            }
+        }
+    }
+    pairs.sort_unstable();
+    let n = tris.face_count();
+    let mut used = vec![false; n];
+    let mut faces: Vec<Vec<u32>> = Vec::new();
+    let limit = (keep * n as f64 / 2.0) as usize;
+    for &(_, t, o, q) in &pairs {
+        if faces.len() < limit && !used[t as usize] && !used[o as usize] {
+            used[t as usize] = true;
+            used[o as usize] = true;
+            faces.push(q.to_vec());
+        }
+    }
+    for (t, &u) in used.iter().enumerate() {
+        if !u {
+            faces.push(tris.face(t).to_vec());
+        }
+    }
+    IndexedMesh::from_faces(tris.positions.clone(), faces)
 }
 
 proptest! {
@@ -63,5 +117,19 @@ proptest! {
             }
             Err(e) => prop_assert!(false, "unexpected error {e}"),
         }
+    }
+
+    #[test]
+    fn triangles_among_quads_pair_through_them(
+        kind in 0u8..4, n in 2u32..7, seed in any::<u64>(), keep in 0.5f64..1.0,
+    ) {
+        let tris = shapes::triangulated(&shape(kind, n), seed);
+        let mixed = joined_at_random(&tris, keep, seed);
+        let (q, t, _) = mixed.face_size_counts();
+        let (out, r) = pair_triangles(&mixed).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        prop_assert_eq!(r.triangles, t);
+        prop_assert_eq!(out.face_count(), q + t / 2);
+        prop_assert!(r.repaired_quads <= q);
+        check_pairing(&mixed, &out).map_err(TestCaseError::fail)?;
     }
 }
