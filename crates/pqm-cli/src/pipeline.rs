@@ -287,10 +287,19 @@ pub fn prepare(
         if args.triangles == TrianglesArg::Pair {
             match pair_triangles(&work) {
                 Ok((paired, r)) if Mesh::from_indexed(&paired).is_ok() => {
-                    let repaired = match r.repaired_quads {
+                    let mut repaired = match r.repaired_quads {
                         0 => String::new(),
                         n => format!(", {n} of the input's quads re-paired on the way"),
                     };
+                    if r.doublets_avoided > 0 {
+                        repaired += &format!(
+                            ", {} pairs refused that made two quads share two edges",
+                            r.doublets_avoided
+                        );
+                    }
+                    if r.doublets_left > 0 {
+                        repaired += &format!(", {} such quads left", r.doublets_left);
+                    }
                     ctx.note(format!(
                         "{name}: not quad-only ({q} quads, {t} triangles, {o} other); joined \
                          the triangles in {} pairs ({} by shape, {} through augmenting paths, \

@@ -39,7 +39,15 @@
 //!    together as it is, any other pair at its first triangle's place. A
 //!    path from a triangle among quads to another one runs through the
 //!    quads between them and re-pairs their halves (the quad-dominant
-//!    sword: 348 triangles, 2,345 of its 22,117 quads re-paired).
+//!    sword: 348 triangles, 2,654 of its 22,117 quads re-paired).
+//!
+//! 5. **Doublets.** A quad that shares two edges with a neighbour (the
+//!    triangles around a vertex of triangle valence 3 or 4 paired among
+//!    themselves, leaving the vertex in two quads) is refused: its pair's
+//!    edge is barred and its two triangles go through step 3 again, for
+//!    up to [`DOUBLET_ROUNDS`] rounds. Where that leaves a triangle alone,
+//!    the round before is kept and its doublets reported (the bunny: 17
+//!    refused, 4 left; the skull 435 and 37).
 //!
 //! If triangles stay unpaired, or a face has more than four corners, the
 //! result is an error, and the caller splits instead.
@@ -63,8 +71,9 @@ pub const SEARCH_BUDGET_PER_TRIANGLE: usize = 256;
 /// Why a mesh cannot be paired into quads.
 #[derive(Clone, Debug, Error, PartialEq, Eq)]
 pub enum PairingError {
-    /// `face_starts` is not an offset table of `indices`, or a per-corner
-    /// table is not one entry per corner.
+    /// `face_starts` is not an offset table of `indices`, a face names a
+    /// vertex that does not exist, or a per-corner table is not one entry
+    /// per corner.
     #[error("malformed mesh: {0}")]
     Malformed(String),
     /// A face with other than three or four corners.
@@ -74,16 +83,6 @@ pub enum PairingError {
         face: usize,
         /// Its number of corners.
         len: usize,
-    },
-    /// A face names a vertex that does not exist.
-    #[error("face {face} references vertex {vertex}, but the mesh has {vertex_count} vertices")]
-    VertexOutOfRange {
-        /// The face.
-        face: usize,
-        /// The vertex index.
-        vertex: u32,
-        /// Number of vertices.
-        vertex_count: usize,
     },
     /// Triangles no pairing found a partner for.
     #[error("{unpaired} of {triangles} triangles have no partner (the first: face {first_face})")]
@@ -113,6 +112,15 @@ pub struct PairingReport {
     /// from a triangle among quads to another one re-pairs the quads on
     /// its way (each half joins the next triangle along it).
     pub repaired_quads: usize,
+    /// Pairs refused because their quad shared two edges with a neighbour
+    /// (step 5), their triangles paired again.
+    pub doublets_avoided: usize,
+    /// Pairs whose quad still shares two edges with a neighbour: after
+    /// [`DOUBLET_ROUNDS`] rounds, or where refusing them left a triangle
+    /// with no partner (the pairing before that round is kept). The mesh
+    /// is valid with them (`Mesh::validate_structure`); the coarsener
+    /// removes doublets as it goes.
+    pub doublets_left: usize,
 }
 
 /// A pair of triangles across one edge: the quad and its quality.
@@ -153,7 +161,6 @@ pub fn quad_quality(positions: &[DVec3], q: [u32; 4]) -> f64 {
 /// input order (a pair at its first triangle's place), groups their names.
 pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport), PairingError> {
     check_tables(mesh)?;
-    let nv = mesh.vertex_count();
     let nf = mesh.face_count();
     // The units: each triangle, and each quad as its two triangles across
     // `q0–q2` (corner positions `[0, 1, 2]` and `[2, 3, 0]`), in face order.
@@ -161,13 +168,6 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
     let mut triangles = 0usize;
     for f in 0..nf {
         let face = mesh.face(f);
-        if let Some(&v) = face.iter().find(|&&v| v as usize >= nv) {
-            return Err(PairingError::VertexOutOfRange {
-                face: f,
-                vertex: v,
-                vertex_count: nv,
-            });
-        }
         let at = |ks: [usize; 3]| Unit {
             face: f as u32,
             v: ks.map(|k| face[k]),
@@ -278,35 +278,67 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
     let mut budget = SEARCH_BUDGET_PER_TRIANGLE
         .saturating_mul(units.len())
         .saturating_add(1 << 20);
-    for positive_only in [true, false] {
-        augment(&mut mate, &adj, &mut budget, |i| {
-            !positive_only || cands[i as usize].quality > 0.0
-        });
-    }
-    // What the plain searches missed (a path through an odd cycle).
-    if mate.contains(&u32::MAX) {
-        for positive_only in [true, false] {
-            blossom_augment(&mut mate, &adj, &mut budget, |i| {
-                !positive_only || cands[i as usize].quality > 0.0
-            });
-        }
-    }
-    let unpaired: Vec<usize> = (0..units.len()).filter(|&t| mate[t] == u32::MAX).collect();
-    if let Some(&t) = unpaired.first() {
-        return Err(PairingError::Unpaired {
-            unpaired: unpaired.len(),
-            triangles,
-            first_face: units[t].face as usize,
-        });
-    }
-    // The candidate of each unit's pair.
+    // Step 5: pairs whose quad would share two edges with a neighbour (a
+    // doublet: a vertex of triangle valence 3 or 4 whose triangles paired
+    // among themselves) are refused and their triangles paired again,
+    // round after round.
+    let mut forbidden = vec![false; cands.len()];
     let mut quad_of = vec![u32::MAX; units.len()];
-    for (t, list) in adj.iter().enumerate() {
-        for &(o, i) in list {
-            if mate[t] == o {
-                quad_of[t] = i;
+    // The last complete pairing and its doublets: what the result falls
+    // back to when refusing this round's pairs leaves a triangle alone.
+    let mut last: Option<(Vec<u32>, Vec<u32>, usize)> = None;
+    for round in 0..=DOUBLET_ROUNDS {
+        let open = |i: u32, positive_only: bool| {
+            !forbidden[i as usize] && (!positive_only || cands[i as usize].quality > 0.0)
+        };
+        for positive_only in [true, false] {
+            augment(&mut mate, &adj, &mut budget, |i| open(i, positive_only));
+        }
+        // What the plain searches missed (a path through an odd cycle).
+        if mate.contains(&u32::MAX) {
+            for positive_only in [true, false] {
+                blossom_augment(&mut mate, &adj, &mut budget, |i| open(i, positive_only));
             }
         }
+        let unpaired: Vec<usize> = (0..units.len()).filter(|&t| mate[t] == u32::MAX).collect();
+        if let Some(&t) = unpaired.first() {
+            let Some((m, q, left)) = last.take() else {
+                return Err(PairingError::Unpaired {
+                    unpaired: unpaired.len(),
+                    triangles,
+                    first_face: units[t].face as usize,
+                });
+            };
+            // Refusing the last round's pairs left triangles alone: keep
+            // that round's pairing, doublets and all.
+            (mate, quad_of, report.doublets_left) = (m, q, left);
+            report.doublets_avoided = report.doublets_avoided.saturating_sub(left);
+            break;
+        }
+        // The candidate of each unit's pair.
+        for (t, list) in adj.iter().enumerate() {
+            for &(o, i) in list {
+                if mate[t] == o && !forbidden[i as usize] {
+                    quad_of[t] = i;
+                }
+            }
+        }
+        let bad = doublet_pairs(&units, &mate, &quad_of, &cands);
+        if bad.is_empty() {
+            break;
+        }
+        if round == DOUBLET_ROUNDS {
+            report.doublets_left = bad.len();
+            break;
+        }
+        last = Some((mate.clone(), quad_of.clone(), bad.len()));
+        for &i in &bad {
+            forbidden[i as usize] = true;
+            let [a, b] = cands[i as usize].t;
+            mate[a as usize] = u32::MAX;
+            mate[b as usize] = u32::MAX;
+        }
+        report.doublets_avoided += bad.len();
     }
     let mut out = IndexedMesh {
         positions: mesh.positions.clone(),
@@ -368,6 +400,65 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
     Ok((out, report))
 }
 
+/// Rounds of step 5 (refused pairs, then the searches again) before the
+/// doublets left are reported ([`PairingReport::doublets_left`]).
+pub const DOUBLET_ROUNDS: usize = 16;
+
+/// Step 5's check: the made pairs (not an input quad kept whole) whose
+/// quad shares more than one edge with one neighbour, as candidate
+/// indices, sorted; of two such quads the one of lower quality (both
+/// made), else the made one. Input quads that already shared two edges
+/// are left as they are.
+fn doublet_pairs(units: &[Unit], mate: &[u32], quad_of: &[u32], cands: &[Candidate]) -> Vec<u32> {
+    const NONE: u32 = u32::MAX;
+    let first = |t: usize| (mate[t] as usize) > t;
+    let quad = |t: usize| cands[quad_of[t] as usize].quad;
+    let mut sides: HashMap<(u32, u32), [u32; 2]> = HashMap::with_capacity(2 * units.len());
+    for t in (0..units.len()).filter(|&t| first(t)) {
+        let q = quad(t);
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) & 3]);
+            let e = sides.entry((a.min(b), a.max(b))).or_insert([NONE; 2]);
+            let slot = (e[0] != NONE) as usize;
+            e[slot] = t as u32;
+        }
+    }
+    let made = |t: usize| units[t].face != units[mate[t] as usize].face;
+    let mut out = Vec::new();
+    for t in (0..units.len()).filter(|&t| first(t)) {
+        let q = quad(t);
+        let mut across = [NONE; 4];
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) & 3]);
+            let e = sides[&(a.min(b), a.max(b))];
+            across[k] = if e[0] == t as u32 { e[1] } else { e[0] };
+        }
+        for k in 0..4 {
+            let n = across[k];
+            if n == NONE || !across[k + 1..].contains(&n) {
+                continue;
+            }
+            let n = n as usize;
+            let pick = match (made(t), made(n)) {
+                (true, true) => {
+                    if cands[quad_of[n] as usize].quality < cands[quad_of[t] as usize].quality {
+                        n
+                    } else {
+                        t
+                    }
+                }
+                (true, false) => t,
+                (false, true) => n,
+                (false, false) => continue,
+            };
+            out.push(quad_of[pick]);
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
 /// One triangle of [`pair_triangles`]: an input triangle or half of an
 /// input quad; its vertices and their corner positions in `indices`.
 #[derive(Clone, Copy, Debug)]
@@ -378,8 +469,8 @@ struct Unit {
 }
 
 /// The shape checks that make every index below safe: offsets from 0 to
-/// `indices.len()`, never decreasing; per-corner tables empty or one entry
-/// per corner.
+/// `indices.len()`, never decreasing; vertex indices in range; per-corner
+/// tables empty or one entry per corner.
 fn check_tables(mesh: &IndexedMesh) -> Result<(), PairingError> {
     let fs = &mesh.face_starts;
     let n = mesh.indices.len();
@@ -390,6 +481,14 @@ fn check_tables(mesh: &IndexedMesh) -> Result<(), PairingError> {
         return Err(PairingError::Malformed(
             "face_starts is not an offset table of the indices".into(),
         ));
+    }
+    let nv = mesh.vertex_count();
+    for f in 0..mesh.face_count() {
+        if let Some(&v) = mesh.face(f).iter().find(|&&v| v as usize >= nv) {
+            return Err(PairingError::Malformed(format!(
+                "face {f} references vertex {v}, but the mesh has {nv} vertices"
+            )));
+        }
     }
     for (name, t) in [
         ("corner_texcoords", &mesh.corner_texcoords),
@@ -777,14 +876,10 @@ mod tests {
         ));
         m.face_starts = vec![0, 3];
         m.indices[2] = 7;
-        assert!(matches!(
-            pair_triangles(&m),
-            Err(PairingError::VertexOutOfRange {
-                face: 0,
-                vertex: 7,
-                ..
-            })
-        ));
+        assert_eq!(
+            pair_triangles(&m).unwrap_err().to_string(),
+            "malformed mesh: face 0 references vertex 7, but the mesh has 3 vertices"
+        );
     }
 
     #[test]
