@@ -119,9 +119,10 @@ pub struct CoarsenerArgs {
     /// triangles; `--corner-order diagonal` makes a renderer draw exactly
     /// those) — on the shared triangle meshes 3.9–5.1× smaller files than
     /// `split` and 3–6× faster; the quads are as regular as the triangles
-    /// allow. Where pairing leaves a triangle alone (a triangle among
-    /// quads, an odd part) or meets an n-gon, the input is split instead,
-    /// with a note. `split`: each n-gon into n quads around new edge and
+    /// allow; a triangle among quads pairs with another through the quads
+    /// between them (re-pairing their halves). Where pairing leaves a
+    /// triangle alone (an odd part) or meets an n-gon, the input is split
+    /// instead, with a note. `split`: each n-gon into n quads around new edge and
     /// face points (any input; about 6× the vertices of a triangle mesh,
     /// every level finer than the input; the files of sessions up to 23).
     #[arg(

@@ -166,3 +166,42 @@ fn real_meshes_pair_without_doublets() {
             .unwrap_or_else(|e| panic!("{rel}: {e:?}"));
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// Any soup of faces — out-of-range or repeated indices, faces of any
+    /// size, NaN positions, broken offset tables — gives an error or a
+    /// pairing that `check_pairing` accepts, never a panic (what a hostile
+    /// file that got past a reader could hand it).
+    #[test]
+    fn any_face_soup_pairs_or_is_refused(
+        nv in 0usize..12,
+        faces in prop::collection::vec(prop::collection::vec(0u32..14, 0..6), 0..14),
+        nan in any::<bool>(),
+        break_offsets in any::<bool>(),
+        texcoords in prop::collection::vec(0u32..3, 0..40),
+    ) {
+        let mut positions: Vec<DVec3> = (0..nv)
+            .map(|i| DVec3::new((i % 3) as f64, (i / 3) as f64, ((i * 7) % 5) as f64 * 0.1))
+            .collect();
+        if nan && nv > 0 {
+            positions[0].x = f64::NAN;
+        }
+        let mut m = IndexedMesh::from_faces(positions, faces.iter().map(|f| f.as_slice()));
+        if !texcoords.is_empty() {
+            m.texcoords = vec![[0.0, 0.0]; 3];
+            m.corner_texcoords = texcoords.iter().cycle().take(m.indices.len()).copied().collect();
+        }
+        if break_offsets && !m.face_starts.is_empty() {
+            let last = m.face_starts.len() - 1;
+            m.face_starts[last] += 1;
+        }
+        if let Ok((out, r)) = pair_triangles(&m) {
+            check_pairing(&m, &out).map_err(TestCaseError::fail)?;
+            let (q, t, _) = m.face_size_counts();
+            prop_assert_eq!(out.face_count(), q + t / 2);
+            prop_assert_eq!(r.triangles, t);
+        }
+    }
+}

@@ -1,7 +1,10 @@
 //! The mesh readers `pqm encode` and `pqm convert` put user files through
 //! (OBJ, OFF, PLY, glTF/GLB) on hostile bytes: an error or a mesh, never a
 //! panic; a mesh read goes through the validity check and, when refused,
-//! the repair, without a crash either. The first byte picks the reader.
+//! the repair, without a crash either; then through triangle pairing (what
+//! `pqm encode` does to a triangle mesh since session 24), whose result,
+//! when there is one, must pass `check_pairing`. The first byte picks the
+//! reader.
 //!
 //! `cargo fuzz run read_mesh -s none` (stable Rust: no sanitizer).
 #![no_main]
@@ -10,6 +13,7 @@ use libfuzzer_sys::fuzz_target;
 use pqm_core::io::{
     check, read_gltf_bytes, read_obj_bytes, read_off_bytes, read_ply_bytes, repair,
 };
+use pqm_core::pairing::{check_pairing, pair_triangles};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&which, rest)) = data.split_first() else {
@@ -25,6 +29,11 @@ fuzz_target!(|data: &[u8]| {
         // What `pqm convert --repair` and `pqm encode` do next.
         if check(&m).is_err() {
             let _ = repair(&mut m);
+        }
+        if let Ok((paired, _)) = pair_triangles(&m) {
+            if let Err(e) = check_pairing(&m, &paired) {
+                panic!("a pairing that check_pairing refuses: {e}");
+            }
         }
     }
 });
