@@ -22,39 +22,41 @@
 //!    the edge's two ends, so the quad carries no UV seam inside it
 //!    (normals are not compared: flat shading gives each face its own).
 //!    An input quad counts as its two triangles across `q0–q2`, paired
-//!    with each other from the start. The quad of triangles `(a, b, c)` and `(b, a, d)`
-//!    is `(a, d, b, c)`, oriented as they are.
+//!    with each other from the start. The quad of triangles `(a, b, c)`
+//!    and `(b, a, d)` is `(a, d, b, c)`, oriented as they are.
 //! 2. **Greedy by shape.** Candidates sorted by the quad's quality — the
 //!    smallest scaled Jacobian of its four corners against its mean normal
 //!    (1 for a rectangle, ≤ 0 for a quad folded or not convex) — best
 //!    first, ties by edge order; each joins two free triangles if its
 //!    quality is positive.
 //! 3. **Augmenting paths.** Each triangle left alone looks for a path of
-//!    candidate edges, alternately unpaired and paired, to another one
-//!    (breadth first, within [`SEARCH_BUDGET_PER_TRIANGLE`] visits per
-//!    triangle over all searches), and flips the path: one more pair. First over candidates of
-//!    positive quality, then over any candidate. (No blossom contraction:
-//!    the search can miss a path that exists, never finds a wrong one.)
-//! 4. **Output.** Faces in input order: a quad whose halves stayed
-//!    together as it is, any other pair at its first triangle's place. A
-//!    path from a triangle among quads to another one runs through the
-//!    quads between them and re-pairs their halves (the quad-dominant
-//!    sword: 348 triangles, 2,654 of its 22,117 quads re-paired).
-//!
-//! 5. **Doublets.** A quad that shares two edges with a neighbour (the
+//!    candidate edges, alternately unpaired and paired, to another one,
+//!    and flips the path: one more pair. First breadth first, which cannot
+//!    pass an odd cycle of the alternating tree; then, from the triangles
+//!    still alone, Edmonds' blossom search, which finds a path whenever
+//!    one exists. Each over candidates of positive quality first, then
+//!    over any; all within [`SEARCH_BUDGET_PER_TRIANGLE`] visits per
+//!    triangle. A path from a triangle among quads to another one runs
+//!    through the quads between them and re-pairs their halves (the
+//!    quad-dominant sword: 348 triangles, 2,654 of its 22,117 quads
+//!    re-paired).
+//! 4. **Doublets.** A quad that shares two edges with a neighbour (the
 //!    triangles around a vertex of triangle valence 3 or 4 paired among
 //!    themselves, leaving the vertex in two quads) is refused: its pair's
 //!    edge is barred and its two triangles go through step 3 again, for
 //!    up to [`DOUBLET_ROUNDS`] rounds. Where that leaves a triangle alone,
 //!    the round before is kept and its doublets reported (the bunny: 17
 //!    refused, 4 left; the skull 435 and 37).
+//! 5. **Output.** Faces in input order: a quad whose halves stayed
+//!    together as it is, any other pair at its first triangle's place.
 //!
 //! If triangles stay unpaired, or a face has more than four corners, the
 //! result is an error, and the caller splits instead.
 //!
-//! Measured (the shared meshes, `pqm encode --triangles pair` against the
-//! default split; `docs/figures-history.md`, session 24): fandisk and
-//! fertility pair completely, their `.pqm` files 4.2–5.1× smaller.
+//! Measured (`pqm encode`, paired against `--triangles split`;
+//! `docs/figures-history.md`, session 24): every triangle and
+//! quad-dominant mesh among the shared meshes pairs completely, and its
+//! `.pqm` file is 3.1–5.1× smaller.
 
 use crate::indexed::IndexedMesh;
 use glam::DVec3;
@@ -64,8 +66,8 @@ use thiserror::Error;
 /// Budget of the augmenting-path searches, in triangles visited, per
 /// triangle of the mesh (plus a fixed 2^20): past it the searches stop and
 /// the triangles left alone are reported. A search may cross the whole
-/// mesh (the skull's longest do), but few do: the shared meshes use at
-/// most a few visits per triangle in all.
+/// mesh (the skull's last ones do: a cap of 2^16 visits per search left
+/// two of its triangles alone).
 pub const SEARCH_BUDGET_PER_TRIANGLE: usize = 256;
 
 /// Why a mesh cannot be paired into quads.
@@ -113,7 +115,7 @@ pub struct PairingReport {
     /// its way (each half joins the next triangle along it).
     pub repaired_quads: usize,
     /// Pairs refused because their quad shared two edges with a neighbour
-    /// (step 5), their triangles paired again.
+    /// (step 4), their triangles paired again.
     pub doublets_avoided: usize,
     /// Pairs whose quad still shares two edges with a neighbour: after
     /// [`DOUBLET_ROUNDS`] rounds, or where refusing them left a triangle
@@ -278,7 +280,7 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
     let mut budget = SEARCH_BUDGET_PER_TRIANGLE
         .saturating_mul(units.len())
         .saturating_add(1 << 20);
-    // Step 5: pairs whose quad would share two edges with a neighbour (a
+    // Step 4: pairs whose quad would share two edges with a neighbour (a
     // doublet: a vertex of triangle valence 3 or 4 whose triangles paired
     // among themselves) are refused and their triangles paired again,
     // round after round.
@@ -400,11 +402,11 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
     Ok((out, report))
 }
 
-/// Rounds of step 5 (refused pairs, then the searches again) before the
+/// Rounds of step 4 (refused pairs, then the searches again) before the
 /// doublets left are reported ([`PairingReport::doublets_left`]).
 pub const DOUBLET_ROUNDS: usize = 16;
 
-/// Step 5's check: the made pairs (not an input quad kept whole) whose
+/// Step 4's check: the made pairs (not an input quad kept whole) whose
 /// quad shares more than one edge with one neighbour, as candidate
 /// indices, sorted; of two such quads the one of lower quality (both
 /// made), else the made one. Input quads that already shared two edges

@@ -152,7 +152,7 @@ fn shared(rel: &str) -> IndexedMesh {
 #[test]
 fn real_meshes_pair_without_doublets() {
     // fertility: greedy pairing puts a vertex of triangle valence 3 or 4
-    // in two quads (a doublet) twice; step 5 refuses those pairs and pairs
+    // in two quads (a doublet) twice; step 4 refuses those pairs and pairs
     // again. fandisk (CAD, a fine triangulation of quads) needs none.
     for (rel, refused) in [("tri/fertility.off", true), ("tri/fandisk.off", false)] {
         let input = shared(rel);
