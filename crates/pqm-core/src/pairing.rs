@@ -25,8 +25,8 @@
 //!    with each other from the start. The quad of triangles `(a, b, c)`
 //!    and `(b, a, d)` is `(a, d, b, c)`, oriented as they are.
 //! 2. **Greedy by shape.** Candidates sorted by the quad's quality — the
-//!    smallest scaled Jacobian of its four corners against its mean normal
-//!    (1 for a rectangle, ≤ 0 for a quad folded or not convex) — best
+//!    quality metric's scaled Jacobian (1 for a rectangle, ≤ 0 for a quad
+//!    folded or not convex) — best
 //!    first, ties by edge order; each joins two free triangles if its
 //!    quality is positive.
 //! 3. **Augmenting paths.** Each triangle left alone looks for a path of
@@ -38,15 +38,15 @@
 //!    over any; all within [`SEARCH_BUDGET_PER_TRIANGLE`] visits per
 //!    triangle. A path from a triangle among quads to another one runs
 //!    through the quads between them and re-pairs their halves (the
-//!    quad-dominant sword: 348 triangles, 2,654 of its 22,117 quads
+//!    quad-dominant sword: 348 triangles, 2,706 of its 22,117 quads
 //!    re-paired).
 //! 4. **Doublets.** A quad that shares two edges with a neighbour (the
 //!    triangles around a vertex of triangle valence 3 or 4 paired among
 //!    themselves, leaving the vertex in two quads) is refused: its pair's
 //!    edge is barred and its two triangles go through step 3 again, for
 //!    up to [`DOUBLET_ROUNDS`] rounds. Where that leaves a triangle alone,
-//!    the round before is kept and its doublets reported (the bunny: 17
-//!    refused, 4 left; the skull 435 and 37).
+//!    the round before is kept and its doublets reported (the bunny: 21
+//!    refused, 1 left; the skull 353 and 95).
 //! 5. **Output.** Faces in input order: a quad whose halves stayed
 //!    together as it is, any other pair at its first triangle's place.
 //!
@@ -133,28 +133,11 @@ struct Candidate {
     quad: [u32; 4],
 }
 
-/// The quality of quad `q`: the smallest scaled Jacobian of its corners
-/// against the quad's mean normal (the sum of its corners' cross
-/// products); −1 when a corner or the normal is degenerate.
-pub fn quad_quality(positions: &[DVec3], q: [u32; 4]) -> f64 {
-    let p = q.map(|i| positions[i as usize]);
-    let cross = |k: usize| (p[(k + 1) & 3] - p[k]).cross(p[(k + 3) & 3] - p[k]);
-    let n = cross(0) + cross(1) + cross(2) + cross(3);
-    let ln = n.length();
-    // (`ln` may be NaN: only a positive length passes.)
-    if ln.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return -1.0;
-    }
-    let mut worst = f64::INFINITY;
-    for k in 0..4 {
-        let (e1, e2) = (p[(k + 1) & 3] - p[k], p[(k + 3) & 3] - p[k]);
-        let d = e1.length() * e2.length();
-        if d.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-            return -1.0;
-        }
-        worst = worst.min(e1.cross(e2).dot(n) / (d * ln));
-    }
-    worst
+/// The quality of quad `q`: its scaled Jacobian, the quality metric's own
+/// ([`crate::ops::quad_scaled_jacobian`]): 1 for a rectangle, ≤ 0 for a
+/// quad folded, not convex or degenerate.
+fn quad_quality(positions: &[DVec3], q: [u32; 4]) -> f64 {
+    crate::ops::quad_scaled_jacobian(q.map(|i| positions[i as usize]))
 }
 
 /// The mesh with its triangles joined in pairs (see the module
@@ -187,17 +170,22 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
     let group_of = face_groups(mesh);
     // Directed edges of the units, by undirected key: `(unit, corner)` of
     // each use; a candidate is an edge with exactly two opposite uses.
-    let mut uses: HashMap<(u32, u32), Vec<(u32, u8)>> = HashMap::with_capacity(units.len() * 2);
+    // (The first two uses and the count: only an edge of exactly two
+    // uses is a candidate.)
+    let mut uses: HashMap<(u32, u32), EdgeUses> = HashMap::with_capacity(units.len() * 2);
     let mut keys: Vec<(u32, u32)> = Vec::with_capacity(units.len() * 3 / 2);
     for (t, u) in units.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (u.v[k], u.v[(k + 1) % 3]);
             let key = (a.min(b), a.max(b));
-            let e = uses.entry(key).or_default();
-            if e.is_empty() {
+            let (n, first) = uses.entry(key).or_insert_with(|| {
                 keys.push(key);
+                (0, [(0, 0); 2])
+            });
+            if let Some(slot) = first.get_mut(*n as usize) {
+                *slot = (t as u32, k as u8);
             }
-            e.push((t as u32, k as u8));
+            *n += 1;
         }
     }
     // Texture coordinates must agree at the shared edge's ends (a UV seam
@@ -226,7 +214,7 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
         }
     }
     for key in &keys {
-        let [(t1, k1), (t2, k2)] = uses[key][..] else {
+        let (2, [(t1, k1), (t2, k2)]) = uses[key] else {
             continue;
         };
         let (x, y) = (&units[t1 as usize], &units[t2 as usize]);
@@ -460,6 +448,10 @@ fn doublet_pairs(units: &[Unit], mate: &[u32], quad_of: &[u32], cands: &[Candida
     out.dedup();
     out
 }
+
+/// An edge's uses by the units: how many, and the first two `(unit,
+/// corner)`.
+type EdgeUses = (u32, [(u32, u8); 2]);
 
 /// One triangle of [`pair_triangles`]: an input triangle or half of an
 /// input quad; its vertices and their corner positions in `indices`.
