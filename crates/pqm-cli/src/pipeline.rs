@@ -16,9 +16,9 @@ use glam::DVec3;
 use pqm_core::attributes::{
     importance_from_scalars, load_field_sidecar, load_importance_sidecar, remap_importance, Field,
 };
+use pqm_core::bridging::pair_and_bridge;
 use pqm_core::coarsen::{Attributes, CoarsenOptions, Coarsener, Placement, Smoothing};
 use pqm_core::features::{feature_edges_from_polylines, load_features, sharp_edges, FeatureCurves};
-use pqm_core::pairing::pair_triangles;
 use pqm_core::subdivide::{catmull_clark_split, SplitMode};
 use pqm_core::{io, IndexedMesh, Mesh, VertexId};
 use std::path::{Path, PathBuf};
@@ -120,11 +120,16 @@ pub struct CoarsenerArgs {
     /// those) — on the shared triangle meshes 3.9–5.1× smaller files than
     /// `split` and 3–6× faster; the quads are as regular as the triangles
     /// allow; a triangle among quads pairs with another through the quads
-    /// between them (re-pairing their halves). Where pairing leaves a
-    /// triangle alone (an odd part) or meets an n-gon, the input is split
-    /// instead, with a note. `split`: each n-gon into n quads around new edge and
-    /// face points (any input; about 6× the vertices of a triangle mesh,
-    /// every level finer than the input; the files of sessions up to 23).
+    /// between them (re-pairing their halves). Polygons of five or more
+    /// corners are cut into triangles first. A triangle no pairing can
+    /// cover (an odd UV island or group, a pentagon's third triangle) is
+    /// joined to another such triangle, or to the boundary, by a strip of
+    /// quads cut at their edge midpoints: a few new vertices where the
+    /// split would add them everywhere. Where even that fails, the input
+    /// is split instead, with a note. `split`: each n-gon into n quads
+    /// around new edge and face points (any input; about 6× the vertices
+    /// of a triangle mesh, every level finer than the input; the files of
+    /// sessions up to 23).
     #[arg(
         long,
         value_enum,
@@ -144,7 +149,8 @@ pub struct CoarsenerArgs {
 pub enum TrianglesArg {
     /// The linear split (`pqm_core::subdivide`).
     Split,
-    /// Triangle pairing (`pqm_core::pairing`), else the split.
+    /// Triangle pairing (`pqm_core::pairing`) and strips for what it
+    /// leaves alone (`pqm_core::bridging`), else the split.
     Pair,
 }
 
@@ -156,8 +162,19 @@ pub enum QuadConversion {
     None,
     /// Triangles joined in pairs: the same vertices.
     Paired,
+    /// Triangles joined in pairs, and those left alone by strips of quads
+    /// cut at edge midpoints: a few new vertices after the input's.
+    Bridged,
     /// The linear split: new vertices after the input's.
     Split,
+}
+
+impl QuadConversion {
+    /// Whether the quad mesh has vertices after the input's (edge and face
+    /// points, pqm's own).
+    pub fn adds_vertices(self) -> bool {
+        matches!(self, QuadConversion::Split | QuadConversion::Bridged)
+    }
 }
 
 /// The placement (`default` unless `--placement` is given) and the smoothing
@@ -286,8 +303,8 @@ pub fn prepare(
         }
         let before = work.face_count();
         if args.triangles == TrianglesArg::Pair {
-            match pair_triangles(&work) {
-                Ok((paired, r)) if Mesh::from_indexed(&paired).is_ok() => {
+            match pair_and_bridge(&work) {
+                Ok((paired, r, b)) if Mesh::from_indexed(&paired).is_ok() => {
                     let mut repaired = match r.repaired_quads {
                         0 => String::new(),
                         n => format!(", {n} of the input's quads re-paired on the way"),
@@ -301,10 +318,32 @@ pub fn prepare(
                     if r.doublets_left > 0 {
                         repaired += &format!(", {} such quads left", r.doublets_left);
                     }
+                    let polygons = match b.polygons {
+                        0 => String::new(),
+                        n => format!(
+                            "cut {n} polygons of five or more corners into {} triangles; ",
+                            b.polygon_triangles
+                        ),
+                    };
+                    let strips = if b.lone == 0 {
+                        "no new vertex".to_string()
+                    } else {
+                        let n = b.strips + b.boundary_strips;
+                        format!(
+                            "{} triangles no pairing covers joined by {n} strip{} ({} to the \
+                             boundary) with {} new vertices ({} edge midpoints, {} face centres)",
+                            b.lone,
+                            if n == 1 { "" } else { "s" },
+                            b.boundary_strips,
+                            b.new_vertices(),
+                            b.edge_points,
+                            b.face_points
+                        )
+                    };
                     ctx.note(format!(
-                        "{name}: not quad-only ({q} quads, {t} triangles, {o} other); joined \
-                         the triangles in {} pairs ({} by shape, {} through augmenting paths, \
-                         {} folded or not convex{repaired}), no new vertex: {before} faces -> \
+                        "{name}: not quad-only ({q} quads, {t} triangles, {o} other); {polygons}\
+                         joined the triangles in {} pairs ({} by shape, {} through augmenting \
+                         paths, {} folded or not convex{repaired}), {strips}: {before} faces -> \
                          {} quads",
                         r.pairs,
                         r.greedy_pairs,
@@ -313,7 +352,11 @@ pub fn prepare(
                         paired.face_count()
                     ));
                     work = paired;
-                    conversion = QuadConversion::Paired;
+                    conversion = if b.new_vertices() == 0 {
+                        QuadConversion::Paired
+                    } else {
+                        QuadConversion::Bridged
+                    };
                 }
                 Ok(_) => ctx.note(format!(
                     "{name}: the paired triangles do not make a valid quad mesh; split instead"
@@ -336,7 +379,7 @@ pub fn prepare(
     }
     let split = conversion == QuadConversion::Split;
     let mesh = Mesh::from_indexed(&work).map_err(|e| anyhow!("{name}: {e}"))?;
-    if split && !polylines.is_empty() {
+    if conversion.adds_vertices() && !polylines.is_empty() {
         polylines = polylines
             .iter()
             .map(|p| split_polyline(&mesh, p, input.vertex_count()))
@@ -393,24 +436,92 @@ pub fn prepare(
     })
 }
 
-/// Maps a polyline of input vertices onto the split mesh: each step `a → b`
-/// goes through the edge point of edge `ab` (the common neighbour of `a` and
-/// `b` with an index `>= original_vertices`).
+/// Maps a polyline of input vertices onto the quad mesh after a split or
+/// bridging, which cut edges at their midpoints (new vertices, indices `>=
+/// original_vertices`): each step `a → b` is the edge `ab` if it is still
+/// one, else the shortest chain of new vertices on the segment `ab` (an
+/// edge cut once or, by two strips, twice).
 fn split_polyline(mesh: &Mesh, poly: &[u32], original_vertices: usize) -> anyhow::Result<Vec<u32>> {
     let mut out = Vec::with_capacity(poly.len() * 2);
     for w in poly.windows(2) {
         let (a, b) = (VertexId(w[0]), VertexId(w[1]));
-        let mid = mesh
-            .vertex_ring(a)
-            .find(|&e| e.idx() >= original_vertices && mesh.find_halfedge(e, b).is_some())
-            .with_context(|| {
-                format!("feature polyline: vertices {a} and {b} are not joined by a mesh edge")
-            })?;
+        let chain = edge_chain(mesh, a, b, original_vertices).with_context(|| {
+            format!("feature polyline: vertices {a} and {b} are not joined by a mesh edge")
+        })?;
         if out.is_empty() {
             out.push(a.0);
         }
-        out.push(mid.0);
-        out.push(b.0);
+        out.extend(chain.iter().map(|v| v.0));
     }
     Ok(out)
+}
+
+/// The vertices after `a` up to `b` along the edge `ab` as the mesh has it
+/// now: `[b]` if it is an edge, else through new vertices on the segment
+/// (breadth first, at most 8 steps).
+fn edge_chain(mesh: &Mesh, a: VertexId, b: VertexId, original: usize) -> Option<Vec<VertexId>> {
+    let (pa, pb) = (mesh.position(a), mesh.position(b));
+    let len = (pb - pa).length();
+    let on_segment = |v: VertexId| {
+        let p = mesh.position(v);
+        ((p - pa).length() + (pb - p).length() - len).abs() <= 1e-9 * len.max(1e-300)
+    };
+    let mut parent: std::collections::HashMap<VertexId, VertexId> = Default::default();
+    let mut frontier = vec![a];
+    for _ in 0..8 {
+        let mut next = Vec::new();
+        for &v in &frontier {
+            for w in mesh.vertex_ring(v) {
+                if w == b {
+                    let mut chain = vec![b];
+                    let mut x = v;
+                    while x != a {
+                        chain.push(x);
+                        x = parent[&x];
+                    }
+                    chain.reverse();
+                    return Some(chain);
+                }
+                if w.idx() >= original && w != a && !parent.contains_key(&w) && on_segment(w) {
+                    parent.insert(w, v);
+                    next.push(w);
+                }
+            }
+        }
+        frontier = next;
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn feature_polylines_follow_edges_cut_by_a_strip_or_the_split() {
+        // A pentagon: cut into three triangles, two paired, the third
+        // joined to the boundary by an edge point on one of its edges.
+        let p: Vec<DVec3> = (0..5)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 5.0;
+                DVec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let m = IndexedMesh::from_faces(p, [[0u32, 1, 2, 3, 4]]);
+        let ring = [0u32, 1, 2, 3, 4, 0];
+        let (bridged, _, r) = pair_and_bridge(&m).unwrap();
+        assert_eq!(r.edge_points, 1);
+        let split = catmull_clark_split(&m, SplitMode::Linear).unwrap();
+        for (quads, new) in [(bridged, 1), (split, 5)] {
+            let mesh = Mesh::from_indexed(&quads).unwrap();
+            let out = split_polyline(&mesh, &ring, 5).unwrap();
+            // The whole boundary, once around, through the new points.
+            assert_eq!(out.len(), ring.len() + new);
+            assert_eq!(out.iter().filter(|&&v| v >= 5).count(), new);
+            for w in out.windows(2) {
+                let (a, b) = (VertexId(w[0]), VertexId(w[1]));
+                assert!(mesh.find_halfedge(a, b).is_some() || mesh.find_halfedge(b, a).is_some());
+            }
+        }
+    }
 }

@@ -462,18 +462,27 @@ fn coarsen_reports_chord_collapses_on_cad_input_only() {
 }
 
 #[test]
-fn coarsen_splits_non_quad_input_and_says_so() {
+fn coarsen_makes_non_quad_input_quad_only_and_says_so() {
     let d = TempDir::new().unwrap();
     let cage = fixtures().join("spot_control_mesh.obj");
     let out = d.path().join("cage.obj");
-    pqm()
-        .args(["coarsen", s(&cage), "-o", s(&out), "--ratio", "0.9"])
-        .assert()
-        .success()
-        .stderr(predicate::str::contains("split each n-gon into n quads"));
-    let (im, m) = load_valid(&out);
-    assert!(im.is_quad_only());
-    assert_eq!(m.genus(), 0);
+    for (flags, says) in [
+        (&[][..], "joined by 1 strip "),
+        (
+            &["--triangles", "split"][..],
+            "split each n-gon into n quads",
+        ),
+    ] {
+        pqm()
+            .args(["coarsen", s(&cage), "-o", s(&out), "--ratio", "0.9"])
+            .args(flags)
+            .assert()
+            .success()
+            .stderr(predicate::str::contains(says));
+        let (im, m) = load_valid(&out);
+        assert!(im.is_quad_only());
+        assert_eq!(m.genus(), 0);
+    }
     // --no-subdivide refuses, naming the file and the face kinds
     let out2 = d.path().join("cage2.obj");
     pqm()
@@ -545,7 +554,7 @@ fn coarsen_with_user_attributes_and_features() {
 #[test]
 fn user_attributes_follow_the_quad_split() {
     // The control cage has triangles and pentagons: attributes given per
-    // input vertex must be carried onto the split mesh.
+    // input vertex must be carried onto the bridged or split mesh.
     let d = TempDir::new().unwrap();
     let cage = fixtures().join("spot_control_mesh.obj");
     let im = io::read_mesh(&cage).unwrap();
@@ -565,24 +574,30 @@ fn user_attributes_follow_the_quad_split() {
     let feat = d.path().join("feat.txt");
     std::fs::write(&feat, format!("{} {}\n", f0[0], f0[1])).unwrap();
     let out = d.path().join("cage.obj");
-    let v = json_ok(&[
-        "coarsen",
-        s(&cage),
-        "-o",
-        s(&out),
-        "--ratio",
-        "0.8",
-        "--field",
-        s(&field),
-        "--importance",
-        s(&imp),
-        "--features",
-        s(&feat),
-    ]);
-    assert_eq!(v["subdivided"], true);
-    let (im_out, m) = load_valid(&out);
-    assert!(im_out.is_quad_only());
-    assert_eq!(m.genus(), 0);
+    // Bridged (the default: new vertices at a few edge midpoints) or split.
+    for (triangles, conversion) in [("pair", "bridged"), ("split", "split")] {
+        let v = json_ok(&[
+            "coarsen",
+            s(&cage),
+            "-o",
+            s(&out),
+            "--ratio",
+            "0.8",
+            "--field",
+            s(&field),
+            "--importance",
+            s(&imp),
+            "--features",
+            s(&feat),
+            "--triangles",
+            triangles,
+        ]);
+        assert_eq!(v["conversion"], conversion);
+        assert_eq!(v["subdivided"], triangles == "split");
+        let (im_out, m) = load_valid(&out);
+        assert!(im_out.is_quad_only());
+        assert_eq!(m.genus(), 0);
+    }
     // a polyline step that is not a mesh edge names the feature file
     let p0 = im.positions[f0[0] as usize];
     let far = (0..im.vertex_count())
@@ -1466,11 +1481,14 @@ fn paired_triangles_make_the_input_the_finest_level() {
 }
 
 #[test]
-fn triangles_that_cannot_pair_are_split_with_a_note() {
-    // spot's control cage: quads, 4 triangles and 16 pentagons.
+fn polygons_and_lone_triangles_are_bridged_not_split() {
+    // spot's control cage: 160 quads, 4 triangles and 16 pentagons. Its
+    // pentagons are cut into triangles and paired; the two triangles left
+    // are joined by a strip of quads cut at edge midpoints.
     let d = TempDir::new().unwrap();
     let out_p = d.path().join("p.pqm");
     let cage = fixtures().join("spot_control_mesh.obj");
+    let input = io::read_mesh(&cage).unwrap();
     let out = pqm()
         .args(["--json", "encode", s(&cage), "-o", s(&out_p)])
         .output()
@@ -1478,25 +1496,92 @@ fn triangles_that_cannot_pair_are_split_with_a_note() {
     assert!(out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("cannot pair the triangles") && stderr.contains("split instead"),
+        stderr.contains("polygons of five or more corners") && stderr.contains("joined by 1 strip"),
         "{stderr}"
     );
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(v["files"][0]["conversion"], "split");
-    // The same file as the split asked for.
+    let p = &v["files"][0];
+    assert_eq!(p["conversion"], "bridged");
     let out_s = d.path().join("s.pqm");
-    json_ok(&["encode", s(&cage), "-o", s(&out_s), "--triangles", "split"]);
-    assert_eq!(
-        std::fs::read(&out_p).unwrap(),
-        std::fs::read(&out_s).unwrap()
+    let sp = json_ok(&["encode", s(&cage), "-o", s(&out_s), "--triangles", "split"]);
+    let sp = &sp["files"][0];
+    assert_eq!(sp["conversion"], "split");
+    // A few new vertices where the split makes about four times the
+    // input's; a file at most half the split's.
+    let (nv, ns) = (
+        p["vertices"].as_u64().unwrap(),
+        sp["vertices"].as_u64().unwrap(),
     );
+    let n = input.vertex_count() as u64;
+    assert!(n < nv && nv < n + n / 10, "{n} input, {nv} bridged");
+    assert!(ns > 3 * n);
+    let (bp, bs) = (p["bytes"].as_u64().unwrap(), sp["bytes"].as_u64().unwrap());
+    assert!(2 * bp < bs, "bridged {bp} bytes, split {bs}");
+    // The finest level is the bridging: the input's vertices first, on
+    // the grid, and what `check_bridging` accepts.
+    let fine = d.path().join("fine.obj");
+    json_ok(&["decode", s(&out_p), "-o", s(&fine)]);
+    let (fine, _) = load_valid(&fine);
+    let step = input.bbox_diagonal() / (1 << 14) as f64;
+    for (a, b) in fine.positions.iter().zip(&input.positions) {
+        assert!((*a - *b).length() <= step, "{a} vs {b}");
+    }
+    let (bridged, _, _) = pqm_core::bridging::pair_and_bridge(&input).unwrap();
+    assert_eq!(fine.face_count(), bridged.face_count());
+    pqm_core::bridging::check_bridging(&input, &bridged).unwrap();
     // A quad input says so.
     let q = d.path().join("q.pqm");
     assert_eq!(encode_spot(&q, &[])["files"][0]["conversion"], "none");
 }
 
+/// A torus of 3 × 3 quads with two of its faces joined into an octagon
+/// and a hexagon that no triangulation can cut without a diagonal that is
+/// already an edge (the tube is three edges around).
+fn uncuttable_polygons() -> IndexedMesh {
+    let t = pqm_core::shapes::torus(3, 3, 2.0, 0.7);
+    IndexedMesh::from_faces(
+        t.positions,
+        [
+            vec![1u32, 4, 5, 2],
+            vec![3, 6, 7, 4],
+            vec![4, 7, 8, 5],
+            vec![5, 8, 6, 3],
+            vec![6, 0, 2, 5, 3, 4, 1, 7],
+            vec![7, 1, 2, 0, 6, 8],
+        ],
+    )
+}
+
 #[test]
-fn convert_pairs_triangles_or_names_one_that_cannot() {
+fn what_cannot_be_paired_or_bridged_is_split_with_a_note() {
+    let d = TempDir::new().unwrap();
+    let obj = d.path().join("tube.obj");
+    io::write_mesh(&obj, &uncuttable_polygons()).unwrap();
+    let (out_p, out_s) = (d.path().join("p.pqm"), d.path().join("s.pqm"));
+    let out = pqm()
+        .args(["--json", "encode", s(&obj), "-o", s(&out_p)])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("cannot pair the triangles")
+            && stderr.contains("without repeating an edge")
+            && stderr.contains("split instead"),
+        "{stderr}"
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["files"][0]["conversion"], "split");
+    // The same file as the split asked for.
+    json_ok(&["encode", s(&obj), "-o", s(&out_s), "--triangles", "split"]);
+    assert_eq!(
+        std::fs::read(&out_p).unwrap(),
+        std::fs::read(&out_s).unwrap()
+    );
+}
+
+#[test]
+fn convert_pairs_and_bridges_triangles_or_names_a_face_it_cannot() {
     let d = TempDir::new().unwrap();
     let input = triangle_torus();
     let obj = d.path().join("tris.obj");
@@ -1506,15 +1591,21 @@ fn convert_pairs_triangles_or_names_one_that_cannot() {
     assert_eq!(v["vertices"].as_u64(), Some(input.vertex_count() as u64));
     let (out, _) = load_valid(&quads);
     pqm_core::pairing::check_pairing(&input, &out).unwrap();
-    // spot's cage: its triangles sit among quads; an error naming one, and
-    // no output file.
+    // spot's cage: its pentagons cut, its triangles paired or bridged.
+    let cage = fixtures().join("spot_control_mesh.obj");
+    let cage_q = d.path().join("cage.obj");
+    let v = json_ok(&["convert", s(&cage), s(&cage_q), "--subdivide", "pair"]);
+    let input = io::read_mesh(&cage).unwrap();
+    assert!(v["vertices"].as_u64().unwrap() > input.vertex_count() as u64);
+    let (out, _) = load_valid(&cage_q);
+    pqm_core::bridging::check_bridging(&input, &out).unwrap();
+    // Polygons no triangulation can cut: an error naming one, and no
+    // output file.
+    let tube = d.path().join("tube.obj");
+    io::write_mesh(&tube, &uncuttable_polygons()).unwrap();
     let bad = d.path().join("bad.obj");
     pqm()
-        .args([
-            "convert",
-            s(&fixtures().join("spot_control_mesh.obj")),
-            s(&bad),
-        ])
+        .args(["convert", s(&tube), s(&bad)])
         .args(["--subdivide", "pair"])
         .assert()
         .failure()

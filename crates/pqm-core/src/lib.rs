@@ -16,6 +16,7 @@ pub mod metrics;
 
 pub use indexed::IndexedMesh;
 pub use mesh::{FaceId, HalfedgeId, Mesh, VertexId};
+pub mod bridging;
 pub mod ops;
 pub mod pairing;
 pub mod progressive;

@@ -51,7 +51,13 @@
 //!    together as it is, any other pair at its first triangle's place.
 //!
 //! If triangles stay unpaired, or a face has more than four corners, the
-//! result is an error, and the caller splits instead.
+//! result is an error. [`crate::bridging::pair_and_bridge`] goes on from
+//! there: it cuts polygons into triangles first and joins the triangles
+//! left alone by strips of quads, with a few new vertices.
+//!
+//! An input quad whose diagonal `q0–q2` is also an edge elsewhere (a small
+//! closed part) stays whole: re-pairing its halves would give that edge
+//! three or four faces.
 //!
 //! Measured (`pqm encode`, paired against `--triangles split`;
 //! `docs/figures-history.md`, session 24): every triangle and
@@ -85,6 +91,14 @@ pub enum PairingError {
         face: usize,
         /// Its number of corners.
         len: usize,
+    },
+    /// A face of five or more corners that cannot be cut into triangles
+    /// without a diagonal that is already an edge of the mesh (a polygon
+    /// wrapped around a thin part).
+    #[error("face {face} cannot be cut into triangles without repeating an edge of the mesh")]
+    Polygon {
+        /// The face.
+        face: usize,
     },
     /// Triangles no pairing found a partner for.
     #[error("{unpaired} of {triangles} triangles have no partner (the first: face {first_face})")]
@@ -145,6 +159,27 @@ fn quad_quality(positions: &[DVec3], q: [u32; 4]) -> f64 {
 /// and the texture coordinate and normal tables are kept; faces keep their
 /// input order (a pair at its first triangle's place), groups their names.
 pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport), PairingError> {
+    let (out, report, lone) = pair_partial(mesh)?;
+    match lone.first() {
+        None => Ok((out, report)),
+        Some(&(first_face, _)) => Err(PairingError::Unpaired {
+            unpaired: lone.len(),
+            triangles: report.triangles,
+            first_face,
+        }),
+    }
+}
+
+/// [`pair_partial`]'s result: the mesh, the report, the triangles left
+/// alone as `(input face, output face)`.
+pub(crate) type PartialPairing = (IndexedMesh, PairingReport, Vec<(usize, usize)>);
+
+/// [`pair_triangles`], but triangles left alone are kept in the output as
+/// triangles (at their input places) instead of failing: with them, each
+/// as `(input face, output face)`. The doublet rounds may not leave more
+/// triangles alone than the first round's searches did. For
+/// [`crate::bridging`], which joins them.
+pub(crate) fn pair_partial(mesh: &IndexedMesh) -> Result<PartialPairing, PairingError> {
     check_tables(mesh)?;
     let nf = mesh.face_count();
     // The units: each triangle, and each quad as its two triangles across
@@ -213,12 +248,25 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
             });
         }
     }
+    // An input quad whose diagonal `q0–q2` is an edge elsewhere too (a
+    // small closed part can bring two corners together twice) stays whole:
+    // re-pairing its halves would make that diagonal an edge of three or
+    // four faces.
+    let locked = |u: &Unit| {
+        let f = u.face as usize;
+        let q = mesh.face(f);
+        q.len() == 4 && uses[&(q[0].min(q[2]), q[0].max(q[2]))].0 != 2
+    };
     for key in &keys {
         let (2, [(t1, k1), (t2, k2)]) = uses[key] else {
             continue;
         };
         let (x, y) = (&units[t1 as usize], &units[t2 as usize]);
-        if x.face == y.face || group_of[x.face as usize] != group_of[y.face as usize] {
+        if x.face == y.face
+            || group_of[x.face as usize] != group_of[y.face as usize]
+            || locked(x)
+            || locked(y)
+        {
             continue;
         }
         let (k1, k2) = (k1 as usize, k2 as usize);
@@ -277,6 +325,7 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
     // The last complete pairing and its doublets: what the result falls
     // back to when refusing this round's pairs leaves a triangle alone.
     let mut last: Option<(Vec<u32>, Vec<u32>, usize)> = None;
+    let mut allowed_alone: Option<usize> = None;
     for round in 0..=DOUBLET_ROUNDS {
         let open = |i: u32, positive_only: bool| {
             !forbidden[i as usize] && (!positive_only || cands[i as usize].quality > 0.0)
@@ -290,19 +339,19 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
                 blossom_augment(&mut mate, &adj, &mut budget, |i| open(i, positive_only));
             }
         }
-        let unpaired: Vec<usize> = (0..units.len()).filter(|&t| mate[t] == u32::MAX).collect();
-        if let Some(&t) = unpaired.first() {
-            let Some((m, q, left)) = last.take() else {
-                return Err(PairingError::Unpaired {
-                    unpaired: unpaired.len(),
-                    triangles,
-                    first_face: units[t].face as usize,
-                });
-            };
-            // Refusing the last round's pairs left triangles alone: keep
-            // that round's pairing, doublets and all.
-            (mate, quad_of, report.doublets_left) = (m, q, left);
-            report.doublets_avoided = report.doublets_avoided.saturating_sub(left);
+        // Triangles the first round's searches left alone stay allowed
+        // (the caller bridges them or fails); a round that leaves more
+        // than those is undone: the round before is kept, doublets and
+        // all. (Taking back only the refusals next to the triangles newly
+        // alone and searching again, up to four times, was tried: it
+        // kept no more refusals on the bunny, the skull or a decimated
+        // loki.)
+        let alone = mate.iter().filter(|&&m| m == u32::MAX).count();
+        if alone > *allowed_alone.get_or_insert(alone) {
+            if let Some((m, q, left)) = last.take() {
+                (mate, quad_of, report.doublets_left) = (m, q, left);
+                report.doublets_avoided = report.doublets_avoided.saturating_sub(left);
+            }
             break;
         }
         // The candidate of each unit's pair.
@@ -338,8 +387,29 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
         ..IndexedMesh::new()
     };
     let mut out_group_first: Vec<(usize, u32)> = Vec::new();
+    let mut lone = Vec::new();
     for t in 0..units.len() {
         let o = mate[t] as usize;
+        if mate[t] == u32::MAX {
+            // Alone: the triangle as it is.
+            let u = &units[t];
+            let f = u.face as usize;
+            let new_face = out.face_count();
+            if !mesh.groups.is_empty() && out_group_first.last().map(|g| g.0) != Some(group_of[f]) {
+                out_group_first.push((group_of[f], new_face as u32));
+            }
+            lone.push((f, new_face));
+            out.push_face(&u.v);
+            if !mesh.corner_texcoords.is_empty() {
+                out.corner_texcoords
+                    .extend(u.corner.map(|c| mesh.corner_texcoords[c]));
+            }
+            if !mesh.corner_normals.is_empty() {
+                out.corner_normals
+                    .extend(u.corner.map(|c| mesh.corner_normals[c]));
+            }
+            continue;
+        }
         if o < t {
             continue; // emitted with the pair's first unit
         }
@@ -387,7 +457,7 @@ pub fn pair_triangles(mesh: &IndexedMesh) -> Result<(IndexedMesh, PairingReport)
         .into_iter()
         .map(|(g, first)| (mesh.groups[g].0.clone(), first))
         .collect();
-    Ok((out, report))
+    Ok((out, report, lone))
 }
 
 /// Rounds of step 4 (refused pairs, then the searches again) before the
@@ -401,7 +471,7 @@ pub const DOUBLET_ROUNDS: usize = 16;
 /// are left as they are.
 fn doublet_pairs(units: &[Unit], mate: &[u32], quad_of: &[u32], cands: &[Candidate]) -> Vec<u32> {
     const NONE: u32 = u32::MAX;
-    let first = |t: usize| (mate[t] as usize) > t;
+    let first = |t: usize| mate[t] != NONE && (mate[t] as usize) > t;
     let quad = |t: usize| cands[quad_of[t] as usize].quad;
     let mut sides: HashMap<(u32, u32), [u32; 2]> = HashMap::with_capacity(2 * units.len());
     for t in (0..units.len()).filter(|&t| first(t)) {
@@ -465,7 +535,7 @@ struct Unit {
 /// The shape checks that make every index below safe: offsets from 0 to
 /// `indices.len()`, never decreasing; vertex indices in range; per-corner
 /// tables empty or one entry per corner.
-fn check_tables(mesh: &IndexedMesh) -> Result<(), PairingError> {
+pub(crate) fn check_tables(mesh: &IndexedMesh) -> Result<(), PairingError> {
     let fs = &mesh.face_starts;
     let n = mesh.indices.len();
     if fs.first() != Some(&0)
@@ -500,7 +570,7 @@ fn check_tables(mesh: &IndexedMesh) -> Result<(), PairingError> {
 
 /// Per face, the index of its group in `mesh.groups` (0 for every face
 /// when the mesh has none; faces before the first group share the first).
-fn face_groups(mesh: &IndexedMesh) -> Vec<usize> {
+pub(crate) fn face_groups(mesh: &IndexedMesh) -> Vec<usize> {
     let mut out = vec![0usize; mesh.face_count()];
     for (g, w) in mesh.groups.iter().enumerate() {
         let start = w.1 as usize;

@@ -4,8 +4,8 @@ use crate::ctx::Ctx;
 use crate::stats::mesh_stats;
 use crate::util::{mesh_input_format, mesh_output_format};
 use anyhow::{anyhow, bail};
+use pqm_core::bridging::pair_and_bridge;
 use pqm_core::io;
-use pqm_core::pairing::pair_triangles;
 use pqm_core::subdivide::{catmull_clark_split, SplitMode};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -18,8 +18,11 @@ pub enum SubdivideArg {
     Split,
     /// One Catmull-Clark step: the same quads, smoothed positions.
     CatmullClark,
-    /// Adjacent triangles joined two by two, no new vertex (quads kept);
-    /// an error naming a triangle that finds no partner.
+    /// Adjacent triangles joined two by two, no new vertex (quads kept;
+    /// polygons of five or more corners cut into triangles first); a
+    /// triangle no pairing covers is joined to another, or to the
+    /// boundary, by a strip of quads cut at edge midpoints (a few new
+    /// vertices, after the input's). An error where even that fails.
     Pair,
 }
 
@@ -96,12 +99,20 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     match args.subdivide {
         None => {}
         Some(SubdivideArg::Pair) => {
-            let (paired, r) = pair_triangles(&mesh)
+            let (paired, r, b) = pair_and_bridge(&mesh)
                 .map_err(|e| anyhow!("{name}: {e} (--subdivide split makes any mesh quad-only)"))?;
             mesh = paired;
+            let strips = match b.lone {
+                0 => String::new(),
+                n => format!(
+                    "; {n} triangles no pairing covers joined by {} strips with {} new vertices",
+                    b.strips + b.boundary_strips,
+                    b.new_vertices()
+                ),
+            };
             ctx.note(format!(
-                "{name}: joined {} triangles in {} pairs ({} folded or not convex): {before} \
-                 faces -> {} quads",
+                "{name}: joined {} triangles in {} pairs ({} folded or not convex){strips}: \
+                 {before} faces -> {} quads",
                 r.triangles,
                 r.pairs,
                 r.folded,

@@ -455,7 +455,8 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         vertex_order: !args.no_vertex_order,
         // The split's edge and face points are pqm's own: their indices
         // mean nothing to the user (pipeline: the input's vertices first).
-        vertex_order_keep: (p.split && !args.keep_split_order).then(|| p.input.vertex_count()),
+        vertex_order_keep: (p.conversion.adds_vertices() && !args.keep_split_order)
+            .then(|| p.input.vertex_count()),
         vertex_order_code: if args.vertex_order_deltas {
             pqm_format::VertexOrderCode::Deltas
         } else {
