@@ -17,9 +17,17 @@
 //!    pairing can join them again, with their neighbours or each other.
 //! 2. **Pairing** ([`crate::pairing::pair_triangles`]'s steps; what a
 //!    perfect pairing exists for goes no further).
-//! 3. **Strips.** Each triangle `T` left alone is joined, along the
-//!    shortest strip of quads (breadth first across manifold edges), to
-//!    another triangle left alone or to a boundary edge:
+//! 3. **Walks.** A triangle left alone and the lone triangle nearest it
+//!    are first moved towards each other for free: a lone triangle joins
+//!    half of a neighbouring quad (across no seam, in its group, into a
+//!    quad of positive quality) and the quad's other half is alone
+//!    instead — the pairing's augmenting paths, which cannot end because
+//!    a seam or group border is in the way. Each moves to the position
+//!    nearest the other within [`WALK_LIMIT`] positions.
+//! 4. **Strips.** Each triangle `T` left alone is then joined to another
+//!    one or to a boundary edge along the strip of quads that adds the
+//!    fewest vertices (a Dijkstra search across manifold edges, over
+//!    quads entered across an edge):
 //!    * `T` and the strip's first quad make one pentagon (they share an
 //!      edge with no UV seam, in one group), and so does the other end's
 //!      triangle with the last quad;
@@ -94,6 +102,10 @@ pub struct BridgeReport {
     /// Strip ends where the lone triangle had no quad to join and took a
     /// face point of valence 2 (a doublet).
     pub centre_ends: usize,
+    /// Quads re-paired to move lone triangles towards each other first
+    /// (each a lone triangle and half a quad joined, the quad's other
+    /// half alone instead; no new vertex).
+    pub walk_steps: usize,
 }
 
 impl BridgeReport {
@@ -284,6 +296,13 @@ fn ear_clip(p: &[DVec3], is_edge: impl Fn(usize, usize) -> bool) -> Option<Vec<[
     Some(out)
 }
 
+/// A lone triangle's position that is a face of its own (else the half of
+/// a quad, 0 or 1).
+const REAL: u8 = 2;
+
+/// Positions a lone triangle's walk search visits at most.
+pub const WALK_LIMIT: usize = 4096;
+
 /// Polygons with more corners are cut as a fan (ear clipping is quadratic).
 const EAR_CLIP_MAX: usize = 256;
 
@@ -348,6 +367,8 @@ struct Strips {
     sequence: u32,
     /// Lone triangles no strip joined.
     left: Vec<u32>,
+    /// Lone triangles a walk moved to a new face, not yet joined.
+    moved: Vec<u32>,
     start: Vec<u32>,
 }
 
@@ -409,6 +430,7 @@ impl Strips {
                 .saturating_add(1 << 20),
             sequence: 0,
             left: Vec::new(),
+            moved: Vec::new(),
             start,
         };
         for f in 0..nf {
@@ -496,18 +518,193 @@ impl Strips {
         shared == 2
     }
 
+    /// The corners of a lone triangle's position: face `p.0` itself
+    /// (`p.1 == REAL`), or half `p.1` of quad `p.0` (0: corners 0, 1, 2;
+    /// 1: corners 2, 3, 0).
+    fn triangle_at(&self, p: (u32, u8)) -> Vec<Corner> {
+        let f = &self.faces[p.0 as usize];
+        match p.1 {
+            REAL => f.clone(),
+            0 => vec![f[0], f[1], f[2]],
+            _ => vec![f[2], f[3], f[0]],
+        }
+    }
+
+    fn centroid(&self, corners: &[Corner]) -> DVec3 {
+        corners
+            .iter()
+            .map(|c| self.positions[c.v as usize])
+            .sum::<DVec3>()
+            / corners.len() as f64
+    }
+
+    /// One walk step from the lone triangle at `p` across its outer edge
+    /// `(f, k)` (an edge of face `f`): the quad `g` across it joins the
+    /// triangle with its half at that edge (one group, no seam between,
+    /// no third vertex in common, a quad of positive quality, and `g`'s
+    /// diagonal no edge already), and its other half is alone instead.
+    /// The new position and the joined quad's corners.
+    fn walk_step(&self, p: (u32, u8), f: u32, k: usize) -> Option<((u32, u8), Vec<Corner>)> {
+        let (g, kg) = self.across(f, k)?;
+        let q = &self.faces[g as usize];
+        if q.len() != 4 || self.lone[g as usize] || self.group[f as usize] != self.group[g as usize]
+        {
+            return None;
+        }
+        let x = &self.faces[f as usize];
+        if x[k].tc != q[(kg + 1) % 4].tc || x[(k + 1) % x.len()].tc != q[kg].tc {
+            return None;
+        }
+        if self.edges.contains_key(&key(q[0].v, q[2].v)) {
+            return None;
+        }
+        let tri = self.triangle_at(p);
+        if tri.iter().filter(|c| q.iter().any(|d| d.v == c.v)).count() != 2 {
+            return None;
+        }
+        let h = (kg >= 2) as u8;
+        let half = self.triangle_at((g, h));
+        let (a, b) = (x[k].v, x[(k + 1) % x.len()].v);
+        let mut joined = union(&tri, &half, a, b)?;
+        if joined.len() != 4 {
+            return None;
+        }
+        // As the pairing writes a pair: the shared edge `a–b` is the
+        // diagonal from corner 0, so the quad is still two input
+        // triangles across `q0–q2` (and a later walk splits it there).
+        let at_a = joined.iter().position(|c| c.v == a)?;
+        joined.rotate_left(at_a);
+        let quality = crate::ops::quad_scaled_jacobian(
+            [0, 1, 2, 3].map(|i| self.positions[joined[i].v as usize]),
+        );
+        (quality > 0.0).then_some(((g, 1 - h), joined))
+    }
+
+    /// The outer edges of a lone triangle's position, as `(face, edge)`:
+    /// a real triangle's three, a half's two edges of its quad.
+    fn outer_edges(p: (u32, u8)) -> Vec<(u32, usize)> {
+        match p.1 {
+            REAL => (0..3).map(|k| (p.0, k)).collect(),
+            h => vec![(p.0, 2 * h as usize), (p.0, 2 * h as usize + 1)],
+        }
+    }
+
+    /// Where lone triangle `t` can be moved at no cost, by re-pairing the
+    /// quads along a walk (the pairing's augmenting paths, across seams
+    /// and groups never): breadth first, each quad once, at most
+    /// [`WALK_LIMIT`] positions; each with the position it came from.
+    fn reach(&self, t: u32) -> Vec<((u32, u8), usize)> {
+        let mut out = vec![((t, REAL), usize::MAX)];
+        let mut used: std::collections::HashSet<u32> = std::collections::HashSet::new();
+        let mut i = 0;
+        while i < out.len() && out.len() < WALK_LIMIT {
+            let p = out[i].0;
+            for (f, k) in Self::outer_edges(p) {
+                if let Some((next, _)) = self.walk_step(p, f, k) {
+                    if used.insert(next.0) {
+                        out.push((next, i));
+                    }
+                }
+            }
+            i += 1;
+        }
+        out
+    }
+
+    /// Moves lone triangle `t` to the position of `reach` nearest `to`
+    /// (re-pairing the quads on the way); the lone triangle's face then.
+    fn walk_toward(&mut self, t: u32, to: DVec3) -> u32 {
+        let reach = self.reach(t);
+        let dist = |p: (u32, u8), s: &Strips| s.centroid(&s.triangle_at(p)).distance_squared(to);
+        let mut best = 0;
+        for i in 1..reach.len() {
+            if dist(reach[i].0, self) < dist(reach[best].0, self) {
+                best = i;
+            }
+        }
+        let mut chain = Vec::new();
+        let mut i = best;
+        while i != usize::MAX {
+            chain.push(reach[i].0);
+            i = reach[i].1;
+        }
+        chain.reverse();
+        let mut cur = t;
+        for &(g, h) in &chain[1..] {
+            // The step from the lone face `cur` into `g`.
+            let Some((f, k)) = (0..3)
+                .map(|k| (cur, k))
+                .find(|&(f, k)| self.across(f, k).is_some_and(|x| x.0 == g))
+            else {
+                break;
+            };
+            let Some((next, joined)) = self.walk_step((cur, REAL), f, k) else {
+                break;
+            };
+            debug_assert_eq!(next, (g, h));
+            let tri = self.triangle_at(next);
+            let (place, group) = (self.order[g as usize].0, self.group[g as usize]);
+            for old in [cur, g] {
+                self.remove_edges(old);
+                self.alive[old as usize] = false;
+                self.lone[old as usize] = false;
+            }
+            for (face, lone) in [(joined, false), (tri, true)] {
+                self.sequence += 1;
+                let id = self.faces.len() as u32;
+                self.faces.push(face);
+                self.alive.push(true);
+                self.order.push((place, self.sequence));
+                self.group.push(group);
+                self.lone.push(lone);
+                self.add_edges(id);
+            }
+            cur = self.faces.len() as u32 - 1;
+        }
+        cur
+    }
+
     fn run(&mut self, report: &mut BridgeReport) {
         let start = std::mem::take(&mut self.start);
-        for t in start {
+        let mut start = start.into_iter();
+        // Lone triangles a walk moved to a new face come first.
+        while let Some(t) = self.moved.pop().or_else(|| start.next()) {
             if !self.alive[t as usize] || !self.lone[t as usize] {
-                continue; // joined as another strip's end
+                continue; // joined as another strip's end, or moved
             }
+            let t = self.walk_together(t, report);
             let found = self.search(t);
             let done = found.is_some_and(|(path, end)| self.apply(t, &path, end, report));
             if !done {
                 self.left.push(t);
             }
         }
+    }
+
+    /// Moves lone triangle `t` and the lone triangle nearest it towards
+    /// each other, each as far as its walks go (see [`Strips::reach`]),
+    /// so that the strip between them is short; `t`'s face then.
+    fn walk_together(&mut self, t: u32, report: &mut BridgeReport) -> u32 {
+        let at = |f: u32, s: &Strips| s.centroid(&s.faces[f as usize]);
+        let c = at(t, self);
+        let Some(g) = (0..self.faces.len() as u32)
+            .filter(|&f| f != t && self.alive[f as usize] && self.lone[f as usize])
+            .min_by(|&a, &b| {
+                at(a, self)
+                    .distance_squared(c)
+                    .total_cmp(&at(b, self).distance_squared(c))
+            })
+        else {
+            return t;
+        };
+        let faces_before = self.faces.len();
+        let t = self.walk_toward(t, at(g, self));
+        let moved = self.walk_toward(g, at(t, self));
+        if moved != g {
+            self.moved.push(moved);
+        }
+        report.walk_steps += (self.faces.len() - faces_before) / 2;
+        t
     }
 
     /// The strip from lone triangle `t` that adds the fewest vertices
@@ -1328,6 +1525,63 @@ mod tests {
             pair_and_bridge(&m).unwrap_err(),
             PairingError::Polygon { face: 4 }
         );
+    }
+
+    #[test]
+    fn a_lone_triangle_walks_by_re_pairing_with_no_new_vertex() {
+        // A strip of 6 unit quads, triangulated, and one more triangle at
+        // its left end: 13 triangles, one left alone.
+        let mut p: Vec<DVec3> = (0..14)
+            .map(|i| DVec3::new((i % 7) as f64, (i / 7) as f64, 0.0))
+            .collect();
+        p.push(DVec3::new(-1.0, 0.5, 0.0));
+        let mut faces: Vec<[u32; 3]> = (0..6u32)
+            .flat_map(|i| [[i, i + 1, i + 8], [i, i + 8, i + 7]])
+            .collect();
+        faces.push([0, 7, 14]);
+        let m = IndexedMesh::from_faces(p, faces);
+        let (paired, _, lone) = pair_partial(&m).unwrap();
+        assert_eq!(lone.len(), 1);
+        let mut s = Strips::new(&paired, lone.iter().map(|l| l.1 as u32));
+        let t = lone[0].1 as u32;
+        let before = s.centroid(&s.faces[t as usize]);
+        // Towards the far end.
+        let to = DVec3::new(if before.x < 3.0 { 7.0 } else { -2.0 }, 0.5, 0.0);
+        let t2 = s.walk_toward(t, to);
+        let after = s.centroid(&s.faces[t2 as usize]);
+        assert!(
+            after.distance(to) < before.distance(to) - 2.0,
+            "{before} -> {after}"
+        );
+        assert!(s.lone[t2 as usize] && s.faces[t2 as usize].len() == 3);
+        // No new vertex; the live faces are the input's triangles, each
+        // quad two of them.
+        assert_eq!(s.positions.len(), m.vertex_count());
+        let out = IndexedMesh::from_faces(
+            m.positions.clone(),
+            (0..s.faces.len())
+                .filter(|&f| s.alive[f])
+                .map(|f| s.faces[f].iter().map(|c| c.v).collect::<Vec<_>>()),
+        );
+        let mut want: Vec<[u32; 3]> = m.faces().map(|f| [f[0], f[1], f[2]]).collect();
+        let mut got: Vec<[u32; 3]> = Vec::new();
+        for f in out.faces() {
+            got.push([f[0], f[1], f[2]]);
+            if f.len() == 4 {
+                got.push([f[2], f[3], f[0]]);
+            }
+        }
+        let canon = |v: &mut Vec<[u32; 3]>| {
+            for t in v.iter_mut() {
+                let k = (0..3).min_by_key(|&k| t[k]).unwrap();
+                *t = [t[k], t[(k + 1) % 3], t[(k + 2) % 3]];
+            }
+            v.sort_unstable();
+        };
+        canon(&mut want);
+        canon(&mut got);
+        assert_eq!(got, want);
+        assert!(crate::mesh::Mesh::from_indexed(&out).is_ok());
     }
 
     #[test]
