@@ -501,13 +501,7 @@ mod tests {
     fn feature_polylines_follow_edges_cut_by_a_strip_or_the_split() {
         // A pentagon: cut into three triangles, two paired, the third
         // joined to the boundary by an edge point on one of its edges.
-        let p: Vec<DVec3> = (0..5)
-            .map(|i| {
-                let a = i as f64 * std::f64::consts::TAU / 5.0;
-                DVec3::new(a.cos(), a.sin(), 0.0)
-            })
-            .collect();
-        let m = IndexedMesh::from_faces(p, [[0u32, 1, 2, 3, 4]]);
+        let m = pqm_core::shapes::regular_polygon(5);
         let ring = [0u32, 1, 2, 3, 4, 0];
         let (bridged, _, r) = pair_and_bridge(&m).unwrap();
         assert_eq!(r.edge_points, 1);

@@ -878,10 +878,17 @@ pub fn check_pairing(input: &IndexedMesh, paired: &IndexedMesh) -> Result<(), St
     if rotations(got) != rotations(want) {
         return Err("the quads are not the input's triangles in pairs".into());
     }
+    valid_if_input_is(input, paired)
+}
+
+/// `Ok` when `out` is a valid half-edge mesh or `input` is not one: a
+/// conversion may not break a valid mesh (the tail of [`check_pairing`]
+/// and [`crate::bridging::check_bridging`]).
+pub(crate) fn valid_if_input_is(input: &IndexedMesh, out: &IndexedMesh) -> Result<(), String> {
     if crate::mesh::Mesh::from_indexed(input).is_err() {
         return Ok(());
     }
-    crate::mesh::Mesh::from_indexed(paired)
+    crate::mesh::Mesh::from_indexed(out)
         .map(|_| ())
         .map_err(|e| format!("not a valid mesh (the input is): {e}"))
 }
@@ -955,13 +962,7 @@ mod tests {
 
     #[test]
     fn a_pentagon_is_refused() {
-        let p: Vec<DVec3> = (0..5)
-            .map(|i| {
-                let a = i as f64 * std::f64::consts::TAU / 5.0;
-                DVec3::new(a.cos(), a.sin(), 0.0)
-            })
-            .collect();
-        let m = IndexedMesh::from_faces(p, [[0u32, 1, 2, 3, 4]]);
+        let m = shapes::regular_polygon(5);
         assert_eq!(
             pair_triangles(&m).unwrap_err(),
             PairingError::FaceSize { face: 0, len: 5 }

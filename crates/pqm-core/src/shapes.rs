@@ -64,6 +64,19 @@ fn cube_lattice(n: u32) -> (Vec<[u32; 3]>, Vec<[u32; 4]>) {
     (lattice, quads)
 }
 
+/// A regular polygon of `n` corners on the unit circle in the `z = 0`
+/// plane, counter-clockwise from `(1, 0, 0)`, as one face (a mesh with
+/// boundary; `n ≥ 3`).
+pub fn regular_polygon(n: u32) -> IndexedMesh {
+    let p: Vec<DVec3> = (0..n)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / n as f64;
+            DVec3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect();
+    IndexedMesh::from_faces(p, [(0..n).collect::<Vec<u32>>()])
+}
+
 /// Axis-aligned cube centred at the origin with edge length `size`:
 /// 8 vertices, 6 quads, closed, genus 0.
 pub fn cube(size: f64) -> IndexedMesh {
