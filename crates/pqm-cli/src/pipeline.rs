@@ -125,8 +125,9 @@ pub struct CoarsenerArgs {
     /// cover (an odd UV island or group, a pentagon's third triangle) is
     /// joined to another such triangle, or to the boundary, by a strip of
     /// quads cut at their edge midpoints: a few new vertices where the
-    /// split would add them everywhere. Where even that fails, the input
-    /// is split instead, with a note. `split`: each n-gon into n quads
+    /// split would add them everywhere. Where even that fails, or would
+    /// add more than a quarter of the input's vertices (most triangles
+    /// alone), the input is split instead, with a note. `split`: each n-gon into n quads
     /// around new edge and face points (any input; about 6× the vertices
     /// of a triangle mesh, every level finer than the input; the files of
     /// sessions up to 23).
@@ -202,6 +203,11 @@ pub fn placement_and_smoothing(
     };
     Ok((placement, smoothing))
 }
+
+/// Bridging (`--triangles pair`) may add at most 1/this of the input's
+/// vertices; past it the input is split (the shared and decimated meshes
+/// need 0–5 %, a mesh whose every triangle is its own UV island 3.7×).
+const MAX_BRIDGED_SHARE: usize = 4;
 
 /// Name of the vertex properties used to carry user attributes through the split.
 const IMPORTANCE_KEY: &str = "pqm:importance";
@@ -304,6 +310,18 @@ pub fn prepare(
         let before = work.face_count();
         if args.triangles == TrianglesArg::Pair {
             match pair_and_bridge(&work) {
+                // Where most triangles are alone (every triangle its own
+                // UV island), the strips would add about as many vertices
+                // as the split and leave a doublet at every end: split.
+                Ok((_, _, b)) if b.new_vertices() > work.vertex_count() / MAX_BRIDGED_SHARE => ctx
+                    .note(format!(
+                        "{name}: {} of the triangles have no partner (seams or groups between \
+                         them); strips would add {} vertices, more than 1/{MAX_BRIDGED_SHARE} of \
+                         the input's {}: split instead",
+                        b.lone,
+                        b.new_vertices(),
+                        work.vertex_count()
+                    )),
                 Ok((paired, r, b)) if Mesh::from_indexed(&paired).is_ok() => {
                     let mut repaired = match r.repaired_quads {
                         0 => String::new(),

@@ -1534,6 +1534,33 @@ fn polygons_and_lone_triangles_are_bridged_not_split() {
     assert_eq!(encode_spot(&q, &[])["files"][0]["conversion"], "none");
 }
 
+#[test]
+fn triangles_alone_everywhere_are_split_not_bridged() {
+    // Every triangle its own UV island: no pair is allowed, and strips
+    // would add more vertices than the split.
+    let d = TempDir::new().unwrap();
+    let mut m = triangle_torus();
+    m.texcoords = (0..m.indices.len())
+        .map(|i| [i as f64 / 1e4, 0.0])
+        .collect();
+    m.corner_texcoords = (0..m.indices.len() as u32).collect();
+    let obj = d.path().join("islands.obj");
+    io::write_mesh(&obj, &m).unwrap();
+    let out = d.path().join("islands.pqm");
+    let o = pqm()
+        .args(["--json", "encode", s(&obj), "-o", s(&out)])
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("have no partner") && stderr.contains("split instead"),
+        "{stderr}"
+    );
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["files"][0]["conversion"], "split");
+}
+
 /// A torus of 3 × 3 quads with two of its faces joined into an octagon
 /// and a hexagon that no triangulation can cut without a diagonal that is
 /// already an edge (the tube is three edges around).

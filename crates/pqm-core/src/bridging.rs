@@ -681,20 +681,12 @@ impl Strips {
         }
     }
 
-    /// Moves lone triangle `t` and the lone triangle nearest it towards
-    /// each other, each as far as its walks go (see [`Strips::reach`]),
+    /// Moves lone triangle `t` and the lone triangle nearest it (in
+    /// faces) towards each other, each as far as its walks go (see [`Strips::reach`]),
     /// so that the strip between them is short; `t`'s face then.
     fn walk_together(&mut self, t: u32, report: &mut BridgeReport) -> u32 {
         let at = |f: u32, s: &Strips| s.centroid(&s.faces[f as usize]);
-        let c = at(t, self);
-        let Some(g) = (0..self.faces.len() as u32)
-            .filter(|&f| f != t && self.alive[f as usize] && self.lone[f as usize])
-            .min_by(|&a, &b| {
-                at(a, self)
-                    .distance_squared(c)
-                    .total_cmp(&at(b, self).distance_squared(c))
-            })
-        else {
+        let Some(g) = self.nearest_lone(t) else {
             return t;
         };
         let faces_before = self.faces.len();
@@ -705,6 +697,32 @@ impl Strips {
         }
         report.walk_steps += (self.faces.len() - faces_before) / 2;
         t
+    }
+
+    /// The lone triangle nearest `t` across the faces (breadth first
+    /// across manifold edges, at most [`WALK_LIMIT`] faces: a global scan
+    /// per lone triangle would be quadratic where most triangles are
+    /// alone).
+    fn nearest_lone(&self, t: u32) -> Option<u32> {
+        let mut seen: std::collections::HashSet<u32> = std::collections::HashSet::from([t]);
+        let mut queue = std::collections::VecDeque::from([t]);
+        while let Some(f) = queue.pop_front() {
+            if seen.len() > WALK_LIMIT {
+                break;
+            }
+            for k in 0..self.faces[f as usize].len() {
+                let Some((g, _)) = self.across(f, k) else {
+                    continue;
+                };
+                if seen.insert(g) {
+                    if self.lone[g as usize] {
+                        return Some(g);
+                    }
+                    queue.push_back(g);
+                }
+            }
+        }
+        None
     }
 
     /// The strip from lone triangle `t` that adds the fewest vertices
