@@ -146,8 +146,9 @@ pub struct Args {
     /// only the input's own vertices keep their indices at the full level,
     /// and the split's points are numbered after them in the order that
     /// codes smallest (the split bunny's vertex order: 10 bits per vertex →
-    /// about 2). Quad and paired inputs make no new vertex and keep their
-    /// whole order either way.
+    /// about 2); so are the edge and face points a bridged input gains.
+    /// Quad and paired inputs make no new vertex and keep their whole
+    /// order either way.
     #[arg(long, help_heading = "File", conflicts_with = "no_vertex_order")]
     pub keep_split_order: bool,
     /// How each section's zstd frame is cut into blocks: `auto` gives a
@@ -453,8 +454,9 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         chunk_bytes: args.chunk_bytes as usize,
         chunk_growth: args.chunk_growth,
         vertex_order: !args.no_vertex_order,
-        // The split's edge and face points are pqm's own: their indices
-        // mean nothing to the user (pipeline: the input's vertices first).
+        // The split's or the bridging's edge and face points are pqm's
+        // own: their indices mean nothing to the user (pipeline: the
+        // input's vertices first).
         vertex_order_keep: (p.conversion.adds_vertices() && !args.keep_split_order)
             .then(|| p.input.vertex_count()),
         vertex_order_code: if args.vertex_order_deltas {
