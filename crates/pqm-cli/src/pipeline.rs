@@ -3,11 +3,12 @@
 //! set up the [`Coarsener`].
 //!
 //! User attributes are read against the input *as read* (vertex indices of
-//! the file). When the input goes through the linear split, they are carried
-//! onto the quad mesh: per-vertex values travel as vertex properties through
-//! the split (edge points get the average of their endpoints, face points the
-//! average of their face), and each feature polyline step `a → b` becomes
-//! `a → edge point → b`. Original vertices keep their indices in the split.
+//! the file). When the input goes through the linear split or bridging,
+//! they are carried onto the quad mesh: per-vertex values travel as vertex
+//! properties (edge points get the average of their endpoints, face points
+//! the average of their face), and each feature polyline step `a → b`
+//! becomes `a → edge point(s) → b` where the edge was cut. Original
+//! vertices keep their indices.
 
 use crate::ctx::{usage, Ctx};
 use crate::util::mesh_input_format;
@@ -170,6 +171,13 @@ pub enum QuadConversion {
     Split,
 }
 
+impl Prepared {
+    /// True when the input went through the linear split.
+    pub fn split(&self) -> bool {
+        self.conversion == QuadConversion::Split
+    }
+}
+
 impl QuadConversion {
     /// Whether the quad mesh has vertices after the input's (edge and face
     /// points, pqm's own).
@@ -238,8 +246,6 @@ pub fn load_mesh(path: &Path, repair: bool, ctx: &Ctx) -> anyhow::Result<Indexed
 pub struct Prepared {
     /// The input as read (after `--repair`).
     pub input: IndexedMesh,
-    /// True when the input went through the linear split.
-    pub split: bool,
     /// How the quad mesh came from the input.
     pub conversion: QuadConversion,
     /// The coarsener, set up and not yet run.
@@ -395,7 +401,6 @@ pub fn prepare(
             ));
         }
     }
-    let split = conversion == QuadConversion::Split;
     let mesh = Mesh::from_indexed(&work).map_err(|e| anyhow!("{name}: {e}"))?;
     if conversion.adds_vertices() && !polylines.is_empty() {
         polylines = polylines
@@ -447,7 +452,6 @@ pub fn prepare(
     let coarsener = Coarsener::new(mesh, attrs, &curves, opts);
     Ok(Prepared {
         input,
-        split,
         conversion,
         coarsener,
         quad_faces,

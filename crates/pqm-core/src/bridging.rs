@@ -68,8 +68,10 @@
 //! triangles are alone (every triangle its own island) bridging adds
 //! more vertices than the split, and `pqm encode` splits instead.
 
-use crate::indexed::IndexedMesh;
-use crate::pairing::{check_tables, face_groups, pair_partial, PairingError, PairingReport};
+use crate::indexed::{FaceWriter, IndexedMesh};
+use crate::pairing::{
+    attrs, check_tables, face_groups, pair_partial, vertex_tables, PairingError, PairingReport,
+};
 use glam::{DVec2, DVec3};
 use std::borrow::Cow;
 use std::collections::HashMap;
@@ -140,8 +142,9 @@ pub fn pair_and_bridge(
     if lone.is_empty() {
         return Ok((paired, pairing, report));
     }
-    let mut strips = Strips::new(&paired, lone.iter().map(|l| l.1 as u32));
-    strips.run(&mut report);
+    let lone_faces: Vec<u32> = lone.iter().map(|l| l.1 as u32).collect();
+    let mut strips = Strips::new(&paired, &lone_faces);
+    strips.run(&lone_faces, &mut report);
     if let Some(&first) = strips.left.first() {
         // The first one left, as a face of the input.
         let f = lone
@@ -157,13 +160,13 @@ pub fn pair_and_bridge(
     Ok((strips.finish(&paired), pairing, report))
 }
 
+/// With the mesh, the input face of each of its faces (when it changed).
+type Triangulated<'a> = (Cow<'a, IndexedMesh>, Option<Vec<u32>>);
+
 /// Step 1: the faces of five or more corners cut into triangles (ear
 /// clipping in the best-fit plane), attributes carried per corner; the
 /// mesh as it is when it has none. Faces of fewer than three corners are
 /// an error.
-/// With the mesh, the input face of each of its faces (when it changed).
-type Triangulated<'a> = (Cow<'a, IndexedMesh>, Option<Vec<u32>>);
-
 fn triangulate_polygons<'a>(
     mesh: &'a IndexedMesh,
     report: &mut BridgeReport,
@@ -184,62 +187,39 @@ fn triangulate_polygons<'a>(
         .faces()
         .flat_map(|f| (0..f.len()).map(move |k| key(f[k], f[(k + 1) % f.len()])))
         .collect();
-    let group_of = face_groups(mesh);
-    let mut out = IndexedMesh {
-        positions: mesh.positions.clone(),
-        texcoords: mesh.texcoords.clone(),
-        normals: mesh.normals.clone(),
-        vertex_scalars: mesh.vertex_scalars.clone(),
-        ..IndexedMesh::new()
-    };
-    let mut group_first: Vec<(usize, u32)> = Vec::new();
-    for (f, &group) in group_of.iter().enumerate() {
+    let mut out = FaceWriter::new(vertex_tables(mesh), mesh);
+    for (f, &group) in face_groups(mesh).iter().enumerate() {
         let face = mesh.face(f);
         let start = mesh.face_starts[f] as usize;
-        let tris: Vec<[usize; 3]> = if face.len() <= 4 {
-            vec![]
+        let pieces: Vec<Vec<usize>> = if face.len() <= 4 {
+            vec![(0..face.len()).collect()]
         } else {
             report.polygons += 1;
             let p: Vec<DVec3> = face.iter().map(|&v| mesh.positions[v as usize]).collect();
             let tris = ear_clip(&p, |i, j| edges.contains(&key(face[i], face[j])))
                 .ok_or(PairingError::Polygon { face: f })?;
+            report.polygon_triangles += tris.len();
             // Its diagonals are edges now, for the polygons after it.
             for t in &tris {
                 for k in 0..3 {
                     edges.insert(key(face[t[k]], face[t[(k + 1) % 3]]));
                 }
             }
-            tris
+            tris.iter().map(|t| t.to_vec()).collect()
         };
-        report.polygon_triangles += tris.len();
-        let mut emit = |ks: &[usize], out: &mut IndexedMesh| {
-            if !mesh.groups.is_empty() && group_first.last().map(|g| g.0) != Some(group) {
-                group_first.push((group, out.face_count() as u32));
-            }
-            out.push_face(&ks.iter().map(|&k| face[k]).collect::<Vec<_>>());
+        for ks in pieces {
+            let corners: Vec<usize> = ks.iter().map(|&k| start + k).collect();
+            let v: Vec<u32> = ks.iter().map(|&k| face[k]).collect();
+            out.push(
+                group,
+                &v,
+                attrs(&mesh.corner_texcoords, &corners),
+                attrs(&mesh.corner_normals, &corners),
+            );
             origin.push(f as u32);
-            if !mesh.corner_texcoords.is_empty() {
-                out.corner_texcoords
-                    .extend(ks.iter().map(|&k| mesh.corner_texcoords[start + k]));
-            }
-            if !mesh.corner_normals.is_empty() {
-                out.corner_normals
-                    .extend(ks.iter().map(|&k| mesh.corner_normals[start + k]));
-            }
-        };
-        if tris.is_empty() {
-            emit(&(0..face.len()).collect::<Vec<_>>(), &mut out);
-        } else {
-            for t in tris {
-                emit(&t, &mut out);
-            }
         }
     }
-    out.groups = group_first
-        .into_iter()
-        .map(|(g, first)| (mesh.groups[g].0.clone(), first))
-        .collect();
-    Ok((Cow::Owned(out), Some(origin)))
+    Ok((Cow::Owned(out.finish()), Some(origin)))
 }
 
 /// Ear clipping of the polygon `p` (counter-clockwise about its Newell
@@ -378,11 +358,10 @@ struct Strips {
     left: Vec<u32>,
     /// Lone triangles a walk moved to a new face, not yet joined.
     moved: Vec<u32>,
-    start: Vec<u32>,
 }
 
 impl Strips {
-    fn new(m: &IndexedMesh, lone: impl Iterator<Item = u32>) -> Strips {
+    fn new(m: &IndexedMesh, lone: &[u32]) -> Strips {
         let nf = m.face_count();
         let has_tc = !m.corner_texcoords.is_empty();
         let has_nc = !m.corner_normals.is_empty();
@@ -409,10 +388,8 @@ impl Strips {
             })
             .collect();
         let mut is_lone = vec![false; nf];
-        let mut start = Vec::new();
-        for f in lone {
+        for &f in lone {
             is_lone[f as usize] = true;
-            start.push(f);
         }
         let mut s = Strips {
             positions: m.positions.clone(),
@@ -440,7 +417,6 @@ impl Strips {
             sequence: 0,
             left: Vec::new(),
             moved: Vec::new(),
-            start,
         };
         for f in 0..nf {
             s.add_edges(f as u32);
@@ -673,9 +649,10 @@ impl Strips {
         cur
     }
 
-    fn run(&mut self, report: &mut BridgeReport) {
-        let start = std::mem::take(&mut self.start);
-        let mut start = start.into_iter();
+    /// Joins the lone triangles `lone` (faces of the mesh `new` was
+    /// given), walks and strips, in this order.
+    fn run(&mut self, lone: &[u32], report: &mut BridgeReport) {
+        let mut start = lone.iter().copied();
         // Lone triangles a walk moved to a new face come first.
         while let Some(t) = self.moved.pop().or_else(|| start.next()) {
             if !self.alive[t as usize] || !self.lone[t as usize] {
@@ -1235,33 +1212,25 @@ impl Strips {
             .filter(|&f| self.alive[f as usize])
             .collect();
         live.sort_by_key(|&f| self.order[f as usize]);
-        let mut out = IndexedMesh {
+        let tables = IndexedMesh {
             positions: self.positions,
             texcoords: self.texcoords,
             normals: self.normals,
             vertex_scalars: self.scalars.into_iter().collect(),
             ..IndexedMesh::new()
         };
-        let mut group_first: Vec<(u32, u32)> = Vec::new();
+        let mut out = FaceWriter::new(tables, m);
         for &f in &live {
             let face = &self.faces[f as usize];
-            let g = self.group[f as usize];
-            if !m.groups.is_empty() && group_first.last().map(|x| x.0) != Some(g) {
-                group_first.push((g, out.face_count() as u32));
-            }
-            out.push_face(&face.iter().map(|c| c.v).collect::<Vec<_>>());
-            if self.has_tc {
-                out.corner_texcoords.extend(face.iter().map(|c| c.tc));
-            }
-            if self.has_nc {
-                out.corner_normals.extend(face.iter().map(|c| c.nc));
-            }
+            let v: Vec<u32> = face.iter().map(|c| c.v).collect();
+            out.push(
+                self.group[f as usize] as usize,
+                &v,
+                face.iter().map(|c| c.tc),
+                face.iter().map(|c| c.nc),
+            );
         }
-        out.groups = group_first
-            .into_iter()
-            .map(|(g, first)| (m.groups[g as usize].0.clone(), first))
-            .collect();
-        out
+        out.finish()
     }
 }
 
@@ -1567,7 +1536,7 @@ mod tests {
         let m = IndexedMesh::from_faces(p, faces);
         let (paired, _, lone) = pair_partial(&m).unwrap();
         assert_eq!(lone.len(), 1);
-        let mut s = Strips::new(&paired, lone.iter().map(|l| l.1 as u32));
+        let mut s = Strips::new(&paired, &[lone[0].1 as u32]);
         let t = lone[0].1 as u32;
         let before = s.centroid(&s.faces[t as usize]);
         // Towards the far end.

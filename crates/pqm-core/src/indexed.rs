@@ -126,3 +126,72 @@ impl IndexedMesh {
             .unwrap_or(0.0)
     }
 }
+
+/// Builds a mesh face by face, in order, from the faces of a `source`
+/// mesh (pairing and bridging rebuild a mesh this way): each face with its
+/// corners' texture coordinate and normal indices where the source has
+/// them, and the source's group names over the runs of faces that come
+/// from one group.
+pub(crate) struct FaceWriter<'a> {
+    out: IndexedMesh,
+    groups: &'a [(String, u32)],
+    /// `(group, first face)` of each run.
+    runs: Vec<(usize, u32)>,
+    texcoords: bool,
+    normals: bool,
+}
+
+impl<'a> FaceWriter<'a> {
+    /// A writer into `out` (its vertex and attribute tables; its faces are
+    /// replaced) for faces of `source`.
+    pub(crate) fn new(mut out: IndexedMesh, source: &'a IndexedMesh) -> Self {
+        out.face_starts = vec![0];
+        out.indices.clear();
+        out.corner_texcoords.clear();
+        out.corner_normals.clear();
+        FaceWriter {
+            out,
+            groups: &source.groups,
+            runs: Vec::new(),
+            texcoords: !source.corner_texcoords.is_empty(),
+            normals: !source.corner_normals.is_empty(),
+        }
+    }
+
+    /// Appends face `v` of the source's group `group` (an index into its
+    /// `groups`), with its corners' texture coordinate and normal indices
+    /// (read only where the source has them).
+    pub(crate) fn push(
+        &mut self,
+        group: usize,
+        v: &[u32],
+        texcoords: impl IntoIterator<Item = u32>,
+        normals: impl IntoIterator<Item = u32>,
+    ) {
+        if !self.groups.is_empty() && self.runs.last().map(|r| r.0) != Some(group) {
+            self.runs.push((group, self.out.face_count() as u32));
+        }
+        self.out.push_face(v);
+        if self.texcoords {
+            self.out.corner_texcoords.extend(texcoords);
+        }
+        if self.normals {
+            self.out.corner_normals.extend(normals);
+        }
+    }
+
+    /// Faces written so far.
+    pub(crate) fn face_count(&self) -> usize {
+        self.out.face_count()
+    }
+
+    /// The mesh written.
+    pub(crate) fn finish(mut self) -> IndexedMesh {
+        self.out.groups = self
+            .runs
+            .into_iter()
+            .map(|(g, first)| (self.groups[g].0.clone(), first))
+            .collect();
+        self.out
+    }
+}

@@ -64,7 +64,7 @@
 //! quad-dominant mesh among the shared meshes pairs completely, and its
 //! `.pqm` file is 3.1–5.1× smaller.
 
-use crate::indexed::IndexedMesh;
+use crate::indexed::{FaceWriter, IndexedMesh};
 use glam::DVec3;
 use std::collections::{HashMap, VecDeque};
 use thiserror::Error;
@@ -379,14 +379,7 @@ pub(crate) fn pair_partial(mesh: &IndexedMesh) -> Result<PartialPairing, Pairing
         }
         report.doublets_avoided += bad.len();
     }
-    let mut out = IndexedMesh {
-        positions: mesh.positions.clone(),
-        texcoords: mesh.texcoords.clone(),
-        normals: mesh.normals.clone(),
-        vertex_scalars: mesh.vertex_scalars.clone(),
-        ..IndexedMesh::new()
-    };
-    let mut out_group_first: Vec<(usize, u32)> = Vec::new();
+    let mut out = FaceWriter::new(vertex_tables(mesh), mesh);
     let mut lone = Vec::new();
     for t in 0..units.len() {
         let o = mate[t] as usize;
@@ -394,20 +387,13 @@ pub(crate) fn pair_partial(mesh: &IndexedMesh) -> Result<PartialPairing, Pairing
             // Alone: the triangle as it is.
             let u = &units[t];
             let f = u.face as usize;
-            let new_face = out.face_count();
-            if !mesh.groups.is_empty() && out_group_first.last().map(|g| g.0) != Some(group_of[f]) {
-                out_group_first.push((group_of[f], new_face as u32));
-            }
-            lone.push((f, new_face));
-            out.push_face(&u.v);
-            if !mesh.corner_texcoords.is_empty() {
-                out.corner_texcoords
-                    .extend(u.corner.map(|c| mesh.corner_texcoords[c]));
-            }
-            if !mesh.corner_normals.is_empty() {
-                out.corner_normals
-                    .extend(u.corner.map(|c| mesh.corner_normals[c]));
-            }
+            lone.push((f, out.face_count()));
+            out.push(
+                group_of[f],
+                &u.v,
+                attrs(&mesh.corner_texcoords, &u.corner),
+                attrs(&mesh.corner_normals, &u.corner),
+            );
             continue;
         }
         if o < t {
@@ -438,26 +424,33 @@ pub(crate) fn pair_partial(mesh: &IndexedMesh) -> Result<PartialPairing, Pairing
                 }
             }
         }
-        let f = u.face as usize;
-        let new_face = out.face_count() as u32;
-        if !mesh.groups.is_empty() && out_group_first.last().map(|g| g.0) != Some(group_of[f]) {
-            out_group_first.push((group_of[f], new_face));
-        }
-        out.push_face(&c.quad);
-        if !mesh.corner_texcoords.is_empty() {
-            out.corner_texcoords
-                .extend(corners.map(|c| mesh.corner_texcoords[c]));
-        }
-        if !mesh.corner_normals.is_empty() {
-            out.corner_normals
-                .extend(corners.map(|c| mesh.corner_normals[c]));
-        }
+        out.push(
+            group_of[u.face as usize],
+            &c.quad,
+            attrs(&mesh.corner_texcoords, &corners),
+            attrs(&mesh.corner_normals, &corners),
+        );
     }
-    out.groups = out_group_first
-        .into_iter()
-        .map(|(g, first)| (mesh.groups[g].0.clone(), first))
-        .collect();
+    let out = out.finish();
     Ok((out, report, lone))
+}
+
+/// A mesh with `mesh`'s vertex and attribute tables and no face: what a
+/// conversion that keeps every vertex writes its faces into.
+pub(crate) fn vertex_tables(mesh: &IndexedMesh) -> IndexedMesh {
+    IndexedMesh {
+        positions: mesh.positions.clone(),
+        texcoords: mesh.texcoords.clone(),
+        normals: mesh.normals.clone(),
+        vertex_scalars: mesh.vertex_scalars.clone(),
+        ..IndexedMesh::new()
+    }
+}
+
+/// The entries of the per-corner table `table` at `corners` (lazily: an
+/// empty table is never read).
+pub(crate) fn attrs<'t>(table: &'t [u32], corners: &'t [usize]) -> impl Iterator<Item = u32> + 't {
+    corners.iter().map(move |&c| table[c])
 }
 
 /// Rounds of step 4 (refused pairs, then the searches again) before the

@@ -182,7 +182,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let report = Report {
         input: args.input.display().to_string(),
         output: args.output.display().to_string(),
-        subdivided: p.split,
+        subdivided: p.split(),
         conversion: p.conversion,
         target_faces: target,
         stop: stop_code(&r),
@@ -219,7 +219,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             r.rejected,
             r.error,
             report.input,
-            if p.split {
+            if p.split() {
                 ", before the quad split"
             } else {
                 ""

@@ -491,7 +491,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
             / pm.final_vertex_count().max(1) as f64,
         record_bits_per_vertex: enc.bits_per_vertex.total,
         bits: args.bits,
-        subdivided: p.split,
+        subdivided: p.conversion == crate::pipeline::QuadConversion::Split,
         conversion: p.conversion,
         placement,
         corner_order: args.corner_order,
