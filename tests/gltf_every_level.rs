@@ -32,6 +32,7 @@ fn every_decoded_level_of_spot_control_is_valid_gltf() {
         let gopts = GltfWriteOptions {
             normals: [Normals::None, Normals::Smooth, Normals::Flat][k % 3],
             quantize: k % 2 == 1,
+            quad_split: [io::QuadSplit::Shorter, io::QuadSplit::First][k / 2 % 2],
         };
         let path = dir.path().join(format!("level_{k:04}.glb"));
         let mut buf = Vec::new();

@@ -117,8 +117,8 @@ pub struct CoarsenerArgs {
     /// How a triangle or mixed input becomes quad-only. `pair` (the
     /// default): adjacent triangles joined two by two, no new vertex, so
     /// the finest level is the input itself (each quad is two of its
-    /// triangles; `--corner-order diagonal` makes a renderer draw exactly
-    /// those) — on the shared triangle meshes 3.9–5.1× smaller files than
+    /// triangles, and `pqm encode` keeps each quad's diagonal so that a
+    /// renderer draws exactly those) — on the shared triangle meshes 3.9–5.1× smaller files than
     /// `split` and 3–6× faster; the quads are as regular as the triangles
     /// allow; a triangle among quads pairs with another through the quads
     /// between them (re-pairing their halves). Polygons of five or more

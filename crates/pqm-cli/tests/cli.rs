@@ -1469,15 +1469,83 @@ fn paired_triangles_make_the_input_the_finest_level() {
     let mut got = Vec::new();
     for q in fine.faces() {
         assert_eq!(q.len(), 4);
+        // `--corner-order auto` kept every quad's diagonal: split along
+        // v0–v2 (what the decoders draw), each quad is its two triangles.
         let one = triangle_ids([[q[0], q[1], q[2]], [q[2], q[3], q[0]]].into_iter());
-        let other = triangle_ids([[q[1], q[2], q[3]], [q[3], q[0], q[1]]].into_iter());
-        let hit = [one, other]
-            .into_iter()
-            .find(|t| t.iter().all(|x| want.binary_search(x).is_ok()));
-        got.extend(hit.unwrap_or_else(|| panic!("quad {q:?} is not two input triangles")));
+        assert!(
+            one.iter().all(|x| want.binary_search(x).is_ok()),
+            "quad {q:?} is not two input triangles across v0-v2"
+        );
+        got.extend(one);
     }
     got.sort_unstable();
     assert_eq!(got, want);
+    assert_eq!(p["corner_order"], "diagonal");
+    assert_eq!(p["finest_diagonals"], true);
+    assert_eq!(sp["corner_order"], "canonical");
+    assert_eq!(sp["finest_diagonals"], false);
+    // The file says so (flag bit 3), and the finest level's glTF export
+    // is exactly the input's triangles, as `--quad-split first` gives.
+    let info = json_ok(&["info", s(&paired)]);
+    assert_eq!(info["finest_diagonals"], true, "{info}");
+    assert_eq!(json_ok(&["info", s(&split)])["finest_diagonals"], false);
+    let glb = d.path().join("fine.glb");
+    json_ok(&["decode", s(&paired), "-o", s(&glb)]);
+    assert_eq!(triangle_ids(glb_triangles(&glb).remove(0).into_iter()), want);
+    // One GLB of two levels: the finest split along its meant diagonals,
+    // the coarser along its shorter ones, as their own files are.
+    let faces = p["faces"].as_u64().unwrap();
+    let budgets = format!("{},{}", faces / 4, faces);
+    let (lod, dir) = (d.path().join("lod.glb"), d.path().join("levels"));
+    json_ok(&["levels", s(&paired), "--faces", &budgets, "--lod", s(&lod)]);
+    json_ok(&["levels", s(&paired), "--faces", &budgets, "-o", s(&dir)]);
+    let lod = glb_triangles(&lod);
+    assert_eq!(lod.len(), 2);
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    // finest first, as in the LOD file
+    files.sort_by_key(|f| std::cmp::Reverse(std::fs::metadata(f).unwrap().len()));
+    for (level, file) in lod.into_iter().zip(&files) {
+        let own = glb_triangles(file).remove(0);
+        assert_eq!(triangle_ids(level.into_iter()), triangle_ids(own.into_iter()));
+    }
+    // `--quad-split shorter` takes the shorter diagonal of every quad.
+    let shorter = d.path().join("shorter.glb");
+    json_ok(&["decode", s(&paired), "-o", s(&shorter), "--quad-split", "shorter"]);
+    let by_length = fine.faces().flat_map(|q| {
+        let q = [q[0], q[1], q[2], q[3]];
+        let r = io::quad_split_diagonal(&fine.positions, q);
+        let v = |k: usize| q[(r + k) % 4];
+        [[v(0), v(1), v(2)], [v(0), v(2), v(3)]]
+    });
+    assert_eq!(
+        triangle_ids(glb_triangles(&shorter).remove(0).into_iter()),
+        triangle_ids(by_length)
+    );
+}
+
+/// The triangles of each mesh of a GLB file, in mesh order.
+fn glb_triangles(path: &Path) -> Vec<Vec<[u32; 3]>> {
+    let bytes = std::fs::read(path).unwrap();
+    let g = gltf::Gltf::from_slice(&bytes).unwrap();
+    let blob = g.blob.as_deref().unwrap();
+    g.meshes()
+        .map(|m| {
+            let mut tris = Vec::new();
+            for p in m.primitives() {
+                let ids: Vec<u32> = p
+                    .reader(|_| Some(blob))
+                    .read_indices()
+                    .unwrap()
+                    .into_u32()
+                    .collect();
+                tris.extend(ids.chunks(3).map(|c| [c[0], c[1], c[2]]));
+            }
+            tris
+        })
+        .collect()
 }
 
 #[test]

@@ -39,7 +39,11 @@ fn lod_glb_validates_links_levels_and_reads_back() {
     let mut files = Vec::new();
     for normals in [Normals::None, Normals::Smooth, Normals::Flat] {
         for quantize in [false, true] {
-            let opts = GltfWriteOptions { normals, quantize };
+            let opts = GltfWriteOptions {
+                normals,
+                quantize,
+                ..GltfWriteOptions::default()
+            };
             let mut glb = Vec::new();
             write_glb_lod(&mut glb, &levels, &coverage, &opts).unwrap();
             let doc = glb_json(&glb);

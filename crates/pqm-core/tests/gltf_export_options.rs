@@ -13,7 +13,7 @@ use glam::DVec3;
 use gltf_export_util::{assert_valid_gltf, glb_json, shared};
 use pqm_core::io::{
     read_gltf_bytes, read_mesh, write_glb, write_glb_with, write_gltf, write_gltf_with,
-    GltfWriteOptions, Normals, FB_NGON_ENCODING, KHR_MESH_QUANTIZATION,
+    GltfWriteOptions, Normals, QuadSplit, FB_NGON_ENCODING, KHR_MESH_QUANTIZATION,
 };
 use pqm_core::subdivide::{catmull_clark, SplitMode};
 use pqm_core::IndexedMesh;
@@ -24,7 +24,13 @@ fn all_options() -> Vec<GltfWriteOptions> {
     let mut v = Vec::new();
     for normals in ALL_NORMALS {
         for quantize in [false, true] {
-            v.push(GltfWriteOptions { normals, quantize });
+            for quad_split in [QuadSplit::Shorter, QuadSplit::First] {
+                v.push(GltfWriteOptions {
+                    normals,
+                    quantize,
+                    quad_split,
+                });
+            }
         }
     }
     v
@@ -270,6 +276,7 @@ fn flat_normals_keep_consecutive_polygons_apart() {
         let opts = GltfWriteOptions {
             normals: Normals::Flat,
             quantize,
+            ..GltfWriteOptions::default()
         };
         let mut glb = Vec::new();
         write_glb_with(&mut glb, &m, &opts).unwrap();

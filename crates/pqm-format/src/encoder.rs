@@ -88,6 +88,14 @@ pub struct EncodeOptions {
     /// [`CornerOrder::Input`]; `pqm encode` writes
     /// [`CornerOrder::Canonical`]).
     pub corner_order: CornerOrder,
+    /// Set header flag bit 3 (default false; a 4.1 file): at the finest
+    /// level every quad's `v0–v2` diagonal is the one its triangles meant
+    /// — the caller's word, for a mesh whose finest quads are pairs of
+    /// input triangles across their `q0–q2` diagonal (`pqm_core::pairing`).
+    /// Only with a corner order that keeps the mesh's diagonals
+    /// ([`CornerOrder::Input`] or [`CornerOrder::Diagonal`]) and major
+    /// version 4.
+    pub finest_diagonals: bool,
     /// The quantization grid (default [`Grid::Cube`], as Draco; spec §5).
     /// With `Cube` and major version 3 the header also carries the
     /// positions' exact bounds (a 3.2 file).
@@ -238,6 +246,7 @@ impl Default for EncodeOptions {
             vertex_order_keep: None,
             zstd_blocks: ZstdBlocks::Auto,
             corner_order: CornerOrder::Input,
+            finest_diagonals: false,
             grid: Grid::Cube,
             zstd_min_match: ZstdMinMatch::Auto,
         }
@@ -570,6 +579,15 @@ fn write_impl(
         // have no earlier bytes to keep.
         face_split_first: opts.corner_order != CornerOrder::Input,
     };
+    if opts.finest_diagonals
+        && (opts.corner_order == CornerOrder::Canonical || opts.version_major < 4)
+    {
+        return Err(EncodeError::InvalidOptions(format!(
+            "finest_diagonals needs a corner order that keeps the diagonals (input or \
+             diagonal, not {:?}) and major version 4 (not {})",
+            opts.corner_order, opts.version_major
+        )));
+    }
     if opts.chunk_records == Some(0) || opts.chunk_bytes == 0 {
         return Err(EncodeError::InvalidOptions(
             "chunk size must be positive".into(),
@@ -981,6 +999,10 @@ fn write_impl(
         }
     }
 
+    if opts.finest_diagonals {
+        flags |= FLAG_FINEST_DIAGONALS;
+        minor = minor.max(VERSION_4_MINOR_DIAGONALS);
+    }
     let header_len = if bounds.is_some() {
         if opts.version_major == 3 {
             minor = VERSION_MINOR_BOUNDS;

@@ -25,6 +25,13 @@ pub const HEADER_LEN: u32 = 120;
 pub const HEADER_LEN_BOUNDS: u32 = 168;
 /// Header flag: the header holds `bounds_min` / `bounds_max` (version 3.2).
 pub const FLAG_BOUNDS: u32 = 4;
+/// Header flag: at the finest level each quad's `v0–v2` diagonal splits it
+/// into the two triangles the writer's input had there, as a triangle mesh
+/// joined in pairs (version 4.1).
+pub const FLAG_FINEST_DIAGONALS: u32 = 8;
+/// Minor version this crate writes with major version 4 when it sets
+/// [`FLAG_FINEST_DIAGONALS`] (4.1); other 4.x files are 4.0.
+pub const VERSION_4_MINOR_DIAGONALS: u16 = 1;
 /// Bytes of the header needed to learn `header_len`.
 pub const HEADER_PREFIX: usize = 16;
 /// Chunk table entry length written by v1.0 (readers accept longer entries).
@@ -119,6 +126,13 @@ pub fn crc32(data: &[u8]) -> u32 {
 }
 
 impl Header {
+    /// Flag bit 3 (version 4.1): whether an exporter or renderer of the
+    /// finest level should split each quad along its `v0–v2` diagonal,
+    /// where it would otherwise choose one (spec §3).
+    pub fn finest_diagonals(&self) -> bool {
+        self.flags & FLAG_FINEST_DIAGONALS != 0
+    }
+
     /// Serializes the header: [`HEADER_LEN`] bytes, CRC included, or
     /// [`HEADER_LEN_BOUNDS`] with `bounds` (and then flag bit 2 set,
     /// whatever `flags` says; `header_len` is likewise written from

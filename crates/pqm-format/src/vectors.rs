@@ -422,6 +422,23 @@ pub fn all() -> Vec<Vector> {
                 ..EncodeOptions::default()
             },
         ),
+        // A 4.1 file: header flag bit 3 says the finest level's `v0–v2`
+        // diagonals are meant (`pqm encode` on a paired triangle mesh),
+        // with `CornerOrder::Diagonal`, which keeps them. 4.0 readers
+        // ignore the flag and decode the same levels.
+        make(
+            "v4_1_diagonals",
+            GenOptions {
+                base: BaseShape::Box { n: 3 },
+                ..GenOptions::new(23, 60)
+            },
+            EncodeOptions {
+                chunk_records: Some(16),
+                corner_order: crate::CornerOrder::Diagonal,
+                finest_diagonals: true,
+                ..EncodeOptions::default()
+            },
+        ),
         make(
             "v4_delta_base",
             GenOptions {
@@ -549,6 +566,10 @@ pub fn digest_json(name: &str, dec: &mut Decoder, levels: &[usize], file_len: us
             "  \"bounds_min\": [{:?}, {:?}, {:?}],\n  \"bounds_max\": [{:?}, {:?}, {:?}],",
             lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
         );
+    }
+    // Flag bit 3 (4.1) only where set, so the other digests stay as they were.
+    if dec.header().is_some_and(|h| h.finest_diagonals()) {
+        s.push_str("  \"finest_diagonals\": true,\n");
     }
     if let Ok(Some(o)) = dec.vertex_order() {
         let _ = writeln!(

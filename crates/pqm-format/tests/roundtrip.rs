@@ -1871,3 +1871,50 @@ fn chunks_grow_with_the_file() {
         ));
     }
 }
+
+/// `finest_diagonals` (header flag bit 3, a 4.1 file): only beside a corner
+/// order that keeps the diagonals and major version 4; it changes the
+/// header alone — the levels are those of the same file without it, and a
+/// reader that ignores the flag (the bit cleared, the minor set back to 0)
+/// decodes the same bytes to the same levels.
+#[test]
+fn finest_diagonals_flag_marks_the_header_and_nothing_else() {
+    let mut pm = testgen::generate(43, 300);
+    pqm_format::vectors::rotate_rewritten(&mut pm);
+    let opts = |corner_order, finest_diagonals, version_major| EncodeOptions {
+        chunk_bytes: 512,
+        corner_order,
+        finest_diagonals,
+        version_major,
+        ..EncodeOptions::default()
+    };
+    for order in [CornerOrder::Diagonal, CornerOrder::Input] {
+        let plain = encode(&pm, &opts(order, false, 4));
+        let marked = encode(&pm, &opts(order, true, 4));
+        let (a, b) = (
+            decode_all(&plain, Limits::default()).unwrap(),
+            decode_all(&marked, Limits::default()).unwrap(),
+        );
+        let (ha, hb) = (a.header().unwrap(), b.header().unwrap());
+        assert!(!ha.finest_diagonals() && hb.finest_diagonals(), "{order:?}");
+        assert_eq!((ha.version_minor, hb.version_minor), (0, 1), "{order:?}");
+        assert_eq!(hb.flags, ha.flags | 8);
+        // Everything after the header is the same bytes.
+        let hl = header_len(&plain);
+        assert_eq!(hl, header_len(&marked));
+        assert_eq!(plain[hl..], marked[hl..], "{order:?}");
+        // Without the flag and the minor, the marked file is the plain one.
+        let mut cleared = marked.clone();
+        patch_header(&mut cleared, |h| {
+            h[10] = 0;
+            h[16] &= !8;
+        });
+        assert_eq!(cleared, plain, "{order:?}");
+    }
+    for bad in [opts(CornerOrder::Canonical, true, 4), opts(CornerOrder::Diagonal, true, 3)] {
+        assert!(matches!(
+            write_to_vec(&pm, &bad),
+            Err(EncodeError::InvalidOptions(_))
+        ));
+    }
+}

@@ -65,6 +65,20 @@ fn checked_in_vectors_match_the_generator_and_their_digests() {
             "{}",
             v.name
         );
+        // Flag bit 3 (4.1): listed where set, and only in a 4.1 file.
+        let h = dec.header().unwrap();
+        assert_eq!(
+            h.finest_diagonals(),
+            json["finest_diagonals"].as_bool().unwrap_or(false),
+            "{} finest diagonals",
+            v.name
+        );
+        assert_eq!(
+            h.finest_diagonals(),
+            (h.version_major, h.version_minor) == (4, 1),
+            "{}",
+            v.name
+        );
         let levels = json["levels"].as_array().unwrap();
         assert_eq!(levels.len(), v.levels.len());
         for l in levels {

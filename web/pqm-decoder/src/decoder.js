@@ -568,6 +568,10 @@ export class PqmDecoder {
     // flag bit 2: the exact bounds of every position any level shows (spec §3,
     // version 3.2); without it the grid is the bounding volume
     h.hasBounds = (h.flags & FLAG_BOUNDS) !== 0;
+    // flag bit 3 (version 4.1): at the finest level each quad's v0-v2 diagonal
+    // is the one meant (a triangle mesh paired into quads): a renderer or
+    // exporter splits along it there rather than choosing
+    h.finestDiagonals = (h.flags & 8) !== 0;
     const bad = (m) => invalid('header', m);
     if (h.hasBounds) {
       if (len < HEADER_LEN_BOUNDS) {

@@ -11,7 +11,7 @@ const files = testFiles();
 
 test('the test files are there', () => {
   const names = files.map((f) => f.name);
-  for (const n of ['grid_small', 'box_vord', 'general_bits8', 'mixed_bits24', 'cube_grid', 'spot', 'v4_traversal', 'v4_delta_base', 'v4_canonical']) {
+  for (const n of ['grid_small', 'box_vord', 'general_bits8', 'mixed_bits24', 'cube_grid', 'spot', 'v4_traversal', 'v4_delta_base', 'v4_canonical', 'v4_1_diagonals']) {
     assert.ok(names.includes(n), `missing test file ${n}`);
   }
   // the header-bounds checks below see at least one 3.2 file with bounds
@@ -81,6 +81,13 @@ for (const file of files) {
     }
   });
 
+  test(`${file.name}: flag bit 3 (finest diagonals, 4.1) as the JSON lists it`, () => {
+    const h = decodeAll(file.bytes).header;
+    assert.equal(h.finestDiagonals, file.digest.finest_diagonals === true);
+    assert.equal(h.finestDiagonals, (h.flags & 8) !== 0);
+    if (h.finestDiagonals) assert.deepEqual([h.versionMajor, h.versionMinor], [4, 1]);
+  });
+
   test(`${file.name}: header bounds (spec §3 flag bit 2) equal the JSON's and the box of every level`, () => {
     const dec = decodeAll(file.bytes);
     const h = dec.header;
@@ -92,8 +99,9 @@ for (const file of files) {
       assert.equal(h.hasBounds, true, 'hasBounds');
       assert.equal(h.flags & 4, 4, 'flag bit 2');
       assert.ok(h.headerLen >= 168);
-      // spec §3: version_minor 2 in a 3.x file with bounds, 0 in every 4.x file
-      assert.equal(h.versionMinor, h.versionMajor >= 4 ? 0 : 2);
+      // spec §3: version_minor 2 in a 3.x file with bounds; in a 4.x file 1
+      // with flag bit 3 (finest diagonals), else 0
+      assert.equal(h.versionMinor, h.versionMajor >= 4 ? (h.finestDiagonals ? 1 : 0) : 2);
       assert.deepEqual(h.boundsMin, file.digest.bounds_min, 'boundsMin = JSON bounds_min');
       assert.deepEqual(h.boundsMax, file.digest.bounds_max, 'boundsMax = JSON bounds_max');
       assert.deepEqual(got, [h.boundsMin, h.boundsMax], 'bounds = box of every level');

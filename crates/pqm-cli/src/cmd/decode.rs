@@ -132,11 +132,14 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let format = mesh_output_format(&args.output)?;
     if args.gltf.any() && !matches!(format, MeshFormat::Gltf | MeshFormat::Glb) {
         ctx.warn(format!(
-            "{}: --normals/--quantize apply to .gltf/.glb output only",
+            "{}: --normals/--quantize/--quad-split apply to .gltf/.glb output only",
             args.output.display()
         ));
     }
-    write_mesh_with(&args.output, &mesh, &args.gltf.options())?;
+    // The finest level of a paired triangle mesh splits into the input's
+    // own triangles along each quad's v0–v2 (header flag bit 3).
+    let meant = level == final_level && dec.header().is_some_and(|h| h.finest_diagonals());
+    write_mesh_with(&args.output, &mesh, &args.gltf.options_for(meant))?;
     let rows = level_rows(&dec);
     let report = Report {
         input: name,

@@ -34,8 +34,10 @@ pub const DEFAULT_REORDER_WINDOW: Option<f64> = Some(0.05);
 /// `diagonal` took 2.2–2.5 % off the bench files and draws the input's
 /// triangles (session 15); `canonical` draws the same quads in files
 /// 2.2–3.1 % smaller than today's `diagonal` (session 22,
-/// `docs/figures-history.md`).
-pub const DEFAULT_CORNER_ORDER: CornerArg = CornerArg::Canonical;
+/// `docs/figures-history.md`); `auto` keeps `diagonal` where the input's
+/// diagonals mean something, a paired triangle mesh's (session 26,
+/// [`CornerArg::resolve`]).
+pub const DEFAULT_CORNER_ORDER: CornerArg = CornerArg::Auto;
 
 /// Encode meshes as progressive .pqm files (coarse base + refinement records).
 ///
@@ -171,9 +173,12 @@ pub struct Args {
     /// input's cyclic order, but a renderer may split some quads into
     /// triangles along the other diagonal. `diagonal` lets a quad start
     /// only at its opposite corner, so every level splits into exactly the
-    /// input's triangles (`canonical`'s files are 2.2–3.1 % smaller). `input`
+    /// input's triangles (`canonical`'s files are 2.2–3.4 % smaller). `input`
     /// keeps each input quad's first corner at the full level, for tools
-    /// that refer to a face's corners by position (another 2–2.5 %).
+    /// that refer to a face's corners by position (another 2–2.5 %). `auto`
+    /// (the default): `diagonal` for a triangle mesh paired into quads
+    /// (`--triangles pair`: the full level then draws the input's own
+    /// triangles), `canonical` for anything else.
     #[arg(long, value_enum, default_value_t = DEFAULT_CORNER_ORDER, value_name = "ORDER", help_heading = "File")]
     pub corner_order: CornerArg,
     /// The quantization grid. `cube` gives every axis the step of the
@@ -206,9 +211,48 @@ impl From<GridArg> for pqm_format::Grid {
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CornerArg {
+    /// `diagonal` for a triangle mesh whose triangles were paired into
+    /// quads (`--triangles pair`), else `canonical`.
+    Auto,
+    /// Each quad keeps its diagonal: every level splits into the input's
+    /// triangles.
     Diagonal,
+    /// Each input quad keeps its first corner at the full level.
     Input,
+    /// Each quad starts where the decoder builds it: the smallest files.
     Canonical,
+}
+
+impl CornerArg {
+    /// The order `auto` stands for, given how the quad mesh was made and
+    /// whether most of the input's faces were triangles (or polygons). The
+    /// quads of paired triangles then keep the input's own triangles at the
+    /// full level: a renderer splitting each quad along its `q0–q2`
+    /// diagonal draws exactly them, where under `canonical` it draws about
+    /// half the quads along their other diagonal, folding some (the paired
+    /// bunny: 180 quads whose two triangles face apart, against 8 of the
+    /// input's own pairs). The rotation fields this keeps cost 2–3.4 % of
+    /// the file (bunny 201,858 → 208,691 B, fertility 32,142 → 32,909,
+    /// decimated makehuman 54,809 → 55,942, session 26). An input's own
+    /// quads carry no diagonal anyone chose (a quad-dominant input pays
+    /// the same for its few triangles: the sword +3.9 %), and a split's
+    /// quads lie flat in their triangle.
+    pub fn resolve(
+        self,
+        conversion: crate::pipeline::QuadConversion,
+        mostly_triangles: bool,
+    ) -> CornerArg {
+        use crate::pipeline::QuadConversion;
+        match (self, conversion) {
+            (CornerArg::Auto, QuadConversion::Paired | QuadConversion::Bridged)
+                if mostly_triangles =>
+            {
+                CornerArg::Diagonal
+            }
+            (CornerArg::Auto, _) => CornerArg::Canonical,
+            (c, _) => c,
+        }
+    }
 }
 
 impl From<CornerArg> for pqm_format::CornerOrder {
@@ -216,7 +260,9 @@ impl From<CornerArg> for pqm_format::CornerOrder {
         match c {
             CornerArg::Diagonal => pqm_format::CornerOrder::Diagonal,
             CornerArg::Input => pqm_format::CornerOrder::Input,
-            CornerArg::Canonical => pqm_format::CornerOrder::Canonical,
+            // `resolve` first; a mesh of unknown making gets the quads'
+            // cyclic order only
+            CornerArg::Canonical | CornerArg::Auto => pqm_format::CornerOrder::Canonical,
         }
     }
 }
@@ -278,9 +324,13 @@ pub struct FileReport {
     pub conversion: crate::pipeline::QuadConversion,
     /// Where merged vertices went (`subset`: every level at input positions).
     pub placement: Placement,
-    /// Where each stored quad's corner list starts (`--corner-order`):
-    /// `canonical`, `diagonal` or `input`.
+    /// Where each stored quad's corner list starts (`--corner-order`, `auto`
+    /// resolved): `canonical`, `diagonal` or `input`.
     pub corner_order: CornerArg,
+    /// The file says its finest level's quad diagonals are the input's
+    /// triangles' (header flag bit 3, format 4.1): a triangle mesh paired
+    /// into quads, with a corner order that keeps the diagonals.
+    pub finest_diagonals: bool,
     /// `--chunk-growth`: each chunk holds at least this fraction of the
     /// record payload before it.
     pub chunk_growth: f64,
@@ -449,6 +499,18 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         ));
     }
     let pm = p.coarsener.into_progressive();
+    let non_quads = p.input.faces().filter(|f| f.len() != 4).count();
+    let mostly_triangles = 2 * non_quads >= p.input.face_count();
+    let corner_order = args.corner_order.resolve(p.conversion, mostly_triangles);
+    // The file says its finest diagonals are meant (header flag bit 3, a
+    // 4.1 file) where they are a paired triangle mesh's and kept: exports
+    // of the finest level then give the input's own triangles.
+    let finest_diagonals = mostly_triangles
+        && matches!(
+            p.conversion,
+            crate::pipeline::QuadConversion::Paired | crate::pipeline::QuadConversion::Bridged
+        )
+        && matches!(corner_order, CornerArg::Diagonal | CornerArg::Input);
     let eopts = EncodeOptions {
         bits: args.bits,
         chunk_bytes: args.chunk_bytes as usize,
@@ -466,7 +528,8 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         },
         zstd_blocks: args.zstd_blocks.into(),
         zstd_min_match: args.zstd_min_match,
-        corner_order: args.corner_order.into(),
+        corner_order: corner_order.into(),
+        finest_diagonals,
         grid: args.grid.into(),
         ..Default::default()
     };
@@ -494,7 +557,8 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         subdivided: p.conversion == crate::pipeline::QuadConversion::Split,
         conversion: p.conversion,
         placement,
-        corner_order: args.corner_order,
+        corner_order,
+        finest_diagonals,
         chunk_growth: args.chunk_growth,
         vertex_order_kept: eopts.vertex_order_keep.filter(|_| eopts.vertex_order),
         stop: stop_code(&r),

@@ -56,6 +56,9 @@ struct Report {
     bounds_max: [f64; 3],
     /// Whether the header holds the exact bounds (format 3.2).
     bounds_stored: bool,
+    /// Whether the finest level's quads are meant to split along `v0–v2`
+    /// (flag bit 3, format 4.1: a triangle mesh paired into quads).
+    finest_diagonals: bool,
     base_vertices: u32,
     base_faces: u32,
     /// How the base section is coded: "traversal" (format 4.0's walk,
@@ -143,6 +146,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         complete: status.finished,
         version: format!("{}.{}", h.version_major, h.version_minor),
         flags: h.flags,
+        finest_diagonals: h.finest_diagonals(),
         quant_bits: h.quant_bits,
         quant_step: step,
         bbox_min: h.bbox_min,
@@ -184,6 +188,9 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             if r.complete { "" } else { ", incomplete" }
         ));
         s.push_str(&format!("version       {}\n", r.version));
+        if r.finest_diagonals {
+            s.push_str("diagonals     the full mesh's quads split along v0-v2 into the input's triangles\n");
+        }
         s.push_str(&format!(
             "base mesh     {} faces, {} vertices{}\nfull mesh     {} faces, {} vertices\n",
             r.base_faces,

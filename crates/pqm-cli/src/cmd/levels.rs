@@ -8,7 +8,7 @@ use crate::ctx::{usage, Ctx};
 use crate::stats::{mesh_stats, MeshStats};
 use crate::util::{mesh_output_format, write_atomic};
 use anyhow::{anyhow, Context};
-use pqm_core::io::{self, GltfWriteOptions, MeshFormat, Normals};
+use pqm_core::io::{self, GltfWriteOptions, MeshFormat, Normals, QuadSplit};
 use pqm_core::IndexedMesh;
 use pqm_format::{decode_all, Limits, Target};
 use serde::Serialize;
@@ -47,20 +47,68 @@ pub struct GltfArgs {
     /// largest extent.
     #[arg(long, help_heading = "glTF output")]
     pub quantize: bool,
+    /// The diagonal each quad is split along into glTF triangles (the
+    /// quads themselves are kept through FB_ngon_encoding). `shorter`: the
+    /// shorter one, as modelling tools split. `first`: the quad's v0–v2, as
+    /// the file lists it. `auto` (the default): `first` for the finest
+    /// level of a file that says its diagonals are meant (format 4.1: a
+    /// triangle mesh `pqm encode` paired into quads, whose finest level
+    /// then exports the input's own triangles), else `shorter`.
+    #[arg(long, value_enum, default_value = "auto", help_heading = "glTF output")]
+    pub quad_split: QuadSplitArg,
+}
+
+/// `--quad-split` values.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum QuadSplitArg {
+    #[default]
+    Auto,
+    Shorter,
+    First,
 }
 
 impl GltfArgs {
-    /// The writer options these flags ask for.
+    /// The writer options these flags ask for, for a mesh of no `.pqm`
+    /// file's finest level (`auto` splits along the shorter diagonal).
     pub fn options(&self) -> GltfWriteOptions {
+        self.options_for(false)
+    }
+
+    /// The writer options for a mesh whose quads' `v0–v2` diagonals are
+    /// meant when `diagonals_meant` (the finest level of a file with
+    /// header flag bit 3): `auto` then splits along them.
+    pub fn options_for(&self, diagonals_meant: bool) -> GltfWriteOptions {
         GltfWriteOptions {
             normals: self.normals.into(),
             quantize: self.quantize,
+            quad_split: match self.quad_split {
+                QuadSplitArg::First => QuadSplit::First,
+                QuadSplitArg::Auto if diagonals_meant => QuadSplit::First,
+                QuadSplitArg::Auto | QuadSplitArg::Shorter => QuadSplit::Shorter,
+            },
         }
     }
 
     /// True when any flag differs from the default.
     pub fn any(&self) -> bool {
-        self.options() != GltfWriteOptions::default()
+        self.options() != GltfWriteOptions::default() || self.quad_split != QuadSplitArg::Auto
+    }
+}
+
+/// Starts each quad of `mesh` at an end of its shorter diagonal, so that a
+/// split along `v0–v2` ([`QuadSplit::First`]) is the split along the
+/// shorter one: for the coarser levels of a `--lod` file whose finest
+/// level is split along its meant diagonals (one split rule per file).
+/// Only for meshes without corner attributes (decoded levels).
+fn start_at_shorter_diagonal(mesh: &mut IndexedMesh) {
+    for f in 0..mesh.face_count() {
+        let (a, b) = (mesh.face_starts[f] as usize, mesh.face_starts[f + 1] as usize);
+        if b - a == 4 {
+            let q = [0, 1, 2, 3].map(|k| mesh.indices[a + k]);
+            if io::quad_split_diagonal(&mesh.positions, q) == 1 {
+                mesh.indices[a..b].rotate_left(1);
+            }
+        }
     }
 }
 
@@ -197,7 +245,10 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     }
     picked.sort_by_key(|p| std::cmp::Reverse(p.0));
 
-    let opts = args.gltf.options();
+    // The finest level of a file whose diagonals are meant is split along
+    // them (`--quad-split auto`).
+    let meant = dec.header().is_some_and(|h| h.finest_diagonals());
+    let opts_at = |k: usize| args.gltf.options_for(meant && k == final_level);
     let stem = args
         .input
         .file_stem()
@@ -227,7 +278,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
                     LevelFormat::Gltf => "gltf",
                 };
                 let path = dir.join(format!("{stem}_{faces}.{ext}"));
-                write_mesh_with(&path, &mesh, &opts)?;
+                write_mesh_with(&path, &mesh, &opts_at(*k))?;
                 ctx.verbose(format!("wrote {} (level {k})", path.display()));
                 Some(path.display().to_string())
             }
@@ -251,6 +302,17 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         Some(path) => {
             let counts: Vec<usize> = meshes.iter().map(IndexedMesh::face_count).collect();
             let coverage = io::lod_screen_coverage(&counts);
+            // One split rule per file: where the finest level splits along
+            // its meant diagonals and the others along the shorter ones,
+            // the others start at their shorter diagonal first.
+            let mut opts = opts_at(picked[0].0);
+            if opts.quad_split != opts_at(usize::MAX).quad_split {
+                for m in &mut meshes[1..] {
+                    start_at_shorter_diagonal(m);
+                }
+            } else {
+                opts = opts_at(usize::MAX);
+            }
             write_atomic(path, |w| {
                 io::write_glb_lod(w, &meshes, &coverage, &opts).map_err(|e| anyhow!("{e}"))
             })?;

@@ -98,7 +98,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     let format = mesh_output_format(&args.output)?;
     if args.gltf.any() && !matches!(format, MeshFormat::Gltf | MeshFormat::Glb) {
         ctx.warn(format!(
-            "{}: --normals/--quantize apply to .gltf/.glb output only; ignored",
+            "{}: --normals/--quantize/--quad-split apply to .gltf/.glb output only; ignored",
             args.output.display()
         ));
     }

@@ -486,9 +486,23 @@ pub fn quad_split_diagonal(positions: &[DVec3], q: [u32; 4]) -> usize {
     usize::from(d(q[1], q[3]) < d(q[0], q[2]))
 }
 
+/// Which diagonal the glTF writers split each quad along.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum QuadSplit {
+    /// The shorter one ([`quad_split_diagonal`]): what modelling tools do,
+    /// whatever corner a quad's list starts at.
+    #[default]
+    Shorter,
+    /// `q[0]–q[2]`, as the mesh lists each quad: for quads whose corner
+    /// lists were started so that this diagonal is the meant one (a
+    /// triangle mesh joined in pairs, whose `.pqm` file says so: then the
+    /// finest level exports the input's own triangles).
+    First,
+}
+
 /// Triangle fans in FB_ngon_encoding order (see the module docs); quads
-/// along their shorter diagonal ([`quad_split_diagonal`]).
-fn ngon_triangles(mesh: &IndexedMesh) -> Result<Vec<u32>, MeshIoError> {
+/// along the diagonal `split` picks.
+fn ngon_triangles(mesh: &IndexedMesh, split: QuadSplit) -> Result<Vec<u32>, MeshIoError> {
     let mut out = Vec::with_capacity(3 * mesh.indices.len());
     let mut prev_anchor = u32::MAX;
     for (f, face) in mesh.faces().enumerate() {
@@ -505,7 +519,10 @@ fn ngon_triangles(mesh: &IndexedMesh) -> Result<Vec<u32>, MeshIoError> {
         // draws the same two triangles.
         let r = if n == 4 {
             let q = [face[0], face[1], face[2], face[3]];
-            let r = quad_split_diagonal(&mesh.positions, q);
+            let r = match split {
+                QuadSplit::Shorter => quad_split_diagonal(&mesh.positions, q),
+                QuadSplit::First => 0,
+            };
             if face[r] == prev_anchor {
                 r + 2
             } else {
@@ -556,6 +573,8 @@ pub struct GltfWriteOptions {
     /// as it requires. Halves the vertex data (8 bytes per position or
     /// normal, padded for the 4-byte alignment glTF asks of attributes).
     pub quantize: bool,
+    /// The diagonal each quad is split along (default the shorter).
+    pub quad_split: QuadSplit,
 }
 
 /// A unit normal from an area vector; `+Z` when the polygon is degenerate
@@ -592,7 +611,11 @@ struct Prepared<'a> {
 }
 
 /// Checks `mesh` and lays out its vertices for `normals` (see [`Normals`]).
-fn prepare(mesh: &IndexedMesh, normals: Normals) -> Result<Prepared<'_>, MeshIoError> {
+fn prepare(
+    mesh: &IndexedMesh,
+    normals: Normals,
+    split: QuadSplit,
+) -> Result<Prepared<'_>, MeshIoError> {
     super::check_writable(mesh)?;
     if mesh.face_count() == 0 {
         return Err(MeshIoError::invalid(
@@ -608,7 +631,7 @@ fn prepare(mesh: &IndexedMesh, normals: Normals) -> Result<Prepared<'_>, MeshIoE
     }
     // Also rejects faces with fewer than three vertices, before the normal
     // code below indexes their corners.
-    let tris = ngon_triangles(mesh)?;
+    let tris = ngon_triangles(mesh, split)?;
     Ok(match normals {
         Normals::None => Prepared {
             positions: Cow::Borrowed(&mesh.positions),
@@ -649,7 +672,7 @@ fn prepare(mesh: &IndexedMesh, normals: Normals) -> Result<Prepared<'_>, MeshIoE
                 nrm.resize(nrm.len() + face.len(), n);
             }
             Prepared {
-                tris: ngon_triangles(&flat)?,
+                tris: ngon_triangles(&flat, split)?,
                 positions: Cow::Owned(flat.positions),
                 normals: Some(nrm),
             }
@@ -944,7 +967,7 @@ fn build(
     opts: &GltfWriteOptions,
     embed: bool,
 ) -> Result<(json::Root, Vec<u8>), MeshIoError> {
-    let prepared = prepare(mesh, opts.normals)?;
+    let prepared = prepare(mesh, opts.normals, opts.quad_split)?;
     let frame = if opts.quantize {
         let (lo, hi) = mesh.bounding_box().unwrap_or((DVec3::ZERO, DVec3::ZERO));
         Some(QuantFrame::covering(lo, hi))
@@ -1119,7 +1142,7 @@ pub fn write_glb_lod(
     let prepared = levels
         .iter()
         .enumerate()
-        .map(|(k, m)| prepare(m, opts.normals).map_err(|e| in_level(k, e)))
+        .map(|(k, m)| prepare(m, opts.normals, opts.quad_split).map_err(|e| in_level(k, e)))
         .collect::<Result<Vec<_>, _>>()?;
     let frame = if opts.quantize {
         let boxes = levels.iter().filter_map(IndexedMesh::bounding_box);
@@ -1187,13 +1210,19 @@ mod tests {
             let q0 = [0u32, 1, 2, 3];
             let q0: Vec<u32> = (0..4).map(|k| q0[(k + turn) % 4]).collect();
             let mesh = IndexedMesh::from_faces(p.clone(), &[q0, vec![1, 4, 5, 2]]);
-            let t = ngon_triangles(&mesh).unwrap();
+            let t = ngon_triangles(&mesh, QuadSplit::Shorter).unwrap();
             assert_eq!(t.len(), 12);
             assert_eq!(shared_edge(&t[..6]), [1, 3], "turn {turn}");
             assert_eq!(shared_edge(&t[6..]), [1, 5], "turn {turn}");
             // fans: each starts at its anchor, and the anchors differ
             assert_eq!(t[0], t[3]);
             assert_eq!(t[6], t[9]);
+            assert_ne!(t[0], t[6], "turn {turn}");
+            // `First` splits along corners 0–2 as listed: the turn decides
+            let t = ngon_triangles(&mesh, QuadSplit::First).unwrap();
+            let first = if turn % 2 == 0 { [0, 2] } else { [1, 3] };
+            assert_eq!(shared_edge(&t[..6]), first, "turn {turn}");
+            assert_eq!(shared_edge(&t[6..]), [1, 5], "turn {turn}");
             assert_ne!(t[0], t[6], "turn {turn}");
         }
     }
