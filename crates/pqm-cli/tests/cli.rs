@@ -1491,7 +1491,10 @@ fn paired_triangles_make_the_input_the_finest_level() {
     assert_eq!(json_ok(&["info", s(&split)])["finest_diagonals"], false);
     let glb = d.path().join("fine.glb");
     json_ok(&["decode", s(&paired), "-o", s(&glb)]);
-    assert_eq!(triangle_ids(glb_triangles(&glb).remove(0).into_iter()), want);
+    assert_eq!(
+        triangle_ids(glb_triangles(&glb).remove(0).into_iter()),
+        want
+    );
     // One GLB of two levels: the finest split along its meant diagonals,
     // the coarser along its shorter ones, as their own files are.
     let faces = p["faces"].as_u64().unwrap();
@@ -1509,11 +1512,21 @@ fn paired_triangles_make_the_input_the_finest_level() {
     files.sort_by_key(|f| std::cmp::Reverse(std::fs::metadata(f).unwrap().len()));
     for (level, file) in lod.into_iter().zip(&files) {
         let own = glb_triangles(file).remove(0);
-        assert_eq!(triangle_ids(level.into_iter()), triangle_ids(own.into_iter()));
+        assert_eq!(
+            triangle_ids(level.into_iter()),
+            triangle_ids(own.into_iter())
+        );
     }
     // `--quad-split shorter` takes the shorter diagonal of every quad.
     let shorter = d.path().join("shorter.glb");
-    json_ok(&["decode", s(&paired), "-o", s(&shorter), "--quad-split", "shorter"]);
+    json_ok(&[
+        "decode",
+        s(&paired),
+        "-o",
+        s(&shorter),
+        "--quad-split",
+        "shorter",
+    ]);
     let by_length = fine.faces().flat_map(|q| {
         let q = [q[0], q[1], q[2], q[3]];
         let r = io::quad_split_diagonal(&fine.positions, q);

@@ -1911,7 +1911,10 @@ fn finest_diagonals_flag_marks_the_header_and_nothing_else() {
         });
         assert_eq!(cleared, plain, "{order:?}");
     }
-    for bad in [opts(CornerOrder::Canonical, true, 4), opts(CornerOrder::Diagonal, true, 3)] {
+    for bad in [
+        opts(CornerOrder::Canonical, true, 4),
+        opts(CornerOrder::Diagonal, true, 3),
+    ] {
         assert!(matches!(
             write_to_vec(&pm, &bad),
             Err(EncodeError::InvalidOptions(_))

@@ -102,7 +102,10 @@ impl GltfArgs {
 /// Only for meshes without corner attributes (decoded levels).
 fn start_at_shorter_diagonal(mesh: &mut IndexedMesh) {
     for f in 0..mesh.face_count() {
-        let (a, b) = (mesh.face_starts[f] as usize, mesh.face_starts[f + 1] as usize);
+        let (a, b) = (
+            mesh.face_starts[f] as usize,
+            mesh.face_starts[f + 1] as usize,
+        );
         if b - a == 4 {
             let q = [0, 1, 2, 3].map(|k| mesh.indices[a + k]);
             if io::quad_split_diagonal(&mesh.positions, q) == 1 {
