@@ -118,8 +118,8 @@ pub struct CoarsenerArgs {
     /// default): adjacent triangles joined two by two, no new vertex, so
     /// the finest level is the input itself (each quad is two of its
     /// triangles, and `pqm encode` keeps each quad's diagonal so that a
-    /// renderer draws exactly those) — on the shared triangle meshes 3.9–5.1× smaller files than
-    /// `split` and 3–6× faster; the quads are as regular as the triangles
+    /// renderer draws exactly those) — on the shared triangle meshes
+    /// 3.8–5.0× smaller files than `split` and 3–6× faster; the quads are as regular as the triangles
     /// allow; a triangle among quads pairs with another through the quads
     /// between them (re-pairing their halves). Polygons of five or more
     /// corners are cut into triangles first. A triangle no pairing can

@@ -242,17 +242,29 @@ impl CornerArg {
         conversion: crate::pipeline::QuadConversion,
         mostly_triangles: bool,
     ) -> CornerArg {
-        use crate::pipeline::QuadConversion;
-        match (self, conversion) {
-            (CornerArg::Auto, QuadConversion::Paired | QuadConversion::Bridged)
-                if mostly_triangles =>
-            {
+        match self {
+            CornerArg::Auto if paired_triangles(conversion, mostly_triangles) => {
                 CornerArg::Diagonal
             }
-            (CornerArg::Auto, _) => CornerArg::Canonical,
-            (c, _) => c,
+            CornerArg::Auto => CornerArg::Canonical,
+            c => c,
         }
     }
+
+    /// Whether a file in this (resolved) order keeps the full level's
+    /// diagonals, so that its header may say they are meant (flag bit 3)
+    /// where they are a paired triangle mesh's.
+    fn keeps_finest_diagonals(self) -> bool {
+        matches!(self, CornerArg::Diagonal | CornerArg::Input)
+    }
+}
+
+/// Whether the quad mesh is a triangle mesh's triangles joined in pairs
+/// (or bridged), so its quads' diagonals are the input's edges: most of
+/// the input's faces were not quads, and pairing made the quads.
+fn paired_triangles(conversion: crate::pipeline::QuadConversion, mostly_triangles: bool) -> bool {
+    use crate::pipeline::QuadConversion;
+    mostly_triangles && matches!(conversion, QuadConversion::Paired | QuadConversion::Bridged)
 }
 
 impl From<CornerArg> for pqm_format::CornerOrder {
@@ -505,12 +517,8 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
     // The file says its finest diagonals are meant (header flag bit 3, a
     // 4.1 file) where they are a paired triangle mesh's and kept: exports
     // of the finest level then give the input's own triangles.
-    let finest_diagonals = mostly_triangles
-        && matches!(
-            p.conversion,
-            crate::pipeline::QuadConversion::Paired | crate::pipeline::QuadConversion::Bridged
-        )
-        && matches!(corner_order, CornerArg::Diagonal | CornerArg::Input);
+    let finest_diagonals =
+        paired_triangles(p.conversion, mostly_triangles) && corner_order.keeps_finest_diagonals();
     let eopts = EncodeOptions {
         bits: args.bits,
         chunk_bytes: args.chunk_bytes as usize,
