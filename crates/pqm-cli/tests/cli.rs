@@ -1495,6 +1495,21 @@ fn paired_triangles_make_the_input_the_finest_level() {
         triangle_ids(glb_triangles(&glb).remove(0).into_iter()),
         want
     );
+    // `--triangulate` gives the input's triangles back: a triangle mesh's
+    // round trip through pqm, positions on the grid.
+    let tris = d.path().join("tris.obj");
+    let r = json_ok(&[
+        "decode",
+        s(&paired),
+        "-o",
+        s(&tris),
+        "--triangulate",
+        "--stats",
+    ]);
+    assert_eq!(r["faces"].as_u64(), Some(input.face_count() as u64));
+    let tris = io::read_mesh(&tris).unwrap();
+    assert_eq!(tris.vertex_count(), input.vertex_count());
+    assert_eq!(triangle_ids(tris.faces().map(|f| [f[0], f[1], f[2]])), want);
     // One GLB of two levels: the finest split along its meant diagonals,
     // the coarser along its shorter ones, as their own files are.
     let faces = p["faces"].as_u64().unwrap();

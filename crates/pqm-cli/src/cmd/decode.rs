@@ -6,7 +6,7 @@ use crate::ctx::Ctx;
 use crate::stats::{mesh_stats, MeshStats};
 use crate::util::{mesh_output_format, parse_nonneg};
 use anyhow::{anyhow, bail};
-use pqm_core::io::MeshFormat;
+use pqm_core::io::{self, MeshFormat};
 use pqm_core::IndexedMesh;
 use pqm_format::Target;
 use serde::Serialize;
@@ -23,14 +23,17 @@ use std::path::PathBuf;
 /// has received that much would, and writes the deepest level they hold
 /// (or the chosen level, if it is coarser). The full level is written with
 /// the input's vertex order when the file stores it, so it equals the
-/// encoder's input with positions snapped to the quantization grid.
+/// encoder's input with positions snapped to the quantization grid; for a
+/// triangle input, which `pqm encode` pairs into quads, --triangulate
+/// writes its own triangles back.
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
   pqm decode spot.pqm -o spot.glb
   pqm decode spot.pqm -o spot_base.obj --level 0
   pqm decode spot.pqm -o spot_1k.glb --faces 1000 --stats
   pqm decode spot.pqm -o first_20k.glb --bytes 20000
-  pqm decode spot.pqm -o spot_q.glb --normals smooth --quantize")]
+  pqm decode spot.pqm -o spot_q.glb --normals smooth --quantize
+  pqm decode bunny.pqm -o bunny_tris.ply --triangulate")]
 #[command(group(clap::ArgGroup::new("target").args(["level", "faces", "error"])))]
 pub struct Args {
     /// The .pqm file.
@@ -54,6 +57,13 @@ pub struct Args {
     /// Print the statistics of the output mesh.
     #[arg(long)]
     pub stats: bool,
+    /// Write triangles, each quad split along the diagonal --quad-split
+    /// picks: with `auto`, the full level of a triangle mesh `pqm encode`
+    /// paired into quads gives back exactly the input's triangles (the file
+    /// says its diagonals are meant, format 4.1), other levels and files
+    /// split along the shorter diagonal.
+    #[arg(long)]
+    pub triangulate: bool,
     #[command(flatten)]
     pub gltf: GltfArgs,
 }
@@ -130,16 +140,26 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         }
     }
     let format = mesh_output_format(&args.output)?;
-    if args.gltf.any() && !matches!(format, MeshFormat::Gltf | MeshFormat::Glb) {
+    let gltf = matches!(format, MeshFormat::Gltf | MeshFormat::Glb);
+    if !gltf && (args.gltf.any_shading() || (args.gltf.any() && !args.triangulate)) {
         ctx.warn(format!(
-            "{}: --normals/--quantize/--quad-split apply to .gltf/.glb output only",
-            args.output.display()
+            "{}: --normals/--quantize{} apply to .gltf/.glb output only",
+            args.output.display(),
+            if args.triangulate {
+                ""
+            } else {
+                " and --quad-split (without --triangulate)"
+            }
         ));
     }
     // The finest level of a paired triangle mesh splits into the input's
     // own triangles along each quad's v0–v2 (header flag bit 3).
     let meant = level == final_level && dec.header().is_some_and(|h| h.finest_diagonals());
-    write_mesh_with(&args.output, &mesh, &args.gltf.options_for(meant))?;
+    let options = args.gltf.options_for(meant);
+    if args.triangulate {
+        mesh = io::triangulate(&mesh, options.quad_split);
+    }
+    write_mesh_with(&args.output, &mesh, &options)?;
     let rows = level_rows(&dec);
     let report = Report {
         input: name,

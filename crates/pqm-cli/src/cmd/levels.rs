@@ -89,6 +89,11 @@ impl GltfArgs {
         }
     }
 
+    /// True when `--normals` or `--quantize` differs from the default.
+    pub fn any_shading(&self) -> bool {
+        self.options().normals != Normals::default() || self.quantize
+    }
+
     /// True when any flag differs from the default.
     pub fn any(&self) -> bool {
         self.options() != GltfWriteOptions::default() || self.quad_split != QuadSplitArg::Auto

@@ -500,6 +500,58 @@ pub enum QuadSplit {
     First,
 }
 
+/// `mesh` with each quad split into two triangles along the diagonal
+/// `split` picks (`(v0, v1, v2)`, `(v0, v2, v3)` from the corner that
+/// starts it) and every other polygon of five or more corners into a fan
+/// from its first corner; triangles stay. Vertices, their tables and
+/// properties are kept; each corner keeps its texture coordinate and
+/// normal, each face its group (a polygon's triangles take its place).
+///
+/// For the full level of a `.pqm` file whose header says its diagonals are
+/// meant (format 4.1, flag bit 3: a triangle mesh paired into quads),
+/// [`QuadSplit::First`] gives back exactly the input's triangles.
+pub fn triangulate(mesh: &IndexedMesh, split: QuadSplit) -> IndexedMesh {
+    let mut out = IndexedMesh {
+        positions: mesh.positions.clone(),
+        texcoords: mesh.texcoords.clone(),
+        normals: mesh.normals.clone(),
+        vertex_scalars: mesh.vertex_scalars.clone(),
+        ..IndexedMesh::new()
+    };
+    let mut group = mesh.groups.iter().peekable();
+    for (f, face) in mesh.faces().enumerate() {
+        while let Some((name, _)) = group.next_if(|g| g.1 as usize <= f) {
+            out.groups.push((name.clone(), out.face_count() as u32));
+        }
+        let n = face.len();
+        let r = match (n, split) {
+            (4, QuadSplit::Shorter) => {
+                quad_split_diagonal(&mesh.positions, [face[0], face[1], face[2], face[3]])
+            }
+            _ => 0,
+        };
+        let at = mesh.face_starts[f] as usize;
+        let corner = |k: usize| at + (r + k) % n;
+        for k in 1..n.saturating_sub(1) {
+            let tri = [corner(0), corner(k), corner(k + 1)];
+            out.push_face(&tri.map(|c| mesh.indices[c]));
+            for (table, corners) in [
+                (&mesh.corner_texcoords, &mut out.corner_texcoords),
+                (&mesh.corner_normals, &mut out.corner_normals),
+            ] {
+                if !table.is_empty() {
+                    corners.extend(tri.map(|c| table[c]));
+                }
+            }
+        }
+    }
+    // Groups that start past the last face (none in a valid mesh) stay.
+    let end = out.face_count() as u32;
+    out.groups
+        .extend(group.map(|(name, _)| (name.clone(), end)));
+    out
+}
+
 /// Triangle fans in FB_ngon_encoding order (see the module docs); quads
 /// along the diagonal `split` picks.
 fn ngon_triangles(mesh: &IndexedMesh, split: QuadSplit) -> Result<Vec<u32>, MeshIoError> {
@@ -1224,6 +1276,38 @@ mod tests {
             assert_eq!(shared_edge(&t[..6]), first, "turn {turn}");
             assert_eq!(shared_edge(&t[6..]), [1, 5], "turn {turn}");
             assert_ne!(t[0], t[6], "turn {turn}");
+            // `triangulate` splits along the same diagonals, as faces.
+            for split in [QuadSplit::Shorter, QuadSplit::First] {
+                let tri = triangulate(&mesh, split);
+                assert_eq!(tri.face_size_counts(), (0, 4, 0));
+                let flat: Vec<u32> = tri.indices.clone();
+                let want = ngon_triangles(&mesh, split).unwrap();
+                assert_eq!(shared_edge(&flat[..6]), shared_edge(&want[..6]));
+                assert_eq!(shared_edge(&flat[6..]), shared_edge(&want[6..]));
+            }
         }
+    }
+
+    /// Corners keep their texture coordinates and normals, faces their
+    /// groups, and a pentagon becomes a fan of three.
+    #[test]
+    fn triangulate_keeps_corner_attributes_and_groups() {
+        let p = (0..7)
+            .map(|i| DVec3::new((i % 4) as f64, (i / 4) as f64, 0.0))
+            .collect();
+        let mut m = IndexedMesh::from_faces(p, [vec![0u32, 1, 5, 4], vec![1, 2, 3, 6, 5]]);
+        m.texcoords = (0..9).map(|i| [i as f64, 0.0]).collect();
+        m.corner_texcoords = (0..9).collect();
+        m.groups = vec![("a".into(), 0), ("b".into(), 1)];
+        let t = triangulate(&m, QuadSplit::First);
+        assert_eq!(t.face_count(), 5);
+        assert_eq!(t.groups, vec![("a".into(), 0), ("b".into(), 2)]);
+        for (c, &v) in t.indices.iter().enumerate() {
+            // corner texture coordinate k sits at input corner k
+            let k = t.corner_texcoords[c] as usize;
+            assert_eq!(m.indices[k], v);
+        }
+        assert_eq!(t.face(2), &[1, 2, 3]);
+        assert_eq!(t.face(4), &[1, 6, 5]);
     }
 }

@@ -27,9 +27,9 @@ mod ply;
 mod repair;
 
 pub use self::gltf::{
-    lod_screen_coverage, quad_split_diagonal, read_gltf, read_gltf_bytes, write_glb, write_glb_lod,
-    write_glb_with, write_gltf, write_gltf_with, GltfWriteOptions, Normals, QuadSplit,
-    FB_NGON_ENCODING, KHR_MESH_QUANTIZATION, MSFT_LOD,
+    lod_screen_coverage, quad_split_diagonal, read_gltf, read_gltf_bytes, triangulate, write_glb,
+    write_glb_lod, write_glb_with, write_gltf, write_gltf_with, GltfWriteOptions, Normals,
+    QuadSplit, FB_NGON_ENCODING, KHR_MESH_QUANTIZATION, MSFT_LOD,
 };
 pub use check::{check, Defect, Element, InvalidMesh};
 pub use obj::{read_obj, read_obj_bytes, write_obj};
