@@ -252,6 +252,28 @@ pub struct Prepared {
     pub coarsener: Coarsener,
     /// Faces of the coarsener's input.
     pub quad_faces: usize,
+    /// What the input holds that the coarsener's mesh does not carry
+    /// (see [`dropped_attributes`]); said in a note when not empty.
+    pub dropped: Vec<&'static str>,
+}
+
+/// The input's data that the coarsener's levels (and so `.pqm` files and
+/// `pqm coarsen`'s output) do not carry: they hold positions and quads
+/// only. Per-corner texture coordinates and normals, and face groups when
+/// there are several; a single group or object name is no loss worth
+/// naming.
+pub fn dropped_attributes(mesh: &IndexedMesh) -> Vec<&'static str> {
+    let mut out = Vec::new();
+    if !mesh.corner_texcoords.is_empty() {
+        out.push("texture coordinates");
+    }
+    if !mesh.corner_normals.is_empty() {
+        out.push("normals");
+    }
+    if mesh.groups.len() > 1 {
+        out.push("face groups");
+    }
+    out
 }
 
 /// Reads `path` and sets up the coarsener with `args` and `opts`.
@@ -263,6 +285,14 @@ pub fn prepare(
 ) -> anyhow::Result<Prepared> {
     let input = load_mesh(path, args.repair, ctx)?;
     let name = path.display().to_string();
+    let dropped = dropped_attributes(&input);
+    if !dropped.is_empty() {
+        ctx.note(format!(
+            "{name}: its {} are not kept: pqm's levels hold positions and quads only \
+             (pairing and bridging respect the seams and groups, so the quads never mix two)",
+            dropped.join(" and ")
+        ));
+    }
     let mut work = input.clone();
 
     // User attributes, read against the input's vertex indices.
@@ -455,6 +485,7 @@ pub fn prepare(
         conversion,
         coarsener,
         quad_faces,
+        dropped,
     })
 }
 

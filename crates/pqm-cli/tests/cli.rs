@@ -1482,6 +1482,7 @@ fn paired_triangles_make_the_input_the_finest_level() {
     assert_eq!(got, want);
     assert_eq!(p["corner_order"], "diagonal");
     assert_eq!(p["finest_diagonals"], true);
+    assert_eq!(p["dropped"], serde_json::json!([]));
     assert_eq!(sp["corner_order"], "canonical");
     assert_eq!(sp["finest_diagonals"], false);
     // The file says so (flag bit 3), and the finest level's glTF export
@@ -1655,6 +1656,19 @@ fn triangles_alone_everywhere_are_split_not_bridged() {
     );
     let v: Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["files"][0]["conversion"], "split");
+    // The texture coordinates are not in the file, and both say so.
+    assert!(
+        stderr.contains("its texture coordinates are not kept"),
+        "{stderr}"
+    );
+    assert_eq!(
+        v["files"][0]["dropped"],
+        serde_json::json!(["texture coordinates"])
+    );
+    let coarse = d.path().join("coarse.obj");
+    let c = json_ok(&["coarsen", s(&obj), "-o", s(&coarse)]);
+    assert_eq!(c["dropped"], serde_json::json!(["texture coordinates"]));
+    assert!(io::read_mesh(&coarse).unwrap().corner_texcoords.is_empty());
 }
 
 /// A torus of 3 × 3 quads with two of its faces joined into an octagon

@@ -103,6 +103,9 @@ struct Report {
     time_s: f64,
     error: f64,
     operators: Operators,
+    /// What the input holds that the output does not (`texture
+    /// coordinates`, `normals`, `face groups`).
+    dropped: Vec<&'static str>,
     input_stats: MeshStats,
     output_stats: MeshStats,
 }
@@ -190,6 +193,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         time_s,
         error: r.error,
         operators: Operators::of(&r, &p.coarsener),
+        dropped: p.dropped.clone(),
         input_stats: mesh_stats(&p.input, None),
         output_stats: mesh_stats(&out, None),
     };

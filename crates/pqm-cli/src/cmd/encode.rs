@@ -343,6 +343,9 @@ pub struct FileReport {
     /// triangles' (header flag bit 3, format 4.1): a triangle mesh paired
     /// into quads, with a corner order that keeps the diagonals.
     pub finest_diagonals: bool,
+    /// What the input holds that the file does not (`texture coordinates`,
+    /// `normals`, `face groups`): `.pqm` files hold positions and quads.
+    pub dropped: Vec<&'static str>,
     /// `--chunk-growth`: each chunk holds at least this fraction of the
     /// record payload before it.
     pub chunk_growth: f64,
@@ -567,6 +570,7 @@ fn encode_one(input: &Path, output: &Path, args: &Args, ctx: &Ctx) -> anyhow::Re
         placement,
         corner_order,
         finest_diagonals,
+        dropped: p.dropped.clone(),
         chunk_growth: args.chunk_growth,
         vertex_order_kept: eopts.vertex_order_keep.filter(|_| eopts.vertex_order),
         stop: stop_code(&r),
