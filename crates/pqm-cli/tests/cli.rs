@@ -1751,3 +1751,46 @@ fn convert_pairs_and_bridges_triangles_or_names_a_face_it_cannot() {
         );
     assert!(!bad.exists());
 }
+
+/// A real triangle mesh through pqm and back: `pqm encode` pairs
+/// fertility's triangles (the default), and `pqm decode --triangulate`
+/// writes exactly its triangles again, on its vertices at their indices,
+/// positions within half a grid step; the GLB export of the full level
+/// holds the same triangles.
+#[test]
+fn a_real_triangle_mesh_comes_back_as_its_own_triangles() {
+    let d = TempDir::new().unwrap();
+    let input_path = shared("tri/fertility.off");
+    let input = io::read_mesh(&input_path).unwrap();
+    let file = d.path().join("fertility.pqm");
+    let e = json_ok(&["encode", s(&input_path), "-o", s(&file)]);
+    assert_eq!(e["files"][0]["conversion"], "paired");
+    assert_eq!(e["files"][0]["finest_diagonals"], true);
+    let want = triangle_ids(input.faces().map(|f| [f[0], f[1], f[2]]));
+    let tris = d.path().join("tris.ply");
+    json_ok(&["decode", s(&file), "-o", s(&tris), "--triangulate"]);
+    let back = io::read_mesh(&tris).unwrap();
+    assert_eq!(back.vertex_count(), input.vertex_count());
+    assert_eq!(triangle_ids(back.faces().map(|f| [f[0], f[1], f[2]])), want);
+    // the cube grid's step is the largest extent over 2^14 − 1 codes
+    let (lo, hi) = input
+        .positions
+        .iter()
+        .fold((input.positions[0], input.positions[0]), |(a, b), p| {
+            (a.min(*p), b.max(*p))
+        });
+    let step = (hi - lo).max_element() / ((1 << 14) - 1) as f64;
+    for (a, b) in back.positions.iter().zip(&input.positions) {
+        // half a step, and a little for the PLY's f32
+        assert!(
+            (*a - *b).abs().max_element() <= 0.5 * step + 1e-5 * step.max(1.0),
+            "{a} vs {b}"
+        );
+    }
+    let glb = d.path().join("fine.glb");
+    json_ok(&["decode", s(&file), "-o", s(&glb)]);
+    assert_eq!(
+        triangle_ids(glb_triangles(&glb).remove(0).into_iter()),
+        want
+    );
+}
