@@ -38,6 +38,46 @@ export function coalesce(runs, maxGap) {
 }
 
 /**
+ * Slot `f`'s two triangles into `out` (6 indices at `6f`), split along the
+ * shorter diagonal of its quad (`quads`, 4 ids per slot), measured on the
+ * quantization codes `codes` scaled by the grid's `step` per axis (on the
+ * cube grid, one step: integers, exact). The rule of the Rust glTF export
+ * (`quad_split_diagonal`): v1–v3 only when strictly shorter, the fan then
+ * starting at v1 (a tie that its f64 positions round apart aside).
+ */
+export function splitShorter(out, f, quads, codes, step) {
+  const a = quads[4 * f];
+  const b = quads[4 * f + 1];
+  const c = quads[4 * f + 2];
+  const d = quads[4 * f + 3];
+  const cube = step[0] === step[1] && step[1] === step[2];
+  const dist2 = (u, v) => {
+    let s = 0;
+    for (let k = 0; k < 3; k++) {
+      const t = cube ? codes[3 * u + k] - codes[3 * v + k] : (codes[3 * u + k] - codes[3 * v + k]) * step[k];
+      s += t * t;
+    }
+    return s;
+  };
+  const o = 6 * f;
+  if (dist2(b, d) < dist2(a, c)) {
+    out[o] = b;
+    out[o + 1] = c;
+    out[o + 2] = d;
+    out[o + 3] = b;
+    out[o + 4] = d;
+    out[o + 5] = a;
+  } else {
+    out[o] = a;
+    out[o + 1] = b;
+    out[o + 2] = c;
+    out[o + 3] = a;
+    out[o + 4] = c;
+    out[o + 5] = d;
+  }
+}
+
+/**
  * A progressive mesh bound to a decoder (see the module docs).
  */
 export class PQMProgressiveMesh {
@@ -51,12 +91,29 @@ export class PQMProgressiveMesh {
    *   finest level with at most this many faces
    * @param {number} [options.maxGap=32] merge update ranges closer than this
    *   many vertices / slots
+   * @param {'file'|'shorter'|'auto'} [options.quadSplit='file'] the diagonal
+   *   each quad is drawn along: `file`, its v0–v2 as the decoder lists it
+   *   (the decoder's `triangleIndices`); `shorter`, the shorter one, as
+   *   modelling tools split (chosen when the slot is written: where records
+   *   move vertices, files written with `--placement qem`, a slot keeps the
+   *   split of its last write); `auto`, `file` for a file whose header says
+   *   its diagonals are meant (flag bit 3, `finestDiagonals`: a triangle
+   *   mesh paired into quads, whose finest level is then drawn as its own
+   *   triangles), else `shorter`
    */
   constructor(decoder = new PqmDecoder(), options = {}) {
     this.decoder = decoder;
     this.autoRefine = options.autoRefine ?? true;
     this.maxFaces = options.maxFaces ?? Infinity;
     this.maxGap = options.maxGap ?? 32;
+    const split = options.quadSplit ?? 'file';
+    if (!['file', 'shorter', 'auto'].includes(split)) {
+      throw new PqmError('parameter', `quadSplit must be 'file', 'shorter' or 'auto', not ${split}`);
+    }
+    /** `quadSplit` as asked; `auto` is resolved with the header (`drawnSplit`). */
+    this.quadSplit = split;
+    /** The split in use once the header is known: `file` or `shorter`. */
+    this.drawnSplit = null;
     /** Triangle geometry: `position` and an index, 6 indices per quad slot. */
     this.geometry = null;
     /** Quad-edge geometry: the same `position`, 8 line indices per quad slot. */
@@ -131,6 +188,7 @@ export class PQMProgressiveMesh {
   _allocate() {
     if (this.geometry) return;
     const h = this.decoder.header;
+    this.drawnSplit = this.quadSplit === 'auto' ? (h.finestDiagonals ? 'file' : 'shorter') : this.quadSplit;
     const pos = new BufferAttribute(new Float32Array(3 * h.finalVertexCount), 3);
     pos.setUsage(DynamicDrawUsage);
     const index = new BufferAttribute(new Uint32Array(6 * h.finalFaceCount), 1);
@@ -190,8 +248,15 @@ export class PQMProgressiveMesh {
     const tris = dec.triangleIndices;
     const quads = dec.quads;
     const L = lineAttr.array;
+    const shorter = this.drawnSplit === 'shorter' && fRuns.length > 0;
+    const codes = shorter ? dec.positionCodes : null;
+    const step = shorter ? dec.grid.step : null;
     for (const r of coalesce(fRuns, gap)) {
-      idxAttr.array.set(tris.subarray(6 * r.start, 6 * r.end), 6 * r.start);
+      if (shorter) {
+        for (let f = r.start; f < r.end; f++) splitShorter(idxAttr.array, f, quads, codes, step);
+      } else {
+        idxAttr.array.set(tris.subarray(6 * r.start, 6 * r.end), 6 * r.start);
+      }
       idxAttr.addUpdateRange(6 * r.start, 6 * (r.end - r.start));
       for (let f = r.start; f < r.end; f++) {
         const a = quads[4 * f];

@@ -6,7 +6,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import http from 'node:http';
-import { PQMProgressiveMesh, PQMLoader, coalesce } from '../src/index.js';
+import { PQMProgressiveMesh, PQMLoader, coalesce, splitShorter } from '../src/index.js';
 import { Box3, Vector3 } from 'three';
 import { PqmDecoder, decodeAll } from 'pqm-decoder';
 import { testFiles, rng, randomPieces, serveBytes } from '../../pqm-decoder/test/helpers.mjs';
@@ -148,6 +148,99 @@ for (const file of files) {
     gpu.check(pm, `${file.name} accumulated`);
   });
 }
+
+/**
+ * The shorter-diagonal split of every slot of the decoder's level, computed
+ * here from the f64 positions (spec §5), as the Rust glTF export does.
+ */
+function shorterSplits(dec) {
+  const p = dec.positionsF64();
+  const q = dec.quads;
+  const out = [];
+  const d2 = (u, v) => (p[3 * u] - p[3 * v]) ** 2 + (p[3 * u + 1] - p[3 * v + 1]) ** 2 + (p[3 * u + 2] - p[3 * v + 2]) ** 2;
+  for (let f = 0; f < dec.faceCount; f++) {
+    const [a, b, c, d] = q.subarray(4 * f, 4 * f + 4);
+    out.push(d2(b, d) < d2(a, c) ? [b, c, d, b, d, a] : [a, b, c, a, c, d]);
+  }
+  return out;
+}
+
+for (const name of ['spot', 'v4_canonical', 'box_vnbr']) {
+  test(`${name}: quadSplit 'shorter' draws every quad along its shorter diagonal, streamed and walked`, () => {
+    const file = files.find((f) => f.name === name);
+    const pm = new PQMProgressiveMesh(new PqmDecoder(), { maxGap: 0, quadSplit: 'shorter' });
+    const gpu = new FakeGpu();
+    let moves = false;
+    const check = (where) => {
+      gpu.render(pm);
+      const dec = pm.decoder;
+      const idx = gpu.buffers.get(pm.geometry.index).data;
+      const files = dec.triangleIndices;
+      const want = shorterSplits(dec);
+      let other = 0;
+      for (let f = 0; f < dec.faceCount; f++) {
+        const got = [...idx.subarray(6 * f, 6 * f + 6)];
+        const own = [...files.subarray(6 * f, 6 * f + 6)];
+        const flipped = [own[1], own[2], own[5], own[1], own[5], own[0]];
+        // one of the quad's two splits; the shorter one unless a vertex
+        // moved since the slot was written
+        if (got.join() !== own.join() && got.join() !== flipped.join()) assert.fail(`${where}: slot ${f} ${got}`);
+        if (got.join() !== want[f].join()) {
+          if (!moves) assert.fail(`${where}: slot ${f} ${got}, shorter ${want[f]}`);
+          other++;
+        }
+      }
+      return other;
+    };
+    for (const piece of randomPieces(file.bytes, rng(7), 1201)) {
+      pm.push(piece);
+      if (pm.geometry && pm.decoder.deepestLevel !== null) {
+        moves ||= (pm.lastChange?.verticesMoved.length ?? 0) > 0;
+        check(`${name} streaming`);
+      }
+    }
+    pm.decoder.end();
+    assert.equal(pm.drawnSplit, 'shorter');
+    const final = pm.decoder.deepestLevel;
+    const rand = rng(11);
+    let flips = 0;
+    for (let s = 0; s < 20; s++) {
+      const c = pm.setLevel({ level: Math.floor(rand() * (final + 1)) });
+      moves ||= c.verticesMoved.length > 0;
+      check(`${name} level ${pm.level}`);
+      const idx = gpu.buffers.get(pm.geometry.index).data;
+      const own = pm.decoder.triangleIndices;
+      for (let i = 0; i < own.length; i += 6) flips += idx[i] !== own[i] ? 1 : 0;
+    }
+    // the shorter diagonal is not always the file's
+    assert.ok(flips > 0, `${name}: no quad drawn along v1-v3`);
+  });
+}
+
+test("quadSplit 'auto': the file's diagonals where the header says they are meant (4.1), else the shorter", () => {
+  for (const [name, drawn] of [
+    ['v4_1_diagonals', 'file'],
+    ['v4_canonical', 'shorter'],
+    ['spot', 'shorter'],
+  ]) {
+    const file = files.find((f) => f.name === name);
+    // a mesh made at the finest level writes every slot from its positions
+    const dec = decodeAll(file.bytes);
+    dec.setLevel({ level: dec.finalLevel });
+    const pm = new PQMProgressiveMesh(dec, { quadSplit: 'auto' });
+    assert.equal(pm.drawnSplit, drawn, name);
+    const idx = pm.geometry.index.array.subarray(0, 6 * pm.faceCount);
+    if (drawn === 'file') assert.deepEqual(idx, pm.decoder.triangleIndices, name);
+    else assert.deepEqual([...idx], shorterSplits(pm.decoder).flat(), name);
+  }
+  assert.throws(() => new PQMProgressiveMesh(new PqmDecoder(), { quadSplit: 'longer' }), /quadSplit/);
+  // the exported helper writes the same as the mesh
+  const dec = decodeAll(files.find((f) => f.name === 'spot').bytes);
+  dec.setLevel({ level: dec.finalLevel });
+  const out = new Uint32Array(6 * dec.faceCount);
+  for (let f = 0; f < dec.faceCount; f++) splitShorter(out, f, dec.quads, dec.positionCodes, dec.grid.step);
+  assert.deepEqual([...out], shorterSplits(dec).flat());
+});
 
 /** Asserts that both geometries' bounding volumes are the header's bounds. */
 function assertBoundsVolumes(pm, where) {

@@ -182,7 +182,9 @@ async function streamPqm() {
   const res = await fetch('mesh.pqm');
   if (!res.ok || !res.body) throw new Error(`mesh.pqm: HTTP ${res.status}`);
   state.totalBytes = Number(res.headers.get('Content-Length')) || null;
-  pm = new PQMProgressiveMesh(new PqmDecoder(), { autoRefine: false });
+  // quads along their shorter diagonal, or as the file means them (a paired
+  // triangle mesh: its own triangles at the finest level)
+  pm = new PQMProgressiveMesh(new PqmDecoder(), { autoRefine: false, quadSplit: 'auto' });
   const dec = pm.decoder;
   const reader = res.body.getReader();
   setStatus('streaming…');
