@@ -2476,6 +2476,37 @@ pub fn quad_triangles(q: [u32; 4]) -> [u32; 6] {
     [q[0], q[1], q[2], q[0], q[2], q[3]]
 }
 
+/// The two triangles of a quad split along its shorter diagonal, as
+/// modelling tools draw quads: `(v1, v2, v3)` and `(v1, v3, v0)` where
+/// `v1–v3` is strictly shorter, else [`quad_triangles`]. Lengths are
+/// measured on the quantization codes `codes` (the decoder's
+/// [`Decoder::position_codes`]) scaled by the grid's `step` per axis
+/// ([`crate::Quantizer::step`]); on the cube grid (one step) in exact
+/// integers. The rule of `pqm_core::io::quad_split_diagonal` and of
+/// pqm-three's `quadSplit: 'shorter'`.
+///
+/// For a renderer that picks the split when it writes a slot: files that
+/// keep each quad's meant diagonal ([`crate::Header::finest_diagonals`],
+/// a paired triangle mesh) are better drawn with [`quad_triangles`].
+pub fn quad_triangles_shorter(q: [u32; 4], codes: &[[u32; 3]], step: [f64; 3]) -> [u32; 6] {
+    let cube = step[0] == step[1] && step[1] == step[2];
+    let d2 = |u: u32, v: u32| {
+        let (a, b) = (codes[u as usize], codes[v as usize]);
+        (0..3)
+            .map(|k| {
+                let t = a[k] as f64 - b[k] as f64;
+                let t = if cube { t } else { t * step[k] };
+                t * t
+            })
+            .sum::<f64>()
+    };
+    if d2(q[1], q[3]) < d2(q[0], q[2]) {
+        [q[1], q[2], q[3], q[1], q[3], q[0]]
+    } else {
+        quad_triangles(q)
+    }
+}
+
 /// Checks that `data` is exactly one Zstandard frame (no skippable frame, no
 /// trailing frame or bytes) whose header states the content size `ulen`
 /// (spec §1). zstd itself would decode concatenated frames as one payload,

@@ -40,7 +40,11 @@
 //! * index buffer: quad slot `f` is triangles `2f = (v0, v1, v2)` and
 //!   `2f + 1 = (v0, v2, v3)` (see [`quad_triangles`]), i.e. indices
 //!   `6f .. 6f + 6`; rewrite those for [`Change::rewritten_ranges`] and
-//!   `faces_appended`, and draw `6 * quads().len()` indices.
+//!   `faces_appended`, and draw `6 * quads().len()` indices. (Or split each
+//!   written quad along its shorter diagonal, [`quad_triangles_shorter`],
+//!   as modelling tools draw quads: fewer folds on a quad input's coarse
+//!   levels; keep [`quad_triangles`] where [`Header::finest_diagonals`]
+//!   says the diagonals are meant.)
 //!
 //! Slots never move while they exist, so every update is a sub-range write.
 //!
@@ -71,7 +75,8 @@ pub mod varint;
 pub mod vorder;
 
 pub use decoder::{
-    decode_all, quad_triangles, release_recycled, Change, Decoder, Event, Limits, Status, Target,
+    decode_all, quad_triangles, quad_triangles_shorter, release_recycled, Change, Decoder, Event,
+    Limits, Status, Target,
 };
 pub use encoder::{
     write, write_stored, write_to_vec, BitsPerVertex, CornerOrder, EncodeOptions, EncodeReport,

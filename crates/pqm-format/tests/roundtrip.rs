@@ -1921,3 +1921,59 @@ fn finest_diagonals_flag_marks_the_header_and_nothing_else() {
         ));
     }
 }
+
+/// `quad_triangles_shorter` splits every quad of every level along the
+/// diagonal `pqm_core::io::quad_split_diagonal` picks on the decoded f64
+/// positions (where the two code lengths differ; a tie keeps `v0–v2`), on
+/// the cube grid and the box grid.
+#[test]
+fn quad_triangles_shorter_is_the_export_rule() {
+    let mut pm = testgen::generate(47, 200);
+    pqm_format::vectors::rotate_rewritten(&mut pm);
+    for grid in [Grid::Cube, Grid::Box] {
+        let bytes = encode(
+            &pm,
+            &EncodeOptions {
+                grid,
+                ..EncodeOptions::default()
+            },
+        );
+        let mut dec = decode_all(&bytes, Limits::default()).unwrap();
+        let step = dec.quantizer().unwrap().step();
+        let n = pm.records.len();
+        let (mut flipped, mut kept) = (0, 0);
+        for k in [0, n / 2, n] {
+            dec.set_level(Target::Level(k)).unwrap();
+            let p = dec.positions_f64();
+            let codes = dec.position_codes();
+            for &q in dec.quads() {
+                let t = quad_triangles_shorter(q, codes, step);
+                let len = |u: u32, v: u32| {
+                    (0..3)
+                        .map(|a| {
+                            let d = (codes[u as usize][a] as f64 - codes[v as usize][a] as f64)
+                                * step[a];
+                            d * d
+                        })
+                        .sum::<f64>()
+                };
+                if len(q[1], q[3]) == len(q[0], q[2]) {
+                    assert_eq!(t, quad_triangles(q), "a tie keeps v0-v2");
+                    continue;
+                }
+                let r = pqm_core::io::quad_split_diagonal(&p, q);
+                let want = [0, 1, 2, 0, 2, 3].map(|i| q[(i + r) % 4]);
+                assert_eq!(t, want, "{grid:?} level {k} quad {q:?}");
+                if r == 1 {
+                    flipped += 1;
+                } else {
+                    kept += 1;
+                }
+            }
+        }
+        assert!(
+            flipped > 0 && kept > 0,
+            "{grid:?}: {flipped} flipped, {kept} kept"
+        );
+    }
+}
