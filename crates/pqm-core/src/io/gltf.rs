@@ -503,7 +503,9 @@ pub enum QuadSplit {
 /// `mesh` with each quad split into two triangles along the diagonal
 /// `split` picks (`(v0, v1, v2)`, `(v0, v2, v3)` from the corner that
 /// starts it) and every other polygon of five or more corners into a fan
-/// from its first corner; triangles stay. Vertices, their tables and
+/// from its first corner; triangles stay. Any mesh is taken: faces of
+/// fewer than three corners are left out, and corner tables whose length
+/// is not the corners' are dropped. Vertices, their tables and
 /// properties are kept; each corner keeps its texture coordinate and
 /// normal, each face its group (a polygon's triangles take its place).
 ///
@@ -524,8 +526,11 @@ pub fn triangulate(mesh: &IndexedMesh, split: QuadSplit) -> IndexedMesh {
             out.groups.push((name.clone(), out.face_count() as u32));
         }
         let n = face.len();
+        let in_range = face.iter().all(|&v| (v as usize) < mesh.positions.len());
         let r = match (n, split) {
-            (4, QuadSplit::Shorter) => {
+            // (a face naming a vertex that does not exist, which a checked
+            // mesh never has, is fanned as listed rather than measured)
+            (4, QuadSplit::Shorter) if in_range => {
                 quad_split_diagonal(&mesh.positions, [face[0], face[1], face[2], face[3]])
             }
             _ => 0,
@@ -539,7 +544,7 @@ pub fn triangulate(mesh: &IndexedMesh, split: QuadSplit) -> IndexedMesh {
                 (&mesh.corner_texcoords, &mut out.corner_texcoords),
                 (&mesh.corner_normals, &mut out.corner_normals),
             ] {
-                if !table.is_empty() {
+                if table.len() == mesh.indices.len() {
                     corners.extend(tri.map(|c| table[c]));
                 }
             }
