@@ -59,22 +59,9 @@ export function splitShorter(out, f, quads, codes, step) {
     }
     return s;
   };
-  const o = 6 * f;
-  if (dist2(b, d) < dist2(a, c)) {
-    out[o] = b;
-    out[o + 1] = c;
-    out[o + 2] = d;
-    out[o + 3] = b;
-    out[o + 4] = d;
-    out[o + 5] = a;
-  } else {
-    out[o] = a;
-    out[o + 1] = b;
-    out[o + 2] = c;
-    out[o + 3] = a;
-    out[o + 4] = c;
-    out[o + 5] = d;
-  }
+  // the fan's corners: from v1 when v1–v3 is the shorter diagonal
+  const [p, q, r, t] = dist2(b, d) < dist2(a, c) ? [b, c, d, a] : [a, b, c, d];
+  out.set([p, q, r, p, r, t], 6 * f);
 }
 
 /**
