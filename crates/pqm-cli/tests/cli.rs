@@ -1671,29 +1671,11 @@ fn triangles_alone_everywhere_are_split_not_bridged() {
     assert!(io::read_mesh(&coarse).unwrap().corner_texcoords.is_empty());
 }
 
-/// A torus of 3 × 3 quads with two of its faces joined into an octagon
-/// and a hexagon that no triangulation can cut without a diagonal that is
-/// already an edge (the tube is three edges around).
-fn uncuttable_polygons() -> IndexedMesh {
-    let t = pqm_core::shapes::torus(3, 3, 2.0, 0.7);
-    IndexedMesh::from_faces(
-        t.positions,
-        [
-            vec![1u32, 4, 5, 2],
-            vec![3, 6, 7, 4],
-            vec![4, 7, 8, 5],
-            vec![5, 8, 6, 3],
-            vec![6, 0, 2, 5, 3, 4, 1, 7],
-            vec![7, 1, 2, 0, 6, 8],
-        ],
-    )
-}
-
 #[test]
 fn what_cannot_be_paired_or_bridged_is_split_with_a_note() {
     let d = TempDir::new().unwrap();
     let obj = d.path().join("tube.obj");
-    io::write_mesh(&obj, &uncuttable_polygons()).unwrap();
+    io::write_mesh(&obj, &pqm_core::shapes::uncuttable_polygons()).unwrap();
     let (out_p, out_s) = (d.path().join("p.pqm"), d.path().join("s.pqm"));
     let out = pqm()
         .args(["--json", "encode", s(&obj), "-o", s(&out_p)])
@@ -1739,7 +1721,7 @@ fn convert_pairs_and_bridges_triangles_or_names_a_face_it_cannot() {
     // Polygons no triangulation can cut: an error naming one, and no
     // output file.
     let tube = d.path().join("tube.obj");
-    io::write_mesh(&tube, &uncuttable_polygons()).unwrap();
+    io::write_mesh(&tube, &pqm_core::shapes::uncuttable_polygons()).unwrap();
     let bad = d.path().join("bad.obj");
     pqm()
         .args(["convert", s(&tube), s(&bad)])

@@ -1502,18 +1502,7 @@ mod tests {
     fn a_polygon_with_no_diagonal_that_is_not_an_edge_is_refused_by_name() {
         // A torus three quads around: its octagon (face 4) wraps the tube,
         // and every way to cut it repeats an edge of the mesh.
-        let t = shapes::torus(3, 3, 2.0, 0.7);
-        let m = IndexedMesh::from_faces(
-            t.positions,
-            [
-                vec![1u32, 4, 5, 2],
-                vec![3, 6, 7, 4],
-                vec![4, 7, 8, 5],
-                vec![5, 8, 6, 3],
-                vec![6, 0, 2, 5, 3, 4, 1, 7],
-                vec![7, 1, 2, 0, 6, 8],
-            ],
-        );
+        let m = shapes::uncuttable_polygons();
         assert!(crate::mesh::Mesh::from_indexed(&m).is_ok());
         assert_eq!(
             pair_and_bridge(&m).unwrap_err(),

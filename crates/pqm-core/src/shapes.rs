@@ -77,6 +77,26 @@ pub fn regular_polygon(n: u32) -> IndexedMesh {
     IndexedMesh::from_faces(p, [(0..n).collect::<Vec<u32>>()])
 }
 
+/// [`torus`]`(3, 3, 2.0, 0.7)` with two of its faces joined into an
+/// octagon (face 4) and the others into a hexagon (face 5), both wrapped
+/// around the tube, which is three edges around: no triangulation can cut
+/// them without a diagonal that is already an edge. A valid mesh that
+/// pairing and bridging must refuse by name.
+pub fn uncuttable_polygons() -> IndexedMesh {
+    let t = torus(3, 3, 2.0, 0.7);
+    IndexedMesh::from_faces(
+        t.positions,
+        [
+            vec![1u32, 4, 5, 2],
+            vec![3, 6, 7, 4],
+            vec![4, 7, 8, 5],
+            vec![5, 8, 6, 3],
+            vec![6, 0, 2, 5, 3, 4, 1, 7],
+            vec![7, 1, 2, 0, 6, 8],
+        ],
+    )
+}
+
 /// Axis-aligned cube centred at the origin with edge length `size`:
 /// 8 vertices, 6 quads, closed, genus 0.
 pub fn cube(size: f64) -> IndexedMesh {

@@ -6,6 +6,8 @@
 //! and where a perfect pairing exists it adds nothing; on hostile face
 //! soups it never panics.
 
+mod common;
+
 use glam::DVec3;
 use pqm_core::bridging::{check_bridging, pair_and_bridge};
 use pqm_core::pairing::{pair_triangles, PairingError};
@@ -174,17 +176,7 @@ proptest! {
         nan in any::<bool>(),
         texcoords in prop::collection::vec(0u32..3, 0..40),
     ) {
-        let mut positions: Vec<DVec3> = (0..nv)
-            .map(|i| DVec3::new((i % 3) as f64, (i / 3) as f64, ((i * 7) % 5) as f64 * 0.1))
-            .collect();
-        if nan && nv > 0 {
-            positions[0].x = f64::NAN;
-        }
-        let mut m = IndexedMesh::from_faces(positions, faces.iter().map(|f| f.as_slice()));
-        if !texcoords.is_empty() {
-            m.texcoords = vec![[0.0, 0.0]; 3];
-            m.corner_texcoords = texcoords.iter().cycle().take(m.indices.len()).copied().collect();
-        }
+        let m = common::face_soup(nv, &faces, nan, &texcoords);
         if let Ok((out, _, _)) = pair_and_bridge(&m) {
             prop_assert!(out.is_quad_only());
             if Mesh::from_indexed(&m).is_ok() {

@@ -6,6 +6,8 @@
 //! on quad-dominant meshes whose triangles sit among quads (a perfect
 //! pairing exists) it pairs them through the quads between them.
 
+mod common;
+
 use glam::DVec3;
 use pqm_core::pairing::{check_pairing, pair_triangles, PairingError};
 use pqm_core::{shapes, IndexedMesh, Mesh};
@@ -182,17 +184,7 @@ proptest! {
         break_offsets in any::<bool>(),
         texcoords in prop::collection::vec(0u32..3, 0..40),
     ) {
-        let mut positions: Vec<DVec3> = (0..nv)
-            .map(|i| DVec3::new((i % 3) as f64, (i / 3) as f64, ((i * 7) % 5) as f64 * 0.1))
-            .collect();
-        if nan && nv > 0 {
-            positions[0].x = f64::NAN;
-        }
-        let mut m = IndexedMesh::from_faces(positions, faces.iter().map(|f| f.as_slice()));
-        if !texcoords.is_empty() {
-            m.texcoords = vec![[0.0, 0.0]; 3];
-            m.corner_texcoords = texcoords.iter().cycle().take(m.indices.len()).copied().collect();
-        }
+        let mut m = common::face_soup(nv, &faces, nan, &texcoords);
         if break_offsets && !m.face_starts.is_empty() {
             let last = m.face_starts.len() - 1;
             m.face_starts[last] += 1;

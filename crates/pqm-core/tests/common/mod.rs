@@ -106,3 +106,28 @@ pub fn quad_sphere(n: u32) -> IndexedMesh {
     }
     IndexedMesh::from_faces(p, faces)
 }
+
+/// A soup of `faces` over `nv` points (out-of-range and repeated indices,
+/// faces of any size allowed), the first point's x NaN when `nan`, and with
+/// `texcoords` (if any) cycled over the corners as indices into a table of
+/// three: what a hostile file that got past a reader could hand a
+/// conversion.
+pub fn face_soup(nv: usize, faces: &[Vec<u32>], nan: bool, texcoords: &[u32]) -> IndexedMesh {
+    let mut positions: Vec<DVec3> = (0..nv)
+        .map(|i| DVec3::new((i % 3) as f64, (i / 3) as f64, ((i * 7) % 5) as f64 * 0.1))
+        .collect();
+    if nan && nv > 0 {
+        positions[0].x = f64::NAN;
+    }
+    let mut m = IndexedMesh::from_faces(positions, faces.iter().map(|f| f.as_slice()));
+    if !texcoords.is_empty() {
+        m.texcoords = vec![[0.0, 0.0]; 3];
+        m.corner_texcoords = texcoords
+            .iter()
+            .cycle()
+            .take(m.indices.len())
+            .copied()
+            .collect();
+    }
+    m
+}
