@@ -313,14 +313,13 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
             // One split rule per file: where the finest level splits along
             // its meant diagonals and the others along the shorter ones,
             // the others start at their shorter diagonal first.
-            let mut opts = opts_at(picked[0].0);
-            if opts.quad_split != opts_at(usize::MAX).quad_split {
+            let (finest, coarser) = (opts_at(picked[0].0), args.gltf.options());
+            if finest.quad_split != coarser.quad_split {
                 for m in &mut meshes[1..] {
                     start_at_shorter_diagonal(m);
                 }
-            } else {
-                opts = opts_at(usize::MAX);
             }
+            let opts = finest;
             write_atomic(path, |w| {
                 io::write_glb_lod(w, &meshes, &coverage, &opts).map_err(|e| anyhow!("{e}"))
             })?;

@@ -500,6 +500,23 @@ pub enum QuadSplit {
     First,
 }
 
+impl QuadSplit {
+    /// The corner of `face` the split starts at: the quad's diagonal runs
+    /// from it to the corner two on (0 for anything but a quad, and for a
+    /// quad naming a vertex `positions` does not have, which a checked mesh
+    /// never holds: fanned as listed rather than measured).
+    fn start(self, positions: &[DVec3], face: &[u32]) -> usize {
+        match (self, face) {
+            (QuadSplit::Shorter, &[a, b, c, d])
+                if face.iter().all(|&v| (v as usize) < positions.len()) =>
+            {
+                quad_split_diagonal(positions, [a, b, c, d])
+            }
+            _ => 0,
+        }
+    }
+}
+
 /// `mesh` with each quad split into two triangles along the diagonal
 /// `split` picks (`(v0, v1, v2)`, `(v0, v2, v3)` from the corner that
 /// starts it) and every other polygon of five or more corners into a fan
@@ -526,15 +543,7 @@ pub fn triangulate(mesh: &IndexedMesh, split: QuadSplit) -> IndexedMesh {
             out.groups.push((name.clone(), out.face_count() as u32));
         }
         let n = face.len();
-        let in_range = face.iter().all(|&v| (v as usize) < mesh.positions.len());
-        let r = match (n, split) {
-            // (a face naming a vertex that does not exist, which a checked
-            // mesh never has, is fanned as listed rather than measured)
-            (4, QuadSplit::Shorter) if in_range => {
-                quad_split_diagonal(&mesh.positions, [face[0], face[1], face[2], face[3]])
-            }
-            _ => 0,
-        };
+        let r = split.start(&mesh.positions, face);
         let at = mesh.face_starts[f] as usize;
         let corner = |k: usize| at + (r + k) % n;
         for k in 1..n.saturating_sub(1) {
@@ -575,11 +584,7 @@ fn ngon_triangles(mesh: &IndexedMesh, split: QuadSplit) -> Result<Vec<u32>, Mesh
         // a quad's fan from either end of its diagonal (a rotation by 2)
         // draws the same two triangles.
         let r = if n == 4 {
-            let q = [face[0], face[1], face[2], face[3]];
-            let r = match split {
-                QuadSplit::Shorter => quad_split_diagonal(&mesh.positions, q),
-                QuadSplit::First => 0,
-            };
+            let r = split.start(&mesh.positions, face);
             if face[r] == prev_anchor {
                 r + 2
             } else {
