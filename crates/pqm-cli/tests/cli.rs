@@ -211,6 +211,30 @@ fn defective_mesh_names_file_face_and_vertex() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("bad.obj: face 1 repeats vertex 1"), "{err}");
     assert!(!out_path.exists());
+    // encode takes batches, but one failed input is one line too, and a
+    // batch names each failure and then counts them
+    let pqm_path = d.path().join("out.pqm");
+    let out = pqm()
+        .args(["encode", s(&bad), "-o", s(&pqm_path)])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("bad.obj: face 1 repeats vertex 1"), "{err}");
+    assert!(out.stdout.is_empty());
+    assert!(!pqm_path.exists());
+    let dir = d.path().join("batch");
+    let out = pqm()
+        .args(["encode", s(&bad), s(&spot()), "--out-dir", s(&dir)])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.obj: face 1 repeats vertex 1"), "{err}");
+    assert!(err.contains("1 of 2 inputs failed"), "{err}");
+    assert!(dir.join("spot_quadrangulated.pqm").exists());
+    assert!(!dir.join("bad.pqm").exists());
 }
 
 #[test]

@@ -382,15 +382,19 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
     }
+    // One input in text mode fails as any other command does: its error is
+    // the command's one line (a batch names each failure as it happens, then
+    // counts them).
+    let single_text = args.inputs.len() == 1 && !ctx.json;
     let total = ctx.bar(args.inputs.len() as u64, "total");
     total.set_message("files");
-    let results: Vec<anyhow::Result<FileReport>> = args
+    let mut results: Vec<anyhow::Result<FileReport>> = args
         .inputs
         .par_iter()
         .zip(outputs.par_iter())
         .map(|(input, output)| {
             let r = encode_one(input, output, args, ctx);
-            if let Err(e) = &r {
+            if let (Err(e), false) = (&r, single_text) {
                 ctx.error_line(format!("{e:#}").replace('\n', " "));
             }
             total.inc(1);
@@ -398,6 +402,9 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
         })
         .collect();
     total.finish_and_clear();
+    if single_text && results.iter().any(|r| r.is_err()) {
+        return results.swap_remove(0).map(|_| ());
+    }
     let mut report = Report {
         files: Vec::new(),
         failed: Vec::new(),
