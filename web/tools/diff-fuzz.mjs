@@ -1,6 +1,7 @@
 // Differential fuzzing of the JavaScript decoder against the Rust reference
 // decoder: mutates the decompressed payloads, header fields (flag bits 0
-// and 2, the 3.2 bounds included), chunk table entries, optional sections (dropped, duplicated,
+// and 2, the 3.2 bounds included; flag bit 3 and the reserved bits, which
+// change no level but must read alike), chunk table entries, optional sections (dropped, duplicated,
 // renamed) and the zstd framing of one section (trailing bytes or frames,
 // skippable frames, no content size, a checksum) of the test files, repacks
 // them (raw zstd frames, CRCs recomputed, so the mutations reach the
@@ -60,7 +61,16 @@ function mutateSections(parts) {
 }
 
 function mutate(parts) {
-  const what = pick(15);
+  const what = pick(16);
+  if (what === 15) {
+    // spec §3: bit 3 (4.1's finest diagonals) changes no level; reserved
+    // bits are ignored. Both decoders must decode as before and report
+    // the same flag
+    const dv = new DataView(parts.header.buffer);
+    const bit = pick(2) ? 3 : 4 + pick(28);
+    dv.setUint32(16, (dv.getUint32(16, true) ^ (1 << bit)) >>> 0, true);
+    return { what: `header flag bit ${bit} toggled` };
+  }
   if (what === 13) {
     // spec §3 (3.2): flag bit 2 says the header holds bounds; both
     // decoders must refuse it on a 120-byte header and ignore a 168-byte
@@ -150,7 +160,7 @@ function jsOutcome(bytes, forwardOnly = false) {
     d.end();
     d.setLevel({ level: d.deepestLevel });
     const g = levelDigests(d);
-    return `ok ${d.deepestLevel} ${g.positions} ${g.quads}`;
+    return `ok ${d.deepestLevel} ${g.positions} ${g.quads} diagonals ${d.header.finestDiagonals}`;
   } catch (e) {
     if (!(e instanceof PqmError)) return `CRASH ${e && e.stack}`;
     out = `err ${e.message}`;

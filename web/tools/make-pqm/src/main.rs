@@ -92,7 +92,8 @@ fn main() {
                         let n = dec.deepest_level().unwrap_or(0);
                         let _ = dec.set_level(Target::Level(n));
                         let (p, q) = vectors::level_digests(&dec);
-                        println!("{path} ok {n} {p:016x} {q:016x}");
+                        let diagonals = dec.header().is_some_and(|h| h.finest_diagonals());
+                        println!("{path} ok {n} {p:016x} {q:016x} diagonals {diagonals}");
                     }
                     Err(e) => {
                         // what a streaming decoder keeps after the error
