@@ -123,6 +123,38 @@ test('pqm view streams a real mesh to its full level, draws it, and the slider c
   await page.focus('#level-slider');
   await page.keyboard.press('End');
   await page.waitForFunction((n) => window.pqmViewer.faces === n, info.final_faces);
+
+  // level by view: the coarsest level whose error spans at most a pixel;
+  // zooming out (the wheel, as a user would) coarsens, zooming in refines
+  const viewed = async () => {
+    // one more frame after the input so far (rendering is on demand; a
+    // resize event asks for one)
+    const f = await page.evaluate(() => {
+      window.dispatchEvent(new Event('resize'));
+      return window.pqmViewer.frames;
+    });
+    await page.waitForFunction((n) => window.pqmViewer.frames > n, f);
+    return page.evaluate(() => ({ ...window.pqmViewer }));
+  };
+  await page.click('#by-view');
+  await page.waitForFunction(() => window.pqmViewer.byView && window.pqmViewer.screenError !== null);
+  const framed = await viewed();
+  assert.ok(framed.screenError <= 1 || framed.level === framed.levels, `framed: ${framed.screenError} px at level ${framed.level}`);
+  assert.match(await page.textContent('#screen-error'), / px$/);
+  await page.mouse.move(400, 300);
+  for (let i = 0; i < 40; i++) await page.mouse.wheel(0, 200);
+  const far = await viewed();
+  assert.ok(far.level < framed.level, `zooming out coarsens: level ${framed.level} → ${far.level}`);
+  assert.ok(far.screenError <= 1, `far: ${far.screenError} px`);
+  for (let i = 0; i < 60; i++) await page.mouse.wheel(0, -200);
+  const near = await viewed();
+  assert.ok(near.level > far.level, `zooming in refines: level ${far.level} → ${near.level}`);
+  assert.ok(near.screenError <= 1 || near.level === near.levels, `near: ${near.screenError} px`);
+  // the slider takes the level back
+  await page.focus('#level-slider');
+  await page.keyboard.press('Home');
+  await page.waitForFunction(() => window.pqmViewer.level === 0 && !window.pqmViewer.byView);
+  assert.equal(await page.isChecked('#by-view'), false);
   assert.deepEqual(pageErrors, []);
 });
 

@@ -16,11 +16,16 @@
  *   reached); with `setRangeRequests(true)` it asks the server for only
  *   the bytes the target needs (HTTP Range, via `PqmRangeLoader`) and the
  *   mesh can `fetchMore(target)` later.
+ * - View-dependent level of detail (3D Tiles' screen-space error):
+ *   `PQMProgressiveMesh.updateForView(object, camera, viewportHeight)` goes
+ *   to the coarsest level whose geometric error is drawn at most
+ *   `maxScreenError` pixels tall, and says how many bytes of the file a
+ *   finer level still needs; `pixelsPerWorldUnit` is its projection rule.
  *
  * Materials: the geometry has no normals (they would change with every
  * level); use `flatShading: true` or compute normals in the shader.
  */
-import { Box3, BufferAttribute, BufferGeometry, DynamicDrawUsage, Loader, Sphere, Vector3 } from 'three';
+import { Box3, BufferAttribute, BufferGeometry, DynamicDrawUsage, Loader, MathUtils, Sphere, Vector3 } from 'three';
 import { PqmDecoder, PqmError, PqmRangeLoader } from 'pqm-decoder';
 
 /**
@@ -62,6 +67,37 @@ export function splitShorter(out, f, quads, codes, step) {
   // the fan's corners: from v1 when v1–v3 is the shorter diagonal
   const [p, q, r, t] = dist2(b, d) < dist2(a, c) ? [b, c, d, a] : [a, b, c, d];
   out.set([p, q, r, p, r, t], 6 * f);
+}
+
+/**
+ * How many pixels one world unit spans on screen, across the view, at
+ * `distance` world units in front of `camera` — the scale 3D Tiles'
+ * screen-space error uses. A `PerspectiveCamera` (`fov` in degrees, `zoom`)
+ * gives `viewportHeight / (2 distance tan(fov / 2) / zoom)`, larger as the
+ * object comes closer; an `OrthographicCamera` (`top`, `bottom`, `zoom`)
+ * gives `viewportHeight zoom / (top − bottom)` at any distance. A distance
+ * of 0 or less (the camera inside the object) gives `Infinity`: every
+ * error is too large to see through.
+ * @param {import('three').Camera} camera
+ * @param {number} viewportHeight height of the drawing buffer, in pixels
+ * @param {number} distance from the camera to the nearest point of the object, world units (unused for orthographic cameras)
+ * @returns {number}
+ */
+export function pixelsPerWorldUnit(camera, viewportHeight, distance) {
+  const zoom = camera.zoom ?? 1;
+  if (camera.isOrthographicCamera) return (viewportHeight * zoom) / (camera.top - camera.bottom);
+  if (!camera.isPerspectiveCamera) {
+    throw new PqmError('parameter', 'pixelsPerWorldUnit needs a PerspectiveCamera or an OrthographicCamera');
+  }
+  if (!(distance > 0)) return Infinity;
+  return viewportHeight / ((2 * distance * Math.tan(MathUtils.degToRad(camera.fov) / 2)) / zoom);
+}
+
+const viewScratch = { sphere: new Sphere(), eye: new Vector3() };
+
+/** Pixels an error spans at `scale` pixels per unit; an error of 0 spans none even up close. */
+function screenPixels(error, scale) {
+  return error === 0 ? 0 : error * scale;
 }
 
 /**
@@ -272,6 +308,92 @@ export class PQMProgressiveMesh {
     this.wireframeGeometry.setDrawRange(0, 8 * dec.faceCount);
     this.lastChange = change;
     return change;
+  }
+
+  /**
+   * The geometric error bound of a decoded level, in the file's units
+   * (fractions of its bounding-box diagonal, spec §3): the header's base
+   * error at level 0, else the error of the last chunk boundary at or
+   * before the level (errors never grow with the level, so a level between
+   * two boundaries is at least as fine as the one before it).
+   * @param {number} level
+   */
+  levelError(level) {
+    const dec = this.decoder;
+    let e = dec.header.baseError;
+    for (const c of dec.chunks) {
+      if (c.level > level) break;
+      e = c.error;
+    }
+    return e;
+  }
+
+  /**
+   * View-dependent level of detail, as 3D Tiles picks tiles by their
+   * screen-space error: goes to the coarsest decoded level whose geometric
+   * error, drawn by `camera` on `object`, is at most `maxScreenError`
+   * pixels (the finest decoded one if none is), and reports what a finer
+   * level would need. Call it once a frame, after the matrices are updated;
+   * moves touch only the changed buffer ranges, as `setLevel` does. Give
+   * the mesh `autoRefine: false` so that arriving chunks do not refine it
+   * behind the view's back.
+   *
+   * The error is measured at the object's bounding sphere nearest the
+   * camera (the header's bounds, which hold every level, through
+   * `object.matrixWorld`; its largest scale scales the file's diagonal).
+   * A camera inside the sphere asks for the finest level. To keep a level
+   * from flickering while the view moves around a boundary, the mesh
+   * refines as soon as the view asks for it but coarsens only as far as
+   * `maxScreenError / hysteresis` allows.
+   *
+   * @param {import('three').Object3D} object the mesh that draws this geometry
+   * @param {import('three').Camera} camera a PerspectiveCamera or OrthographicCamera
+   * @param {number} viewportHeight drawing-buffer height in pixels (`renderer.getDrawingBufferSize(v).y`)
+   * @param {object} [options]
+   * @param {number} [options.maxScreenError=1] pixels
+   * @param {number} [options.hysteresis=1.5] ≥ 1
+   * @returns {null|{level: number, change: object|null, targetError: number,
+   *   screenError: number, bytesFor: number, bytesNeeded: number}} null
+   *   before the base mesh; else the level now drawn, the decoder `Change`
+   *   applied (null when the level stayed), the error the view asks for
+   *   (file units), the pixels the drawn level's error spans, the file
+   *   bytes that reach the target (`decoder.bytesFor`) and how many of them
+   *   have not been pushed yet (0 when the decoded levels suffice; with a
+   *   Range-loaded mesh, `fetchMore({error: targetError})` gets them)
+   */
+  updateForView(object, camera, viewportHeight, options = {}) {
+    const maxScreenError = options.maxScreenError ?? 1;
+    const hysteresis = options.hysteresis ?? 1.5;
+    if (!(maxScreenError > 0) || !(hysteresis >= 1)) {
+      throw new PqmError('parameter', `updateForView needs maxScreenError > 0 and hysteresis ≥ 1, got ${maxScreenError} and ${hysteresis}`);
+    }
+    const dec = this.decoder;
+    if (dec.deepestLevel === null) return null;
+    this._allocate();
+    const { sphere, eye } = viewScratch;
+    sphere.copy(this.geometry.boundingSphere).applyMatrix4(object.matrixWorld);
+    eye.setFromMatrixPosition(camera.matrixWorld);
+    const distance = eye.distanceTo(sphere.center) - sphere.radius;
+    const h = dec.header;
+    const diagonal = Math.hypot(h.boundsMax[0] - h.boundsMin[0], h.boundsMax[1] - h.boundsMin[1], h.boundsMax[2] - h.boundsMin[2]);
+    // pixels per unit of the file's error
+    const scale = pixelsPerWorldUnit(camera, viewportHeight, distance) * diagonal * object.matrixWorld.getMaxScaleOnAxis();
+    const targetError = maxScreenError / scale;
+    const want = dec.resolve({ error: targetError });
+    let level = dec.level;
+    if (want > level) level = want;
+    else if (want < level) level = Math.min(level, dec.resolve({ error: targetError / hysteresis }));
+    const change = level === dec.level ? null : this.setLevel({ level });
+    const bytesFor = dec.bytesFor({ error: targetError });
+    const s = dec.status();
+    return {
+      level: dec.level,
+      change,
+      targetError,
+      screenError: screenPixels(this.levelError(dec.level), scale),
+      bytesFor,
+      bytesNeeded: Math.max(0, bytesFor - s.bytesConsumed - s.bytesBuffered),
+    };
   }
 
   /** Frees the geometries' GPU resources. */

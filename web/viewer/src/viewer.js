@@ -5,9 +5,13 @@
  *
  * Controls: a level slider (moving it left coarsens; while it sits at the
  * right end the mesh follows the stream), orbit controls (drag / wheel), a
- * wireframe toggle (the quad edges from `pqm-three`, no diagonals). Live
- * figures: faces, level, bytes received, error bound of the current level
- * (a fraction of the bounding-box diagonal, from the chunk table).
+ * wireframe toggle (the quad edges from `pqm-three`, no diagonals), and
+ * "level by view": each frame draws the coarsest level whose error bound
+ * spans at most one pixel on screen (`PQMProgressiveMesh.updateForView`,
+ * 3D Tiles' screen-space error), so zooming out coarsens and zooming in
+ * refines. Live figures: faces, level, bytes received, error bound of the
+ * current level (a fraction of the bounding-box diagonal, from the chunk
+ * table) and, by view, the pixels it spans.
  *
  * Opened as `/?glb`, the page instead loads `/compare.glb` (served with
  * `pqm view --compare`) with three's `GLTFLoader` — the baseline of the
@@ -46,6 +50,9 @@ const state = {
   /** Error bound of the current level (fraction of the bbox diagonal). */
   error: null,
   wireframe: false,
+  /** "Level by view" is on; the pixels the current level's error spans then. */
+  byView: false,
+  screenError: null,
   /** The whole file arrived and was decoded. */
   done: false,
   /** An error message if loading failed. */
@@ -114,6 +121,7 @@ function requestRender() {
   renderQueued = true;
   requestAnimationFrame(() => {
     renderQueued = false;
+    if (state.byView) viewLevel();
     renderer.render(scene, camera);
     state.frames++;
     const now = performance.now();
@@ -144,20 +152,24 @@ function fail(e) {
 // ---- .pqm streaming ------------------------------------------------------------
 
 let pm = null;
+let surface = null;
 let lines = null;
 /** True while the slider sits at the deepest level: new chunks refine the mesh. */
 let follow = true;
 const slider = $('level-slider');
 const wireToggle = $('wireframe');
+const viewToggle = $('by-view');
+const drawingBuffer = new THREE.Vector2();
 
-/** Error bound of the current level: that of the last chunk boundary at or before it. */
-function levelError(dec) {
-  let e = dec.header.baseError;
-  for (const c of dec.chunks) {
-    if (c.level > dec.level) break;
-    e = c.error;
-  }
-  return e;
+/** "Level by view": the coarsest level whose error the camera draws at most a pixel tall. */
+function viewLevel() {
+  if (!pm || !surface) return;
+  camera.updateMatrixWorld();
+  surface.updateMatrixWorld();
+  const v = pm.updateForView(surface, camera, renderer.getDrawingBufferSize(drawingBuffer).y, { maxScreenError: 1 });
+  if (!v) return;
+  state.screenError = v.screenError;
+  updatePanel();
 }
 
 function updatePanel() {
@@ -166,7 +178,7 @@ function updatePanel() {
     state.faces = dec.faceCount;
     state.level = dec.level;
     state.deepestLevel = dec.deepestLevel;
-    state.error = levelError(dec);
+    state.error = pm.levelError(dec.level);
     slider.max = String(dec.deepestLevel);
     slider.value = String(dec.level);
     slider.disabled = false;
@@ -176,6 +188,8 @@ function updatePanel() {
   const pct = state.totalBytes ? ` (${Math.round((100 * state.bytes) / state.totalBytes)}%)` : '';
   $('bytes').textContent = `${fmt(state.bytes)}${state.totalBytes ? ` / ${fmt(state.totalBytes)}` : ''}${pct}`;
   $('error').textContent = state.error === null ? '–' : state.error === 0 ? '0' : `${state.error.toExponential(2)} × diag`;
+  $('screen-error').textContent =
+    state.byView && state.screenError !== null ? `${state.screenError < 10 ? state.screenError.toFixed(2) : fmt(Math.round(state.screenError))} px` : '–';
 }
 
 async function streamPqm() {
@@ -201,13 +215,14 @@ async function streamPqm() {
         state.levels = dec.finalLevel;
         frame(pm.geometry.boundingBox);
       } else if (ev.type === 'baseMeshReady') {
-        scene.add(new THREE.Mesh(pm.geometry, surfaceMaterial));
+        surface = new THREE.Mesh(pm.geometry, surfaceMaterial);
+        scene.add(surface);
         lines = new THREE.LineSegments(pm.wireframeGeometry, wireMaterial);
         lines.visible = wireToggle.checked;
         scene.add(lines);
       }
     }
-    if (follow && events.some((e) => e.type === 'chunkReady')) pm.refineTo({ level: dec.deepestLevel });
+    if (follow && !state.byView && events.some((e) => e.type === 'chunkReady')) pm.refineTo({ level: dec.deepestLevel });
     const before = state.level;
     updatePanel();
     if (state.level !== before) {
@@ -226,7 +241,22 @@ slider.addEventListener('input', () => {
   if (!pm || pm.decoder.deepestLevel === null) return;
   const v = Number(slider.value);
   follow = v >= pm.decoder.deepestLevel;
+  if (state.byView) {
+    // the slider takes the level back
+    state.byView = viewToggle.checked = false;
+  }
   pm.setLevel({ level: v });
+  updatePanel();
+  requestRender();
+});
+
+viewToggle.addEventListener('change', () => {
+  state.byView = viewToggle.checked;
+  if (!state.byView && pm && pm.decoder.deepestLevel !== null) {
+    // back to following the stream from the deepest level
+    follow = true;
+    pm.setLevel({ level: pm.decoder.deepestLevel });
+  }
   updatePanel();
   requestRender();
 });
