@@ -3,16 +3,16 @@
 //! `cargo run -p pqm-format --example game_loop`
 //!
 //! Simulated frames: each frame a few kilobytes of the file "arrive from the
-//! network" and are pushed into the decoder; the game picks a target level
-//! from a face budget that depends on the (simulated) camera distance, moves
+//! network" and are pushed into the decoder; the game picks the level the
+//! (simulated) camera needs — the coarsest whose error bound spans at most
+//! one pixel on screen ([`ViewLod`], 3D Tiles' screen-space error) —, moves
 //! the decoder there, and applies the returned [`Change`] to its vertex and
 //! index buffers as sub-range writes — never re-uploading whole buffers.
 //! At the end the simulated GPU buffers are checked against the decoder.
 
 use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
-use pqm_format::{
-    quad_triangles, write_to_vec, Change, Decoder, EncodeOptions, Event, Limits, Target,
-};
+use pqm_format::view::{file_diagonal, pixels_per_world_unit, Projection, ViewLod};
+use pqm_format::{quad_triangles, write_to_vec, Change, Decoder, EncodeOptions, Event, Limits};
 
 /// Stand-in for GPU buffers: a vertex buffer, an index buffer (6 indices per
 /// quad slot) and counters of what was uploaded.
@@ -87,6 +87,13 @@ fn main() {
     // coarsening frame decode the chunks again (a whole decode's time).
     dec.keep_undo_logs().expect("a general decoder");
     let mut gpu = GpuMesh::default();
+    // A 60° camera on a 1080-pixel-tall viewport; errors drawn at most one
+    // pixel tall, with the default hysteresis (refine at once, coarsen only
+    // when the view allows 1.5 times less).
+    let camera = Projection::Perspective {
+        fov_y: 60f64.to_radians(),
+    };
+    let lod = ViewLod::default();
     let mut received = 0usize;
     let bytes_per_frame = 3000;
     for frame in 0..400 {
@@ -119,26 +126,34 @@ fn main() {
         if dec.deepest_level().is_none() {
             continue; // nothing to draw yet
         }
-        // 2. Level of detail: a face budget from the camera distance (the
-        //    camera flies in, then back out after frame 250).
+        // 2. Level of detail: the camera's distance to the object's bounding
+        //    sphere, in diagonals of the object (it flies in, then back out
+        //    after frame 250), as pixels per world unit.
         let distance = if frame < 250 {
-            10.0 - frame as f64 * 0.038
+            40.0 - frame as f64 * 0.158
         } else {
-            0.5 + (frame - 250) as f64 * 0.05
+            0.5 + (frame - 250) as f64 * 0.25
         };
-        let budget = (40_000.0 / (distance * distance)) as usize;
-        // 3. Move the decoder (refines or coarsens; clamps to what arrived).
-        let change = dec.set_level(Target::Faces(budget)).expect("level");
+        let diagonal = file_diagonal(&dec).expect("header");
+        let ppu = pixels_per_world_unit(camera, 1080.0, distance * diagonal);
+        // 3. Move the decoder (refines or coarsens; never past what arrived).
+        let (choice, change) = lod.update(&mut dec, ppu, diagonal).expect("level");
         // 4. Upload only the changed sub-ranges.
         if !change.is_empty() {
             gpu.apply(&dec, &change);
         }
         if frame % 40 == 0 || (frame > 245 && frame % 10 == 0 && frame < 300) {
             println!(
-                "frame {frame:3}: {:6} bytes in, level {:5}, {:5} quads (budget {budget:6}), uploads so far {} KiB",
+                "frame {frame:3}: {:6} bytes in, level {:5}, {:5} quads, error {:5.2} px{}, uploads so far {} KiB",
                 received,
                 dec.level(),
                 dec.quads().len(),
+                choice.screen_error,
+                if choice.bytes_needed > 0 {
+                    format!(" ({} more bytes wanted)", choice.bytes_needed)
+                } else {
+                    String::new()
+                },
                 (gpu.uploaded_vertex_bytes + gpu.uploaded_index_bytes) / 1024
             );
         }

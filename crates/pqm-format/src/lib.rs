@@ -30,9 +30,12 @@
 //! ## Using it in a game loop
 //! See `examples/game_loop.rs` (`cargo run -p pqm-format --example
 //! game_loop`): bytes arrive in pieces between frames; each frame the game
-//! pushes what arrived, picks a target (a face budget or a screen-space
-//! error), calls [`Decoder::set_level`] and applies the returned [`Change`]
-//! to its GPU buffers:
+//! pushes what arrived, picks a target (a face budget, or a screen-space
+//! error: [`view::ViewLod`] turns a camera's distance and projection into
+//! the coarsest level whose error spans at most a pixel, with hysteresis,
+//! and [`view::bytes_for`] says how many bytes of the file a level needs),
+//! calls [`Decoder::set_level`] and applies the returned [`Change`] to its
+//! GPU buffers:
 //!
 //! * vertex buffer: write `positions()[r]` for `vertices_appended` and for
 //!   each run in [`Change::moved_ranges`]; shrink the draw range to
@@ -72,6 +75,7 @@ pub mod huge_pages;
 pub mod layout;
 pub mod quant;
 pub mod varint;
+pub mod view;
 pub mod vorder;
 
 pub use decoder::{
