@@ -4,7 +4,7 @@
 // message saying how to get them.
 import { after, before, test } from 'node:test';
 import assert from 'node:assert/strict';
-import { existsSync, mkdirSync, writeFileSync } from 'node:fs';
+import { existsSync, mkdirSync, readFileSync, writeFileSync } from 'node:fs';
 import path from 'node:path';
 import {
   ARTIFACTS,
@@ -104,6 +104,20 @@ test('pqm view streams a real mesh to its full level, draws it, and the slider c
   await page.waitForFunction((f) => window.pqmViewer.frames > f, frames);
   writeFileSync(path.join(ARTIFACTS, 'view-wireframe.png'), await page.screenshot());
   await page.click('#wireframe');
+
+  // smooth shading (the progressive mesh's normals) is the default; flat
+  // shading draws the same surface with other pixels
+  assert.equal(s.smooth, true);
+  const flatFrames = await page.evaluate(() => window.pqmViewer.frames);
+  await page.click('#smooth');
+  assert.equal(await page.evaluate(() => window.pqmViewer.smooth), false);
+  await page.waitForFunction((f) => window.pqmViewer.frames > f, flatFrames);
+  const flat = await drawn('view-flat.png');
+  assert.ok(flat.differ / flat.total > MIN_DRAWN, `flat-shaded canvas looks blank: ${flat.differ} of ${flat.total}`);
+  const shot = (name) => readFileSync(path.join(ARTIFACTS, name));
+  assert.ok(!shot('view-flat.png').equals(shot('view-full-mesh.png')), 'flat and smooth shading draw other pixels');
+  await page.click('#smooth');
+  assert.equal(await page.evaluate(() => window.pqmViewer.smooth), true);
 
   // slider to the start (keyboard Home, as a user would): the base mesh
   const frames2 = await page.evaluate(() => window.pqmViewer.frames);

@@ -22,8 +22,11 @@
  *   `maxScreenError` pixels tall, and says how many bytes of the file a
  *   finer level still needs; `pixelsPerWorldUnit` is its projection rule.
  *
- * Materials: the geometry has no normals (they would change with every
- * level); use `flatShading: true` or compute normals in the shader.
+ * Materials: by default the geometry has no normals (they change with every
+ * level): use `flatShading: true`. With `normals: true` it keeps a smooth
+ * `normal` attribute, each vertex the area-weighted mean of its quads' normals, updated
+ * through update ranges like the rest: only the vertices of the quads a
+ * change touches are written.
  */
 import { Box3, BufferAttribute, BufferGeometry, DynamicDrawUsage, Loader, MathUtils, Sphere, Vector3 } from 'three';
 import { PqmDecoder, PqmError, PqmRangeLoader } from 'pqm-decoder';
@@ -123,12 +126,20 @@ export class PQMProgressiveMesh {
    *   its diagonals are meant (flag bit 3, `finestDiagonals`: a triangle
    *   mesh paired into quads, whose finest level is then drawn as its own
    *   triangles), else `shorter`
+   * @param {boolean} [options.normals=false] keep a smooth `normal`
+   *   attribute: per vertex, the normalized sum of its quads' vector areas
+   *   (`(p2 − p0) × (p3 − p1) / 2`), summed on the integer position codes so
+   *   that adding and removing quads is exact and any path to a level gives
+   *   the same normals as computing them at that level; a change writes
+   *   only the corners of the quads it adds, removes or moves a vertex of
    */
   constructor(decoder = new PqmDecoder(), options = {}) {
     this.decoder = decoder;
     this.autoRefine = options.autoRefine ?? true;
     this.maxFaces = options.maxFaces ?? Infinity;
     this.maxGap = options.maxGap ?? 32;
+    /** Whether the geometry keeps a `normal` attribute. */
+    this.normals = options.normals ?? false;
     const split = options.quadSplit ?? 'file';
     if (!['file', 'shorter', 'auto'].includes(split)) {
       throw new PqmError('parameter', `quadSplit must be 'file', 'shorter' or 'auto', not ${split}`);
@@ -142,7 +153,7 @@ export class PQMProgressiveMesh {
     /** Quad-edge geometry: the same `position`, 8 line indices per quad slot. */
     this.wireframeGeometry = null;
     /** Elements written through update ranges since creation, per attribute. */
-    this.uploaded = { position: 0, index: 0, lines: 0 };
+    this.uploaded = { position: 0, index: 0, lines: 0, normal: 0 };
     /** The last `Change` applied. */
     this.lastChange = null;
     /** The `PqmRangeLoader` that feeds it (meshes from `PQMLoader` Range loads), else null. */
@@ -226,6 +237,20 @@ export class PQMProgressiveMesh {
     const sphere = box.getBoundingSphere(new Sphere());
     const g = new BufferGeometry();
     g.setAttribute('position', pos);
+    if (this.normals) {
+      const normal = new BufferAttribute(new Float32Array(3 * h.finalVertexCount), 3);
+      normal.setUsage(DynamicDrawUsage);
+      g.setAttribute('normal', normal);
+      // per vertex, the sum of its quads' vector areas, and per slot the
+      // vector area it added: integers (doubled areas in code units), so
+      // that removing a quad takes back exactly what adding it put in
+      this._normalSum = new Float64Array(3 * h.finalVertexCount);
+      this._slotArea = new Float64Array(3 * h.finalFaceCount);
+      this._touched = new Uint8Array(h.finalVertexCount);
+      // each vertex's quad slots, for the quads around a moved vertex
+      this._slotsOf = Array.from({ length: h.finalVertexCount }, () => []);
+      this._slotSeen = new Uint8Array(h.finalFaceCount);
+    }
     g.setIndex(index);
     g.setDrawRange(0, 0);
     g.boundingBox = box;
@@ -268,6 +293,14 @@ export class PQMProgressiveMesh {
     const fRuns = change.rewrittenRanges();
     const fa = change.facesAppended;
     if (fa.end > fa.start) fRuns.push({ start: fa.start, end: fa.end });
+    // normals, before the line index (which still holds each slot's old
+    // quad) is overwritten: take back what the old quads put in
+    const touched = this.normals ? [] : null;
+    if (this.normals) {
+      const ft = change.facesTruncated;
+      for (let f = ft.start; f < ft.end; f++) this._unaddSlot(f, touched);
+      for (const r of fRuns) for (let f = r.start; f < r.end; f++) this._unaddSlot(f, touched);
+    }
     const tris = dec.triangleIndices;
     const quads = dec.quads;
     const L = lineAttr.array;
@@ -304,10 +337,145 @@ export class PQMProgressiveMesh {
       idxAttr.needsUpdate = true;
       lineAttr.needsUpdate = true;
     }
+    if (this.normals) {
+      const seen = this._slotSeen;
+      const done = [];
+      for (const r of fRuns) {
+        for (let f = r.start; f < r.end; f++) {
+          this._addSlot(f, touched);
+          seen[f] = 1;
+          done.push(f);
+        }
+      }
+      // the other quads around a moved vertex: same corners, new area
+      for (const v of change.verticesMoved) {
+        // a copy: taking a slot out and back in reorders the list
+        for (const f of this._slotsOf[v].slice()) {
+          if (seen[f]) continue;
+          seen[f] = 1;
+          done.push(f);
+          this._unaddSlot(f, touched);
+          this._addSlot(f, touched);
+        }
+      }
+      for (const f of done) seen[f] = 0;
+      this._writeNormals(touched);
+    }
     this.geometry.setDrawRange(0, 6 * dec.faceCount);
     this.wireframeGeometry.setDrawRange(0, 8 * dec.faceCount);
     this.lastChange = change;
     return change;
+  }
+
+  /** Adds slot `f`'s quad (the decoder's now) to its corners' sums. */
+  _addSlot(f, touched) {
+    const dec = this.decoder;
+    const q = dec.quads;
+    const c = dec.positionCodes;
+    const a = q[4 * f];
+    const b = q[4 * f + 1];
+    const cc = q[4 * f + 2];
+    const d = q[4 * f + 3];
+    // doubled vector area (p2 − p0) × (p3 − p1), on the codes
+    const ux = c[3 * cc] - c[3 * a];
+    const uy = c[3 * cc + 1] - c[3 * a + 1];
+    const uz = c[3 * cc + 2] - c[3 * a + 2];
+    const vx = c[3 * d] - c[3 * b];
+    const vy = c[3 * d + 1] - c[3 * b + 1];
+    const vz = c[3 * d + 2] - c[3 * b + 2];
+    const nx = uy * vz - uz * vy;
+    const ny = uz * vx - ux * vz;
+    const nz = ux * vy - uy * vx;
+    const A = this._slotArea;
+    A[3 * f] = nx;
+    A[3 * f + 1] = ny;
+    A[3 * f + 2] = nz;
+    const S = this._normalSum;
+    for (const v of [a, b, cc, d]) {
+      S[3 * v] += nx;
+      S[3 * v + 1] += ny;
+      S[3 * v + 2] += nz;
+      this._slotsOf[v].push(f);
+      this._touch(v, touched);
+    }
+  }
+
+  /**
+   * Takes slot `f`'s quad back out of its corners' sums and slot lists:
+   * the area it last added, from the corners it went to (the line index's
+   * quad, the slot's before this change's writes). Slots never written
+   * (past every level drawn so far) are in no list.
+   */
+  _unaddSlot(f, touched) {
+    const L = this.wireframeGeometry.index.array;
+    const A = this._slotArea;
+    const nx = A[3 * f];
+    const ny = A[3 * f + 1];
+    const nz = A[3 * f + 2];
+    const S = this._normalSum;
+    for (let k = 0; k < 8; k += 2) {
+      const v = L[8 * f + k];
+      const list = this._slotsOf[v];
+      const i = list.indexOf(f);
+      if (i < 0) return; // not in the sums (each corner lists it, or none does)
+      list[i] = list[list.length - 1];
+      list.pop();
+      S[3 * v] -= nx;
+      S[3 * v + 1] -= ny;
+      S[3 * v + 2] -= nz;
+      this._touch(v, touched);
+    }
+    A[3 * f] = A[3 * f + 1] = A[3 * f + 2] = 0;
+  }
+
+  _touch(v, touched) {
+    if (this._touched[v]) return;
+    this._touched[v] = 1;
+    touched.push(v);
+  }
+
+  /** Normalizes the touched vertices' sums into the `normal` attribute (update ranges, merged within `maxGap`). */
+  _writeNormals(touched) {
+    const attr = this.geometry.attributes.normal;
+    const nv = this.decoder.vertexCount;
+    touched.sort((x, y) => x - y);
+    const runs = [];
+    for (const v of touched) {
+      this._touched[v] = 0;
+      if (v >= nv) continue; // a removed vertex: not drawn
+      const last = runs[runs.length - 1];
+      if (last && last.end === v) last.end = v + 1;
+      else runs.push({ start: v, end: v + 1 });
+    }
+    const k = this._axisScale();
+    for (const r of coalesce(runs, this.maxGap)) {
+      for (let v = r.start; v < r.end; v++) this._normalOf(v, attr.array, k);
+      attr.addUpdateRange(3 * r.start, 3 * (r.end - r.start));
+      this.uploaded.normal += 3 * (r.end - r.start);
+    }
+    if (runs.length) attr.needsUpdate = true;
+  }
+
+  /**
+   * The sums are in code units: a grid step of its own per axis (files
+   * before 3.1's cube grid) scales a normal by (sy sz, sx sz, sx sy).
+   */
+  _axisScale() {
+    const [sx, sy, sz] = this.decoder.grid.step;
+    return [sy * sz, sx * sz, sx * sy];
+  }
+
+  /** Writes vertex `v`'s unit normal (zero where its quads' areas cancel) into `out`. */
+  _normalOf(v, out, k) {
+    const S = this._normalSum;
+    const x = S[3 * v] * k[0];
+    const y = S[3 * v + 1] * k[1];
+    const z = S[3 * v + 2] * k[2];
+    const len = Math.sqrt(x * x + y * y + z * z);
+    const inv = len > 0 ? 1 / len : 0;
+    out[3 * v] = x * inv;
+    out[3 * v + 1] = y * inv;
+    out[3 * v + 2] = z * inv;
   }
 
   /**

@@ -5,7 +5,8 @@
  *
  * Controls: a level slider (moving it left coarsens; while it sits at the
  * right end the mesh follows the stream), orbit controls (drag / wheel), a
- * wireframe toggle (the quad edges from `pqm-three`, no diagonals), and
+ * wireframe toggle (the quad edges from `pqm-three`, no diagonals), smooth
+ * or flat shading (smooth: `pqm-three`'s normals, kept per level), and
  * "level by view": each frame draws the coarsest level whose error bound
  * spans at most one pixel on screen (`PQMProgressiveMesh.updateForView`,
  * 3D Tiles' screen-space error), so zooming out coarsens and zooming in
@@ -50,6 +51,8 @@ const state = {
   /** Error bound of the current level (fraction of the bbox diagonal). */
   error: null,
   wireframe: false,
+  /** Smooth shading (the progressive mesh's normals) or flat. */
+  smooth: true,
   /** "Level by view" is on; the pixels the current level's error spans then. */
   byView: false,
   screenError: null,
@@ -93,7 +96,7 @@ const surfaceMaterial = new THREE.MeshStandardMaterial({
   color: 0xd8c7a8,
   roughness: 0.75,
   metalness: 0.0,
-  flatShading: true, // the progressive geometry has no normals (they change per level)
+  flatShading: false, // smooth: pqm-three keeps the normals of every level (the "smooth shading" toggle)
   side: THREE.DoubleSide,
   polygonOffset: true, // keeps the wireframe in front of the faces it outlines
   polygonOffsetFactor: 1,
@@ -198,7 +201,7 @@ async function streamPqm() {
   state.totalBytes = Number(res.headers.get('Content-Length')) || null;
   // quads along their shorter diagonal, or as the file means them (a paired
   // triangle mesh: its own triangles at the finest level)
-  pm = new PQMProgressiveMesh(new PqmDecoder(), { autoRefine: false, quadSplit: 'auto' });
+  pm = new PQMProgressiveMesh(new PqmDecoder(), { autoRefine: false, quadSplit: 'auto', normals: true });
   const dec = pm.decoder;
   const reader = res.body.getReader();
   setStatus('streaming…');
@@ -261,6 +264,14 @@ viewToggle.addEventListener('change', () => {
   requestRender();
 });
 
+const smoothToggle = $('smooth');
+smoothToggle.addEventListener('change', () => {
+  state.smooth = smoothToggle.checked;
+  surfaceMaterial.flatShading = !state.smooth;
+  surfaceMaterial.needsUpdate = true;
+  requestRender();
+});
+
 wireToggle.addEventListener('change', () => {
   state.wireframe = wireToggle.checked;
   if (lines) lines.visible = wireToggle.checked;
@@ -272,6 +283,11 @@ wireToggle.addEventListener('change', () => {
 async function loadGlb() {
   slider.disabled = true;
   wireToggle.disabled = true;
+  viewToggle.disabled = true;
+  // the baseline GLB holds positions only: flat shading, as before normals
+  state.smooth = smoothToggle.checked = false;
+  smoothToggle.disabled = true;
+  surfaceMaterial.flatShading = true;
   setStatus('loading compare.glb…');
   const gltf = await new GLTFLoader().loadAsync('compare.glb', (p) => {
     state.bytes = p.loaded;
