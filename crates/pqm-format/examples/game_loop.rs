@@ -8,9 +8,12 @@
 //! one pixel on screen ([`ViewLod`], 3D Tiles' screen-space error) —, moves
 //! the decoder there, and applies the returned [`Change`] to its vertex and
 //! index buffers as sub-range writes — never re-uploading whole buffers.
-//! At the end the simulated GPU buffers are checked against the decoder.
+//! Smooth shading keeps a normal buffer beside them ([`SmoothNormals`]: the
+//! vertex ranges whose normals a change touched). At the end the simulated
+//! GPU buffers are checked against the decoder.
 
 use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
+use pqm_format::normals::SmoothNormals;
 use pqm_format::view::{file_diagonal, pixels_per_world_unit, Projection, ViewLod};
 use pqm_format::{quad_triangles, write_to_vec, Change, Decoder, EncodeOptions, Event, Limits};
 
@@ -19,7 +22,10 @@ use pqm_format::{quad_triangles, write_to_vec, Change, Decoder, EncodeOptions, E
 #[derive(Default)]
 struct GpuMesh {
     vertices: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
     indices: Vec<u32>,
+    /// Smooth normals kept in step with the level.
+    normal_source: SmoothNormals,
     uploaded_vertex_bytes: usize,
     uploaded_index_bytes: usize,
 }
@@ -58,6 +64,14 @@ impl GpuMesh {
             self.indices
                 .extend_from_slice(&quad_triangles(quads[f as usize]));
             self.uploaded_index_bytes += 24;
+        }
+        // Normals: the ranges the change touched (the buffer follows the
+        // vertex count).
+        self.normals.resize(pos.len(), [0.0; 3]);
+        for r in self.normal_source.apply(dec, c) {
+            let (a, b) = (r.start as usize, r.end as usize);
+            self.normals[a..b].copy_from_slice(&self.normal_source.normals()[a..b]);
+            self.uploaded_vertex_bytes += 12 * (b - a);
         }
     }
 }
@@ -161,6 +175,11 @@ fn main() {
     }
     assert_eq!(gpu.vertices, dec.positions(), "vertex buffer in sync");
     assert_eq!(gpu.indices, dec.triangle_indices(), "index buffer in sync");
+    assert_eq!(
+        gpu.normals,
+        SmoothNormals::compute(&dec),
+        "normal buffer in sync"
+    );
     println!(
         "GPU buffers match the decoder: {} vertices, {} triangles",
         gpu.vertices.len(),

@@ -50,6 +50,9 @@
 //!   says the diagonals are meant.)
 //!
 //! Slots never move while they exist, so every update is a sub-range write.
+//! A renderer that shades smoothly keeps [`normals::SmoothNormals`] beside
+//! its buffers: it takes the same `Change` and names the vertex ranges whose
+//! normals changed.
 //!
 //! A game that will also coarsen (the camera moves away) calls
 //! [`Decoder::keep_undo_logs`] before pushing: by default a general decoder
@@ -73,6 +76,7 @@ pub mod encoder;
 pub mod error;
 pub mod huge_pages;
 pub mod layout;
+pub mod normals;
 pub mod quant;
 pub mod varint;
 pub mod view;
