@@ -471,11 +471,15 @@ export class PQMProgressiveMesh {
     const x = S[3 * v] * k[0];
     const y = S[3 * v + 1] * k[1];
     const z = S[3 * v + 2] * k[2];
+    // as pqm_format::normals does it, so both give the same f32 normals
     const len = Math.sqrt(x * x + y * y + z * z);
-    const inv = len > 0 ? 1 / len : 0;
-    out[3 * v] = x * inv;
-    out[3 * v + 1] = y * inv;
-    out[3 * v + 2] = z * inv;
+    if (len > 0 && Number.isFinite(len)) {
+      out[3 * v] = x / len;
+      out[3 * v + 1] = y / len;
+      out[3 * v + 2] = z / len;
+    } else {
+      out[3 * v] = out[3 * v + 1] = out[3 * v + 2] = 0;
+    }
   }
 
   /**
@@ -596,6 +600,20 @@ export class PQMLoader extends Loader {
     this.maxGap = 32;
     this.rangeRequests = false;
     this.rangeOptions = {};
+    this.meshOptions = {};
+  }
+
+  /**
+   * Options of the `PQMProgressiveMesh`es this loader makes: `normals`
+   * (smooth normals, kept per level) and `quadSplit` (see its constructor).
+   * `maxGap` and the face cap come from the loader's own settings.
+   */
+  setMeshOptions(options = {}) {
+    const known = ['normals', 'quadSplit'];
+    const unknown = Object.keys(options).filter((k) => !known.includes(k));
+    if (unknown.length) throw new PqmError('parameter', `setMeshOptions takes ${known.join(', ')}, not ${unknown.join(', ')}`);
+    this.meshOptions = { ...options };
+    return this;
   }
 
   /** Decoder limits (`{maxVertices, maxFaces, maxMemoryBytes}`). */
@@ -733,6 +751,7 @@ export class PQMLoader extends Loader {
 
   _newMesh(target = this.target) {
     const pm = new PQMProgressiveMesh(new PqmDecoder({ limits: this.limits }), {
+      ...this.meshOptions,
       maxGap: this.maxGap,
       maxFaces: target && target.faces !== undefined ? target.faces : Infinity,
     });

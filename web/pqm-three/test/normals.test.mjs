@@ -7,8 +7,8 @@
 // normal attribute.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
-import { PqmDecoder } from 'pqm-decoder';
-import { PQMProgressiveMesh } from '../src/index.js';
+import { PqmDecoder, PqmError } from 'pqm-decoder';
+import { PQMLoader, PQMProgressiveMesh } from '../src/index.js';
 import { FakeGpu } from './fake-gpu.mjs';
 import { testFiles, rng, randomPieces } from '../../pqm-decoder/test/helpers.mjs';
 
@@ -127,4 +127,21 @@ test('without the option there is no normal attribute, and nothing is spent on i
   assert.equal(pm.geometry.attributes.normal, undefined);
   assert.equal(pm.uploaded.normal, 0);
   assert.equal(pm.normals, false);
+});
+
+test('PQMLoader.setMeshOptions gives its meshes normals and a split', () => {
+  const f = files.find((x) => x.name === 'spot') ?? files[0];
+  const data = f.bytes.buffer.slice(f.bytes.byteOffset, f.bytes.byteOffset + f.bytes.length);
+  const loader = new PQMLoader().setMeshOptions({ normals: true, quadSplit: 'shorter' });
+  const pm = loader.parse(data);
+  assert.equal(pm.normals, true);
+  assert.equal(pm.drawnSplit, 'shorter');
+  const gpu = new FakeGpu();
+  gpu.render(pm);
+  checkNormals(gpu, pm, 'parsed');
+  pm.setLevel({ level: 0 });
+  gpu.render(pm);
+  checkNormals(gpu, pm, 'parsed, then the base');
+  assert.equal(new PQMLoader().parse(data).geometry.attributes.normal, undefined, 'no normals unless asked');
+  assert.throws(() => loader.setMeshOptions({ normal: true }), PqmError);
 });
