@@ -9,8 +9,11 @@
 //! vertex ranges whose normals changed, so a renderer writes just those
 //! sub-ranges of its normal buffer, as it does for positions.
 //!
-//! The sums are kept exactly, on the integer position codes (`i128`), so
-//! adding a quad and taking it back leave no trace: whatever path reaches a
+//! The sums are kept exactly, on the integer position codes (`i64`,
+//! added and subtracted with wrapping arithmetic, which is exact whenever
+//! the true sum fits: codes below 2^24 give products below 2^50, so a vertex
+//! would need thousands of quads to overflow), so adding a quad and taking
+//! it back leave no trace: whatever path reaches a
 //! level — streamed, refined, coarsened and refined again — the normals are
 //! the ones [`SmoothNormals::compute`] gives at that level. The JavaScript
 //! binding keeps the same normals (`normals: true` in `web/pqm-three`).
@@ -36,24 +39,40 @@
 use crate::{Change, Decoder};
 use std::ops::Range;
 
+/// Slots listed inline per vertex; the rest of a vertex's slots (valence
+/// above this) go to an overflow list. 9 makes a vertex one 64-byte line.
+const INLINE: usize = 9;
+/// Bit of `Vert::len` marking a vertex touched by the change being applied.
+const MARK: u32 = 1 << 31;
+
+/// What is kept per vertex, in one cache line: the sum of its quads'
+/// doubled vector areas (code units) and the slots of those quads.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(align(64))]
+struct Vert {
+    sum: [i64; 3],
+    /// Number of slots (low 31 bits) and the touched mark ([`MARK`]).
+    len: u32,
+    slots: [u32; INLINE],
+}
+
 /// Smooth normals kept in step with a decoder's level (see the module docs).
 #[derive(Clone, Debug, Default)]
 pub struct SmoothNormals {
-    /// Per vertex, the sum of its quads' doubled vector areas in code units.
-    sums: Vec<[i128; 3]>,
-    /// Per slot, the quad it last added and the area it added (taken back
-    /// exactly when the slot changes or goes).
-    slot_quad: Vec<[u32; 4]>,
-    slot_area: Vec<[i128; 3]>,
-    slot_live: Vec<bool>,
-    /// Per vertex, the slots of the quads around it.
-    slots_of: Vec<Vec<u32>>,
+    verts: Vec<Vert>,
+    /// Slots past a vertex's first [`INLINE`], by vertex.
+    overflow: std::collections::HashMap<u32, Vec<u32>>,
+    /// Per slot: the quad it last added and the area it added (taken back
+    /// exactly when the slot changes or goes), or none.
+    slots: Vec<Option<([u32; 4], [i64; 3])>>,
     /// Unit normals (zero where a vertex's quads cancel), per vertex.
     normals: Vec<[f32; 3]>,
-    /// Scratch: vertices touched by the change being applied, and marks.
+    /// Scratch: vertices touched by the change being applied, slots
+    /// already redone, a moved vertex's slots.
     touched: Vec<u32>,
-    marked: Vec<bool>,
     slot_seen: Vec<bool>,
+    seen: Vec<u32>,
+    around: Vec<u32>,
 }
 
 impl SmoothNormals {
@@ -61,7 +80,7 @@ impl SmoothNormals {
     /// scratch: what [`SmoothNormals::apply`] keeps up to date.
     pub fn compute(dec: &Decoder) -> Vec<[f32; 3]> {
         let codes = dec.position_codes();
-        let mut sums = vec![[0i128; 3]; codes.len()];
+        let mut sums = vec![[0i64; 3]; codes.len()];
         for q in dec.quads() {
             let n = area(q, codes);
             for &v in q {
@@ -93,45 +112,45 @@ impl SmoothNormals {
             && change.faces_appended.end as usize == nf;
         if full {
             // `full_upload`: start over from the level as it is
-            self.sums.clear();
-            self.slot_live.clear();
-            self.slot_quad.clear();
-            self.slot_area.clear();
-            self.slots_of.clear();
+            self.verts.clear();
+            self.overflow.clear();
+            self.slots.clear();
         }
-        let grow = |len: usize, n: usize| len.max(n);
-        let vlen = grow(self.sums.len(), nv);
-        self.sums.resize(vlen, [0; 3]);
-        self.slots_of.resize_with(vlen, Vec::new);
-        self.marked.resize(vlen, false);
-        self.normals.resize(vlen, [0.0; 3]);
-        let flen = grow(
-            self.slot_live.len(),
-            nf.max(change.faces_truncated.end as usize),
-        );
-        self.slot_live.resize(flen, false);
-        self.slot_quad.resize(flen, [0; 4]);
-        self.slot_area.resize(flen, [0; 3]);
-        self.slot_seen.resize(flen, false);
+        if self.verts.len() < nv {
+            self.verts.resize(nv, Vert::default());
+        }
+        let flen = nf.max(change.faces_truncated.end as usize);
+        if self.slots.len() < flen {
+            self.slots.resize(flen, None);
+            self.slot_seen.resize(flen, false);
+        }
 
-        let mut slots: Vec<u32> = change.faces_rewritten.clone();
-        slots.extend(change.faces_appended.clone());
+        let written = || {
+            change
+                .faces_rewritten
+                .iter()
+                .copied()
+                .chain(change.faces_appended.clone())
+        };
         // take back what the old quads put in
-        for f in change.faces_truncated.clone().chain(slots.iter().copied()) {
+        for f in change.faces_truncated.clone().chain(written()) {
             self.unadd(f);
         }
         let codes = dec.position_codes();
-        for &f in &slots {
+        let mut seen = std::mem::take(&mut self.seen);
+        for f in written() {
             if (f as usize) < nf {
                 self.add(f, quads[f as usize], codes);
                 self.slot_seen[f as usize] = true;
+                seen.push(f);
             }
         }
         // the other quads around a moved vertex: same corners, new area
-        let mut seen: Vec<u32> = slots.clone();
+        let mut around = std::mem::take(&mut self.around);
         for &v in &change.vertices_moved {
-            let around = self.slots_of[v as usize].clone();
-            for f in around {
+            around.clear();
+            self.slots_of(v, &mut around);
+            for &f in &around {
                 if std::mem::replace(&mut self.slot_seen[f as usize], true) {
                     continue;
                 }
@@ -140,22 +159,25 @@ impl SmoothNormals {
                 self.add(f, quads[f as usize], codes);
             }
         }
-        for f in seen {
-            if let Some(s) = self.slot_seen.get_mut(f as usize) {
-                *s = false;
-            }
+        for &f in &seen {
+            self.slot_seen[f as usize] = false;
         }
+        seen.clear();
+        self.seen = seen;
+        self.around = around;
         // normalize the touched vertices, report them as runs
+        self.normals.resize(nv, [0.0; 3]);
         let k = axis_scale(dec);
         let mut touched = std::mem::take(&mut self.touched);
         touched.sort_unstable();
         let mut runs: Vec<Range<u32>> = Vec::new();
         for &v in &touched {
-            self.marked[v as usize] = false;
+            let vert = &mut self.verts[v as usize];
+            vert.len &= !MARK;
             if v as usize >= nv {
                 continue;
             }
-            self.normals[v as usize] = unit(self.sums[v as usize], k);
+            self.normals[v as usize] = unit(vert.sum, k);
             match runs.last_mut() {
                 Some(r) if r.end == v => r.end = v + 1,
                 _ => runs.push(v..v + 1),
@@ -163,49 +185,87 @@ impl SmoothNormals {
         }
         touched.clear();
         self.touched = touched;
-        self.normals.truncate(nv);
         runs
     }
 
-    fn touch(&mut self, v: u32) {
-        if !std::mem::replace(&mut self.marked[v as usize], true) {
+    /// Adds vertex `v`'s slots to `out`.
+    fn slots_of(&self, v: u32, out: &mut Vec<u32>) {
+        let vert = &self.verts[v as usize];
+        let n = (vert.len & !MARK) as usize;
+        out.extend_from_slice(&vert.slots[..n.min(INLINE)]);
+        if n > INLINE {
+            out.extend_from_slice(&self.overflow[&v]);
+        }
+    }
+
+    /// Adds `area × sign` to vertex `v`'s sum, lists or unlists slot `f`
+    /// there, and marks `v` touched.
+    fn corner(&mut self, v: u32, f: u32, n: [i64; 3], sign: i64) {
+        let vert = &mut self.verts[v as usize];
+        add(&mut vert.sum, n, sign);
+        if vert.len & MARK == 0 {
+            vert.len |= MARK;
             self.touched.push(v);
         }
+        let len = (vert.len & !MARK) as usize;
+        if sign > 0 {
+            if len < INLINE {
+                vert.slots[len] = f;
+            } else {
+                self.overflow.entry(v).or_default().push(f);
+            }
+            vert.len += 1;
+            return;
+        }
+        // unlist: the last slot takes the place of `f`
+        let last = if len > INLINE {
+            let list = self.overflow.get_mut(&v).expect("overflow list");
+            if let Some(i) = list.iter().position(|&g| g == f) {
+                list.swap_remove(i);
+                if list.is_empty() {
+                    self.overflow.remove(&v);
+                }
+                vert.len -= 1;
+                return;
+            }
+            let last = list.pop().expect("overflow slot");
+            if list.is_empty() {
+                self.overflow.remove(&v);
+            }
+            last
+        } else {
+            vert.slots[len - 1]
+        };
+        let i = vert.slots[..len.min(INLINE)]
+            .iter()
+            .position(|&g| g == f)
+            .expect("a listed slot");
+        vert.slots[i] = last;
+        vert.len -= 1;
     }
 
     fn add(&mut self, f: u32, q: [u32; 4], codes: &[[u32; 3]]) {
         let n = area(&q, codes);
-        let fi = f as usize;
-        self.slot_quad[fi] = q;
-        self.slot_area[fi] = n;
-        self.slot_live[fi] = true;
+        self.slots[f as usize] = Some((q, n));
         for v in q {
-            add(&mut self.sums[v as usize], n, 1);
-            self.slots_of[v as usize].push(f);
-            self.touch(v);
+            self.corner(v, f, n, 1);
         }
     }
 
     fn unadd(&mut self, f: u32) {
-        let fi = f as usize;
-        if fi >= self.slot_live.len() || !std::mem::replace(&mut self.slot_live[fi], false) {
+        let Some(Some((q, n))) = self.slots.get_mut(f as usize).map(Option::take) else {
             return; // never written, or already taken back
-        }
-        let n = self.slot_area[fi];
-        for v in self.slot_quad[fi] {
-            add(&mut self.sums[v as usize], n, -1);
-            let list = &mut self.slots_of[v as usize];
-            if let Some(i) = list.iter().position(|&g| g == f) {
-                list.swap_remove(i);
-            }
-            self.touch(v);
+        };
+        for v in q {
+            self.corner(v, f, n, -1);
         }
     }
 }
 
 /// Doubled vector area `(p2 − p0) × (p3 − p1)` of a quad, in code units.
-fn area(q: &[u32; 4], codes: &[[u32; 3]]) -> [i128; 3] {
-    let c = |v: u32| codes[v as usize].map(i128::from);
+fn area(q: &[u32; 4], codes: &[[u32; 3]]) -> [i64; 3] {
+    let c = |v: u32| codes[v as usize].map(i64::from);
+    // differences below 2^24 in magnitude: the products fit
     let (p0, p1, p2, p3) = (c(q[0]), c(q[1]), c(q[2]), c(q[3]));
     let u = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
     let w = [p3[0] - p1[0], p3[1] - p1[1], p3[2] - p1[2]];
@@ -216,9 +276,9 @@ fn area(q: &[u32; 4], codes: &[[u32; 3]]) -> [i128; 3] {
     ]
 }
 
-fn add(s: &mut [i128; 3], n: [i128; 3], sign: i128) {
+fn add(s: &mut [i64; 3], n: [i64; 3], sign: i64) {
     for k in 0..3 {
-        s[k] += sign * n[k];
+        s[k] = s[k].wrapping_add(sign.wrapping_mul(n[k]));
     }
 }
 
@@ -229,7 +289,7 @@ fn axis_scale(dec: &Decoder) -> [f64; 3] {
     [sy * sz, sx * sz, sx * sy]
 }
 
-fn unit(s: [i128; 3], k: [f64; 3]) -> [f32; 3] {
+fn unit(s: [i64; 3], k: [f64; 3]) -> [f32; 3] {
     let v = [s[0] as f64 * k[0], s[1] as f64 * k[1], s[2] as f64 * k[2]];
     let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     if len > 0.0 && len.is_finite() {
