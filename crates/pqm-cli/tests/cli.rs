@@ -201,29 +201,25 @@ fn defective_mesh_names_file_face_and_vertex() {
         "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1 2 2 4\n",
     )
     .unwrap();
-    let out_path = d.path().join("out.obj");
-    let out = pqm()
-        .args(["coarsen", s(&bad), "-o", s(&out_path)])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("bad.obj: face 1 repeats vertex 1"), "{err}");
-    assert!(!out_path.exists());
-    // encode takes batches, but one failed input is one line too, and a
-    // batch names each failure and then counts them
-    let pqm_path = d.path().join("out.pqm");
-    let out = pqm()
-        .args(["encode", s(&bad), "-o", s(&pqm_path)])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("bad.obj: face 1 repeats vertex 1"), "{err}");
-    assert!(out.stdout.is_empty());
-    assert!(!pqm_path.exists());
+    // one line, nothing on stdout, no file: coarsen, and encode, which
+    // takes batches but fails on one input as every other command does
+    for (cmd, name) in [("coarsen", "out.obj"), ("encode", "out.pqm")] {
+        let out_path = d.path().join(name);
+        let out = pqm()
+            .args([cmd, s(&bad), "-o", s(&out_path)])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{cmd}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.lines().count(), 1, "{cmd}: {err}");
+        assert!(
+            err.contains("bad.obj: face 1 repeats vertex 1"),
+            "{cmd}: {err}"
+        );
+        assert!(out.stdout.is_empty(), "{cmd}");
+        assert!(!out_path.exists(), "{cmd}");
+    }
+    // a batch names each failure, then counts them
     let dir = d.path().join("batch");
     let out = pqm()
         .args(["encode", s(&bad), s(&spot()), "--out-dir", s(&dir)])
