@@ -16,7 +16,8 @@
 //! it back leave no trace: whatever path reaches a
 //! level — streamed, refined, coarsened and refined again — the normals are
 //! the ones [`SmoothNormals::compute`] gives at that level. The JavaScript
-//! binding keeps the same normals (`normals: true` in `web/pqm-three`).
+//! binding keeps normals by the same rule (`normals: true` in
+//! `web/pqm-three`).
 //!
 //! ```
 //! use pqm_format::normals::SmoothNormals;

@@ -471,7 +471,7 @@ export class PQMProgressiveMesh {
     const x = S[3 * v] * k[0];
     const y = S[3 * v + 1] * k[1];
     const z = S[3 * v + 2] * k[2];
-    // as pqm_format::normals does it, so both give the same f32 normals
+    // the arithmetic of pqm_format::normals (a division, not a reciprocal)
     const len = Math.sqrt(x * x + y * y + z * z);
     if (len > 0 && Number.isFinite(len)) {
       out[3 * v] = x / len;
