@@ -48,9 +48,13 @@ before(async () => {
   browser = await launchChromium();
 });
 
-/** Opens the viewer on a fresh page; collects page errors and any request outside the server. */
-async function openViewer(t, server) {
-  const page = await browser.newPage({ viewport: { width: 800, height: 600 } });
+/**
+ * Opens the viewer on a fresh page (at `query`, waiting until `ready` holds
+ * or the page failed: by default, the finest level drawn); collects page
+ * errors and any request outside the server.
+ */
+async function openViewer(t, server, query = '', ready = () => window.pqmViewer.fullMs !== null, viewport = { width: 800, height: 600 }) {
+  const page = await browser.newPage({ viewport });
   t.after(() => page.close());
   const problems = [];
   page.on('pageerror', (e) => problems.push(e.message));
@@ -60,8 +64,8 @@ async function openViewer(t, server) {
   page.on('request', (r) => {
     if (!r.url().startsWith(origin) && !r.url().startsWith('data:')) problems.push(`external request: ${r.url()}`);
   });
-  await page.goto(server.url);
-  await page.waitForFunction(() => window.pqmViewer && (window.pqmViewer.failed || window.pqmViewer.fullMs !== null), null, {
+  await page.goto(server.url + query);
+  await page.waitForFunction(`window.pqmViewer && (window.pqmViewer.failed || (${ready})())`, null, {
     timeout: 120_000,
   });
   const state = await page.evaluate(() => ({ ...window.pqmViewer }));
@@ -199,4 +203,37 @@ test('over a slow link the page refines while the file streams', { timeout: 240_
   );
   assert.equal(tl[tl.length - 1].faces, info.final_faces);
   assert.ok(state.firstPixelsMs < state.fullMs, 'first pixels came before the full mesh');
+});
+
+test('by view, the page asks only for the bytes the view needs (HTTP Range)', { timeout: 240_000 }, async (t) => {
+  // many small chunks, so that a level between the base and the finest
+  // ends well before the file does
+  const small = path.join(tmp.dir, 'spot-by-view.pqm');
+  runPqm(pqm, ['-q', 'encode', path.join(SHARED_MESHES, 'quad', 'spot_quadrangulated.obj'), '-o', small, '--chunk-bytes', '1024', '--chunk-growth', '0']);
+  const info = JSON.parse(runPqm(pqm, ['--json', 'info', small]));
+  const server = await startView(pqm, small);
+  t.after(server.stop);
+  const settled = () => {
+    const s = window.pqmViewer;
+    return s.screenError !== null && !s.fetching && (s.screenError <= s.maxScreenError || s.level === s.levels);
+  };
+  // 48 pixels: the cow's error bounds (0.04 of its diagonal two chunks
+  // before the end) allow a level well inside the file
+  const { page, state: s1, problems } = await openViewer(t, server, '?view=48', settled);
+  assert.equal(s1.mode, 'view');
+  assert.equal(s1.byView, true);
+  assert.ok(s1.screenError <= 48, `${s1.screenError} px`);
+  assert.ok(s1.level > 0 && s1.level < s1.levels, `level ${s1.level} of ${s1.levels}`);
+  assert.ok(s1.bytes < info.file_bytes, `${s1.bytes} of ${info.file_bytes} bytes fetched for level ${s1.level}`);
+  assert.ok(s1.requests >= 2, `${s1.requests} requests`);
+  // zooming in asks for a finer level: one more request, more bytes
+  await page.mouse.move(500, 400); // on the canvas, clear of the panel
+  for (let i = 0; i < 30; i++) await page.mouse.wheel(0, -200);
+  await page.evaluate(() => window.dispatchEvent(new Event('resize')));
+  await page.waitForFunction(`(${settled})() && window.pqmViewer.requests > ${s1.requests}`, null, { timeout: 60_000 });
+  const s2 = await page.evaluate(() => ({ ...window.pqmViewer }));
+  assert.ok(s2.level > s1.level, `zooming in refines: ${s1.level} → ${s2.level}`);
+  assert.ok(s2.bytes > s1.bytes && s2.bytes <= info.file_bytes, `${s1.bytes} → ${s2.bytes} bytes`);
+  assert.ok(s2.screenError <= 48 || s2.level === s2.levels, `${s2.screenError} px`);
+  assert.deepEqual(problems, []);
 });

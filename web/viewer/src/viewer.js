@@ -14,6 +14,13 @@
  * current level (a fraction of the bounding-box diagonal, from the chunk
  * table) and, by view, the pixels it spans.
  *
+ * Opened as `/?view` (or `/?view=PX`), the page downloads by view instead of
+ * streaming the whole file: HTTP Range requests for the header and chunk
+ * table, then the base mesh, then — level by view on, at most PX pixels
+ * (default 1) — only the chunks the view's level needs, one request more
+ * each time zooming in asks for a finer level than the bytes hold (the
+ * chunk table's offsets, `PqmRangeLoader`, `fetchMore`).
+ *
  * Opened as `/?glb`, the page instead loads `/compare.glb` (served with
  * `pqm view --compare`) with three's `GLTFLoader` — the baseline of the
  * slow-link benchmark, drawn with the same camera, lights and material.
@@ -27,15 +34,21 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
-import { PqmDecoder } from 'pqm-decoder';
+import { PqmDecoder, PqmRangeLoader } from 'pqm-decoder';
 import { PQMProgressiveMesh } from 'pqm-three';
 
 /** Background colour; the browser test counts pixels that differ from it. */
 const BACKGROUND = 0x1d2026;
 
+const params = new URLSearchParams(location.search);
 const state = {
-  /** 'pqm' (streaming) or 'glb' (baseline). */
-  mode: new URLSearchParams(location.search).has('glb') ? 'glb' : 'pqm',
+  /** 'pqm' (streaming), 'view' (Range requests by view) or 'glb' (baseline). */
+  mode: params.has('glb') ? 'glb' : params.has('view') ? 'view' : 'pqm',
+  /** The largest error drawn by view, in pixels. */
+  maxScreenError: Number(params.get('view')) > 0 ? Number(params.get('view')) : 1,
+  /** Range requests made ('view' mode), and whether one is in flight. */
+  requests: 0,
+  fetching: false,
   /** Faces drawn now (quads; triangles in glb mode). */
   faces: 0,
   baseFaces: null,
@@ -169,11 +182,31 @@ function viewLevel() {
   if (!pm || !surface) return;
   camera.updateMatrixWorld();
   surface.updateMatrixWorld();
-  const v = pm.updateForView(surface, camera, renderer.getDrawingBufferSize(drawingBuffer).y, { maxScreenError: 1 });
+  const v = pm.updateForView(surface, camera, renderer.getDrawingBufferSize(drawingBuffer).y, {
+    maxScreenError: state.maxScreenError,
+  });
   if (!v) return;
   state.screenError = v.screenError;
   updatePanel();
+  // 'view' mode: the bytes the view's level needs, one request at a time
+  if (pm.source && v.bytesNeeded > 0 && !fetching) {
+    state.fetching = true;
+    fetching = pm
+      .fetchMore({ error: v.targetError })
+      .then(() => {
+        fetching = null;
+        state.fetching = false;
+        state.bytes = pm.source.loaded;
+        state.requests = pm.source.requests.length;
+        if (pm.source.complete) state.done = true;
+        updatePanel();
+        requestRender();
+      })
+      .catch(fail);
+  }
 }
+/** The Range request in flight ('view' mode), if any. */
+let fetching = null;
 
 function updatePanel() {
   const dec = pm && pm.decoder;
@@ -195,6 +228,50 @@ function updatePanel() {
     state.byView && state.screenError !== null ? `${state.screenError < 10 ? state.screenError.toFixed(2) : fmt(Math.round(state.screenError))} px` : '–';
 }
 
+/** Sets the scene up as the header and the base mesh arrive. */
+function onEvents(events) {
+  const dec = pm.decoder;
+  for (const ev of events) {
+    if (ev.type === 'headerReady') {
+      const h = dec.header;
+      state.baseFaces = h.baseFaceCount;
+      state.finalFaces = h.finalFaceCount;
+      state.levels = dec.finalLevel;
+      frame(pm.geometry.boundingBox);
+    } else if (ev.type === 'baseMeshReady') {
+      surface = new THREE.Mesh(pm.geometry, surfaceMaterial);
+      scene.add(surface);
+      lines = new THREE.LineSegments(pm.wireframeGeometry, wireMaterial);
+      lines.visible = wireToggle.checked;
+      scene.add(lines);
+    }
+  }
+}
+
+/** 'view' mode: the header and table, the base mesh, then what the view asks for. */
+async function loadByView() {
+  pm = new PQMProgressiveMesh(new PqmDecoder(), { autoRefine: false, quadSplit: 'auto', normals: true });
+  const src = new PqmRangeLoader('mesh.pqm', {
+    decoder: pm.decoder,
+    push: (bytes) => {
+      const events = pm.push(bytes);
+      onEvents(events);
+      return events;
+    },
+  });
+  pm.source = src;
+  state.byView = viewToggle.checked = true;
+  setStatus('loading by view…');
+  await src.load({ level: 0 });
+  state.totalBytes = src.size;
+  state.bytes = src.loaded;
+  state.requests = src.requests.length;
+  pm.setLevel({ level: 0 });
+  updatePanel();
+  setStatus(`by view (≤ ${state.maxScreenError} px): Range requests for what the view needs`);
+  requestRender();
+}
+
 async function streamPqm() {
   const res = await fetch('mesh.pqm');
   if (!res.ok || !res.body) throw new Error(`mesh.pqm: HTTP ${res.status}`);
@@ -210,21 +287,7 @@ async function streamPqm() {
     if (done) break;
     state.bytes += value.length;
     const events = pm.push(value);
-    for (const ev of events) {
-      if (ev.type === 'headerReady') {
-        const h = dec.header;
-        state.baseFaces = h.baseFaceCount;
-        state.finalFaces = h.finalFaceCount;
-        state.levels = dec.finalLevel;
-        frame(pm.geometry.boundingBox);
-      } else if (ev.type === 'baseMeshReady') {
-        surface = new THREE.Mesh(pm.geometry, surfaceMaterial);
-        scene.add(surface);
-        lines = new THREE.LineSegments(pm.wireframeGeometry, wireMaterial);
-        lines.visible = wireToggle.checked;
-        scene.add(lines);
-      }
-    }
+    onEvents(events);
     if (follow && !state.byView && events.some((e) => e.type === 'chunkReady')) pm.refineTo({ level: dec.deepestLevel });
     const before = state.level;
     updatePanel();
@@ -316,4 +379,4 @@ async function loadGlb() {
 
 updatePanel();
 requestRender();
-(state.mode === 'glb' ? loadGlb() : streamPqm()).catch(fail);
+(state.mode === 'glb' ? loadGlb() : state.mode === 'view' ? loadByView() : streamPqm()).catch(fail);

@@ -69,15 +69,19 @@ const READ_TIMEOUT: Duration = Duration::from_secs(10);
 ///
 /// Prints the URL and runs until Ctrl-C. Open the URL in a browser: the
 /// mesh refines as it streams, a slider moves between levels (back =
-/// coarser), drag to orbit, and the panel shows faces, bytes received and
-/// the current error bound. Everything is served by this binary (no
-/// network access needed).
+/// coarser), drag to orbit, "level by view" draws the coarsest level whose
+/// error spans at most a pixel, and the panel shows faces, bytes received
+/// and the current error bound. Add `?view` (or `?view=PIXELS`) to the URL
+/// to download by view instead: HTTP Range requests for only the chunks
+/// the view's level needs, one more each time zooming in asks for a finer
+/// level. Everything is served by this binary (no network access needed).
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
   pqm view spot.pqm                      serves on a free port, prints the URL
   pqm view spot.pqm --port 8080
   pqm view spot.pqm --port 0 --json      prints {\"url\": ...} as one line
-  pqm view spot.pqm --throttle 64        simulate a 64 KiB/s link (testing aid)")]
+  pqm view spot.pqm --throttle 64        simulate a 64 KiB/s link (testing aid)
+  (open URL?view=4 to download only what the view needs at 4 pixels of error)")]
 pub struct Args {
     /// The .pqm file to serve.
     pub input: PathBuf,
