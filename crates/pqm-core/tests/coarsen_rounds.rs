@@ -257,3 +257,50 @@ fn anchors_ascend_within_each_sweep() {
         }
     }
 }
+
+/// A level inside a round or a window gets the bound of the block's fine
+/// end raised by the own bounds of the steps it has collapsed (no longer
+/// the coarse end's for all of them): the bound still never grows with the
+/// level and still holds the level's sampled Hausdorff distance to the
+/// input, and it now falls inside rounds, not only between them.
+#[test]
+fn levels_inside_blocks_are_bounded_by_their_collapsed_steps() {
+    use pqm_core::metrics::hausdorff::{hausdorff, HausdorffOptions};
+    for (src, target) in [(torus(), 150), (sheet(), 80)] {
+        for (rounds, window) in [
+            (Some(0.05), None),
+            (Some(0.005), Some(0.05)),
+            (None, Some(0.1)),
+        ] {
+            let c = coarsener_in_windows(&src, target, rounds, window);
+            let (pm, keys) = c.to_progressive_with_keys();
+            let e = &pm.level_error;
+            assert!(e.windows(2).all(|w| w[0] >= w[1]), "non-increasing");
+            let n = pm.records.len();
+            for k in (0..=n).step_by((n / 40).max(1)) {
+                let h = hausdorff(&pm.level(k), &src, &HausdorffOptions::default());
+                assert!(
+                    h.symmetric.max <= e[k] + 1e-12,
+                    "{rounds:?}/{window:?} level {k}: Hausdorff {} above the bound {}",
+                    h.symmetric.max,
+                    e[k]
+                );
+            }
+            if window.is_none() {
+                // a round holds records a..b (file order); the coarse-end
+                // rule gave every level a..b its level a's bound
+                let below = (1..n).any(|k| {
+                    let a = (0..k)
+                        .rev()
+                        .take_while(|&j| keys[j].0 == keys[k - 1].0)
+                        .last();
+                    keys[k].0 == keys[k - 1].0 && a.is_some_and(|a| e[k] < e[a])
+                });
+                assert!(
+                    below,
+                    "{rounds:?}: no level inside a round below its coarse end"
+                );
+            }
+        }
+    }
+}

@@ -235,8 +235,9 @@ pub struct CoarsenOptions {
     /// count steps (at least one) or when only set-aside candidates are
     /// left. The steps of a round then commute, and the records put them in
     /// ascending order of their anchors (see [`record::Rounds`]), so a
-    /// `.pqm` file codes each anchor as a small gap; the levels inside a
-    /// round get the error bound of its coarse end.
+    /// `.pqm` file codes each anchor as a small gap; a level inside a
+    /// round gets the bound of its fine end raised by the own bounds of the
+    /// round's steps it has collapsed (at most the coarse end's).
     ///
     /// Measured (session 14, `pqm encode`, geometry bits per vertex, main →
     /// 0.005 / 0.01 / 0.05 / 0.1): spot 50.6 → 49.7 / 50.0 / 48.6 / 49.1,
@@ -261,8 +262,9 @@ pub struct CoarsenOptions {
     /// ascending sweeps of their anchors as far as the dependencies allow
     /// (see the private `record::sweep_window`), the round grouping (if
     /// any) no longer used. The coarsening itself is unchanged: at window
-    /// ends the levels are exactly the coarsener's; the levels inside a
-    /// window get the error bound of its coarse end.
+    /// ends the levels are exactly the coarsener's; a level inside a
+    /// window gets the bound of its fine end raised by the own bounds of
+    /// the window's steps it has collapsed (at most the coarse end's).
     ///
     /// Measured (session 16, `pqm encode`, geometry bits per vertex, with
     /// rounds 0.005 → plus windows of 0.05): spot 46.90 → 46.18, makehuman
@@ -1049,13 +1051,20 @@ impl Coarsener {
     }
 
     /// Records a committed step of `logs` logs with key vertices `key` and
-    /// locks `faces` (the faces it wrote); returns whether the round's quota
-    /// is reached.
-    fn round_step(&mut self, logs: usize, key: [VertexId; 2], faces: &[FaceId]) -> bool {
+    /// its own error bound `own_error` (its largest drift, as a fraction of
+    /// the bbox diagonal) and locks `faces` (the faces it wrote); returns
+    /// whether the round's quota is reached.
+    fn round_step(
+        &mut self,
+        logs: usize,
+        key: [VertexId; 2],
+        own_error: f64,
+        faces: &[FaceId],
+    ) -> bool {
         let Some(r) = self.round.as_mut() else {
             return false;
         };
-        r.marks.push(logs, key, r.number);
+        r.marks.push(logs, key, r.number, own_error);
         for &f in faces {
             if f.idx() >= r.locked.len() {
                 r.locked.resize(f.idx() + 1, false);
@@ -2839,6 +2848,9 @@ impl Coarsener {
         ));
         self.commit_drift(&drift, &composed);
         self.errors.push(self.error);
+        // the step's own bound: what its vertices drifted to (the running
+        // `error` also holds every earlier step's)
+        let own_error = drift.iter().fold(0.0, |e: f64, u| e.max(u.1 / self.diag));
         for ((d, pos), a) in doublet_logs.iter().zip(&undo_stack[1..]) {
             let removed = vec![(d.merged[0].0, *pos)];
             step_logs.push(StepLog::of_patch(
@@ -2896,8 +2908,8 @@ impl Coarsener {
                 lock.extend(a.faces.iter().take(d.add.len()).copied());
             }
             if let Some(m) = self.seq_marks.as_mut() {
-                m.push(step_logs.len(), key, 0);
-            } else if self.round_step(step_logs.len(), key, &lock) {
+                m.push(step_logs.len(), key, 0, own_error);
+            } else if self.round_step(step_logs.len(), key, own_error, &lock) {
                 self.end_round();
             }
         }
@@ -3319,10 +3331,11 @@ impl Coarsener {
             let q = a.old_faces.first().map_or([v, v], |f| [f[0], f[1]]);
             if let Some(r) = self.round.as_mut() {
                 // a round of its own (these need not be independent)
-                r.marks.push(1, q, r.number);
+                // (a lone doublet removal moves nothing: no drift of its own)
+                r.marks.push(1, q, r.number, 0.0);
                 r.number += 1;
             } else if let Some(m) = self.seq_marks.as_mut() {
-                m.push(1, q, 0);
+                m.push(1, q, 0, 0.0);
             }
             let more: Vec<VertexId> = d.add.iter().flatten().copied().collect();
             for x in ops::find_doublets(&self.mesh, &more) {

@@ -434,16 +434,23 @@ struct StepMark {
     logs: u32,
     key: [u32; 2],
     round: u32,
+    /// The step's own error bound (its largest drift over the bbox
+    /// diagonal), which bounds what it adds to any level that has it
+    /// collapsed.
+    own_error: f64,
 }
 
 impl Rounds {
     /// Appends a step of `logs` logs in round `round` (rounds numbered in
-    /// commit order; consecutive steps with the same number form a round).
-    pub fn push(&mut self, logs: usize, key: [VertexId; 2], round: u32) {
+    /// commit order; consecutive steps with the same number form a round)
+    /// with its own error bound `own_error` (fraction of the bbox
+    /// diagonal).
+    pub fn push(&mut self, logs: usize, key: [VertexId; 2], round: u32, own_error: f64) {
         self.steps.push(StepMark {
             logs: logs as u32,
             key: key.map(|v| v.0),
             round,
+            own_error,
         });
     }
     /// Number of steps.
@@ -574,7 +581,7 @@ struct Numbering {
 /// (covering every log), the steps of each round are sorted by their keys
 /// (stable: equal keys keep the coarse-to-fine order) before their records
 /// are built, each step's records kept together and in order, and every
-/// level inside a round gets the error bound of the round's coarse end;
+/// level inside a round gets the bound [`block_errors`] gives;
 /// with a window set ([`Rounds::set_window`]), the steps are reordered in
 /// windows instead ([`build_windows`]). Returns, per record, its round (or
 /// sweep) and its step's key (none without rounds or windows).
@@ -632,25 +639,26 @@ fn build(
                     begin -= 1;
                 }
                 let marks = &r.steps[begin..end];
-                // levels inside the round: the error of its coarse end
-                let log_begin = coarse_end_error(&mut errors, marks, log_end);
                 // the round's steps coarse to fine (last committed first),
                 // each with its logs coarse to fine
-                let mut steps: Vec<(u32, Vec<StepLog>)> = marks
+                let mut steps: Vec<(u32, f64, Vec<StepLog>)> = marks
                     .iter()
                     .rev()
                     .map(|m| {
                         let ls: Vec<StepLog> = logs.by_ref().take(m.logs as usize).collect();
-                        (m.key_in(&num.cv), ls)
+                        (m.key_in(&num.cv), m.own_error, ls)
                     })
                     .collect();
                 steps.sort_by_key(|s| s.0);
-                for (key, ls) in steps {
+                let mut own = Vec::with_capacity(steps.len());
+                for (key, e, ls) in steps {
                     for log in ls {
                         records.push(record_of(log, &mut num));
                         keys.push((round, key));
+                        own.push(e);
                     }
                 }
+                let log_begin = block_errors(&mut errors, &own, log_end);
                 end = begin;
                 log_end = log_begin;
             }
@@ -677,20 +685,35 @@ impl StepMark {
     }
 }
 
-/// Gives the levels strictly inside a group of steps (`marks`, whose logs
-/// are the logs `log_begin..log_end` in commit order) the error bound of
-/// the group's coarse end (`errors[log_end]`, after its last commit), since
-/// their records are reordered; returns `log_begin`.
-fn coarse_end_error(
-    errors: &mut std::borrow::Cow<'_, [f64]>,
-    marks: &[StepMark],
-    log_end: usize,
-) -> usize {
-    let n_logs: usize = marks.iter().map(|m| m.logs as usize).sum();
-    let log_begin = log_end - n_logs;
-    if log_end < errors.len() && log_begin + 1 < log_end {
-        let e = errors[log_end];
-        errors.to_mut()[log_begin + 1..log_end].fill(e);
+/// The error bounds of the levels strictly inside a block of records (a
+/// round or a window) whose logs, in commit order, end at `log_end`;
+/// `own[i]` is the own error bound of the step of the block's `i`-th
+/// record in file order (coarse to fine). Returns where the block's logs
+/// begin.
+///
+/// A level inside the block has the block's fine end refined and a suffix
+/// of its records (in file order) still collapsed: the steps of that
+/// suffix, applied to the fine end, give the level's mesh (the block's
+/// records commute that way: a round's steps are independent, a window's
+/// order keeps every step after those it depends on). So its bound is the
+/// fine end's, `errors[log_begin]`, raised by the own bounds of the
+/// collapsed steps — a drift is a running maximum of displacements, and a
+/// step's own drift counts whatever came before it, collapsed or not.
+/// It never exceeds the coarse end's bound, which every level inside
+/// used to get.
+fn block_errors(errors: &mut std::borrow::Cow<'_, [f64]>, own: &[f64], log_end: usize) -> usize {
+    let n = own.len();
+    let log_begin = log_end - n;
+    if log_end < errors.len() && n > 1 {
+        let fine = errors[log_begin];
+        let coarse = errors[log_end];
+        let e = errors.to_mut();
+        // `c` logs of the block committed = its last `c` records collapsed
+        let mut worst = fine;
+        for c in 1..n {
+            worst = worst.max(own[n - c]);
+            e[log_begin + c] = worst.min(coarse);
+        }
     }
     log_begin
 }
@@ -698,9 +721,9 @@ fn coarse_end_error(
 /// The steps in windows ([`super::CoarsenOptions::reorder_window`]):
 /// windows cut coarse to fine from the coarse end, each of `f ×` the face
 /// count at its coarse end (at least one step); each window in sweeps
-/// ([`sweep_window`]). Levels strictly inside a window get the error bound
-/// of its coarse end. `keys` gets, per record, its sweep (numbered over the
-/// whole run) and its step's key.
+/// ([`sweep_window`]). Levels strictly inside a window get the bound
+/// [`block_errors`] gives. `keys` gets, per record, its sweep (numbered
+/// over the whole run) and its step's key.
 fn build_windows(
     r: &Rounds,
     n: usize,
@@ -718,8 +741,9 @@ fn build_windows(
         let w = ((f * num.n_faces as f64).ceil() as usize).max(1);
         let begin = end.saturating_sub(w);
         let marks = &r.steps[begin..end];
-        let log_begin = coarse_end_error(errors, marks, log_end);
-        sweeps += sweep_window(marks, &mut logs, records, keys, num, sweeps);
+        let mut own = Vec::new();
+        sweeps += sweep_window(marks, &mut logs, records, keys, &mut own, num, sweeps);
+        let log_begin = block_errors(errors, &own, log_end);
         end = begin;
         log_end = log_begin;
     }
@@ -748,6 +772,7 @@ fn sweep_window(
     logs: &mut impl Iterator<Item = StepLog>,
     records: &mut Vec<SplitRecord>,
     keys: &mut Vec<(u32, u32)>,
+    own: &mut Vec<f64>,
     num: &mut Numbering,
     first_sweep: u32,
 ) -> u32 {
@@ -801,6 +826,7 @@ fn sweep_window(
         for log in std::mem::take(&mut steps[i].1) {
             records.push(record_of(log, num));
             keys.push((first_sweep + sweeps - 1, k));
+            own.push(steps[i].0.own_error);
         }
         for &j in &succ[i] {
             indeg[j] -= 1;
