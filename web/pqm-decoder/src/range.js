@@ -22,6 +22,10 @@
  * 3. A later `load(target2)` asks for `bytes=loaded-(end2 − 1)`; `load()`
  *    without a target asks for the rest (`bytes=loaded-`).
  *
+ * A 206 answer is read to its end, not cancelled once its last byte is in
+ * (browsers report a cancelled request as failed); one that sends more
+ * than its `Content-Range` says is cancelled there.
+ *
  * A server that ignores Range answers 200 with the whole file: the bytes
  * already pushed are skipped, the rest is pushed until the target's end (the
  * header is read from the same response when it was not there yet), and
@@ -147,6 +151,7 @@ export class PqmRangeLoader {
     this.requests.push(record);
     let pos; // file offset of the next body byte
     let fixedEnd; // where a 206 stops; null: follow the target (200)
+    let bodyEnd = null; // where a 206's body ends (its Content-Range)
     if (res.status === 206) {
       const m = CONTENT_RANGE.exec(res.headers.get('Content-Range') ?? '');
       if (!m || Number(m[1]) !== start) {
@@ -156,7 +161,8 @@ export class PqmRangeLoader {
       this.rangeSupported = true;
       if (m[3] !== '*') this.size = Number(m[3]);
       pos = start;
-      fixedEnd = Math.min(end, Number(m[2]) + 1);
+      bodyEnd = Number(m[2]) + 1;
+      fixedEnd = Math.min(end, bodyEnd);
     } else if (res.status === 200) {
       this.rangeSupported = false;
       const len = Number(res.headers.get('Content-Length'));
@@ -181,6 +187,9 @@ export class PqmRangeLoader {
       return this.decoder.status().headerReady ? Math.max(start, this.endFor(target)) : Infinity;
     };
     let ended = false;
+    // the whole 206 body is in: read its end rather than cancel the
+    // response (a browser reports a cancelled request as failed)
+    let expectEnd = false;
     try {
       for (;;) {
         const { done, value } = await reader.read();
@@ -188,6 +197,7 @@ export class PqmRangeLoader {
           ended = true;
           break;
         }
+        if (expectEnd) break; // more than the Content-Range said: cancel
         record.bytes += value.length;
         let piece = value;
         if (pos < start) {
@@ -208,7 +218,13 @@ export class PqmRangeLoader {
           piece = piece.subarray(take);
           if (events.length && this.onEvents) this.onEvents(events, this);
         }
-        if (pos >= stop()) break;
+        if (pos >= stop()) {
+          if (bodyEnd !== null && pos >= bodyEnd) {
+            expectEnd = true;
+            continue;
+          }
+          break;
+        }
       }
     } finally {
       if (!ended) await reader.cancel().catch(() => {});

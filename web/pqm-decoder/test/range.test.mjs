@@ -184,3 +184,59 @@ test('a server that answers a Range with fewer bytes than asked is asked again f
     await srv.close();
   }
 });
+
+test('a 206 whose whole body was used is read to its end, not cancelled (browsers report a cancelled request as failed)', async () => {
+  // a fetch that answers Range requests with in-memory bodies in small
+  // pieces and records which bodies were cancelled
+  const bodies = [];
+  const fetch = async (url, init) => {
+    const m = /bytes=(\d+)-(\d*)/.exec(new Headers(init.headers).get('Range'));
+    const a = Number(m[1]);
+    const b = m[2] === '' ? spot.bytes.length - 1 : Math.min(Number(m[2]), spot.bytes.length - 1);
+    const slice = spot.bytes.slice(a, b + 1);
+    const rec = { range: `${a}-${b}`, cancelled: false };
+    bodies.push(rec);
+    let at = 0;
+    const body = new ReadableStream({
+      pull(c) {
+        if (at >= slice.length) return c.close();
+        c.enqueue(slice.slice(at, at + 700));
+        at += 700;
+      },
+      cancel() {
+        rec.cancelled = true;
+      },
+    }, { highWaterMark: 0 }); // a piece only when read: the end is not seen until asked for
+    return new Response(body, { status: 206, headers: { 'Content-Range': `bytes ${a}-${b}/${spot.bytes.length}` } });
+  };
+  const src = new PqmRangeLoader('mem://spot.pqm', { fetch, firstBytes: 300 });
+  const n = whole.levelCounts(Math.floor(whole.finalLevel / 2))[1];
+  await src.load({ faces: n });
+  await src.load();
+  assert.ok(bodies.length >= 3, `${bodies.length} requests`);
+  assert.deepEqual(bodies.filter((b) => b.cancelled), [], 'no body cancelled');
+  assert.equal(src.loaded, spot.bytes.length);
+  // a body longer than its Content-Range says is cut (cancelled), not read on
+  let extra = null;
+  const liar = async (url, init) => {
+    const m = /bytes=(\d+)-(\d*)/.exec(new Headers(init.headers).get('Range'));
+    const a = Number(m[1]);
+    const b = Math.min(Number(m[2]), spot.bytes.length - 1);
+    extra = { cancelled: false };
+    const rec = extra;
+    let sent = 0;
+    const body = new ReadableStream({
+      pull(c) {
+        c.enqueue(spot.bytes.slice(a + sent, a + sent + 500)); // never closes
+        sent += 500;
+      },
+      cancel() {
+        rec.cancelled = true;
+      },
+    });
+    return new Response(body, { status: 206, headers: { 'Content-Range': `bytes ${a}-${b}/${spot.bytes.length}` } });
+  };
+  const cut = new PqmRangeLoader('mem://spot.pqm', { fetch: liar, firstBytes: 1000 });
+  await cut.load({ level: 0 });
+  assert.equal(extra.cancelled, true, 'an endless body is cancelled');
+});
