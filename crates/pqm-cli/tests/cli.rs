@@ -1796,3 +1796,102 @@ fn a_real_triangle_mesh_comes_back_as_its_own_triangles() {
         want
     );
 }
+
+/// `--level-error`: `measured` (the default) writes each level's sampled
+/// Hausdorff distance to the full level, non-increasing and below the
+/// coarsener's bound that `bound` writes; nothing else in the file
+/// changes (same size, same levels), the JSON says which was written,
+/// `decode --error` then stops at a coarser level, and a bad value is a
+/// usage error.
+#[test]
+fn level_error_measured_is_tighter_than_the_bound_and_changes_nothing_else() {
+    let d = TempDir::new().unwrap();
+    let (m, b) = (d.path().join("m.pqm"), d.path().join("b.pqm"));
+    let rm = encode_spot(&m, &["--chunk-bytes", "1024", "--chunk-growth", "0"]);
+    let rb = encode_spot(
+        &b,
+        &[
+            "--chunk-bytes",
+            "1024",
+            "--chunk-growth",
+            "0",
+            "--level-error",
+            "bound",
+        ],
+    );
+    let (fm, fb) = (&rm["files"][0], &rb["files"][0]);
+    assert_eq!(fm["level_error"], "measured");
+    assert_eq!(fb["level_error"], "bound");
+    assert_eq!(fm["bytes"], fb["bytes"]);
+    assert_eq!(fm["base_error_bound"], fb["base_error"]);
+    let (em, eb) = (
+        fm["base_error"].as_f64().unwrap(),
+        fb["base_error"].as_f64().unwrap(),
+    );
+    assert!(
+        em > 0.0 && em < eb / 2.0,
+        "base error measured {em}, bound {eb}"
+    );
+
+    let levels = |p: &Path| -> Vec<(u64, f64)> {
+        json_ok(&["info", s(p)])["levels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| (r["level"].as_u64().unwrap(), r["error"].as_f64().unwrap()))
+            .collect()
+    };
+    let (lm, lb) = (levels(&m), levels(&b));
+    assert!(lm.len() >= 10, "{} levels", lm.len());
+    assert_eq!(lm.len(), lb.len());
+    for (i, (a, z)) in lm.iter().zip(&lb).enumerate() {
+        assert_eq!(a.0, z.0, "row {i}");
+        assert!(
+            a.1 <= z.1,
+            "level {}: measured {} > bound {}",
+            a.0,
+            a.1,
+            z.1
+        );
+        if i > 0 {
+            assert!(a.1 <= lm[i - 1].1, "level {}: measured errors rise", a.0);
+        }
+    }
+    assert_eq!(lm.last().unwrap().1, 0.0);
+    // the same levels either way
+    for level in ["0", &lm[lm.len() / 2].0.to_string()] {
+        let (om, ob) = (d.path().join("m.obj"), d.path().join("b.obj"));
+        json_ok(&["decode", s(&m), "-o", s(&om), "--level", level]);
+        json_ok(&["decode", s(&b), "-o", s(&ob), "--level", level]);
+        assert_eq!(
+            std::fs::read(&om).unwrap(),
+            std::fs::read(&ob).unwrap(),
+            "level {level}"
+        );
+    }
+    // a client asking for an error gets a coarser level from the measured file
+    let e = (lb[lb.len() / 2].1).to_string();
+    let dm = json_ok(&[
+        "decode",
+        s(&m),
+        "-o",
+        s(&d.path().join("e.obj")),
+        "--error",
+        &e,
+    ]);
+    let db = json_ok(&[
+        "decode",
+        s(&b),
+        "-o",
+        s(&d.path().join("f.obj")),
+        "--error",
+        &e,
+    ]);
+    assert!(
+        dm["level"].as_u64() < db["level"].as_u64(),
+        "--error {e}: measured level {}, bound level {}",
+        dm["level"],
+        db["level"]
+    );
+    encode_spot_refused(&m, &["--level-error", "exact"]);
+}

@@ -76,6 +76,7 @@ pub mod encoder;
 pub mod error;
 pub mod huge_pages;
 pub mod layout;
+pub mod level_error;
 pub mod normals;
 pub mod quant;
 pub mod varint;

@@ -7,10 +7,10 @@
  * right end the mesh follows the stream), orbit controls (drag / wheel), a
  * wireframe toggle (the quad edges from `pqm-three`, no diagonals), smooth
  * or flat shading (smooth: `pqm-three`'s normals, kept per level), and
- * "level by view": each frame draws the coarsest level whose error bound
+ * "level by view": each frame draws the coarsest level whose error
  * spans at most one pixel on screen (`PQMProgressiveMesh.updateForView`,
  * 3D Tiles' screen-space error), so zooming out coarsens and zooming in
- * refines. Live figures: faces, level, bytes received, error bound of the
+ * refines. Live figures: faces, level, bytes received, geometric error of the
  * current level (a fraction of the bounding-box diagonal, from the chunk
  * table) and, by view, the pixels it spans.
  *

@@ -17,7 +17,7 @@ use std::path::PathBuf;
 /// Quads stay quads (glTF: FB_ngon_encoding).
 ///
 /// Pick the level with --level, --faces (the finest level with at most N
-/// faces) or --error (the coarsest level whose error bound is at most E,
+/// faces) or --error (the coarsest level whose geometric error is at most E,
 /// a fraction of the bounding-box diagonal); without them, the full mesh.
 /// --bytes B decodes only the first B bytes of the file, as a client that
 /// has received that much would, and writes the deepest level they hold
@@ -47,8 +47,8 @@ pub struct Args {
     /// The finest level with at most N faces.
     #[arg(long, value_name = "N")]
     pub faces: Option<usize>,
-    /// The coarsest level whose error bound is at most E (fraction of the
-    /// bounding-box diagonal).
+    /// The coarsest level whose geometric error (as `pqm info` lists it)
+    /// is at most E (fraction of the bounding-box diagonal).
     #[arg(long, value_name = "E", value_parser = parse_nonneg)]
     pub error: Option<f64>,
     /// Use only the first B bytes of the file.
@@ -176,7 +176,7 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     };
     ctx.emit(&report, || {
         let mut s = format!(
-            "wrote {}: level {} of {} ({} faces, {} vertices, error bound {:.3e}) from {} bytes",
+            "wrote {}: level {} of {} ({} faces, {} vertices, error {:.3e}) from {} bytes",
             report.output,
             report.level,
             report.final_level,

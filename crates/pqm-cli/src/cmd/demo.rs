@@ -4,7 +4,7 @@ use crate::cmd::coarsen::run_with_bar;
 use crate::cmd::info::{level_error, level_rows, open};
 use crate::ctx::Ctx;
 use crate::pipeline::{prepare, CoarsenerArgs};
-use crate::util::{human_bytes, write_atomic};
+use crate::util::human_bytes;
 use anyhow::{anyhow, bail, Context};
 use pqm_core::coarsen::{CoarsenOptions, Placement};
 use pqm_format::{EncodeOptions, Target};
@@ -105,16 +105,20 @@ pub fn run(args: &Args, ctx: &Ctx) -> anyhow::Result<()> {
     run_with_bar(&mut p.coarsener, None, "spot", ctx);
     let pm = p.coarsener.into_progressive();
     let pqm = args.out_dir.join("spot.pqm");
-    let mut enc = None;
-    write_atomic(&pqm, |w| {
-        let eopts = EncodeOptions {
-            corner_order: super::encode::DEFAULT_CORNER_ORDER.into(),
-            ..Default::default()
-        };
-        enc = Some(pqm_format::write(&pm, &eopts, w)?);
-        Ok(())
-    })?;
-    let enc = enc.context("encoder produced no report")?;
+    let eopts = EncodeOptions {
+        corner_order: super::encode::DEFAULT_CORNER_ORDER.into(),
+        ..Default::default()
+    };
+    let enc = super::encode::write_pqm(
+        &pqm,
+        &pm,
+        &eopts,
+        super::encode::DEFAULT_LEVEL_ERROR,
+        "spot",
+        ctx,
+    )
+    .with_context(|| format!("{}", fixture.display()))?
+    .report;
     let encode_time_s = t0.elapsed().as_secs_f64();
 
     // 2. info and 3. decode three levels

@@ -10,10 +10,12 @@ use std::path::{Path, PathBuf};
 ///
 /// Prints format version, counts, bounding box, quantization, and the chunk
 /// table: one row per level a streaming client can stop at, with its faces,
-/// vertices, error bound and the bytes needed to reach it.
+/// vertices, geometric error and the bytes needed to reach it.
 ///
-/// The error is the geometric error bound of that level as a fraction of
-/// the bounding-box diagonal. "bytes" is cumulative: a client that has
+/// The error is the level's geometric error as a fraction of the
+/// bounding-box diagonal: what the writer put in the file (`pqm encode`
+/// measures it by default, `--level-error bound` writes the coarsener's
+/// bound instead). "bytes" is cumulative: a client that has
 /// received that many bytes can show that level (an HTTP range request up to
 /// it suffices). A truncated file shows what it has so far.
 #[derive(clap::Args, Debug)]

@@ -71,7 +71,7 @@ const READ_TIMEOUT: Duration = Duration::from_secs(10);
 /// mesh refines as it streams, a slider moves between levels (back =
 /// coarser), drag to orbit, "level by view" draws the coarsest level whose
 /// error spans at most a pixel, and the panel shows faces, bytes received
-/// and the current error bound. Add `?view` (or `?view=PIXELS`) to the URL
+/// and the current level's geometric error. Add `?view` (or `?view=PIXELS`) to the URL
 /// to download by view instead: HTTP Range requests for only the chunks
 /// the view's level needs, one more each time zooming in asks for a finer
 /// level. Everything is served by this binary (no network access needed).

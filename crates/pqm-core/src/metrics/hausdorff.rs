@@ -118,36 +118,98 @@ pub fn hausdorff(
     opts: &HausdorffOptions,
 ) -> HausdorffReport {
     let (surf_mesh, surf_ref) = rayon::join(|| Surface::new(mesh), || Surface::new(reference));
-    let target = opts
-        .samples
-        .unwrap_or(10 * surf_mesh.tris.len().max(surf_ref.tris.len()));
     let (bvh_mesh, bvh_ref) = rayon::join(
         || Bvh::build(&mesh.positions, &surf_mesh.tris).ok(),
         || Bvh::build(&reference.positions, &surf_ref.tris).ok(),
     );
-    let forward = one_sided(&mesh.positions, &surf_mesh, bvh_ref.as_ref(), target, opts);
-    let backward = one_sided(
-        &reference.positions,
-        &surf_ref,
-        bvh_mesh.as_ref(),
-        target,
-        opts,
-    );
+    let reference = HausdorffReference {
+        positions: std::borrow::Cow::Borrowed(&reference.positions),
+        surface: surf_ref,
+        bvh: bvh_ref,
+        unit: unit_of(reference),
+    };
+    reference.report(&mesh.positions, &surf_mesh, bvh_mesh.as_ref(), opts)
+}
 
+/// A reference surface prepared once — its triangles, its vertex and edge
+/// samples and its BVH — for measuring many meshes against it with
+/// [`HausdorffReference::measure`] (the levels of one progressive mesh
+/// against its finest level, say). `measure(mesh)` gives exactly what
+/// [`hausdorff`]`(mesh, reference)` gives; only the reference's share of
+/// the work is not repeated.
+pub struct HausdorffReference<'a> {
+    positions: std::borrow::Cow<'a, [DVec3]>,
+    surface: Surface,
+    bvh: Option<Bvh>,
+    unit: f64,
+}
+
+impl HausdorffReference<'static> {
+    /// Prepares `reference` (its positions are copied).
+    pub fn new(reference: &IndexedMesh) -> Self {
+        let surface = Surface::new(reference);
+        let bvh = Bvh::build(&reference.positions, &surface.tris).ok();
+        HausdorffReference {
+            positions: std::borrow::Cow::Owned(reference.positions.clone()),
+            surface,
+            bvh,
+            unit: unit_of(reference),
+        }
+    }
+}
+
+impl HausdorffReference<'_> {
+    /// The length unit of every report: the reference's bounding-box
+    /// diagonal (1 if it is 0 or not finite).
+    pub fn unit(&self) -> f64 {
+        self.unit
+    }
+
+    /// Number of triangles of the reference's surface.
+    pub fn triangle_count(&self) -> usize {
+        self.surface.tris.len()
+    }
+
+    /// Symmetric sampled Hausdorff distance between `mesh` and the
+    /// reference, as [`hausdorff`] gives it.
+    pub fn measure(&self, mesh: &IndexedMesh, opts: &HausdorffOptions) -> HausdorffReport {
+        let surf_mesh = Surface::new(mesh);
+        let bvh_mesh = Bvh::build(&mesh.positions, &surf_mesh.tris).ok();
+        self.report(&mesh.positions, &surf_mesh, bvh_mesh.as_ref(), opts)
+    }
+
+    fn report(
+        &self,
+        positions: &[DVec3],
+        surf_mesh: &Surface,
+        bvh_mesh: Option<&Bvh>,
+        opts: &HausdorffOptions,
+    ) -> HausdorffReport {
+        let target = opts
+            .samples
+            .unwrap_or(10 * surf_mesh.tris.len().max(self.surface.tris.len()));
+        let forward = one_sided(positions, surf_mesh, self.bvh.as_ref(), target, opts);
+        let backward = one_sided(&self.positions, &self.surface, bvh_mesh, target, opts);
+        let unit = self.unit;
+        let all = Accumulator::merge(forward, backward);
+        HausdorffReport {
+            forward: forward.stats(unit),
+            backward: backward.stats(unit),
+            symmetric: all.stats(unit),
+            forward_samples: forward.count,
+            backward_samples: backward.count,
+            unit,
+        }
+    }
+}
+
+/// The reference's bounding-box diagonal, or 1 where it is 0 or not finite.
+fn unit_of(reference: &IndexedMesh) -> f64 {
     let diag = reference.bbox_diagonal();
-    let unit = if diag.is_finite() && diag > 0.0 {
+    if diag.is_finite() && diag > 0.0 {
         diag
     } else {
         1.0
-    };
-    let all = Accumulator::merge(forward, backward);
-    HausdorffReport {
-        forward: forward.stats(unit),
-        backward: backward.stats(unit),
-        symmetric: all.stats(unit),
-        forward_samples: forward.count,
-        backward_samples: backward.count,
-        unit,
     }
 }
 
@@ -604,6 +666,41 @@ impl Iterator for TriangleSamples {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_prepared_reference_measures_as_hausdorff_does() {
+        let reference = crate::shapes::torus(24, 12, 2.0, 0.5);
+        let prepared = HausdorffReference::new(&reference);
+        for mesh in [
+            crate::shapes::torus(12, 6, 2.0, 0.5),
+            crate::shapes::torus(8, 4, 2.1, 0.4),
+            crate::shapes::quad_sphere(3, 1.0),
+            reference.clone(),
+        ] {
+            for opts in [
+                HausdorffOptions::default(),
+                HausdorffOptions {
+                    samples: Some(500),
+                    sample_edges: false,
+                    ..Default::default()
+                },
+            ] {
+                assert_eq!(
+                    prepared.measure(&mesh, &opts),
+                    hausdorff(&mesh, &reference, &opts)
+                );
+            }
+        }
+        assert_eq!(prepared.unit(), reference.bbox_diagonal());
+        // closest points are rounded: a mesh's distance to itself is ~1e-16
+        assert!(
+            prepared
+                .measure(&reference, &HausdorffOptions::default())
+                .symmetric
+                .max
+                < 1e-12
+        );
+    }
 
     #[test]
     fn triangle_samples_are_inside_and_distinct() {

@@ -24,7 +24,9 @@ pub mod stats;
 pub mod topology;
 pub mod valence;
 
-pub use hausdorff::{hausdorff, HausdorffOptions, HausdorffReport, HausdorffStats};
+pub use hausdorff::{
+    hausdorff, HausdorffOptions, HausdorffReference, HausdorffReport, HausdorffStats,
+};
 pub use scaled_jacobian::{scaled_jacobian, ScaledJacobianReport, ScaledJacobianStats};
 pub use stats::{mesh_stats, MeshStats};
 pub use topology::{topology, Topology};
