@@ -545,6 +545,20 @@ pub fn level_digests(dec: &Decoder) -> (u64, u64) {
     (p, q)
 }
 
+/// Digest of the decoder's current level's smooth normals
+/// ([`crate::normals::SmoothNormals::compute`]): x, y, z of each vertex in
+/// id order as f32 little-endian (spec §11; not part of decoding, a check
+/// that clients computing them as `pqm_format::normals` does agree bit for
+/// bit).
+pub fn normals_digest(dec: &Decoder) -> u64 {
+    fnv1a64(
+        crate::normals::SmoothNormals::compute(dec)
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes()),
+    )
+}
+
 /// FNV-1a 64 of a vertex order: each entry as u32 little-endian (spec §11).
 pub fn vertex_order_digest(order: &[u32]) -> u64 {
     fnv1a64(order.iter().flat_map(|v| v.to_le_bytes()))
@@ -582,9 +596,10 @@ pub fn digest_json(name: &str, dec: &mut Decoder, levels: &[usize], file_len: us
     for (i, &k) in levels.iter().enumerate() {
         let _ = dec.set_level(Target::Level(k));
         let (p, q) = level_digests(dec);
+        let n = normals_digest(dec);
         let _ = write!(
             s,
-            "{}\n    {{\"level\": {k}, \"vertex_count\": {}, \"face_count\": {}, \"positions_fnv1a64\": \"{p:016x}\", \"quads_fnv1a64\": \"{q:016x}\"}}",
+            "{}\n    {{\"level\": {k}, \"vertex_count\": {}, \"face_count\": {}, \"positions_fnv1a64\": \"{p:016x}\", \"quads_fnv1a64\": \"{q:016x}\", \"normals_fnv1a64\": \"{n:016x}\"}}",
             if i == 0 { "" } else { "," },
             dec.positions().len(),
             dec.quads().len()

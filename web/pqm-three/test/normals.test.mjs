@@ -10,7 +10,7 @@ import assert from 'node:assert/strict';
 import { PqmDecoder, PqmError } from 'pqm-decoder';
 import { PQMLoader, PQMProgressiveMesh } from '../src/index.js';
 import { FakeGpu } from './fake-gpu.mjs';
-import { testFiles, rng, randomPieces } from '../../pqm-decoder/test/helpers.mjs';
+import { testFiles, rng, randomPieces, fnv1a64, VECTORS_DIR } from '../../pqm-decoder/test/helpers.mjs';
 
 const files = testFiles();
 /** Steps whose upload bound was checked (steps that move no vertex). */
@@ -145,3 +145,37 @@ test('PQMLoader.setMeshOptions gives its meshes normals and a split', () => {
   assert.equal(new PQMLoader().parse(data).geometry.attributes.normal, undefined, 'no normals unless asked');
   assert.throws(() => loader.setMeshOptions({ normal: true }), PqmError);
 });
+
+// Cross-check with Rust: spec/vectors list, per level, the digest of the
+// normals `pqm_format::normals::SmoothNormals` computes (spec §11,
+// `normals_fnv1a64`). The same integer sums and the same f64 arithmetic
+// give the same f32 normals bit for bit, whichever way the level was
+// reached: stepped down from the finest level, or jumped to from level 0.
+const vectors = files.filter((f) => f.dir === VECTORS_DIR);
+test("every spec vector lists its levels' normals digests", () => {
+  assert.ok(vectors.length >= 10, `${vectors.length} vectors`);
+  for (const f of vectors) for (const l of f.digest.levels) assert.match(l.normals_fnv1a64 ?? '', /^[0-9a-f]{16}$/, `${f.name} level ${l.level}`);
+});
+for (const file of vectors) {
+  test(`${file.name}: normals equal Rust's SmoothNormals bit for bit`, () => {
+    const pm = new PQMProgressiveMesh(new PqmDecoder(), { normals: true });
+    const gpu = new FakeGpu();
+    pm.push(file.bytes);
+    pm.decoder.end();
+    const digest = () => {
+      gpu.render(pm);
+      const n = gpu.buffers.get(pm.geometry.attributes.normal).data.subarray(0, 3 * pm.decoder.vertexCount);
+      return fnv1a64(new Uint8Array(n.buffer, n.byteOffset, n.byteLength));
+    };
+    const levels = file.digest.levels;
+    for (const l of [...levels].reverse()) {
+      pm.setLevel({ level: l.level });
+      assert.equal(digest(), l.normals_fnv1a64, `level ${l.level}, stepping down`);
+    }
+    for (const l of levels) {
+      pm.setLevel({ level: 0 });
+      pm.setLevel({ level: l.level });
+      assert.equal(digest(), l.normals_fnv1a64, `level ${l.level}, from level 0`);
+    }
+  });
+}
