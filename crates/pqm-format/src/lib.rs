@@ -27,6 +27,15 @@
 //! assert_eq!(dec.quads().len(), pm.final_face_count());
 //! ```
 //!
+//! ## Level errors
+//! [`write()`] puts the progressive mesh's own level errors in the header
+//! and the chunk table (the coarsener's bounds). [`level_error::measure`]
+//! then measures each chunk boundary's sampled Hausdorff distance to the
+//! finest level and [`level_error::set`] writes those instead, changing no
+//! other byte: what `pqm encode` does by default, several times tighter,
+//! so that a client choosing levels by screen-space error
+//! ([`view::ViewLod`]) stops downloading sooner.
+//!
 //! ## Using it in a game loop
 //! See `examples/game_loop.rs` (`cargo run -p pqm-format --example
 //! game_loop`): bytes arrive in pieces between frames; each frame the game

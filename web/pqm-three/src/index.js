@@ -483,7 +483,7 @@ export class PQMProgressiveMesh {
   }
 
   /**
-   * The geometric error bound of a decoded level, in the file's units
+   * The geometric error of a decoded level, in the file's units
    * (fractions of its bounding-box diagonal, spec §3): the header's base
    * error at level 0, else the error of the last chunk boundary at or
    * before the level (errors never grow with the level, so a level between
