@@ -1311,7 +1311,8 @@ impl Decoder {
         decompress_frame(d, section, data, ulen, out)
     }
 
-    fn check_crc(section: Section, data: &[u8], stored: u32) -> Result<(), DecodeError> {
+    /// `CrcMismatch` naming `section` unless `data`'s CRC-32 is `stored`.
+    pub(crate) fn check_crc(section: Section, data: &[u8], stored: u32) -> Result<(), DecodeError> {
         let computed = crc32(data);
         if computed != stored {
             return Err(FormatError::CrcMismatch {

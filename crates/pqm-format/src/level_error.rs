@@ -258,16 +258,7 @@ fn check_crc(
     section: Section,
 ) -> Result<(), DecodeError> {
     let stored = LE::read_u32(&file[range.end..]);
-    let computed = crc32(&file[range]);
-    if stored != computed {
-        return Err(FormatError::CrcMismatch {
-            section,
-            stored,
-            computed,
-        }
-        .into());
-    }
-    Ok(())
+    Decoder::check_crc(section, &file[range], stored)
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ mod common;
 use pqm_core::metrics::{hausdorff, HausdorffOptions};
 use pqm_core::progressive::testgen::{self, GenOptions};
 use pqm_core::ProgressiveMesh;
-use pqm_format::level_error::{measure, set};
+use pqm_format::level_error::{measure, set, MeasuredErrors};
 use pqm_format::view::{file_diagonal, ViewLod};
 use pqm_format::{
     write_to_vec, DecodeError, Decoder, EncodeOptions, FormatError, Limits, Section, Target,
@@ -31,6 +31,17 @@ fn decoded(bytes: &[u8]) -> Decoder {
     dec.keep_undo_logs().unwrap();
     dec.push(bytes).expect("decode");
     dec
+}
+
+/// `measure` with Metro's default sampling and no progress.
+fn measure_metro(bytes: &[u8]) -> MeasuredErrors {
+    measure(
+        bytes,
+        Limits::default(),
+        &HausdorffOptions::default(),
+        |_, _| {},
+    )
+    .unwrap()
 }
 
 /// The errors of level 0 and of every chunk boundary, as the file says.
@@ -128,13 +139,7 @@ fn measured_errors_are_monotone_tighter_than_the_bounds_and_change_no_level() {
     assert_eq!(errors(&dec), measured);
     common::assert_every_level_down_and_up(&mut dec, &pm);
     // measuring the patched file gives the same errors
-    let again = measure(
-        &patched,
-        Limits::default(),
-        &HausdorffOptions::default(),
-        |_, _| {},
-    )
-    .unwrap();
+    let again = measure_metro(&patched);
     assert_eq!(again, m);
 }
 
@@ -142,13 +147,7 @@ fn measured_errors_are_monotone_tighter_than_the_bounds_and_change_no_level() {
 fn a_view_downloads_less_with_measured_errors() {
     let pm = common::coarsened_torus(Some(0.05));
     let bytes = encode(&pm, 512);
-    let m = measure(
-        &bytes,
-        Limits::default(),
-        &HausdorffOptions::default(),
-        |_, _| {},
-    )
-    .unwrap();
+    let m = measure_metro(&bytes);
     let mut patched = bytes.clone();
     set(&mut patched, m.base, &m.chunks).unwrap();
     let (bound, measured) = (decoded(&bytes), decoded(&patched));
