@@ -193,15 +193,20 @@ pub fn set(file: &mut [u8], base: f32, chunks: &[f32]) -> Result<(), DecodeError
             format!("chunk_entry_len {entry_len} is outside 36..=4096"),
         ));
     }
-    let table = header_len..header_len + chunk_count * entry_len;
-    if table.end + 4 > file.len() {
-        return Err(FormatError::Truncated(format!(
-            "the chunk table ends at byte {}, the file at {}",
-            table.end + 4,
-            file.len()
-        ))
-        .into());
-    }
+    // checked: `usize` may be 32 bits (wasm)
+    let end = chunk_count
+        .checked_mul(entry_len)
+        .and_then(|n| n.checked_add(header_len));
+    let table = match end {
+        Some(e) if e.checked_add(4).is_some_and(|t| t <= file.len()) => header_len..e,
+        _ => {
+            return Err(FormatError::Truncated(format!(
+                "{chunk_count} chunk entries of {entry_len} bytes after the header do not fit in {} bytes",
+                file.len()
+            ))
+            .into())
+        }
+    };
     check_crc(file, table.clone(), Section::ChunkTable)?;
 
     LE::write_f32(&mut file[112..], base);
