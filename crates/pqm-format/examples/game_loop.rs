@@ -4,8 +4,8 @@
 //!
 //! Simulated frames: each frame a few kilobytes of the file "arrive from the
 //! network" and are pushed into the decoder; the game picks the level the
-//! (simulated) camera needs — the coarsest whose error bound spans at most
-//! one pixel on screen ([`ViewLod`], 3D Tiles' screen-space error) —, moves
+//! (simulated) camera needs — the coarsest whose geometric error (measured
+//! when the file is written, [`level_error`]) spans at most one pixel on screen ([`ViewLod`], 3D Tiles' screen-space error) —, moves
 //! the decoder there, and applies the returned [`Change`] to its vertex and
 //! index buffers as sub-range writes — never re-uploading whole buffers.
 //! Smooth shading keeps a normal buffer beside them ([`SmoothNormals`]: the
@@ -13,6 +13,7 @@
 //! GPU buffers are checked against the decoder.
 
 use pqm_core::progressive::testgen::{self, BaseShape, GenOptions};
+use pqm_format::level_error;
 use pqm_format::normals::SmoothNormals;
 use pqm_format::view::{file_diagonal, pixels_per_world_unit, Projection, ViewLod};
 use pqm_format::{quad_triangles, write_to_vec, Change, Decoder, EncodeOptions, Event, Limits};
@@ -86,13 +87,25 @@ fn main() {
         chunk_bytes: 4096,
         ..EncodeOptions::default()
     };
-    let (file, report) = write_to_vec(&pm, &opts).expect("encode");
+    let (mut file, report) = write_to_vec(&pm, &opts).expect("encode");
+    // The levels' errors, which pick the level a view needs: measured
+    // against the finest level, as `pqm encode` writes them (the generated
+    // mesh's own errors are made up).
+    let measured = level_error::measure(
+        &file,
+        Limits::default(),
+        &level_error::sampling(pm.final_face_count()),
+        |_, _| {},
+    )
+    .expect("measure");
+    level_error::set(&mut file, measured.base, &measured.chunks).expect("errors");
     println!(
-        "file: {} bytes, {} chunks, {} → {} quads",
+        "file: {} bytes, {} chunks, {} → {} quads, level 0's error {:.4} of the diagonal",
         file.len(),
         report.chunk_count,
         pm.base.face_count(),
-        pm.final_face_count()
+        pm.final_face_count(),
+        measured.base
     );
 
     let mut dec = Decoder::new(Limits::default());
