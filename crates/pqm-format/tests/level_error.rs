@@ -273,3 +273,48 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    /// Hostile bytes: `set` on a damaged, cut or lengthened file, or on
+    /// noise behind the magic, returns an error or succeeds — never panics
+    /// — and when it refuses, the bytes are as they were.
+    #[test]
+    fn set_never_panics_on_hostile_bytes(
+        seed in 0u64..50,
+        flips in proptest::collection::vec((any::<prop::sample::Index>(), 1u8..=255), 0..4),
+        cut in any::<prop::sample::Index>(),
+        noise in proptest::collection::vec(any::<u8>(), 0..300),
+        mode in 0u8..4,
+        chunk_errors in proptest::collection::vec(0.0f32..1.0, 1..12),
+    ) {
+        let pm = testgen::generate_with(&GenOptions::new(seed, 60));
+        let valid = encode(&pm, 128);
+        let mut b = match mode {
+            0 => valid.clone(),
+            1 => valid[..cut.index(valid.len() + 1)].to_vec(),
+            2 => [&valid[..], &noise[..]].concat(),
+            _ => [&valid[..8], &noise[..]].concat(),
+        };
+        for (at, x) in &flips {
+            if !b.is_empty() {
+                let i = at.index(b.len());
+                b[i] ^= x;
+            }
+        }
+        // as many errors as the (maybe damaged) header claims chunks, so
+        // that the table's checks are reached, within reason
+        let claimed = (b.len() >= 48)
+            .then(|| u32::from_le_bytes(b[44..48].try_into().unwrap()) as usize)
+            .filter(|&n| n <= 10_000);
+        let mut errs: Vec<f32> = match claimed {
+            Some(n) => chunk_errors.iter().copied().cycle().take(n).collect(),
+            None => chunk_errors.clone(),
+        };
+        errs.sort_by(|a, b| b.total_cmp(a));
+        let before = b.clone();
+        if set(&mut b, 1.0, &errs).is_err() {
+            prop_assert_eq!(b, before);
+        }
+    }
+}
