@@ -61,6 +61,16 @@ fi
 
 webout=$(mktemp)
 trap 'rm -f "$out" "$webout"' EXIT
+target="${CARGO_TARGET_DIR:-target}"
+if [ -f web/package.json ] && [ -d ../shared/meshes ]; then
+    # Real meshes for the JavaScript decoder's bigfiles test: the bench
+    # files (spot, makehuman, loki, the quad-split bunny; kept once made)
+    # encoded by the pqm just built, and the Rust decoder's digests of
+    # them, which that test must match level by level.
+    log "web/bench/make-data.sh and their digests (examples/digest)"
+    PQM="$target/debug/pqm" bash web/bench/make-data.sh
+    cargo run -q -p pqm-format --example digest -- web/bench/data/*.pqm
+fi
 if [ -f web/package.json ]; then
     # web/browser-test serves with target/debug/pqm (`pqm view`): the
     # `cargo test --workspace` above built it (test profile, optimized).

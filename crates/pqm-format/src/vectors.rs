@@ -609,6 +609,21 @@ pub fn digest_json(name: &str, dec: &mut Decoder, levels: &[usize], file_len: us
     s
 }
 
+/// The JSON digest of a whole `.pqm` file named `name` (its stem): levels
+/// 0, n/3, 2n/3 and n by the reference decoder, as `make-pqm digest` and
+/// `examples/digest.rs` write it beside real-mesh files for the
+/// JavaScript decoder's tests.
+pub fn digest_file(name: &str, bytes: &[u8]) -> Result<String, crate::DecodeError> {
+    let mut dec = crate::decode_all(bytes, crate::Limits::default())?;
+    let n = dec.deepest_level().unwrap_or(0);
+    Ok(digest_json(
+        name,
+        &mut dec,
+        &[0, n / 3, 2 * n / 3, n],
+        bytes.len(),
+    ))
+}
+
 /// The current level as OBJ text.
 pub fn obj(dec: &Decoder) -> String {
     let mut s = String::new();

@@ -74,12 +74,9 @@ fn main() {
             // NAME.json next to each NAME.pqm (levels 0, n/3, 2n/3, n)
             for path in &args[1..] {
                 let bytes = std::fs::read(path).expect("read");
-                let mut dec = decode_all(&bytes, Limits::default()).expect("decodes");
-                let n = dec.deepest_level().unwrap_or(0);
                 let p = std::path::Path::new(path);
                 let name = p.file_stem().and_then(|s| s.to_str()).unwrap_or("out");
-                let json =
-                    vectors::digest_json(name, &mut dec, &[0, n / 3, 2 * n / 3, n], bytes.len());
+                let json = vectors::digest_file(name, &bytes).expect("decodes");
                 std::fs::write(p.with_extension("json"), json).expect("write digest");
             }
             return;
@@ -117,14 +114,11 @@ fn main() {
     let (bytes, report) = write_to_vec(&pm, &opts).expect("encode");
     std::fs::write(out, &bytes).expect("write");
     if let Ok(digest) = std::env::var("DIGEST") {
-        let n = pm.records.len();
-        let mut dec = decode_all(&bytes, Limits::default()).expect("decodes");
         let name = std::path::Path::new(out)
             .file_stem()
             .and_then(|s| s.to_str())
-            .unwrap_or("out")
-            .to_string();
-        let json = vectors::digest_json(&name, &mut dec, &[0, n / 3, 2 * n / 3, n], bytes.len());
+            .unwrap_or("out");
+        let json = vectors::digest_file(name, &bytes).expect("decodes");
         std::fs::write(digest, json).expect("write digest");
     }
     println!(
