@@ -1311,8 +1311,7 @@ impl Decoder {
         decompress_frame(d, section, data, ulen, out)
     }
 
-    /// `CrcMismatch` naming `section` unless `data`'s CRC-32 is `stored`.
-    pub(crate) fn check_crc(section: Section, data: &[u8], stored: u32) -> Result<(), DecodeError> {
+    fn check_crc(section: Section, data: &[u8], stored: u32) -> Result<(), DecodeError> {
         let computed = crc32(data);
         if computed != stored {
             return Err(FormatError::CrcMismatch {

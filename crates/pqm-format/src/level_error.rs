@@ -33,8 +33,8 @@
 //! the same.
 
 use crate::decoder::{Decoder, Limits, Target};
-use crate::error::{DecodeError, FormatError, Section};
-use crate::layout::{crc32, MAGIC};
+use crate::error::{DecodeError, FormatError};
+use crate::layout::{crc32, Header};
 use byteorder::{ByteOrder, LE};
 use pqm_core::metrics::{HausdorffOptions, HausdorffReference};
 
@@ -104,10 +104,10 @@ pub fn measure(
         .into());
     }
     // level 0, then the level after each chunk
-    let mut levels = vec![0usize];
-    for c in dec.chunks() {
-        levels.push(levels.last().unwrap() + c.record_count as usize);
-    }
+    let levels: Vec<usize> = crate::view::boundaries(&dec)
+        .iter()
+        .map(|b| b.level)
+        .collect();
     let total = levels.len();
     dec.set_level(Target::Level(finest))?;
     let reference = HausdorffReference::new(&dec.to_indexed_mesh());
@@ -155,15 +155,14 @@ fn f32_up(x: f64) -> f32 {
 /// Writes `base` into the header's `base_error` and `chunks[i]` into chunk
 /// `i`'s error, and recomputes the header's and the chunk table's CRCs.
 ///
-/// The file must start with a valid header and chunk table (magic, lengths
-/// and both CRCs are checked first: a damaged file is not given fresh
-/// CRCs); the errors must be as the spec requires: one per chunk, none
-/// NaN or negative, each at most the one before it (starting from `base`).
-/// On an error `file` is unchanged.
+/// The file must start with a header and chunk table that a [`Decoder`]
+/// accepts (a damaged file is not given fresh CRCs); the errors must be as
+/// the spec requires: one per chunk, none NaN or negative, each at most
+/// the one before it (starting from `base`). On an error `file` is
+/// unchanged.
 pub fn set(file: &mut [u8], base: f32, chunks: &[f32]) -> Result<(), DecodeError> {
-    let header_len = checked_header_len(file)?;
-    let chunk_count = LE::read_u32(&file[44..]) as usize;
-    let entry_len = LE::read_u16(&file[22..]) as usize;
+    let h = checked_header(file)?;
+    let chunk_count = h.chunk_count as usize;
     if chunks.len() != chunk_count {
         return Err(DecodeError::Parameter(format!(
             "{} chunk errors given for {chunk_count} chunks",
@@ -187,28 +186,9 @@ pub fn set(file: &mut [u8], base: f32, chunks: &[f32]) -> Result<(), DecodeError
         }
         prev = e;
     }
-    if !(36..=4096).contains(&entry_len) {
-        return Err(DecodeError::invalid(
-            Section::Header,
-            format!("chunk_entry_len {entry_len} is outside 36..=4096"),
-        ));
-    }
-    // checked: `usize` may be 32 bits (wasm)
-    let end = chunk_count
-        .checked_mul(entry_len)
-        .and_then(|n| n.checked_add(header_len));
-    let table = match end {
-        Some(e) if e.checked_add(4).is_some_and(|t| t <= file.len()) => header_len..e,
-        _ => {
-            return Err(FormatError::Truncated(format!(
-                "{chunk_count} chunk entries of {entry_len} bytes after the header do not fit in {} bytes",
-                file.len()
-            ))
-            .into())
-        }
-    };
-    check_crc(file, table.clone(), Section::ChunkTable)?;
-
+    // the decoder has checked that the table lies inside `file`
+    let (header_len, entry_len) = (h.header_len as usize, h.chunk_entry_len as usize);
+    let table = header_len..header_len + chunk_count * entry_len;
     LE::write_f32(&mut file[112..], base);
     let crc = crc32(&file[..header_len - 4]);
     LE::write_u32(&mut file[header_len - 4..], crc);
@@ -220,50 +200,32 @@ pub fn set(file: &mut [u8], base: f32, chunks: &[f32]) -> Result<(), DecodeError
     Ok(())
 }
 
-/// `header_len` of `file`, after checking the magic, the version, the
-/// length and the header's CRC.
-fn checked_header_len(file: &[u8]) -> Result<usize, DecodeError> {
-    if file.len() < 16 {
-        return Err(FormatError::Truncated(format!("{} bytes: no header", file.len())).into());
-    }
-    if file[..8] != MAGIC {
-        return Err(FormatError::BadMagic.into());
-    }
-    let major = LE::read_u16(&file[8..]);
-    if !(1..=crate::layout::VERSION_MAJOR).contains(&major) {
-        return Err(FormatError::UnsupportedVersion {
-            major,
-            minor: LE::read_u16(&file[10..]),
-            supported: crate::layout::VERSION_MAJOR,
-        }
-        .into());
-    }
-    let header_len = LE::read_u32(&file[12..]) as usize;
-    if !(120..=65536).contains(&header_len) {
-        return Err(DecodeError::invalid(
-            Section::Header,
-            format!("header_len {header_len} is outside 120..=65536"),
-        ));
-    }
-    if header_len > file.len() {
-        return Err(FormatError::Truncated(format!(
-            "the header ends at byte {header_len}, the file at {}",
-            file.len()
+/// The header of `file`, once a decoder has read and checked it and the
+/// chunk table (magic, version, lengths, both CRCs, counts and offsets);
+/// only those bytes are pushed.
+fn checked_header(file: &[u8]) -> Result<Header, DecodeError> {
+    // where the table ends, by the header's own word (the decoder checks it)
+    let word = |at: usize, n: usize| file.get(at..at + n).map(|b| LE::read_uint(b, n) as usize);
+    let header_len = word(12, 4).unwrap_or(0);
+    let table_len = match (word(44, 4), word(22, 2)) {
+        (Some(count), Some(entry)) => count.saturating_mul(entry).saturating_add(4),
+        _ => 0,
+    };
+    let prefix = header_len.saturating_add(table_len).min(file.len());
+    let mut dec = Decoder::new(Limits::none());
+    dec.push(&file[..prefix])?;
+    let status = dec.status();
+    match dec.header() {
+        Some(h) if status.header_ready => Ok(h.clone()),
+        _ => Err(FormatError::Truncated(format!(
+            "{} bytes: the {} is incomplete",
+            file.len(),
+            status
+                .waiting_for
+                .map_or_else(|| "header".to_string(), |s| s.to_string())
         ))
-        .into());
+        .into()),
     }
-    check_crc(file, 0..header_len - 4, Section::Header)?;
-    Ok(header_len)
-}
-
-/// Checks the CRC-32 stored right after `range`.
-fn check_crc(
-    file: &[u8],
-    range: std::ops::Range<usize>,
-    section: Section,
-) -> Result<(), DecodeError> {
-    let stored = LE::read_u32(&file[range.end..]);
-    Decoder::check_crc(section, &file[range], stored)
 }
 
 #[cfg(test)]

@@ -85,22 +85,66 @@ pub fn file_diagonal(dec: &Decoder) -> Option<f64> {
     )
 }
 
-/// The geometric error bound of level `level` (file units): the header's
-/// base error at level 0, else the error of the last chunk boundary at or
+/// A level a client can stop at: level 0 or the level after a chunk, as
+/// the header and the chunk table describe it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Boundary {
+    /// Records applied: 0, then the level after each chunk.
+    pub level: usize,
+    /// Faces of the level.
+    pub faces: u32,
+    /// Vertices of the level.
+    pub vertices: u32,
+    /// Geometric error (file units, spec §3).
+    pub error: f64,
+    /// File bytes needed to reach the level: the end of the base section
+    /// for level 0, else the end of the chunk.
+    pub bytes: u64,
+}
+
+/// Level 0 and the level after every chunk read so far, coarse to fine;
+/// empty before the header.
+pub fn boundaries(dec: &Decoder) -> Vec<Boundary> {
+    let Some(h) = dec.header() else {
+        return Vec::new();
+    };
+    let base_end = h.header_len as u64
+        + h.chunk_count as u64 * h.chunk_entry_len as u64
+        + 4
+        + h.base_compressed_len as u64;
+    let mut out = Vec::with_capacity(dec.chunks().len() + 1);
+    out.push(Boundary {
+        level: 0,
+        faces: h.base_face_count,
+        vertices: h.base_vertex_count,
+        error: h.base_error as f64,
+        bytes: base_end,
+    });
+    let mut level = 0usize;
+    for c in dec.chunks() {
+        level += c.record_count as usize;
+        out.push(Boundary {
+            level,
+            faces: c.face_count,
+            vertices: c.vertex_count,
+            error: c.error as f64,
+            bytes: c.offset + c.compressed_len as u64,
+        });
+    }
+    out
+}
+
+/// The geometric error of level `level` (file units): the header's base
+/// error at level 0, else the error of the last chunk boundary at or
 /// before the level (errors never grow with the level, so a level between
 /// two boundaries is at least as fine as the one before it). `None` before
 /// the header. The level need not be decoded yet.
 pub fn level_error(dec: &Decoder, level: usize) -> Option<f64> {
-    let mut e = dec.header()?.base_error as f64;
-    let mut at = 0usize;
-    for c in dec.chunks() {
-        at += c.record_count as usize;
-        if at > level {
-            break;
-        }
-        e = c.error as f64;
-    }
-    Some(e)
+    boundaries(dec)
+        .iter()
+        .take_while(|b| b.level <= level)
+        .last()
+        .map(|b| b.error)
 }
 
 /// Bytes of the file needed to reach `t` — the end offset of the chunk
@@ -111,35 +155,20 @@ pub fn level_error(dec: &Decoder, level: usize) -> Option<f64> {
 /// level) or [`Target::Error`] `e` (the first chunk boundary with error
 /// ≤ `e`; the whole file when none is). `None` before the chunk table.
 pub fn bytes_for(dec: &Decoder, t: Target) -> Option<u64> {
-    let h = dec.header()?;
-    let chunks = dec.chunks();
-    if chunks.len() != h.chunk_count as usize {
+    if dec.chunks().len() != dec.header()?.chunk_count as usize {
         return None;
     }
-    let base_end = h.header_len as u64
-        + h.chunk_count as u64 * h.chunk_entry_len as u64
-        + 4
-        + h.base_compressed_len as u64;
-    let end = |c: &crate::ChunkInfo| c.offset + c.compressed_len as u64;
-    let last = chunks.last().map_or(base_end, end);
-    let first_end = |pred: &dyn Fn(usize, &crate::ChunkInfo) -> bool| {
-        let mut at = 0usize;
-        chunks
-            .iter()
-            .find(|c| {
-                at += c.record_count as usize;
-                pred(at, c)
-            })
-            .map_or(last, end)
+    let all = boundaries(dec);
+    // the first boundary that reaches `t` (level 0 included), else the end
+    let reaches = |b: &Boundary| match t {
+        Target::Level(k) => b.level >= k,
+        Target::Faces(n) => b.faces as usize > n,
+        Target::Error(e) => b.error <= e,
     };
-    Some(match t {
-        Target::Level(0) => base_end,
-        Target::Level(k) => first_end(&|at, _| at >= k),
-        Target::Faces(n) if h.base_face_count as usize > n => base_end,
-        Target::Faces(n) => first_end(&|_, c| c.face_count as usize > n),
-        Target::Error(e) if h.base_error as f64 <= e => base_end,
-        Target::Error(e) => first_end(&|_, c| c.error as f64 <= e),
-    })
+    all.iter()
+        .find(|b| reaches(b))
+        .or(all.last())
+        .map(|b| b.bytes)
 }
 
 /// Picks levels by screen-space error, with hysteresis: it refines as soon

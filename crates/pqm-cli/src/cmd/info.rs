@@ -34,7 +34,7 @@ pub struct LevelRow {
     pub level: usize,
     pub faces: u32,
     pub vertices: u32,
-    /// Error bound, fraction of the bounding-box diagonal.
+    /// Geometric error, fraction of the bounding-box diagonal.
     pub error: f64,
     /// File bytes needed to reach this level (cumulative).
     pub bytes: u64,
@@ -98,35 +98,19 @@ pub fn open(path: &Path, limit: Option<u64>) -> anyhow::Result<(Decoder, u64)> {
 
 /// The stopping points of the file: the base mesh, then one row per chunk.
 pub fn level_rows(dec: &Decoder) -> Vec<LevelRow> {
-    let Some(h) = dec.header() else {
-        return Vec::new();
-    };
-    let base_end = h.header_len as u64
-        + h.chunk_count as u64 * h.chunk_entry_len as u64
-        + 4
-        + h.base_compressed_len as u64;
-    let mut rows = vec![LevelRow {
-        level: 0,
-        faces: h.base_face_count,
-        vertices: h.base_vertex_count,
-        error: h.base_error as f64,
-        bytes: base_end,
-    }];
-    let mut level = 0usize;
-    for c in dec.chunks() {
-        level += c.record_count as usize;
-        rows.push(LevelRow {
-            level,
-            faces: c.face_count,
-            vertices: c.vertex_count,
-            error: c.error as f64,
-            bytes: c.offset + c.compressed_len as u64,
-        });
-    }
-    rows
+    pqm_format::view::boundaries(dec)
+        .into_iter()
+        .map(|b| LevelRow {
+            level: b.level,
+            faces: b.faces,
+            vertices: b.vertices,
+            error: b.error,
+            bytes: b.bytes,
+        })
+        .collect()
 }
 
-/// Error bound of level `k`: that of the last stopping point at or before it.
+/// Geometric error of level `k`: that of the last stopping point at or before it.
 pub fn level_error(rows: &[LevelRow], k: usize) -> f64 {
     rows.iter()
         .take_while(|r| r.level <= k)

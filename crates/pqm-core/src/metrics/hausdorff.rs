@@ -165,11 +165,6 @@ impl HausdorffReference<'_> {
         self.unit
     }
 
-    /// Number of triangles of the reference's surface.
-    pub fn triangle_count(&self) -> usize {
-        self.surface.tris.len()
-    }
-
     /// Symmetric sampled Hausdorff distance between `mesh` and the
     /// reference, as [`hausdorff`] gives it.
     pub fn measure(&self, mesh: &IndexedMesh, opts: &HausdorffOptions) -> HausdorffReport {
